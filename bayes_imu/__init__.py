@@ -1,0 +1,32 @@
+"""bayes_imu: Bayesian characterization of inertial sensors.
+
+Data flow: ``io -> allan -> models -> fit -> drift -> report -> cli``.
+"""
+
+from ._version import __version__
+from .drift import (
+    QUANTITY_ORDER,
+    DriftResult,
+    drift_sigma,
+    euler_variance,
+    gauss_markov_driving_variance,
+    noise_density_to_variance,
+    noise_variance_to_density,
+)
+from .errors import BayesIMUError, ConvergenceError, ConvergenceWarning, InputError, ModelError
+
+__all__ = [
+    "__version__",
+    "BayesIMUError",
+    "InputError",
+    "ModelError",
+    "ConvergenceError",
+    "ConvergenceWarning",
+    "QUANTITY_ORDER",
+    "DriftResult",
+    "drift_sigma",
+    "euler_variance",
+    "gauss_markov_driving_variance",
+    "noise_density_to_variance",
+    "noise_variance_to_density",
+]

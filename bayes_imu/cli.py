@@ -1,0 +1,119 @@
+"""Command-line interface: a thin layer over the public API.
+
+``bayes-imu drift SENSOR.json --out DIR``
+    1-sigma drift curves from known (datasheet) noise parameters.
+
+Exit status: 0 success, 2 a user error (one line on stderr, no traceback unless
+``--debug``), 1 an unexpected internal error.
+"""
+
+import argparse
+import json
+import logging
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .drift import QUANTITY_ORDER, drift_sigma
+from .errors import BayesIMUError, InputError
+
+__all__ = ["main"]
+
+log = logging.getLogger("bayes_imu")
+_SENSOR_QUANTITIES = {"gyro": ("attitude",), "accel": ("velocity", "position")}
+
+
+def _build_parser():
+    parser = argparse.ArgumentParser(prog="bayes-imu", description="Bayesian characterization of inertial sensors.")
+    parser.add_argument("--version", action="version", version=f"bayes-imu {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show the traceback of user errors")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    drift = sub.add_parser("drift", help="drift curves from known noise parameters (JSON)")
+    drift.add_argument("sensor", type=Path, help="JSON file: rate_hz, kind, noise_density, bias_variance, time_constant")
+    drift.add_argument("--out", type=Path, required=True, help="output folder")
+    drift.add_argument("--horizon", type=float, default=3600.0, help="longest time (s), default 3600")
+    drift.add_argument("--bias-start", choices=("zero", "stationary"), default="zero")
+    drift.set_defaults(handler=_cmd_drift)
+    return parser
+
+
+def _read_sensor_json(path):
+    try:
+        spec = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read ({exc})") from None
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{path}: line {exc.lineno} column {exc.colno}: invalid JSON ({exc.msg})") from None
+    if not isinstance(spec, dict):
+        raise InputError(f"{path}: expected a JSON object of sensor parameters")
+    for key in ("rate_hz", "kind", "noise_density"):
+        if key not in spec:
+            raise InputError(f"{path}: missing key {key!r}")
+    if spec["kind"] not in _SENSOR_QUANTITIES:
+        raise InputError(f"{path}: kind={spec['kind']!r}: expected 'gyro' or 'accel'")
+    return spec
+
+
+def _positive_float(path, spec, key, default=None):
+    value = spec.get(key, default)
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{path}: {key}={value!r}: expected a number") from None
+    if not value > 0 and not (value == 0 and default is not None):
+        raise InputError(f"{path}: {key}={value!r}: expected a positive number")
+    return value
+
+
+def _cmd_drift(args):
+    spec = _read_sensor_json(args.sensor)
+    dt = 1.0 / _positive_float(args.sensor, spec, "rate_hz")
+    if not args.horizon > dt:
+        raise InputError(f"--horizon={args.horizon!r}: expected a time (s) longer than one sample ({dt} s)")
+    t = np.unique(np.round(np.geomspace(dt, args.horizon, 200) / dt)) * dt
+    rows = []
+    for quantity in _SENSOR_QUANTITIES[spec["kind"]]:
+        result = drift_sigma(
+            t,
+            quantity=quantity,
+            dt=dt,
+            noise_density=_positive_float(args.sensor, spec, "noise_density"),
+            bias_variance=_positive_float(args.sensor, spec, "bias_variance", 0.0),
+            time_constant=_positive_float(args.sensor, spec, "time_constant", np.inf),
+            random_walk=_positive_float(args.sensor, spec, "random_walk", 0.0),
+            bias_start=args.bias_start,
+        )
+        rows += [(ti, quantity, w, b, r, tot) for ti, w, b, r, tot in zip(result.t_s, result.white, result.bias, result.random_walk, result.total)]
+    args.out.mkdir(parents=True, exist_ok=True)
+    lines = ["t_s,quantity,white,bias,random_walk,total"]
+    lines += [f"{ti:.6g},{q},{w:.9g},{b:.9g},{r:.9g},{tot:.9g}" for ti, q, w, b, r, tot in rows]
+    (args.out / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    for quantity in _SENSOR_QUANTITIES[spec["kind"]]:
+        last = [row for row in rows if row[1] == quantity][-1]
+        unit = {"attitude": "rad", "velocity": "m/s", "position": "m"}[quantity]
+        print(f"{quantity}: 1-sigma drift after {last[0]:g} s = {last[5]:.4g} {unit} (order {QUANTITY_ORDER[quantity]})")
+    print(f"wrote {args.out / 'drift.csv'}")
+    return 0
+
+
+def main(argv=None):
+    """Run the ``bayes-imu`` command; return the exit status."""
+    parser = _build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    try:
+        return args.handler(args)
+    except BayesIMUError as exc:
+        if args.debug:
+            raise
+        print(f"bayes-imu: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,25 @@
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.dirname(__file__))  # the exact-reference helpers
+
+#: the shared, read-only real data (licensed separately; never copied into the project)
+SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data_real"
+
+
+@pytest.fixture
+def rng():
+    """A fresh, seeded generator for each test (SPEC 7: no global random state)."""
+    return np.random.default_rng(20261121)
+
+
+def shared_file(*parts):
+    """Path into ``../shared/data_real``; skip the test cleanly when it is absent."""
+    path = SHARED_DATA.joinpath(*parts)
+    if not path.exists():
+        pytest.skip(f"shared data not available: {path}")
+    return path

@@ -1,0 +1,35 @@
+"""Command-line tests: exit status, outputs, one-line errors."""
+
+import json
+
+import numpy as np
+
+from bayes_imu import drift_sigma
+from bayes_imu.cli import main
+
+
+def test_drift_command_writes_csv_matching_api(tmp_path, capsys):
+    sensor = {"kind": "accel", "rate_hz": 200, "noise_density": 2e-3, "bias_variance": 1e-6, "time_constant": 300}
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps(sensor))
+    assert main(["drift", str(path), "--out", str(tmp_path / "o"), "--horizon", "60"]) == 0
+    rows = (tmp_path / "o" / "drift.csv").read_text().splitlines()
+    assert rows[0] == "t_s,quantity,white,bias,random_walk,total"
+    last_position = [r.split(",") for r in rows[1:] if r.split(",")[1] == "position"][-1]
+    expected = drift_sigma(60.0, quantity="position", dt=1 / 200, noise_density=2e-3, bias_variance=1e-6, time_constant=300)
+    assert float(last_position[0]) == 60.0
+    np.testing.assert_allclose(float(last_position[5]), expected.total, rtol=1e-8)
+
+
+def test_drift_command_user_errors_exit_2_with_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"kind": "gyro", "rate_hz": 100,')
+    assert main(["drift", str(bad), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "bad.json" in err and "invalid JSON" in err
+    assert main(["drift", str(tmp_path / "missing.json"), "--out", str(tmp_path / "o")]) == 2
+    assert "no such file" in capsys.readouterr().err
+    bad.write_text('{"kind": "lidar", "rate_hz": 100, "noise_density": 1}')
+    assert main(["drift", str(bad), "--out", str(tmp_path / "o")]) == 2
+    assert "expected 'gyro' or 'accel'" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
