@@ -1,5 +1,7 @@
 """Command-line interface: a thin layer over the public API.
 
+``bayes-imu allan LOG.csv --column NAME --rate HZ --out DIR``
+    Overlapping Allan deviation with confidence intervals (allan.csv, allan.png).
 ``bayes-imu drift SENSOR.json --out DIR``
     1-sigma drift curves from known (datasheet) noise parameters.
 
@@ -16,8 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from .allan import allan_variance
 from .drift import QUANTITY_ORDER, drift_sigma
 from .errors import BayesIMUError, InputError
+from .io import read_log
 
 __all__ = ["main"]
 
@@ -30,6 +34,14 @@ def _build_parser():
     parser.add_argument("--version", action="version", version=f"bayes-imu {__version__}")
     parser.add_argument("--debug", action="store_true", help="show the traceback of user errors")
     sub = parser.add_subparsers(dest="command", required=True)
+
+    allan = sub.add_parser("allan", help="overlapping Allan deviation of one column of a CSV log")
+    allan.add_argument("log", type=Path, help="CSV log with a header row (.gz accepted)")
+    allan.add_argument("--column", required=True, help="name of the rate column")
+    allan.add_argument("--rate", type=float, required=True, help="sample rate (Hz)")
+    allan.add_argument("--out", type=Path, required=True, help="output folder")
+    allan.add_argument("--grid", default="octave", choices=("octave", "decade", "all"), help="cluster sizes")
+    allan.set_defaults(handler=_cmd_allan)
 
     drift = sub.add_parser("drift", help="drift curves from known noise parameters (JSON)")
     drift.add_argument("sensor", type=Path, help="JSON file: rate_hz, kind, noise_density, bias_variance, time_constant")
@@ -98,6 +110,23 @@ def _cmd_drift(args):
         unit = {"attitude": "rad", "velocity": "m/s", "position": "m"}[quantity]
         print(f"{quantity}: 1-sigma drift after {last[0]:g} s = {last[5]:.4g} {unit} (order {QUANTITY_ORDER[quantity]})")
     print(f"wrote {args.out / 'drift.csv'}")
+    return 0
+
+
+def _cmd_allan(args):
+    log_data = read_log(args.log, column=args.column)
+    result = allan_variance(log_data.values, rate_hz=args.rate, m=args.grid)
+    args.out.mkdir(parents=True, exist_ok=True)
+    lines = ["tau,m,adev,adev_low,adev_high,edf"]
+    lines += [
+        f"{t:.9g},{m},{a:.9g},{lo:.9g},{hi:.9g},{e:.6g}"
+        for t, m, a, lo, hi, e in zip(result.tau, result.m, result.adev, result.adev_low, result.adev_high, result.edf)
+    ]
+    (args.out / "allan.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    from .plots import plot_allan
+
+    plot_allan(result, args.out / "allan.png", label=f"{Path(log_data.path).name}: {args.column}")
+    print(f"{result.tau.size} cluster sizes from {result.n_samples} samples; wrote {args.out / 'allan.csv'} and allan.png")
     return 0
 
 

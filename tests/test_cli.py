@@ -33,3 +33,22 @@ def test_drift_command_user_errors_exit_2_with_one_line(tmp_path, capsys):
     assert main(["drift", str(bad), "--out", str(tmp_path / "o")]) == 2
     assert "expected 'gyro' or 'accel'" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def test_allan_command_writes_csv_and_png(tmp_path, rng):
+    log = tmp_path / "log.csv"
+    y = rng.standard_normal(4096) * 0.01
+    log.write_text("time,gyro_x\n" + "\n".join(f"{i / 100:.2f},{v:.9f}" for i, v in enumerate(y)) + "\n")
+    assert main(["allan", str(log), "--column", "gyro_x", "--rate", "100", "--out", str(tmp_path / "o")]) == 0
+    rows = (tmp_path / "o" / "allan.csv").read_text().splitlines()
+    assert rows[0] == "tau,m,adev,adev_low,adev_high,edf"
+    first = [float(v) for v in rows[1].split(",")]
+    assert first[0] == 0.01 and first[1] == 1 and first[3] < first[2] < first[4]
+    assert (tmp_path / "o" / "allan.png").stat().st_size > 10_000
+
+
+def test_allan_command_missing_column(tmp_path, capsys):
+    log = tmp_path / "log.csv"
+    log.write_text("a,b\n1,2\n3,4\n")
+    assert main(["allan", str(log), "--column", "gyro", "--rate", "100", "--out", str(tmp_path / "o")]) == 2
+    assert "no column 'gyro'" in capsys.readouterr().err
