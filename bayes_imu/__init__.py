@@ -4,6 +4,8 @@ Data flow: ``io -> allan -> models -> fit -> drift -> report -> cli``.
 """
 
 from ._version import __version__
+from .allan import AllanResult, allan_variance
+from .autocorr import AutocorrelationResult, autocorrelation_fit
 from .drift import (
     QUANTITY_ORDER,
     DriftResult,
@@ -22,6 +24,10 @@ __all__ = [
     "ModelError",
     "ConvergenceError",
     "ConvergenceWarning",
+    "AllanResult",
+    "allan_variance",
+    "AutocorrelationResult",
+    "autocorrelation_fit",
     "QUANTITY_ORDER",
     "DriftResult",
     "drift_sigma",
