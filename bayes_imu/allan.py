@@ -309,7 +309,7 @@ def _edf_one(alpha, m, n_phase):
     if alpha == 2:  # case 4
         if np.ceil(r) <= d:
             return 1.0 / (_basic_sum(n_terms, n_terms, m, m, 2) / (_sz(0.0, m, 2) ** 2 * n_terms))
-        a0, a1 = 70.0 / 36.0, d / 2.0  # C(4d, 2d) / C(2d, d)**2
+        a0, a1 = _TABLE2[2]  # C(4d, 2d) / C(2d, d)**2 and d / 2
         return 1.0 / ((a0 - a1 / r) / n_terms)
     if alpha == 1:  # case 3
         b0, b1 = _TABLE3_B

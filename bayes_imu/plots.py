@@ -23,9 +23,9 @@ def plot_allan(result, path, *, label=""):
     """
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7, 5))
-    err = np.vstack([result.adev - result.adev_low, result.adev_high - result.adev])
-    ax.errorbar(result.tau, result.adev, yerr=err, fmt="o-", ms=3, capsize=2, label=label or "overlapping ADEV")
     tau, adev = result.tau, result.adev
+    err = np.vstack([adev - result.adev_low, result.adev_high - adev])
+    ax.errorbar(tau, adev, yerr=err, fmt="o-", ms=3, capsize=2, label=label or "overlapping ADEV")
     i_min = int(np.argmin(adev))
     guides = (  # (label, slope, anchor index, span in decades before/after the anchor)
         ("ARW / VRW, slope -1/2", -0.5, 0, (0.0, 1.5), (8, 6)),
@@ -34,9 +34,10 @@ def plot_allan(result, path, *, label=""):
     )
     for text, slope, i, (before, after), offset in guides:
         span = tau[i] * np.logspace(-before, after, 20)
-        ax.plot(span, adev[i] * (span / tau[i]) ** slope, "--", color="gray", lw=1)
-        ax.annotate(text, (span[-1] if slope < 0 else span[0], adev[i] * (span[-1 if slope < 0 else 0] / tau[i]) ** slope),
-                    textcoords="offset points", xytext=offset, fontsize=8, color="dimgray")
+        line = adev[i] * (span / tau[i]) ** slope
+        ax.plot(span, line, "--", color="gray", lw=1)
+        end = -1 if slope < 0 else 0  # label the free end of the guide
+        ax.annotate(text, (span[end], line[end]), textcoords="offset points", xytext=offset, fontsize=8, color="dimgray")
     ax.set_ylim(adev.min() / 4, adev.max() * 2)
     ax.set_xscale("log")
     ax.set_yscale("log")
