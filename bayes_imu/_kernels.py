@@ -11,7 +11,7 @@ record once per cluster size and is memory-bandwidth bound.
 
 import numpy as np
 
-__all__ = ["phase_from_rate", "second_difference_sums"]
+__all__ = ["phase_from_rate", "second_difference_sums", "avar_pair_sums"]
 
 _BLOCK = 1 << 14
 _compiled = {}
@@ -21,6 +21,8 @@ def _compile():
     if _compiled:
         return _compiled
     import numba
+
+    _pair_sum = numba.njit(cache=True)(_pair_sum_py)
 
     @numba.njit(cache=True)
     def phase(y, offset, out, block):
@@ -66,8 +68,67 @@ def _compile():
             out[j] = partial.sum()
         return out
 
-    _compiled.update(phase=phase, sums=sums)
+    @numba.njit(parallel=True, cache=True)
+    def pair_sums(table, ms, n, h, s2, x):
+        k = ms.size
+        out = np.zeros((k, k))
+        phi = np.exp(-x)
+        one_minus_phi = -np.expm1(-x)
+        for idx in numba.prange(k * k):
+            ia = idx // k
+            ib = idx % k
+            if ib < ia:
+                continue
+            out[ia, ib] = _pair_sum(table, ms[ia], ms[ib], n, h, s2, x, phi, one_minus_phi)
+            out[ib, ia] = out[ia, ib]
+        return out
+
+    _compiled.update(phase=phase, sums=sums, pair_sums=pair_sums)
     return _compiled
+
+
+def _pair_sum_py(table, a, b, n, h, s2, x, phi, one_minus_phi):
+    """``sum_l n(l) c(l)^2`` for one pair of cluster sizes (see :mod:`bayes_imu.avar_covariance`)."""
+    ma = n - 2 * a + 1
+    mb = n - 2 * b + 1
+    total = 0.0
+    # overlap window -2b <= l <= 2a (windows sharing a sample included): exact from the D table
+    for l in range(-2 * b, 2 * a + 1):
+        cnt = min(ma, mb - l) - max(0, -l)
+        if cnt <= 0:
+            continue
+        c = 0.0
+        for p in range(3):
+            wa = -2.0 if p == 1 else 1.0
+            for q in range(3):
+                wb = -2.0 if q == 1 else 1.0
+                c += wa * wb * table[abs(p * a - q * b - l)]
+        c *= -0.5
+        total += cnt * c * c
+    if s2 == 0.0 and h == 0.0:
+        return total
+    # outside the window: exact geometric Gauss-Markov part, asymptotic flicker part
+    ga = -np.expm1(-a * x) / one_minus_phi
+    gb = -np.expm1(-b * x) / one_minus_phi
+    amp = s2 * phi * (ga * one_minus_phi) ** 2 * (gb * one_minus_phi) ** 2 / one_minus_phi**2
+    for side in range(2):
+        start = 2 * a + 1 if side == 0 else 2 * b + 1
+        geo = amp * phi
+        lag = start
+        while True:
+            l = lag if side == 0 else -lag
+            cnt = min(ma, mb - l) - max(0, -l)
+            if cnt <= 0:
+                break
+            lc = float(lag + (b - a if side == 0 else a - b))
+            c = -geo - h * (float(a) * a) * (float(b) * b) / (lc * lc)
+            term = cnt * c * c
+            total += term
+            if term <= 1e-17 * total and lag > 8 * (a + b):
+                break
+            geo *= phi
+            lag += 1
+    return total
 
 
 def phase_from_rate(y, offset):
@@ -84,3 +145,14 @@ def phase_from_rate(y, offset):
 def second_difference_sums(x, ms):
     """``sum_i (x[i+2m] - 2 x[i+m] + x[i])**2`` over ``0 <= i < len(x) - 2m`` for each ``m``."""
     return _compile()["sums"](x, np.ascontiguousarray(ms, dtype=np.int64), _BLOCK)
+
+
+def avar_pair_sums(table, ms, n, h, s2, x):
+    """Lag sums ``sum_l n(l) c(l)^2`` for every pair of cluster sizes (symmetric matrix).
+
+    ``table[k] = D(k)`` is the model's phase structure function for ``0 <= k <= 4 max(ms)``;
+    ``h`` the flicker level ``B^2/pi``, ``s2`` and ``x = dt/T`` the Gauss-Markov term (0 and
+    1 when absent).
+    """
+    return _compile()["pair_sums"](np.ascontiguousarray(table, dtype=float),
+                                    np.ascontiguousarray(ms, dtype=np.int64), int(n), float(h), float(s2), float(x))

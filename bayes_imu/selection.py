@@ -1,0 +1,155 @@
+"""Posterior mode, Bayesian evidence and model selection ("model only what a scene needs").
+
+Evidence ``Z = int L(theta) pi(theta) dtheta`` of each candidate is estimated by
+*defensive importance sampling* (Hesterberg 1995) in unbounded coordinates
+``u = logit((phi - lo) / (hi - lo))`` of the log-parameters ``phi``: in ``u`` the uniform
+prior becomes a product of standard logistic densities, so the posterior always has an
+interior mode even when a term is unsupported and its amplitude runs to the prior's lower
+edge (where a Laplace approximation in ``phi`` fails). The proposal is a mixture of a
+Student-t (4 dof) centred on the mode with the inverse-Hessian covariance (inflated by
+1.5^2) and, with weight 0.3, the prior itself; the estimate is unbiased and consistent,
+and its standard error is reported.
+
+Selection rule: the candidate with the largest evidence, except that a candidate with
+fewer terms is preferred while its log evidence is within ``threshold`` nats (default 1)
+of the best — extra terms must earn a Bayes factor above ``e``.
+"""
+
+from dataclasses import dataclass
+from itertools import combinations
+
+import numpy as np
+from scipy import optimize, special, stats
+
+__all__ = ["CandidateScore", "candidate_terms", "posterior_mode", "log_evidence", "select"]
+
+OPTIONAL_TERMS = ("quantization", "bias_instability", "gauss_markov", "random_walk")
+_T_DOF = 4.0
+_PRIOR_WEIGHT = 0.3
+_INFLATE = 1.5
+
+
+@dataclass(frozen=True)
+class CandidateScore:
+    """Evidence of one candidate model.
+
+    Attributes
+    ----------
+    terms : tuple of str
+    log_evidence : float
+        Natural log of the marginal likelihood (nats).
+    log_evidence_se : float
+        Monte Carlo standard error of ``log_evidence``.
+    ess : float
+        Effective sample size of the importance weights.
+    mode : ndarray, shape (n_par,)
+        Posterior mode in log-parameters (maximum of the density in ``u``).
+    """
+
+    terms: tuple
+    log_evidence: float
+    log_evidence_se: float
+    ess: float
+    mode: np.ndarray
+
+
+def candidate_terms(optional=OPTIONAL_TERMS):
+    """All models ``white + any subset of optional``, simplest first."""
+    out = []
+    for k in range(len(optional) + 1):
+        out += [("white",) + c for c in combinations(optional, k)]
+    return out
+
+
+def _to_phi(u, bounds):
+    return bounds[:, 0] + (bounds[:, 1] - bounds[:, 0]) * special.expit(u)
+
+
+def _to_u(phi, bounds):
+    frac = (phi - bounds[:, 0]) / (bounds[:, 1] - bounds[:, 0])
+    return special.logit(np.clip(frac, 1e-9, 1 - 1e-9))
+
+
+def _log_density_u(post, u):
+    """Log posterior density in ``u`` (likelihood x logistic prior), vectorised."""
+    u = np.atleast_2d(u)
+    log_jac = -np.sum(np.logaddexp(0.0, u) + np.logaddexp(0.0, -u), axis=-1)  # log sigma(u)(1-sigma(u))
+    return post.log_likelihood(_to_phi(u, post.bounds)) + log_jac
+
+
+def posterior_mode(post, starts):
+    """Mode of the density in ``u`` from several starting log-parameter vectors.
+
+    Returns ``(u_mode, phi_mode, neg_log_density)``.
+    """
+    best = None
+    for phi0 in np.atleast_2d(starts):
+        u0 = _to_u(np.asarray(phi0, float), post.bounds)
+        res = optimize.minimize(_neg_log_density, u0, args=(post,), jac=_neg_gradient, method="BFGS",
+                                options={"gtol": 1e-5, "maxiter": 2000})
+        if best is None or res.fun < best.fun:
+            best = res
+    return best.x, _to_phi(best.x, post.bounds), best.fun
+
+
+def _neg_log_density(u, post):
+    value = -float(_log_density_u(post, u)[0])
+    return value if np.isfinite(value) else 1e300
+
+
+def _neg_gradient(u, post, step=1e-6):
+    """Central differences, all 2n points in one vectorised likelihood call."""
+    eye = step * np.eye(u.size)
+    vals = _log_density_u(post, np.vstack([u + eye, u - eye]))
+    grad = -(vals[: u.size] - vals[u.size :]) / (2.0 * step)
+    return np.where(np.isfinite(grad), grad, 0.0)
+
+
+def _hessian_cov(post, u0, step=1e-3):
+    """Inverse of the numerical Hessian of ``-log density`` at ``u0`` (eigenvalues floored)."""
+    n = u0.size
+    pts = []
+    for i in range(n):
+        for j in range(i, n):
+            for si, sj in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+                d = np.zeros(n)
+                d[i] += si * step
+                d[j] += sj * step
+                pts.append(u0 + d)
+    vals = _log_density_u(post, np.array(pts)).reshape(-1, 4)
+    h = np.zeros((n, n))
+    row = 0
+    for i in range(n):
+        for j in range(i, n):
+            pp, pm, mp, mm = vals[row]
+            h[i, j] = h[j, i] = -(pp - pm - mp + mm) / (4 * step * step)
+            row += 1
+    w, v = np.linalg.eigh(h)
+    w = np.clip(w, 1e-2, None)  # a flat direction is bounded by the logistic prior (curvature >= ~0.1)
+    return (v / w) @ v.T
+
+
+def log_evidence(post, u_mode, *, n_draws=4000, rng=None):
+    """Defensive importance-sampling estimate of ``log Z``; returns ``(log_z, se, ess, u_draws, log_w)``."""
+    rng = np.random.default_rng(rng)
+    n = u_mode.size
+    cov = _INFLATE**2 * _hessian_cov(post, u_mode)
+    t = stats.multivariate_t(loc=u_mode, shape=cov, df=_T_DOF, seed=rng)
+    n_prior = int(round(_PRIOR_WEIGHT * n_draws))
+    u = np.vstack([np.atleast_2d(t.rvs(size=n_draws - n_prior)).reshape(-1, n), stats.logistic.rvs(size=(n_prior, n), random_state=rng)])
+    log_prior_u = np.sum(stats.logistic.logpdf(u), axis=-1)
+    log_q = np.logaddexp(np.log1p(-_PRIOR_WEIGHT) + t.logpdf(u).reshape(-1), np.log(_PRIOR_WEIGHT) + log_prior_u)
+    log_w = _log_density_u(post, u) - log_q
+    log_z = special.logsumexp(log_w) - np.log(n_draws)
+    w = np.exp(log_w - log_w.max())
+    ess = w.sum() ** 2 / np.sum(w * w)
+    # delta-method standard error of log of a sample mean
+    se = float(np.std(w) / (np.sqrt(n_draws) * np.mean(w))) if np.mean(w) > 0 else np.inf
+    return float(log_z), se, float(ess), u, log_w
+
+
+def select(scores, *, threshold=1.0):
+    """Index of the selected candidate (rule in the module docstring)."""
+    best = max(s.log_evidence for s in scores)
+    ok = [i for i, s in enumerate(scores) if s.log_evidence >= best - threshold]
+    return min(ok, key=lambda i: (len(scores[i].terms), -scores[i].log_evidence))
