@@ -16,6 +16,9 @@ from .drift import (
     noise_variance_to_density,
 )
 from .errors import BayesIMUError, ConvergenceError, ConvergenceWarning, InputError, ModelError
+from .fit import FitResult, fit, fit_allan
+from .models import TERMS, NoiseModel
+from .simulate import simulate_log
 
 __all__ = [
     "__version__",
@@ -28,6 +31,12 @@ __all__ = [
     "allan_variance",
     "AutocorrelationResult",
     "autocorrelation_fit",
+    "TERMS",
+    "NoiseModel",
+    "simulate_log",
+    "FitResult",
+    "fit",
+    "fit_allan",
     "QUANTITY_ORDER",
     "DriftResult",
     "drift_sigma",

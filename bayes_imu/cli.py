@@ -2,6 +2,8 @@
 
 ``bayes-imu allan LOG.csv --column NAME --rate HZ --out DIR``
     Overlapping Allan deviation with confidence intervals (allan.csv, allan.png).
+``bayes-imu fit LOG.csv --column NAME --rate HZ --out DIR [--seed N]``
+    Model selection and posterior (summary.json, posterior.nc, allan_fit.png, corner.png).
 ``bayes-imu drift SENSOR.json --out DIR``
     1-sigma drift curves from known (datasheet) noise parameters.
 
@@ -42,6 +44,18 @@ def _build_parser():
     allan.add_argument("--out", type=Path, required=True, help="output folder")
     allan.add_argument("--grid", default="octave", choices=("octave", "decade", "all"), help="cluster sizes")
     allan.set_defaults(handler=_cmd_allan)
+
+    fit = sub.add_parser("fit", help="Bayesian noise-model fit of one column of a CSV log")
+    fit.add_argument("log", type=Path, help="CSV log with a header row (.gz accepted)")
+    fit.add_argument("--column", required=True, help="name of the rate column")
+    fit.add_argument("--rate", type=float, required=True, help="sample rate (Hz)")
+    fit.add_argument("--out", type=Path, required=True, help="output folder")
+    fit.add_argument("--seed", type=int, default=0, help="random seed (recorded in the outputs), default 0")
+    fit.add_argument("--unit", default="u", help="unit of the column, used in summary.json (e.g. deg/s)")
+    fit.add_argument("--terms", default="auto",
+                     help="'auto' (model selection) or a comma-separated list of terms, e.g. white,gauss_markov")
+    fit.add_argument("--likelihood", choices=("correlated", "independent"), default="correlated")
+    fit.set_defaults(handler=_cmd_fit)
 
     drift = sub.add_parser("drift", help="drift curves from known noise parameters (JSON)")
     drift.add_argument("sensor", type=Path, help="JSON file: rate_hz, kind, noise_density, bias_variance, time_constant")
@@ -127,6 +141,28 @@ def _cmd_allan(args):
 
     plot_allan(result, args.out / "allan.png", label=f"{Path(log_data.path).name}: {args.column}")
     print(f"{result.tau.size} cluster sizes from {result.n_samples} samples; wrote {args.out / 'allan.csv'} and allan.png")
+    return 0
+
+
+def _cmd_fit(args):
+    from .fit import fit_allan
+    from .plots import plot_allan_fit, plot_corner
+
+    log_data = read_log(args.log, column=args.column)
+    allan = allan_variance(log_data.values, rate_hz=args.rate, m="octave")
+    terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
+    result = fit_allan(allan, terms=terms, likelihood=args.likelihood, rng=args.seed)
+    args.out.mkdir(parents=True, exist_ok=True)
+    summary = result.summary(unit=args.unit)
+    summary.update(log=str(log_data.path), column=args.column)
+    (args.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    result.inference_data.to_netcdf(str(args.out / "posterior.nc"))
+    plot_allan_fit(result, args.out / "allan_fit.png", label=f"{Path(log_data.path).name}: {args.column}", rng=args.seed)
+    plot_corner(result, args.out / "corner.png")
+    print(f"model: {' + '.join(result.model.terms)}  (converged: {result.diagnostics['converged']})")
+    for name, p in summary["parameters"].items():
+        print(f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
+    print(f"wrote {args.out}/summary.json, posterior.nc, allan_fit.png, corner.png")
     return 0
 
 

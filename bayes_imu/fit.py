@@ -264,23 +264,20 @@ def _sample(post, start, rng, max_steps, allan):
     sampler = emcee.EnsembleSampler(n_walkers, n_par, post, vectorize=True)
     # emcee keeps a legacy RandomState: seed it from our Generator (no global state)
     sampler.random_state = np.random.RandomState(rng.integers(2**32)).get_state()
-    chunk, state, tau_old = 1000, start, np.inf
+    chunk, state, tau_old = min(1000, max_steps), start, np.inf
     converged = False
     while sampler.iteration < max_steps:
         state = sampler.run_mcmc(state, chunk, progress=False)
-        tau = sampler.get_autocorr_time(tol=0)
-        tau_max = float(np.max(tau))
-        if sampler.iteration >= AUTOCORR_MULTIPLE * tau_max and abs(tau_max - tau_old) < 0.05 * tau_max:
-            converged = True
-            break
+        tau_max = float(np.max(sampler.get_autocorr_time(tol=0)))
+        long_enough = sampler.iteration >= AUTOCORR_MULTIPLE * tau_max and abs(tau_max - tau_old) < 0.05 * tau_max
         tau_old = tau_max
-    burn = int(np.ceil(3 * tau_max))
-    thin = max(1, int(tau_max / 2))
-    chain = sampler.get_chain(discard=burn, thin=thin)  # (draws, walkers, par)
-    lp = sampler.get_log_prob(discard=burn, thin=thin)
-    idata = _inference_data(post, chain, lp, allan)
-    diagnostics = _diagnostics(idata, tau_max, sampler.iteration, n_walkers, converged)
-    if not diagnostics["converged"]:
+        if long_enough:
+            chain, lp, idata, diagnostics = _thinned(sampler, post, allan, tau_max, n_walkers, True)
+            if diagnostics["converged"]:
+                converged = True
+                break
+    if not converged:
+        chain, lp, idata, diagnostics = _thinned(sampler, post, allan, tau_max, n_walkers, False)
         warnings.warn(
             f"sampler not converged after {sampler.iteration} steps (autocorrelation time {tau_max:.0f} steps, "
             f"R-hat {diagnostics['rhat_max']:.3f}, bulk ESS {diagnostics['ess_bulk_min']:.0f}); "
@@ -293,11 +290,28 @@ def _sample(post, start, rng, max_steps, allan):
 
 
 def _arviz():
-    with warnings.catch_warnings():  # ArviZ 0.2x announces its refactor with a FutureWarning on import
+    import contextlib
+    import io
+
+    # ArviZ 0.2x announces its refactor on import (a FutureWarning and lines on stdout)
+    with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
         warnings.simplefilter("ignore", FutureWarning)
         import arviz
 
     return arviz
+
+
+def _thinned(sampler, post, allan, tau_max, n_walkers, long_enough):
+    """Drop 3 autocorrelation times of burn-in, thin by half of one; diagnostics on the rest."""
+    burn = int(np.ceil(3 * tau_max))
+    thin = max(1, int(tau_max / 2))
+    chain = sampler.get_chain(discard=burn, thin=thin)  # (draws, walkers, par)
+    lp = sampler.get_log_prob(discard=burn, thin=thin)
+    with warnings.catch_warnings():  # "more chains than draws" on short runs: reported as ConvergenceWarning
+        warnings.simplefilter("ignore", UserWarning)
+        idata = _inference_data(post, chain, lp, allan)
+        diagnostics = _diagnostics(idata, tau_max, sampler.iteration, n_walkers, long_enough)
+    return chain, lp, idata, diagnostics
 
 
 def _inference_data(post, chain, lp, allan):

@@ -64,11 +64,11 @@ TERM_PARAMETERS = {
 TERMS = tuple(TERM_PARAMETERS)
 #: unit of each parameter, given the unit ``u`` of the rate samples
 PARAMETER_UNITS = {
-    "noise_variance": "{u}^2",
+    "noise_variance": "({u})^2",
     "noise_density": "{u}/sqrt(Hz)",
     "quantization": "{u} s",
     "bias_instability": "{u}",
-    "bias_variance": "{u}^2",
+    "bias_variance": "({u})^2",
     "time_constant": "s",
     "rate_random_walk": "{u}/sqrt(s)",
 }

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-__all__ = ["plot_allan"]
+__all__ = ["plot_allan", "plot_allan_fit", "plot_corner"]
 
 
 def _pyplot():
@@ -48,4 +48,59 @@ def plot_allan(result, path, *, label=""):
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_allan_fit(fit, path, *, label="", rng=None):
+    """Observed Allan deviation with intervals, the 90% posterior predictive band, and each term.
+
+    Parameters
+    ----------
+    fit : FitResult
+    path : path-like
+    rng : seed for the posterior draws shown.
+    """
+    plt = _pyplot()
+    allan = fit.allan
+    tau_f = np.geomspace(allan.tau[0], allan.tau[-1], 80)
+    m_f = np.unique(np.maximum(1, np.round(tau_f * allan.rate_hz)).astype(np.int64))
+    tau_f = m_f / allan.rate_hz
+    fig, ax = plt.subplots(figsize=(7, 5))
+    err = np.vstack([allan.adev - allan.adev_low, allan.adev_high - allan.adev])
+    ax.errorbar(allan.tau, allan.adev, yerr=err, fmt="o", ms=3, capsize=2, color="k", label=label or "observed ADEV")
+    pred = np.sqrt(fit.predictive_avar(m_f, rng=rng))
+    lo, med, hi = np.quantile(pred, [0.05, 0.5, 0.95], axis=0)
+    ax.fill_between(tau_f, lo, hi, color="C0", alpha=0.3, label="posterior 90% band")
+    ax.plot(tau_f, med, color="C0", lw=1.5, label=f"model: {' + '.join(fit.model.terms)}")
+    for i, term in enumerate(fit.model.terms):
+        part = np.median(np.sqrt(fit.predictive_avar(m_f, rng=rng, term=term)), axis=0)
+        ax.plot(tau_f, part, "--", color=f"C{i + 1}", lw=1, label=term)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_ylim(allan.adev.min() / 5, allan.adev.max() * 2)
+    ax.set_xlabel("averaging time tau (s)")
+    ax.set_ylabel("Allan deviation (input units)")
+    ax.set_title("Allan deviation: data and posterior")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_corner(fit, path):
+    """Corner plot of the log10 parameters (corner.py)."""
+    plt = _pyplot()
+    import corner
+
+    data = np.log10(fit.samples)
+    labels = [f"log10 {n}" for n in fit.parameter_names]
+    if data.shape[1] == 1:
+        fig, ax = plt.subplots(figsize=(4, 3))
+        ax.hist(data[:, 0], bins=40, color="C0")
+        ax.set_xlabel(labels[0])
+    else:
+        fig = corner.corner(data, labels=labels, quantiles=[0.05, 0.5, 0.95], show_titles=True, title_fmt=".3f",
+                            label_kwargs={"fontsize": 8}, title_kwargs={"fontsize": 7})
+    fig.savefig(path, dpi=90)
     plt.close(fig)

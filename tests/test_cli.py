@@ -1,6 +1,7 @@
 """Command-line tests: exit status, outputs, one-line errors."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 
@@ -52,3 +53,38 @@ def test_allan_command_missing_column(tmp_path, capsys):
     log.write_text("a,b\n1,2\n3,4\n")
     assert main(["allan", str(log), "--column", "gyro", "--rate", "100", "--out", str(tmp_path / "o")]) == 2
     assert "no column 'gyro'" in capsys.readouterr().err
+
+
+def test_fit_command_writes_all_outputs(tmp_path, capsys):
+    """bayes-imu fit on a shipped log: summary.json keys, posterior.nc readable, figures, same seed same numbers."""
+    import json
+
+    from bayes_imu.cli import main
+
+    data = Path(__file__).resolve().parents[1] / "data_synthetic" / "gyro_highgrade.csv.gz"
+    args = [str(data), "--column", "gyro_x_dps", "--rate", "100", "--seed", "3", "--unit", "deg/s"]
+    assert main(["fit", *args, "--out", str(tmp_path / "a")]) == 0
+    summary = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert summary["model"] == ["white"]
+    assert set(summary["parameters"]) == {"noise_variance", "noise_density"}
+    assert summary["parameters"]["noise_density"]["unit"] == "deg/s/sqrt(Hz)"
+    assert set(summary["diagnostics"]) >= {"rhat_max", "ess_bulk_min", "converged"}
+    assert summary["seed"] == 3 and summary["bayes_imu_version"]
+    for name in ("posterior.nc", "allan_fit.png", "corner.png"):
+        assert (tmp_path / "a" / name).stat().st_size > 0
+    from bayes_imu.fit import _arviz
+
+    idata = _arviz().from_netcdf(str(tmp_path / "a" / "posterior.nc"))
+    assert {"posterior", "sample_stats", "observed_data", "log_likelihood"} <= set(idata.groups())
+    assert main(["fit", *args, "--out", str(tmp_path / "b")]) == 0
+    assert json.loads((tmp_path / "b" / "summary.json").read_text())["parameters"] == summary["parameters"]
+
+
+def test_fit_command_bad_terms_exit_2(tmp_path, capsys):
+    from bayes_imu.cli import main
+
+    data = Path(__file__).resolve().parents[1] / "data_synthetic" / "gyro_highgrade.csv.gz"
+    code = main(["fit", str(data), "--column", "gyro_x_dps", "--rate", "100", "--terms", "white,pink", "--out", str(tmp_path)])
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "pink" in err[0]

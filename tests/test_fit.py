@@ -1,0 +1,129 @@
+"""Fit: evidence against quadrature, model selection on the shipped logs, determinism, diagnostics."""
+
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import integrate
+
+from bayes_imu.allan import allan_variance
+from bayes_imu.errors import ConvergenceWarning, InputError
+from bayes_imu.fit import fit, fit_allan
+from bayes_imu.io import read_log
+from bayes_imu.likelihood import LogPosterior, default_bounds
+from bayes_imu.models import NoiseModel
+from bayes_imu.selection import log_evidence, posterior_mode
+from bayes_imu.simulate import simulate_log
+
+DATA = Path(__file__).resolve().parents[1] / "data_synthetic"
+TRUTH = json.loads((DATA / "truth.json").read_text())
+
+
+def load(name):
+    spec = TRUTH[name]
+    values = read_log(DATA / spec["file"], column=spec["column"]).values
+    return spec, allan_variance(values, rate_hz=spec["rate_hz"])
+
+
+@pytest.fixture(scope="module")
+def lowgrade_fit():
+    spec, allan = load("gyro_lowgrade")
+    return spec, fit_allan(allan, rng=1)
+
+
+def test_white_only_log_selects_white_only():
+    """Paper Fig 3 case: a white-only (high-grade) log comes back as white only."""
+    spec, allan = load("gyro_highgrade")
+    result = fit_allan(allan, rng=1)
+    assert result.model.terms == ("white",)
+    q = result.draws("noise_variance")
+    truth = spec["parameters"]["noise_variance"]
+    assert abs(np.median(q) / truth - 1) < 0.02
+    assert np.quantile(q, 0.005) < truth < np.quantile(q, 0.995)
+
+
+def test_bias_drift_log_gets_gauss_markov(lowgrade_fit):
+    spec, result = lowgrade_fit
+    assert result.model.terms == ("white", "gauss_markov")
+    truth = spec["parameters"]
+    assert abs(np.median(result.draws("noise_variance")) / truth["noise_variance"] - 1) < 0.02
+    for name in ("bias_variance", "time_constant"):
+        d = result.draws(name)
+        assert np.quantile(d, 0.005) < truth[name] < np.quantile(d, 0.995), name
+    # every candidate scored; the selected one within the threshold of the best
+    assert len(result.candidates) == 16
+    best = max(c.log_evidence for c in result.candidates)
+    assert result.candidates[result.selected].log_evidence >= best - 1.0
+    assert result.diagnostics["converged"]
+    assert result.diagnostics["rhat_max"] < 1.01 and result.diagnostics["ess_bulk_min"] >= 400
+
+
+def test_summary_and_predictive(lowgrade_fit):
+    _, result = lowgrade_fit
+    summary = result.summary(unit="deg/s")
+    assert summary["model"] == ["white", "gauss_markov"]
+    for name in ("noise_variance", "noise_density", "bias_variance", "time_constant"):
+        entry = summary["parameters"][name]
+        assert entry["q05"] <= entry["median"] <= entry["q95"] and set(entry) == {"median", "mean", "q05", "q95", "unit"}
+    assert summary["parameters"]["time_constant"]["unit"] == "s"
+    np.testing.assert_allclose(summary["parameters"]["noise_density"]["median"] ** 2,
+                               summary["parameters"]["noise_variance"]["median"] * result.model.dt, rtol=1e-9)
+    pred = result.predictive_avar(n_draws=50, rng=0)
+    assert pred.shape == (50, result.allan.m.size)
+    json.dumps(summary)
+
+
+def test_same_seed_same_numbers(rng):
+    model = NoiseModel(("white", "gauss_markov"), 0.01)
+    y = simulate_log(model, {"noise_variance": 1e-2, "bias_variance": 1e-5, "time_constant": 20.0}, 2**15, rng=rng)
+    a = fit(y, rate_hz=100.0, terms=("white", "gauss_markov"), rng=5)
+    b = fit(y, rate_hz=100.0, terms=("white", "gauss_markov"), rng=5)
+    np.testing.assert_array_equal(a.samples, b.samples)
+
+
+def test_evidence_matches_quadrature(rng):
+    """One-parameter model: importance-sampling log Z equals adaptive quadrature within 3 SE + 0.01."""
+    model = NoiseModel(("white",), 0.01)
+    y = simulate_log(model, {"noise_variance": 1e-2}, 2**16, rng=rng)
+    allan = allan_variance(y, rate_hz=100.0)
+    post = LogPosterior.build(model, allan, reference={"noise_variance": 1e-2})
+    u, phi, _ = posterior_mode(post, [[np.log(1e-2)]])
+    log_z, se, _, _, _ = log_evidence(post, u, rng=rng)
+    lo, hi = post.bounds[0]
+    peak = post.log_likelihood(phi[None])[0]
+    f = lambda p: np.exp(post.log_likelihood(np.array([[p]]))[0] - peak) / (hi - lo)  # noqa: E731
+    value, _ = integrate.quad(f, lo, hi, points=[phi[0] - 0.05, phi[0], phi[0] + 0.05], limit=200, epsabs=0, epsrel=1e-10)
+    assert abs(log_z - (np.log(value) + peak)) < 3 * se + 0.01
+
+
+def test_log_posterior_vectorised_and_bounded(rng):
+    model = NoiseModel(("white", "random_walk"), 0.01)
+    y = simulate_log(model, {"noise_variance": 1e-2, "rate_random_walk": 1e-4}, 2**14, rng=rng)
+    allan = allan_variance(y, rate_hz=100.0)
+    post = LogPosterior.build(model, allan, reference={"noise_variance": 1e-2, "rate_random_walk": 1e-4})
+    b = default_bounds(model, allan)
+    theta = b[:, 0] + (b[:, 1] - b[:, 0]) * rng.uniform(size=(7, 2))
+    np.testing.assert_allclose(post(theta), [post(t[None])[0] for t in theta], rtol=1e-12)
+    assert post(b[:, 1][None] + 1.0)[0] == -np.inf
+
+
+def test_non_convergence_warns(rng):
+    model = NoiseModel(("white", "gauss_markov"), 0.01)
+    y = simulate_log(model, {"noise_variance": 1e-2, "bias_variance": 1e-5, "time_constant": 20.0}, 2**15, rng=rng)
+    with pytest.warns(ConvergenceWarning, match="not converged"):
+        result = fit(y, rate_hz=100.0, terms=("white", "gauss_markov"), rng=1, max_steps=200)
+    assert result.summary()["diagnostics"]["converged"] is False
+
+
+def test_bad_inputs():
+    with pytest.raises(InputError, match="AllanResult"):
+        fit_allan(np.ones(10))
+    allan = allan_variance(np.random.default_rng(0).standard_normal(30), rate_hz=1.0)
+    with pytest.raises(InputError, match="at least 4"):
+        fit_allan(allan)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        with pytest.raises(InputError, match="terms"):
+            fit(np.random.default_rng(0).standard_normal(4096), rate_hz=1.0, terms=("white", "pink"))

@@ -1,0 +1,82 @@
+"""Noise models: exact discrete Allan variances against mpmath and against their own structure functions."""
+
+import mpmath as mp
+import numpy as np
+import pytest
+
+from bayes_imu.errors import InputError
+from bayes_imu.models import TERMS, NoiseModel, gauss_markov_avar, random_walk_avar, structure_function
+
+mp.mp.dps = 100  # x = 1e-15 cancels ~45 digits in the reference
+PARAMS = {
+    "white": {"noise_variance": 2.0},
+    "quantization": {"quantization": 0.3},
+    "bias_instability": {"bias_instability": 0.5},
+    "random_walk": {"rate_random_walk": 0.1},
+    "gauss_markov": {"bias_variance": 1.5, "time_constant": 30.0},
+}
+
+
+def gm_avar_mpmath(m, x):
+    """Reference: the AR(1) AVAR from its definition, Var and Cov of adjacent m-averages (100 digits)."""
+    phi = mp.e ** (-mp.mpf(x))
+    m = mp.mpf(m)
+    var_mean = (m * (1 - phi**2) - 2 * phi * (1 - phi**m)) / (m * m * (1 - phi) ** 2)
+    cov_adjacent = phi * (1 - phi**m) ** 2 / (m * m * (1 - phi) ** 2)
+    return var_mean - cov_adjacent
+
+
+@pytest.mark.parametrize("x", [1e-15, 1e-9, 1e-6, 1e-3, 0.049, 0.05, 0.051, 0.3, 1.0, 5.0, 60.0])
+def test_gauss_markov_avar_matches_mpmath_across_switch(x):
+    """Relative error <= 1e-13 from dt/T = 1e-15 to 60, on both sides of the series switch (m x = 0.1)."""
+    m = np.array([1, 2, 3, 7, 64, 1000, 2**18])
+    got = gauss_markov_avar(m, 1.0, 1.0 / x, dt=1.0)
+    ref = np.array([float(gm_avar_mpmath(int(mi), x)) for mi in m])
+    np.testing.assert_allclose(got, ref, rtol=1e-13)
+
+
+def test_gauss_markov_tends_to_random_walk():
+    """T -> infinity with sigma_b^2 dt/T fixed: AVAR -> rate random walk with K^2 dt = 2 sigma_b^2 dt / T."""
+    m = np.array([1, 4, 100])
+    x = 1e-12
+    gm = gauss_markov_avar(m, 1.0 / x, 1.0 / x, dt=1.0)  # sigma_b^2 x = 1
+    np.testing.assert_allclose(gm, random_walk_avar(m, np.sqrt(2.0), dt=1.0), rtol=1e-10)
+
+
+@pytest.mark.parametrize("term", TERMS)
+def test_avar_equals_structure_function_form(term):
+    """AVAR(m) = (4 D(m) - D(2m)) / (2 m^2): the two descriptions of each term agree."""
+    model = NoiseModel((term,), 0.5)
+    m = np.array([1, 2, 5, 16, 100])
+    d = lambda k: model.structure_function(np.asarray(k), PARAMS[term])  # noqa: E731
+    np.testing.assert_allclose((4 * d(m) - d(2 * m)) / (2.0 * m * m), model.avar(m, PARAMS[term]), rtol=1e-10)
+
+
+def test_gauss_markov_structure_function_mpmath():
+    for x in (1e-12, 1e-6, 1e-3, 0.3, 2.0):
+        k = np.array([1, 2, 5, 100, 10**4, 10**6])
+        got = structure_function(k, "gauss_markov", {"bias_variance": 1.0, "time_constant": 1.0 / x}, dt=1.0)
+        phi = mp.e ** (-mp.mpf(x))
+        ref = [float((int(kk) * (1 - phi**2) - 2 * phi * (1 - phi ** int(kk))) / (1 - phi) ** 2) for kk in k]
+        np.testing.assert_allclose(got, ref, rtol=1e-13)
+
+
+def test_broadcasting_equals_loop(rng):
+    model = NoiseModel(TERMS, 0.01)
+    theta = np.exp(rng.uniform(-3, 3, size=(4, 5, len(model.parameter_names))))
+    m = np.array([1, 3, 10, 300])
+    batch = model.avar(m, theta)
+    assert batch.shape == (4, 5, 4)
+    for i in range(4):
+        for j in range(5):
+            np.testing.assert_allclose(batch[i, j], model.avar(m, theta[i, j]), rtol=1e-14)
+
+
+def test_model_validation():
+    with pytest.raises(InputError, match="terms"):
+        NoiseModel(("white", "pink"), 0.01)
+    with pytest.raises(InputError, match="dt"):
+        NoiseModel(("white",), 0.0)
+    with pytest.raises(InputError, match="cluster sizes"):
+        NoiseModel(("white",), 0.01).avar(np.array([0, 1]), {"noise_variance": 1.0})
+    assert NoiseModel(("gauss_markov", "white"), 1.0).terms == ("white", "gauss_markov")
