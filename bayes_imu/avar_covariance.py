@@ -15,10 +15,12 @@ freedom ``2 AVAR^2 / Var``, which for pure power-law noise is Greenhall & Riley'
 
 The sum runs exactly over every lag where the two second-difference windows overlap or touch
 (from a table of ``D``). Outside the overlap only the Gauss-Markov and flicker terms
-correlate: the Gauss-Markov part is exactly geometric there and is summed in closed
-form per lag (no cancellation); the flicker part uses its asymptotic
-``-h a^2 b^2 / l_c^2`` (``l_c`` the distance between window centres), whose neglected
-terms are ``O((b/l_c)^2)`` of a tail that is below 1% of the total.
+correlate: the Gauss-Markov part is exactly geometric there (closed form per lag, no
+cancellation); the flicker part uses its asymptotic ``-h a^2 b^2 / l_c^2`` (``l_c`` the
+distance between window centres; neglected terms ``O((b/l_c)^2)`` of a tail below 1% of
+the total). Both tails are smooth, so they are summed by the midpoint rule with steps of
+at most ``l_c/64`` and ``0.1 T/dt`` (relative error ~1e-4), which keeps a full covariance
+of an octave grid on 1e6 samples at ~0.1 s.
 """
 
 import numpy as np

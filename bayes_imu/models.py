@@ -209,19 +209,23 @@ def structure_function(k, term, params, *, dt):
 
 def _gm_structure(k, s2, x):
     """``s^2 [k (1 - phi^2) - 2 phi (1 - phi^k)] / (1 - phi)^2``, series below ``k x = 0.5``."""
+    k = np.asarray(k, dtype=float)
     fx = -np.expm1(-x)
-    with np.errstate(invalid="ignore", over="ignore"):
-        closed = (k * -np.expm1(-2.0 * x) - 2.0 * (1.0 - fx) * -np.expm1(-k * x)) / (fx * fx)
+    out = np.zeros(k.shape)
+    big = k * x > _SWITCH
+    kb = k[big]
+    out[big] = (kb * -np.expm1(-2.0 * x) - 2.0 * (1.0 - fx) * -np.expm1(-kb * x)) / (fx * fx)
     # series: (x/f)^2 sum_{n>=2} (-x)^(n-2) e_n(k)/n!, e_n = 2 (k+1)^n - 2 - k 2^n, scaled by k^(n-2)
-    ks = np.maximum(k, 1.0)
-    z = -np.minimum(k * x, _SWITCH)
-    poly = np.zeros_like(k)
+    small = ~big & (k > 0)
+    ks = k[small]
+    z = -ks * x
+    poly = np.zeros(ks.shape)
     for n in range(_SERIES_TERMS + 1, 1, -1):
         e = (2.0 * (ks + 1.0) ** n - 2.0 - ks * 2.0**n) / (factorial(n) * ks ** (n - 2))
         poly = poly * z + e
     ratio = x / fx if x > 0 else 1.0
-    series = ratio * ratio * poly
-    return s2 * np.where(k == 0, 0.0, np.where(k * x <= _SWITCH, series, closed))
+    out[small] = ratio * ratio * poly
+    return s2 * out
 
 
 @dataclass(frozen=True)
