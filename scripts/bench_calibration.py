@@ -24,7 +24,7 @@ RATE = 100.0
 SCENARIOS = {
     "white+gm": {"noise_variance": 1e-2, "bias_variance": 1e-5, "time_constant": 20.0},
     "white": {"noise_variance": 1e-2},
-    "white+rw": {"noise_variance": 1e-2, "rate_random_walk": 1e-4},
+    "white+rw": {"noise_variance": 1e-2, "rate_random_walk": 1e-3},
 }
 TERMS = {"noise_variance": "white", "bias_variance": "gauss_markov", "time_constant": "gauss_markov",
          "rate_random_walk": "random_walk"}
@@ -41,7 +41,7 @@ def one_log(job):
     from bayes_imu.likelihood import LogPosterior, default_bounds
     from bayes_imu.fit import _pilot, _starts, _covariance
 
-    rng = np.random.default_rng([seed, index])
+    rng = np.random.default_rng([seed, list(SCENARIOS).index(scenario), index])  # independent streams
     base = SCENARIOS[scenario]
     truth = {k: v * 10 ** rng.uniform(-0.5, 0.5) for k, v in base.items()}
     terms = tuple(dict.fromkeys(TERMS[k] for k in truth))
