@@ -206,3 +206,167 @@ def _lambda_minus_a(a):
     series = s * s * (1 / 2 + s * (1 / 3 + s * (1 / 4 + s * (1 / 5 + s * (1 / 6 + s * (1 / 7 + s * (1 / 8 + s * (1 / 9 + s * (1 / 10 + s / 11)))))))))
     direct = -np.log1p(-np.minimum(a, 1.0 - 1e-300)) - a
     return np.where(small, series, direct)
+
+
+@lru_cache(maxsize=None)
+def _horner_rows(order):
+    """Series table regrouped by power of ``a``: ``{t: ((u, (-1)**t W[t][u]), ...)}``."""
+    rows = {}
+    for t, u, w in _series_table(order):
+        rows.setdefault(t, []).append((u, w))
+    return {t: tuple(v) for t, v in rows.items()}
+
+
+def series_coefficients(order, k):
+    """``Q[t, j] = (-1)**t sum_u W[t][u] C(k_j, u) / k_j**t``: the series is ``sum_t (a k)**t Q[t]``.
+
+    All ``W`` are positive, so each ``Q`` is a sum of same-sign terms (no cancellation);
+    ``C(k, u) / k**t`` is formed as ``prod (k - i)/((i + 1) k)`` times ``k**(u - t)``
+    (``u - t <= 2 order + 1``), so nothing overflows for ``k <= 2**53``.
+    """
+    k = np.maximum(np.asarray(k, dtype=float), 1.0)
+    rows = _horner_rows(order)
+    u_max = max(u for row in rows.values() for u, _ in row)
+    ratio = [np.ones_like(k)]  # C(k, u) / k**u
+    for u in range(1, u_max + 1):
+        ratio.append(ratio[-1] * (k - (u - 1)) / (u * k))
+    out = np.zeros((SERIES_TERMS[order], k.size))
+    for t, row in rows.items():
+        for u, w in row:
+            out[t] += w * ratio[u] * k ** float(u - t)
+    return out
+
+
+_grid_kernel = {}
+_closed_scalar = None  # compiled on first use of drift_grid (numba imported lazily)
+
+
+def gm_sum_grid(order, k, a):
+    """``gm_sum(order, k[None, :], a[:, None])`` for order 1 or 2, through the compiled kernel
+    of :func:`drift_grid` (same branches; tested equal to :func:`gm_sum` to 1e-13)."""
+    k = np.ascontiguousarray(k, dtype=float).ravel()
+    a = np.ascontiguousarray(a, dtype=float).ravel()
+    ones, none_a, none_k = np.ones_like(a), np.zeros((1, a.size)), np.zeros((1, k.size))
+    _, root = drift_grid(order, k, a, ones, np.zeros_like(a), none_a, none_k, none_a, none_k)
+    return root**2
+
+
+def _powers_scalar_py(k, a, log_abs):  # pragma: no cover - compiled by numba
+    """Scalar ``(E, 1 - E, 1 - E**2)`` of :func:`_powers`, given ``log|1 - a|`` (a != 1)."""
+    if a == 1.0:
+        return (1.0, 0.0, 0.0) if k == 0 else (0.0, 1.0, 1.0)
+    kl = k * log_abs
+    mag = np.exp(kl)
+    if a > 1.0 and k % 2.0 == 1.0:
+        e, one_minus_e = -mag, 1.0 + mag
+    else:
+        e, one_minus_e = mag, -np.expm1(kl)
+    return e, one_minus_e, one_minus_e * (1.0 + e)
+
+
+def _closed_scalar_py(order, k, a, e, one_minus_e, one_minus_e2):  # pragma: no cover - compiled by numba
+    """Scalar :func:`_closed` for order 1 or 2, given the powers of ``A``."""
+    geo2 = one_minus_e2 / (a * (2.0 - a))
+    if order == 1:
+        return (k - 2.0 * one_minus_e / a + geo2) / (a * a)
+    sum_n2 = (k - 1.0) * k * (2.0 * k - 1.0) / 6.0
+    return (a * a * sum_n2 - a * k * (k - 1.0) + (k - 2.0) - 2.0 * (k - 1.0) * e + geo2) / (a * a * a * a)
+
+
+def _coefficient_scalar_py(order, k, a, one_minus_e, lam):  # pragma: no cover - compiled by numba
+    """Scalar :func:`gm_coefficient` for order 1 or 2 (same branches); ``lam = -log1p(-a)``."""
+    if k < order:  # c_r(k) = 0 exactly for k < r
+        return 0.0
+    if a == 0.0:
+        return k if order == 1 else k * (k - 1.0) / 2.0
+    if order == 1:
+        return one_minus_e / a
+    if a < 1.0:
+        z = k * lam
+        if z < 0.1:
+            phi2 = 0.5 + z * (-1 / 6 + z * (1 / 24 + z * (-1 / 120 + z * (1 / 720 + z * (-1 / 5040 + z / 40320)))))
+        else:
+            phi2 = (z + np.expm1(-z)) / (z * z)
+        if a < 0.05:
+            s = a
+            lma = s * s * (1 / 2 + s * (1 / 3 + s * (1 / 4 + s * (1 / 5 + s * (1 / 6 + s * (1 / 7 + s * (1 / 8 + s * (1 / 9 + s * (1 / 10 + s / 11)))))))))
+        else:
+            lma = lam - a
+        return (z * z * phi2 - k * lma) / (a * a)
+    return (k * a - one_minus_e) / (a * a)
+
+
+def drift_grid(order, k, a, bias_scale, stationary_scale, white_scales, white_ks, extra_scales, extra_ks):
+    """Fused 1-sigma drift for draws x times: returns ``(total, bias)``, each ``(n_draws, n_times)``.
+
+    Per draw ``i`` and time ``j`` (variances add)::
+
+        white = sum_m white_scales[m, i] * white_ks[m, j]
+        bias  = bias_scale[i] * V_r(k_j, a_i) + stationary_scale[i] * c_r(k_j, a_i)**2
+              + sum_m extra_scales[m, i] * extra_ks[m, j]
+
+    with ``V_r`` and ``c_r`` by the same branches as :func:`gm_sum` and :func:`gm_coefficient`
+    (tests: equal to :func:`bayes_imu.drift.drift_sigma`).
+    """
+    k = np.ascontiguousarray(k, dtype=float).ravel()
+    if "drift" not in _grid_kernel:
+        _grid_kernel["drift"] = _compile_drift()
+    vec = [np.ascontiguousarray(v, dtype=float).ravel() for v in (a, bias_scale, stationary_scale)]
+    mat = [np.ascontiguousarray(np.atleast_2d(v), dtype=float) for v in (white_scales, white_ks, extra_scales, extra_ks)]
+    a = vec[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log_abs = np.where(a < 1.0, np.log1p(-np.minimum(a, 1.0)), np.log1p(np.maximum(a, 1.0) - 2.0))
+    return _grid_kernel["drift"](order, k, a, log_abs, series_coefficients(order, k), _random_walk(order, k), SWITCH[order],
+                                 vec[1], vec[2], *mat)
+
+
+def _compile_drift():
+    import numba
+
+    global _closed_scalar, _coefficient_scalar, _powers_scalar
+    _closed_scalar = numba.njit(cache=True)(_closed_scalar_py)
+    _coefficient_scalar = numba.njit(cache=True)(_coefficient_scalar_py)
+    _powers_scalar = numba.njit(cache=True)(_powers_scalar_py)
+
+    @numba.njit(parallel=True, cache=True)
+    def kernel(order, k, a, log_abs, q, rw, switch, bias_scale, stationary_scale, white_scales, white_ks, extra_scales, extra_ks):
+        # laid out (times, draws): quantiles over draws then read contiguous memory
+        total = np.empty((k.size, a.size))
+        bias = np.empty((k.size, a.size))
+        n_terms = q.shape[0]
+        for j in numba.prange(k.size):
+            kj = k[j]
+            for i in range(a.size):
+                ai = a[i]
+                y = ai * kj
+                closed = y >= switch or ai >= 1.0
+                need_powers = (bias_scale[i] != 0.0 and closed) or (stationary_scale[i] != 0.0 and ai > 0.0)
+                e, one_minus_e, one_minus_e2 = _powers_scalar(kj, ai, log_abs[i]) if need_powers else (1.0, 0.0, 0.0)
+                if bias_scale[i] == 0.0 or kj <= order:
+                    v = 0.0
+                elif y < 1e-18:
+                    v = rw[j]
+                elif closed:
+                    v = _closed_scalar(order, kj, ai, e, one_minus_e, one_minus_e2)
+                else:
+                    v = q[n_terms - 1, j]
+                    for t in range(n_terms - 2, -1, -1):
+                        v = v * y + q[t, j]
+                b = bias_scale[i] * v
+                if stationary_scale[i] != 0.0:
+                    c = _coefficient_scalar(order, kj, ai, one_minus_e, -log_abs[i])
+                    b += stationary_scale[i] * c * c
+                for m in range(extra_scales.shape[0]):
+                    b += extra_scales[m, i] * extra_ks[m, j]
+                w = 0.0
+                for m in range(white_scales.shape[0]):
+                    w += white_scales[m, i] * white_ks[m, j]
+                bias[j, i] = np.sqrt(b)
+                total[j, i] = np.sqrt(b + w)
+        return total.T, bias.T
+
+    return kernel
+
+
+_coefficient_scalar = None
+_powers_scalar = None

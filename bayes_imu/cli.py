@@ -23,7 +23,7 @@ from . import __version__
 from .allan import allan_variance
 from .drift import QUANTITY_ORDER, drift_sigma
 from .errors import BayesIMUError, InputError
-from .io import read_log
+from .io import read_log, read_text
 
 __all__ = ["main"]
 
@@ -55,7 +55,26 @@ def _build_parser():
     fit.add_argument("--terms", default="auto",
                      help="'auto' (model selection) or a comma-separated list of terms, e.g. white,gauss_markov")
     fit.add_argument("--likelihood", choices=("correlated", "independent"), default="correlated")
+    fit.add_argument("--sensor", choices=("gyro", "accel"),
+                     help="also write drift.csv / drift.png: attitude (gyro) or velocity and position (accel)")
+    fit.add_argument("--horizon", type=float, default=3600.0, help="longest drift time (s), default 3600")
+    fit.add_argument("--bias-start", choices=("zero", "stationary"), default="zero",
+                     help="bias at the start of the outage: zero (paper) or stationary (conservative)")
     fit.set_defaults(handler=_cmd_fit)
+
+    report = sub.add_parser("report", help="conservative drift bounds for several IMUs (scene TOML)")
+    report.add_argument("scene", type=Path, help="scene TOML file (see README)")
+    report.add_argument("--out", type=Path, required=True, help="output folder")
+    report.add_argument("--seed", type=int, default=0, help="random seed, default 0")
+    report.set_defaults(handler=_cmd_report)
+
+    kalibr = sub.add_parser("kalibr", help="Kalibr IMU noise YAML from fit folders")
+    kalibr.add_argument("--gyro", type=Path, nargs="+", required=True, help="fit folder(s) of gyro axes (rad/s or deg/s)")
+    kalibr.add_argument("--accel", type=Path, nargs="+", required=True, help="fit folder(s) of accelerometer axes")
+    kalibr.add_argument("--out", type=Path, required=True, help="YAML file to write")
+    kalibr.add_argument("--credibility", type=float, default=None,
+                        help="upper posterior quantile for conservative values (e.g. 0.95); default: medians")
+    kalibr.set_defaults(handler=_cmd_kalibr)
 
     drift = sub.add_parser("drift", help="drift curves from known noise parameters (JSON)")
     drift.add_argument("sensor", type=Path, help="JSON file: rate_hz, kind, noise_density, bias_variance, time_constant")
@@ -68,11 +87,7 @@ def _build_parser():
 
 def _read_sensor_json(path):
     try:
-        spec = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read ({exc})") from None
+        spec = json.loads(read_text(path))
     except json.JSONDecodeError as exc:
         raise InputError(f"{path}: line {exc.lineno} column {exc.colno}: invalid JSON ({exc.msg})") from None
     if not isinstance(spec, dict):
@@ -154,11 +169,13 @@ def _cmd_fit(args):
     result = fit_allan(allan, terms=terms, likelihood=args.likelihood, rng=args.seed)
     args.out.mkdir(parents=True, exist_ok=True)
     summary = result.summary(unit=args.unit)
-    summary.update(log=str(log_data.path), column=args.column)
+    summary.update(log=str(log_data.path), column=args.column, unit=args.unit)
     (args.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     result.inference_data.to_netcdf(str(args.out / "posterior.nc"))
     plot_allan_fit(result, args.out / "allan_fit.png", label=f"{Path(log_data.path).name}: {args.column}", rng=args.seed)
     plot_corner(result, args.out / "corner.png")
+    if args.sensor:
+        _write_drift(result, args, args.out)
     print(f"model: {' + '.join(result.model.terms)}  (converged: {result.diagnostics['converged']})")
     for name, p in summary["parameters"].items():
         print(f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
@@ -166,11 +183,50 @@ def _cmd_fit(args):
     return 0
 
 
+def _write_drift(result, args, out):
+    from .bands import SENSOR_QUANTITIES, default_times, drift_bands, integrated_unit
+    from .plots import plot_drift
+
+    t = default_times(result.model.dt, args.horizon)
+    bands = [drift_bands(result, t, quantity=q, bias_start=args.bias_start) for q in SENSOR_QUANTITIES[args.sensor]]
+    lines = ["t_s,quantity,q05,q50,q95,unit"]
+    for b in bands:
+        unit = integrated_unit(args.unit, b.quantity)
+        lines += [f"{ti:.6g},{b.quantity},{lo:.9g},{med:.9g},{hi:.9g},{unit}" for ti, lo, med, hi in zip(b.t_s, *b.total)]
+    (out / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    plot_drift(bands, out / "drift.png", units=[integrated_unit(args.unit, b.quantity) for b in bands])
+    for b in bands:
+        print(f"{b.quantity}: 1-sigma drift after {b.t_s[-1]:g} s: median {b.total[1][-1]:.4g}, "
+              f"90% [{b.total[0][-1]:.4g}, {b.total[2][-1]:.4g}] {integrated_unit(args.unit, b.quantity)}")
+
+
+def _cmd_report(args):
+    from .report import build_report, read_scene
+    from .report_html import write_report
+
+    scene = read_scene(args.scene)
+    report = build_report(scene, rng=args.seed)
+    write_report(report, args.out)
+    print(f"ranking: {', '.join(report.ranking)} ({report.reason})")
+    print(f"wrote {args.out}/report.json and report.html")
+    return 0
+
+
+def _cmd_kalibr(args):
+    from .kalibr import kalibr_values, write_kalibr_yaml
+
+    values = kalibr_values(args.gyro, args.accel, credibility=args.credibility)
+    write_kalibr_yaml(values, args.out)
+    print(f"wrote {args.out} ({values['_mode']})")
+    return 0
+
+
 def main(argv=None):
     """Run the ``bayes-imu`` command; return the exit status."""
     parser = _build_parser()
     args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    logging.basicConfig(level=logging.WARNING, format="%(message)s")  # third-party loggers stay quiet
+    log.setLevel(logging.INFO)
     try:
         return args.handler(args)
     except BayesIMUError as exc:

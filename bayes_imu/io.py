@@ -11,7 +11,36 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["LogData", "read_log"]
+__all__ = ["LogData", "read_log", "read_text", "UNITS", "to_si"]
+
+#: input units and their factor to SI (rad/s for rates, m/s^2 for specific force)
+UNITS = {
+    "rad/s": ("gyro", 1.0),
+    "deg/s": ("gyro", np.pi / 180.0),
+    "deg/h": ("gyro", np.pi / 180.0 / 3600.0),
+    "m/s^2": ("accel", 1.0),
+    "g": ("accel", 9.80665),
+    "mg": ("accel", 9.80665e-3),
+}
+
+
+def read_text(path):
+    """A small UTF-8 text file (scene, sensor or summary file), with one-line errors."""
+    try:
+        return Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise InputError(f"{path}: is a directory; expected a file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read ({exc})") from None
+
+
+def to_si(values, unit, *, where=""):
+    """Convert samples from ``unit`` (a key of :data:`UNITS`) to SI (rad/s or m/s^2)."""
+    if unit not in UNITS:
+        raise InputError(f"{where}unit {unit!r}: expected one of {', '.join(UNITS)}")
+    return np.asarray(values, dtype=np.float64) * UNITS[unit][1]
 
 
 @dataclass(frozen=True)

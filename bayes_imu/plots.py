@@ -2,7 +2,7 @@
 
 import numpy as np
 
-__all__ = ["plot_allan", "plot_allan_fit", "plot_corner"]
+__all__ = ["plot_allan", "plot_allan_fit", "plot_corner", "plot_drift"]
 
 
 def _pyplot():
@@ -103,4 +103,48 @@ def plot_corner(fit, path):
         fig = corner.corner(data, labels=labels, quantiles=[0.05, 0.5, 0.95], show_titles=True, title_fmt=".3f",
                             label_kwargs={"fontsize": 8}, title_kwargs={"fontsize": 7})
     fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+_QUANTITY_LABEL = {"attitude": "attitude error", "velocity": "velocity error", "position": "position error"}
+
+
+def plot_drift(bands_list, path, *, units, title=""):
+    """Drift credible bands (log-log), white and bias parts separately, crossover marked (paper Figs 8, 11).
+
+    Parameters
+    ----------
+    bands_list : sequence of DriftBands
+        One panel per quantity.
+    units : sequence of str
+        Unit of each panel's quantity (e.g. "deg", "m/s", "m").
+    """
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, len(bands_list), figsize=(6.5 * len(bands_list), 4.8), squeeze=False)
+    for ax, bands, unit in zip(axes[0], bands_list, units):
+        keep = bands.total[0] > 0  # the double integral is exactly 0 after one sample
+        t = bands.t_s[keep]
+        lo, hi = bands.total[0][keep], bands.total[-1][keep]
+        ax.fill_between(t, lo, hi, color="C0", alpha=0.3,
+                        label=f"total, {bands.quantiles[0]:.0%}-{bands.quantiles[-1]:.0%} credible band")
+        ax.plot(t, bands.total[len(bands.quantiles) // 2][keep], color="C0", lw=1.5, label="total, median")
+        ax.plot(t, bands.white[keep], "--", color="C1", label="white noise (median)")
+        positive = bands.bias[keep] > 0
+        if np.any(positive):
+            ax.plot(t[positive], bands.bias[keep][positive], "--", color="C2", label="bias drift (median)")
+        if np.isfinite(bands.crossover_s):
+            ax.axvline(bands.crossover_s, color="gray", lw=1, ls=":")
+            ax.annotate(f"bias dominates after {bands.crossover_s:.3g} s", (bands.crossover_s, lo[0]),
+                        textcoords="offset points", xytext=(4, 4), fontsize=8, color="dimgray")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("time since GPS loss (s)")
+        ax.set_ylabel(f"1-sigma {_QUANTITY_LABEL[bands.quantity]} ({unit})")
+        ax.set_title(f"{bands.quantity} drift, bias start: {bands.bias_start}")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8, loc="upper left")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
     plt.close(fig)

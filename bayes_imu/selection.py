@@ -12,7 +12,8 @@ and its standard error is reported.
 
 Selection rule: the candidate with the largest evidence, except that a candidate with
 fewer terms is preferred while its log evidence is within ``threshold`` nats (default 1)
-of the best — extra terms must earn a Bayes factor above ``e``.
+plus twice the Monte Carlo standard error of the difference of the best one — extra terms
+must earn a Bayes factor above ``e``, beyond the estimation noise.
 """
 
 from dataclasses import dataclass
@@ -129,12 +130,10 @@ def _hessian_cov(post, u0, step=1e-3):
     return (v / w) @ v.T
 
 
-def log_evidence(post, u_mode, *, n_draws=4000, rng=None):
-    """Defensive importance-sampling estimate of ``log Z``; returns ``(log_z, se, ess, u_draws, log_w)``."""
-    rng = np.random.default_rng(rng)
-    n = u_mode.size
-    cov = _INFLATE**2 * _hessian_cov(post, u_mode)
-    t = stats.multivariate_t(loc=u_mode, shape=cov, df=_T_DOF, seed=rng)
+def _importance(post, loc, cov, n_draws, rng):
+    """One defensive importance-sampling pass: ``(log_z, se, ess, u, log_w)``."""
+    n = loc.size
+    t = stats.multivariate_t(loc=loc, shape=cov, df=_T_DOF, seed=rng)
     n_prior = int(round(_PRIOR_WEIGHT * n_draws))
     u = np.vstack([np.atleast_2d(t.rvs(size=n_draws - n_prior)).reshape(-1, n), stats.logistic.rvs(size=(n_prior, n), random_state=rng)])
     log_prior_u = np.sum(stats.logistic.logpdf(u), axis=-1)
@@ -143,13 +142,45 @@ def log_evidence(post, u_mode, *, n_draws=4000, rng=None):
     log_z = special.logsumexp(log_w) - np.log(n_draws)
     w = np.exp(log_w - log_w.max())
     ess = w.sum() ** 2 / np.sum(w * w)
-    # delta-method standard error of log of a sample mean
+    # delta-method standard error of the log of a sample mean
     se = float(np.std(w) / (np.sqrt(n_draws) * np.mean(w))) if np.mean(w) > 0 else np.inf
     return float(log_z), se, float(ess), u, log_w
 
 
+def log_evidence(post, u_mode, *, n_draws=4000, rng=None, target_se=0.05):
+    """Defensive importance-sampling estimate of ``log Z``; returns ``(log_z, se, ess, u_draws, log_w)``.
+
+    When the standard error exceeds ``target_se`` (a posterior far from Gaussian in ``u``,
+    typically an unsupported term), the proposal is refitted once to the weighted draws
+    (mean and covariance, an adaptive-importance-sampling step) and 4x as many draws are used.
+    """
+    rng = np.random.default_rng(rng)
+    out = _importance(post, u_mode, _INFLATE**2 * _hessian_cov(post, u_mode), n_draws, rng)
+    if out[1] > target_se:
+        u, log_w = out[3], out[4]
+        w = np.exp(log_w - log_w.max())
+        w /= w.sum()
+        mean = w @ u
+        cov = np.atleast_2d(np.cov(u.T, aweights=w)) + 1e-6 * np.eye(u.shape[1])
+        second = _importance(post, mean, _INFLATE**2 * cov, 4 * n_draws, rng)
+        if second[1] < out[1]:
+            out = second
+    return out
+
+
 def select(scores, *, threshold=1.0):
-    """Index of the selected candidate (rule in the module docstring)."""
-    best = max(s.log_evidence for s in scores)
-    ok = [i for i, s in enumerate(scores) if s.log_evidence >= best - threshold]
+    """Index of the selected candidate (rule in the module docstring).
+
+    A candidate qualifies when its log evidence is within ``threshold`` plus twice the
+    Monte Carlo standard error of the difference of the best one; the qualifying candidate
+    with the fewest terms (then the larger evidence) is selected.
+    """
+    best = max(range(len(scores)), key=lambda i: scores[i].log_evidence)
+    top = scores[best]
+
+    def qualifies(s):
+        margin = threshold + 2.0 * np.hypot(s.log_evidence_se, top.log_evidence_se)
+        return s.log_evidence >= top.log_evidence - margin
+
+    ok = [i for i, s in enumerate(scores) if qualifies(s)]
     return min(ok, key=lambda i: (len(scores[i].terms), -scores[i].log_evidence))

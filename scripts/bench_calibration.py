@@ -7,8 +7,9 @@ representative point (SBC-style: the truth varies from log to log), simulates a 
 likelihood (default) and with the independent-gamma baseline. It prints, per scenario,
 likelihood and parameter, the coverage of the central 90% interval with its binomial
 standard error, and a chi-squared uniformity p-value of the truth's rank among the
-posterior draws (10 bins). A second table gives how often evidence-based selection
-(``terms="auto"``, evidence only) returns the true model.
+posterior draws (10 bins). A second table gives how often the 90% drift band (attitude,
+zero bias start) contains the true 1-sigma drift at 1, 10, 100 and 1000 s; a third how
+often evidence-based selection (``terms="auto"``, evidence only) returns the true model.
 
     python scripts/bench_calibration.py --n-logs 100      # ~15 min on 2 cores
 """
@@ -21,6 +22,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 RATE = 100.0
+BAND_TIMES = np.array([1.0, 10.0, 100.0, 1000.0])
 SCENARIOS = {
     "white+gm": {"noise_variance": 1e-2, "bias_variance": 1e-5, "time_constant": 20.0},
     "white": {"noise_variance": 1e-2},
@@ -60,6 +62,15 @@ def one_log(job):
             for name in truth
         }
         out[kind + "_converged"] = bool(res.diagnostics["converged"]) and not caught
+        if kind == "correlated":  # drift bands (attitude, zero bias start) against the true drift
+            from bayes_imu.bands import drift_bands
+            from bayes_imu.drift import drift_sigma
+
+            bands = drift_bands(res, BAND_TIMES, quantity="attitude")
+            true = drift_sigma(BAND_TIMES, quantity="attitude", dt=1.0 / RATE, noise_variance=truth["noise_variance"],
+                               bias_variance=truth.get("bias_variance", 0.0), time_constant=truth.get("time_constant", np.inf),
+                               random_walk=truth.get("rate_random_walk", 0.0)).total
+            out["band"] = (bands.quantile(0.05) <= true) & (true <= bands.quantile(0.95))
     if select:
         full = NoiseModel(("white", "quantization", "bias_instability", "gauss_markov", "random_walk"), 1.0 / RATE)
         ref = _pilot(full, allan)
@@ -105,6 +116,10 @@ def main(argv=None):
 
                 p = stats.chisquare(counts).pvalue
                 print(f"{scenario:10s} {kind:12s} {name:17s} {cover:10.3f} {se:6.3f} {p:7.3f} {conv:9.2f}")
+    print(f"\n{'scenario':10s} 90% attitude-drift band covers the true 1-sigma drift at t = {BAND_TIMES.tolist()} s")
+    for scenario in SCENARIOS:
+        rows = [r for r in results if r["scenario"] == scenario]
+        print(f"{scenario:10s} " + " ".join(f"{c:6.3f}" for c in np.mean([r["band"] for r in rows], axis=0)))
     if not args.no_selection:
         print(f"\n{'scenario':10s} {'true model':28s} {'selected true':>13s}  most frequent wrong choice")
         for scenario in SCENARIOS:

@@ -4,6 +4,8 @@ Prints a table: quantity, regime, seconds per 1e6 points (best of 5).
 Regimes: "mixed" (tau log-uniform 1..1e4 s, t log-spaced 0.01..3600 s at 100 Hz),
 "series" (tau 1e6..1e8 s, so dt/tau * k is small: every point in the series branch),
 "closed" (tau 0.1..1 s: every point in the closed-form branch).
+A last table times ``bayes_imu.bands.drift_bands`` (1e4 posterior draws x 1e3 times,
+white + Gauss-Markov + random walk, quantiles included).
 """
 
 import argparse
@@ -44,6 +46,23 @@ def main(argv=None):
         for name, taus in regimes.items():
             seconds = bench(quantity, taus, t)
             print(f"{quantity:10s} {name:8s} {n_draws * n_t:9d} {seconds:8.3f}")
+    bench_bands(rng, t)
+
+
+def bench_bands(rng, t, n_draws=10_000):
+    from bayes_imu.bands import drift_bands
+    from bayes_imu.fit import FitResult
+    from bayes_imu.models import NoiseModel
+
+    model = NoiseModel(("white", "gauss_markov", "random_walk"), 0.01)
+    samples = np.column_stack([rng.uniform(0.5, 2, n_draws), rng.uniform(1e-4, 1e-3, n_draws),
+                               10 ** rng.uniform(0, 4, n_draws), rng.uniform(1e-5, 1e-4, n_draws)])
+    fit = FitResult(model, samples, np.zeros(n_draws), None, (), 0, {}, "bench", None)
+    print(f"\n{'drift_bands':10s} {'draws':>6s} {'times':>6s} {'seconds':>8s}")
+    for quantity in ("attitude", "position"):
+        start = time.perf_counter()
+        drift_bands(fit, t, quantity=quantity, bias_start="stationary")
+        print(f"{quantity:10s} {n_draws:6d} {t.size:6d} {time.perf_counter() - start:8.3f}")
 
 
 if __name__ == "__main__":

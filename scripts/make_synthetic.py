@@ -26,9 +26,9 @@ LOGS = {
                       {"noise_variance": 0.05**2 * 100.0, "bias_variance": 0.01**2, "time_constant": 100.0}),
     # tactical-grade gyro, white noise only (paper Fig 3): 0.002 deg/s/sqrt(Hz)
     "gyro_highgrade": ("gyro_x_dps", "deg/s", 100.0, 360_000, 0.0, {"noise_variance": 0.002**2 * 100.0}),
-    # accelerometer axis reading gravity: VRW 0.2 m/s/sqrt(h) = 3.33e-3 m/s^2/sqrt(Hz), GM bias 5e-4 m/s^2, T = 300 s
+    # accelerometer axis reading gravity: VRW 0.2 m/s/sqrt(h) = 3.33e-3 m/s^2/sqrt(Hz), GM bias 2e-3 m/s^2, T = 10 s
     "accel_gravity": ("accel_z_mps2", "m/s^2", 200.0, 360_000, 9.80665,
-                      {"noise_variance": (0.2 / 60.0) ** 2 * 200.0, "bias_variance": 5e-4**2, "time_constant": 300.0}),
+                      {"noise_variance": (0.2 / 60.0) ** 2 * 200.0, "bias_variance": 2e-3**2, "time_constant": 10.0}),
     # gyro with white noise and rate random walk 2e-4 deg/s/sqrt(s)
     "gyro_rrw": ("gyro_x_dps", "deg/s", 100.0, 360_000, 0.0, {"noise_variance": 0.01**2 * 100.0, "rate_random_walk": 2e-4}),
 }

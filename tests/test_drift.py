@@ -290,3 +290,23 @@ def test_drift_sigma_bad_arguments(kwargs, match):
 def test_negative_time_is_refused():
     with pytest.raises(InputError, match="t="):
         drift_sigma([-1.0], quantity="attitude", dt=0.01, noise_variance=1.0)
+
+
+def test_compiled_grid_kernels_equal_numpy_reference():
+    """gm_sum_grid / drift_grid (compiled, used for posterior bands) equal gm_sum / gm_coefficient to 1e-13,
+    over both branches, the switch-overs, A = 0 (a = 1), A < 0 (a > 1) and k from 0 to 2**53."""
+    from bayes_imu._euler import drift_grid, gm_coefficient, gm_sum, gm_sum_grid
+
+    rng = np.random.default_rng(5)
+    k = np.concatenate([[0, 1, 2, 3], np.unique(np.round(np.geomspace(1, 3.6e5, 300))), [2.0**40, 2.0**53]])
+    a = np.concatenate([10 ** rng.uniform(-16, 0.3, 300), [0.0, 1e-20, 0.5 / 7, 1.0, 1.5, 1.999]])
+    for order in (1, 2):
+        ref = gm_sum(order, k[None, :], a[:, None])
+        np.testing.assert_allclose(gm_sum_grid(order, k, a), ref, rtol=1e-13, atol=0)
+        coef = gm_coefficient(order, k[None, :], a[:, None])
+        ones = np.ones_like(a)
+        total, bias = drift_grid(order, k, a, ones, ones, [np.zeros_like(a)], [np.zeros_like(k)], [np.zeros_like(a)], [np.zeros_like(k)])
+        np.testing.assert_allclose(bias**2, ref + coef**2, rtol=1e-12, atol=1e-20)  # c_2(1) = 0: exact here, 1e-33 in numpy
+        if order == 2:  # c_2(k) = 0 exactly for k < 2
+            assert np.all(bias[:, k < 2] == 0.0)
+        np.testing.assert_array_equal(total, bias)

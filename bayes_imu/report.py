@@ -1,0 +1,229 @@
+"""Component-selection reports: conservative drift bounds for several IMUs in one scene.
+
+A *scene* (TOML, :func:`read_scene`) lists GPS-outage durations, a credibility, an
+optional requirement on one quantity, and the sensors with their static logs. For each
+sensor :func:`build_report` converts the log to SI (rad/s, m/s^2), fits it with model
+selection (each sensor carries only the terms its data support), and computes:
+
+* ``bounds``: for every outage and quantity, the posterior quantile at ``credibility`` of
+  the 1-sigma drift ``sigma(t)`` (``bound``) and its median; SI output units (rad, m/s, m);
+* ``max_outage_s``: the longest outage whose bound on the required quantity stays within
+  ``max_error``, found by bisection on a continuous time (the bound increases with t).
+
+Ranking: longest ``max_outage_s`` first, ties (and scenes without a requirement) by the
+bound at the longest outage; sensors that cannot provide the required quantity (a gyro
+for a position requirement) rank last.
+"""
+
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .allan import allan_variance
+from .bands import SENSOR_QUANTITIES, drift_bands, drift_draws
+from .errors import InputError
+from .fit import fit_allan
+from .io import UNITS, read_log, read_text, to_si
+
+__all__ = ["Scene", "SensorSpec", "SensorReport", "Report", "read_scene", "build_report", "OUTPUT_UNITS"]
+
+OUTPUT_UNITS = {"attitude": "rad", "velocity": "m/s", "position": "m"}
+MAX_SEARCH_S = 1e6
+
+
+@dataclass(frozen=True)
+class SensorSpec:
+    name: str
+    log: Path
+    column: str
+    rate_hz: float
+    kind: str
+    units: str
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A parsed scene file (see the module docstring and the README for the format)."""
+
+    name: str
+    outages_s: tuple
+    credibility: float
+    sensors: tuple
+    requirement: dict | None = None
+    bias_start: str = "zero"
+    path: str = ""
+
+
+@dataclass(frozen=True)
+class SensorReport:
+    spec: SensorSpec
+    fit: object
+    bounds: tuple
+    max_outage_s: float | None
+    bands: tuple
+
+
+@dataclass(frozen=True)
+class Report:
+    scene: Scene
+    sensors: tuple
+    ranking: tuple
+    reason: str
+
+    def to_json(self):
+        """JSON-ready dict (``report.json``)."""
+        from ._version import __version__
+
+        out = []
+        for s in self.sensors:
+            summary = s.fit.summary(unit=_si_unit(s.spec.kind))
+            out.append({
+                "name": s.spec.name, "kind": s.spec.kind, "log": str(s.spec.log), "column": s.spec.column,
+                "input_units": s.spec.units, "model": summary["model"], "parameters": summary["parameters"],
+                "diagnostics": summary["diagnostics"], "candidates": summary["candidates"],
+                "bounds": list(s.bounds), "max_outage_s": s.max_outage_s,
+            })
+        return {"scene": self.scene.name, "credibility": self.scene.credibility, "outages_s": list(self.scene.outages_s),
+                "requirement": self.scene.requirement, "bias_start": self.scene.bias_start, "sensors": out,
+                "ranking": list(self.ranking), "ranking_reason": self.reason, "bayes_imu_version": __version__}
+
+
+def _si_unit(kind):
+    return "rad/s" if kind == "gyro" else "m/s^2"
+
+
+def _get(table, key, kind, where, default=None, required=True):
+    if key not in table:
+        if required:
+            raise InputError(f"{where}: missing key {key!r}")
+        return default
+    value = table[key]
+    if kind is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+            raise InputError(f"{where}: {key}={value!r}: expected a positive number")
+        return float(value)
+    if not isinstance(value, str) or not value:
+        raise InputError(f"{where}: {key}={value!r}: expected a non-empty string")
+    return value
+
+
+def read_scene(path):
+    """Parse and validate a scene TOML file; paths are relative to the file."""
+    path = Path(path)
+    try:
+        doc = tomllib.loads(read_text(path))
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: invalid TOML ({exc})") from None
+    scene = doc.get("scene")
+    if not isinstance(scene, dict):
+        raise InputError(f"{path}: missing [scene] table")
+    outages = scene.get("outages_s")
+    if not isinstance(outages, list) or not outages or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) and v > 0 for v in outages):
+        raise InputError(f"{path}: [scene] outages_s={outages!r}: expected a non-empty list of positive seconds")
+    cred = scene.get("credibility", 0.95)
+    if isinstance(cred, bool) or not isinstance(cred, (int, float)) or not 0.5 <= cred < 1:
+        raise InputError(f"{path}: [scene] credibility={cred!r}: expected a number in [0.5, 1)")
+    bias_start = scene.get("bias_start", "zero")
+    if bias_start not in ("zero", "stationary"):
+        raise InputError(f"{path}: [scene] bias_start={bias_start!r}: expected 'zero' or 'stationary'")
+    requirement = doc.get("requirement")
+    if requirement is not None:
+        where = f"{path}: [requirement]"
+        quantity = _get(requirement, "quantity", str, where)
+        if quantity not in OUTPUT_UNITS:
+            raise InputError(f"{where} quantity={quantity!r}: expected one of {', '.join(OUTPUT_UNITS)}")
+        requirement = {"quantity": quantity, "max_error": _get(requirement, "max_error", float, where),
+                       "unit": OUTPUT_UNITS[quantity]}
+    sensors = doc.get("sensor")
+    if not isinstance(sensors, list) or not sensors:
+        raise InputError(f"{path}: no [[sensor]] entries")
+    specs = []
+    for i, entry in enumerate(sensors, start=1):
+        where = f"{path}: [[sensor]] #{i}"
+        kind = _get(entry, "kind", str, where)
+        if kind not in SENSOR_QUANTITIES:
+            raise InputError(f"{where}: kind={kind!r}: expected 'gyro' or 'accel'")
+        units = _get(entry, "units", str, where)
+        if units not in UNITS or UNITS[units][0] != kind:
+            allowed = [u for u, (k, _) in UNITS.items() if k == kind]
+            raise InputError(f"{where}: units={units!r}: expected one of {', '.join(allowed)} for a {kind}")
+        spec = SensorSpec(_get(entry, "name", str, where), path.parent / _get(entry, "log", str, where),
+                          _get(entry, "column", str, where), _get(entry, "rate_hz", float, where), kind, units)
+        specs.append(spec)
+    names = [s.name for s in specs]
+    if len(set(names)) != len(names):
+        raise InputError(f"{path}: sensor names must be unique, got {names}")
+    return Scene(str(scene.get("name", path.stem)), tuple(float(v) for v in outages), float(cred), tuple(specs),
+                 requirement, bias_start, str(path))
+
+
+def _bound(fit, t, quantity, credibility, bias_start):
+    d = drift_draws(fit, np.atleast_1d(t), quantity=quantity, bias_start=bias_start)["total"]
+    return np.quantile(d, credibility, axis=0), np.median(d, axis=0)
+
+
+def max_outage(fit, quantity, max_error, credibility, bias_start="zero"):
+    """Longest time (s) whose ``credibility`` bound on ``quantity`` stays within ``max_error``.
+
+    Bisection on log time between one sample and :data:`MAX_SEARCH_S` (relative precision 1e-4);
+    ``0.0`` if even two samples exceed it, :data:`MAX_SEARCH_S` if the search limit does not.
+    """
+    dt = fit.model.dt
+    lo, hi = 2.0 * dt, MAX_SEARCH_S  # position needs two samples to be non-zero
+    if _bound(fit, lo, quantity, credibility, bias_start)[0][0] > max_error:
+        return 0.0
+    if _bound(fit, hi, quantity, credibility, bias_start)[0][0] <= max_error:
+        return float(MAX_SEARCH_S)
+    while hi / lo > 1.0 + 1e-4:
+        mid = np.sqrt(lo * hi)
+        if _bound(fit, mid, quantity, credibility, bias_start)[0][0] <= max_error:
+            lo = mid
+        else:
+            hi = mid
+    return float(lo)
+
+
+def build_report(scene, *, rng=None):
+    """Fit every sensor of ``scene`` and compute its bounds (module docstring)."""
+    rng = np.random.default_rng(rng)
+    reports = []
+    for spec in scene.sensors:
+        values = to_si(read_log(spec.log, column=spec.column).values, spec.units, where=f"sensor {spec.name!r}: ")
+        fit = fit_allan(allan_variance(values, rate_hz=spec.rate_hz), rng=rng)
+        bounds, bands = [], []
+        for quantity in SENSOR_QUANTITIES[spec.kind]:
+            bound, median = _bound(fit, np.array(scene.outages_s), quantity, scene.credibility, scene.bias_start)
+            bounds += [{"outage_s": t, "quantity": quantity, "bound": float(b), "median": float(m), "unit": OUTPUT_UNITS[quantity]}
+                       for t, b, m in zip(scene.outages_s, bound, median)]
+            horizon = max(scene.outages_s) * 2.0
+            bands.append(drift_bands(fit, quantity=quantity, bias_start=scene.bias_start, horizon_s=horizon,
+                                     quantiles=(1.0 - scene.credibility, 0.5, scene.credibility)))
+        req = scene.requirement
+        longest = None
+        if req is not None and req["quantity"] in SENSOR_QUANTITIES[spec.kind]:
+            longest = max_outage(fit, req["quantity"], req["max_error"], scene.credibility, scene.bias_start)
+        reports.append(SensorReport(spec, fit, tuple(bounds), longest, tuple(bands)))
+    ranking, reason = _rank(scene, reports)
+    return Report(scene, tuple(reports), ranking, reason)
+
+
+def _rank(scene, reports):
+    t_max = max(scene.outages_s)
+    req = scene.requirement
+
+    def last_bound(r):
+        q = req["quantity"] if req and req["quantity"] in SENSOR_QUANTITIES[r.spec.kind] else SENSOR_QUANTITIES[r.spec.kind][-1]
+        return next(b["bound"] for b in r.bounds if b["outage_s"] == t_max and b["quantity"] == q)
+
+    if req is None:
+        order = sorted(reports, key=last_bound)
+        reason = (f"no requirement: ranked by the {scene.credibility:.0%} bound at the longest outage ({t_max:g} s), "
+                  "smallest first (comparable within one sensor kind)")
+    else:
+        order = sorted(reports, key=lambda r: (r.max_outage_s is None, -(r.max_outage_s or 0.0), last_bound(r)))
+        reason = (f"ranked by the longest outage whose {scene.credibility:.0%} bound on {req['quantity']} stays within "
+                  f"{req['max_error']:g} {req['unit']}; ties by the bound at {t_max:g} s")
+    return tuple(r.spec.name for r in order), reason

@@ -1,0 +1,165 @@
+"""Writing a :class:`~bayes_imu.report.Report`: ``report.json`` and a self-contained ``report.html``.
+
+The HTML page embeds every figure as a base64 PNG (no external files, no scripts) so it
+can be mailed or archived as one file. Sections: the scene, the comparison chart of
+bounds versus outage, the table of bounds, the ranking and its reason, per sensor the
+model it needed (and the evidence of the runner-up), diagnostics, its Allan fit and drift
+bands, and a plain statement of what the bound means and assumes.
+"""
+
+import base64
+import html
+import io
+import json
+
+import numpy as np
+
+from .bands import SENSOR_QUANTITIES
+from .report import MAX_SEARCH_S, OUTPUT_UNITS
+
+__all__ = ["write_report", "report_html"]
+
+ASSUMPTIONS = (
+    "Each bound is the {cred:.0%} posterior quantile of the 1-sigma drift sigma(t) of the integrated sensor noise: "
+    "given the static log, the sensor's true 1-sigma drift is below it with {cred:.0%} probability. It is a bound on "
+    "a standard deviation, not on the error itself; a 3-sigma error budget multiplies it by three.",
+    "Noise terms modelled: white noise, Gauss-Markov bias, rate random walk, bias instability (flicker) and "
+    "quantization, each only when the data support it (Bayesian evidence). Bias instability, which has no stationary "
+    "drift variance, is bounded as a constant residual bias equal to its Allan-deviation plateau (conservative).",
+    "Bias at the start of the outage: {start} ('zero' is the paper's convention: the bias is known when GPS drops; "
+    "'stationary' draws it from its stationary distribution, the conservative choice).",
+    "Not modelled: temperature dependence, scale-factor and misalignment errors, vibration and g-sensitivity, "
+    "turn-on bias repeatability, and the navigation filter itself (no gravity, Schuler or attitude coupling). "
+    "The log must be static and representative of the operating conditions.",
+)
+
+
+def _png(fig_function, *args, **kwargs):
+    buffer = io.BytesIO()
+    fig_function(*args, buffer, **kwargs)
+    return "data:image/png;base64," + base64.b64encode(buffer.getvalue()).decode("ascii")
+
+
+def _comparison_figure(report, target):
+    from .plots import _pyplot
+
+    plt = _pyplot()
+    quantities = [q for q in OUTPUT_UNITS if any(q in SENSOR_QUANTITIES[s.spec.kind] for s in report.sensors)]
+    fig, axes = plt.subplots(1, len(quantities), figsize=(6 * len(quantities), 4.3), squeeze=False)
+    for ax, quantity in zip(axes[0], quantities):
+        for i, s in enumerate(report.sensors):
+            band = next((b for b in s.bands if b.quantity == quantity), None)
+            if band is None:
+                continue
+            keep = band.total[-1] > 0
+            ax.plot(band.t_s[keep], band.total[-1][keep], color=f"C{i}", label=f"{s.spec.name} ({band.quantiles[-1]:.0%} bound)")
+            ax.plot(band.t_s[keep], band.total[1][keep], color=f"C{i}", ls=":", lw=1)
+        for t in report.scene.outages_s:
+            ax.axvline(t, color="gray", lw=0.8, ls="--")
+        req = report.scene.requirement
+        if req and req["quantity"] == quantity:
+            ax.axhline(req["max_error"], color="red", lw=1, label=f"requirement {req['max_error']:g} {req['unit']}")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("outage duration (s)")
+        ax.set_ylabel(f"1-sigma {quantity} drift ({OUTPUT_UNITS[quantity]})")
+        ax.set_title(f"{quantity}: bound (solid) and median (dotted)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(target, format="png", dpi=100)
+    plt.close(fig)
+
+
+def _sensor_section(s, cred):
+    from .plots import plot_allan_fit, plot_drift
+
+    fit = s.fit
+    cands = sorted(fit.candidates, key=lambda c: -c.log_evidence)
+    chosen = fit.candidates[fit.selected]
+    runner = next((c for c in cands if c.terms != chosen.terms), None)
+    why = f"log evidence {chosen.log_evidence:.2f}"
+    if runner is not None:
+        why += f"; best alternative {' + '.join(runner.terms)} at {runner.log_evidence:.2f} ({chosen.log_evidence - runner.log_evidence:+.2f} nats)"
+    d = fit.diagnostics
+    rows = "".join(
+        f"<tr><td>{html.escape(n)}</td><td>{q[0]:.4g}</td><td>{q[1]:.4g}</td><td>{q[2]:.4g}</td></tr>"
+        for n, q in fit.quantiles().items()
+    )
+    allan_png = _png(lambda target: plot_allan_fit(fit, target, label=s.spec.name, rng=0))
+    units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
+    drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=s.spec.name))
+    conv = "converged" if d["converged"] else "NOT CONVERGED: treat with caution"
+    return f"""
+<section class="sensor" id="sensor-{html.escape(s.spec.name)}">
+<h3>{html.escape(s.spec.name)} ({s.spec.kind}, log {html.escape(s.spec.log.name)}, column {html.escape(s.spec.column)},
+input {html.escape(s.spec.units)}, {s.spec.rate_hz:g} Hz)</h3>
+<p class="model">Model needed: <b>{html.escape(' + '.join(fit.model.terms))}</b> ({why}).</p>
+<p class="diagnostics">Sampler: {conv}; R-hat max {d['rhat_max']:.4f}, bulk ESS min {d['ess_bulk_min']:.0f},
+tail ESS min {d['ess_tail_min']:.0f}, {d['n_steps']} steps x {d['n_walkers']} walkers.</p>
+<table><tr><th>parameter (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>
+<img alt="Allan fit of {html.escape(s.spec.name)}" src="{allan_png}">
+<img alt="drift bands of {html.escape(s.spec.name)}" src="{drift_png}">
+</section>"""
+
+
+def report_html(report):
+    """The self-contained HTML page as a string."""
+    scene = report.scene
+    cred = scene.credibility
+    req = scene.requirement
+    req_text = (f"{req['quantity']} error (1-sigma) at most {req['max_error']:g} {req['unit']}" if req else "none")
+    comparison = _png(_comparison_figure, report)
+    bound_rows = []
+    for s in report.sensors:
+        for b in s.bounds:
+            bound_rows.append(f"<tr><td>{html.escape(s.spec.name)}</td><td>{b['quantity']}</td><td>{b['outage_s']:g}</td>"
+                              f"<td>{b['median']:.4g}</td><td>{b['bound']:.4g}</td><td>{b['unit']}</td></tr>")
+    rank_rows = "".join(
+        f"<li>{html.escape(name)}" + (f": longest outage within the requirement {_fmt_time(s.max_outage_s)}"
+                                        if s.max_outage_s is not None else (": cannot provide the required quantity" if req else ""))
+        + "</li>"
+        for name in report.ranking for s in report.sensors if s.spec.name == name
+    )
+    assumptions = "".join(f"<li>{html.escape(a.format(cred=cred, start=scene.bias_start))}</li>" for a in ASSUMPTIONS)
+    sections = "".join(_sensor_section(s, cred) for s in report.sensors)
+    from ._version import __version__
+
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>IMU selection: {html.escape(scene.name)}</title>
+<style>body{{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}}table{{border-collapse:collapse}}
+td,th{{border:1px solid #bbb;padding:2px 8px;text-align:right}}img{{max-width:100%}}</style></head>
+<body>
+<h1>IMU selection report: {html.escape(scene.name)}</h1>
+<section id="scene"><h2>Scene</h2><p>GPS outages: {', '.join(f'{t:g} s' for t in scene.outages_s)}; credibility {cred:.0%};
+requirement: {html.escape(req_text)}; bias start: {scene.bias_start}; sensors: {len(report.sensors)}.</p></section>
+<section id="ranking"><h2>Ranking</h2><ol>{rank_rows}</ol><p class="reason">{html.escape(report.reason)}.</p></section>
+<section id="comparison"><h2>Bounds versus outage</h2><img alt="comparison chart" src="{comparison}"></section>
+<section id="bounds"><h2>Table of bounds</h2><table><tr><th>sensor</th><th>quantity</th><th>outage (s)</th>
+<th>median</th><th>{cred:.0%} bound</th><th>unit</th></tr>{''.join(bound_rows)}</table></section>
+<section id="meaning"><h2>What the bound means and assumes</h2><ul>{assumptions}</ul></section>
+<section id="sensors"><h2>Sensors</h2>{sections}</section>
+<footer><p>bayes_imu {__version__}; scene file {html.escape(scene.path)}.</p></footer>
+</body></html>
+"""
+
+
+def _fmt_time(t):
+    if t >= MAX_SEARCH_S:
+        return f"{MAX_SEARCH_S:g} s or more (search limit)"
+    return f"{t:.4g} s"
+
+
+def write_report(report, out_dir):
+    """Write ``report.json`` and ``report.html`` into ``out_dir`` (created if needed)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    doc = report.to_json()
+    text = json.dumps(doc, indent=2, default=_json_default, allow_nan=False)
+    (out_dir / "report.json").write_text(text + "\n", encoding="utf-8")
+    (out_dir / "report.html").write_text(report_html(report), encoding="utf-8")
+
+
+def _json_default(value):
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")

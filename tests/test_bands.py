@@ -1,0 +1,74 @@
+"""Drift bands: per-draw formulas, quantiles, times, and the terms without a paper formula."""
+
+import numpy as np
+import pytest
+
+from bayes_imu.bands import default_times, drift_bands, drift_draws, integrated_unit
+from bayes_imu.drift import drift_sigma
+from bayes_imu.errors import InputError
+from bayes_imu.fit import FitResult
+from bayes_imu.models import NoiseModel
+from bayes_imu.simulate import simulate_log
+
+
+def fake_fit(terms, samples, dt=0.01):
+    """A FitResult holding given posterior draws (bands only read the model and the draws)."""
+    model = NoiseModel(terms, dt)
+    return FitResult(model, np.asarray(samples, float), np.zeros(len(samples)), None, (), 0, {}, "test", None)
+
+
+def test_bands_are_quantiles_of_per_draw_drift(rng):
+    """Against an independent loop: one scalar drift_sigma call per draw and time."""
+    n = 40
+    samples = np.column_stack([rng.uniform(0.5, 2.0, n), rng.uniform(1e-4, 1e-3, n), rng.uniform(10, 100, n)])
+    fit = fake_fit(("white", "gauss_markov"), samples)
+    t = np.array([0.01, 1.0, 10.0, 300.0])
+    for quantity in ("attitude", "position"):
+        bands = drift_bands(fit, t, quantity=quantity, bias_start="stationary", quantiles=(0.1, 0.5, 0.9))
+        loop = np.array([[drift_sigma(ti, quantity=quantity, dt=0.01, noise_variance=s[0], bias_variance=s[1],
+                                      time_constant=s[2], bias_start="stationary").total for ti in t] for s in samples])
+        # atol: position after one sample is exactly 0 here, a 1e-22 rounding residue in the numpy path
+        np.testing.assert_allclose(bands.total, np.quantile(loop, [0.1, 0.5, 0.9], axis=0), rtol=1e-12, atol=1e-12 * loop.max())
+        assert bands.quantile(0.9).shape == t.shape
+    with pytest.raises(InputError, match="quantile"):
+        bands.quantile(0.95)
+
+
+def test_quantization_drift_monte_carlo(rng):
+    """Quantization terms: attitude variance 2 Q^2, position Q^2 dt^2 k (k+1), vs 4000 simulated paths (5 sigma)."""
+    dt, q, k = 0.1, 0.02, 50
+    model = NoiseModel(("quantization",), dt)
+    paths = np.array([simulate_log(model, {"quantization": q}, k, rng=rng) for _ in range(4000)])
+    attitude = dt * paths.sum(axis=1)
+    position = dt * np.cumsum(dt * np.cumsum(paths, axis=1), axis=1)[:, -2]  # p_k = dt sum_{j<k} v_j
+    fit = fake_fit(("quantization",), [[q]], dt)
+    d_att = drift_draws(fit, [k * dt], quantity="attitude")["total"][0, 0] ** 2
+    d_pos = drift_draws(fit, [k * dt], quantity="position")["total"][0, 0] ** 2
+    for sample, expected in ((attitude, d_att), (position, d_pos)):
+        assert abs(sample.var() / expected - 1) < 5 * np.sqrt(2 / 4000)
+    np.testing.assert_allclose(d_att, 2 * q * q)
+
+
+def test_bias_instability_is_linear_constant_bias():
+    fit = fake_fit(("bias_instability",), [[0.01]])
+    t = np.array([1.0, 10.0, 100.0])
+    plateau = 0.01 * np.sqrt(2 * np.log(2) / np.pi)
+    np.testing.assert_allclose(drift_draws(fit, t, quantity="attitude")["total"][0], plateau * t, rtol=1e-12)
+    np.testing.assert_allclose(drift_draws(fit, t, quantity="position")["total"][0], plateau * t**2 / 2, rtol=1e-12)
+
+
+def test_default_times_and_units():
+    t = default_times(0.01, 3600.0)
+    assert t.size >= 50 and t[0] == pytest.approx(0.01) and t[-1] == pytest.approx(3600.0)
+    assert np.all(np.diff(np.log(t)) > 0)
+    assert integrated_unit("deg/s", "attitude") == "deg" and integrated_unit("m/s^2", "position") == "m"
+    with pytest.raises(InputError, match="horizon"):
+        default_times(0.01, 0.001)
+
+
+def test_bands_vectorised_speed_shape(rng):
+    """1e4 draws x 1e3 times in one call (timed in scripts/bench_drift.py, not here)."""
+    samples = np.column_stack([rng.uniform(0.5, 2.0, 10_000), rng.uniform(1e-4, 1e-3, 10_000), rng.uniform(10, 100, 10_000)])
+    fit = fake_fit(("white", "gauss_markov"), samples)
+    bands = drift_bands(fit, np.geomspace(0.01, 3600, 1000), quantity="velocity")
+    assert bands.total.shape == (3, 1000) and np.all(np.diff(bands.total[1]) >= 0)
