@@ -19,6 +19,8 @@ from .errors import BayesIMUError, ConvergenceError, ConvergenceWarning, InputEr
 from .fit import FitResult, fit, fit_allan
 from .models import TERMS, NoiseModel
 from .simulate import simulate_log
+from .bands import DriftBands, drift_bands, drift_draws
+from .report import build_report, read_scene
 
 __all__ = [
     "__version__",
@@ -37,6 +39,11 @@ __all__ = [
     "FitResult",
     "fit",
     "fit_allan",
+    "DriftBands",
+    "drift_bands",
+    "drift_draws",
+    "read_scene",
+    "build_report",
     "QUANTITY_ORDER",
     "DriftResult",
     "drift_sigma",

@@ -1,6 +1,7 @@
 """Writing a :class:`~bayes_imu.report.Report`: ``report.json`` and a self-contained ``report.html``.
 
-The HTML page embeds every figure as a base64 PNG (no external files, no scripts) so it
+The HTML page embeds every figure as a base64 PNG (the comparison chart is also written
+as ``comparison.png``) (no external files, no scripts) so it
 can be mailed or archived as one file. Sections: the scene, the comparison chart of
 bounds versus outage, the table of bounds, the ranking and its reason, per sensor the
 model it needed (and the evidence of the runner-up), diagnostics, its Allan fit and drift
@@ -103,13 +104,16 @@ tail ESS min {d['ess_tail_min']:.0f}, {d['n_steps']} steps x {d['n_walkers']} wa
 </section>"""
 
 
-def report_html(report):
-    """The self-contained HTML page as a string."""
+def report_html(report, comparison_png=None):
+    """The self-contained HTML page as a string (``comparison_png``: the chart's PNG bytes, drawn if None)."""
     scene = report.scene
     cred = scene.credibility
     req = scene.requirement
     req_text = (f"{req['quantity']} error (1-sigma) at most {req['max_error']:g} {req['unit']}" if req else "none")
-    comparison = _png(_comparison_figure, report)
+    if comparison_png is None:
+        comparison = _png(_comparison_figure, report)
+    else:
+        comparison = "data:image/png;base64," + base64.b64encode(comparison_png).decode("ascii")
     bound_rows = []
     for s in report.sensors:
         for b in s.bounds:
@@ -151,12 +155,15 @@ def _fmt_time(t):
 
 
 def write_report(report, out_dir):
-    """Write ``report.json`` and ``report.html`` into ``out_dir`` (created if needed)."""
+    """Write ``report.json``, ``report.html`` and ``comparison.png`` into ``out_dir`` (created if needed)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     doc = report.to_json()
     text = json.dumps(doc, indent=2, default=_json_default, allow_nan=False)
+    buffer = io.BytesIO()
+    _comparison_figure(report, buffer)
     (out_dir / "report.json").write_text(text + "\n", encoding="utf-8")
-    (out_dir / "report.html").write_text(report_html(report), encoding="utf-8")
+    (out_dir / "comparison.png").write_bytes(buffer.getvalue())
+    (out_dir / "report.html").write_text(report_html(report, buffer.getvalue()), encoding="utf-8")
 
 
 def _json_default(value):

@@ -192,16 +192,16 @@ def _continuous_bias_variance(order, t, sigma_b2, tau, stationary):
     Cov(b(s), b(u)) = sigma_b**2 (exp(-|s-u|/tau) - [zero start] exp(-(s+u)/tau)); the
     integral has weight 1 (attitude / velocity) or (t-s)(t-u) (position).
     """
-    mp.mp.dps = 30
-    t, tau = mp.mpf(t), mp.mpf(tau)
+    with mp.workdps(30):  # local precision: a global mp.dps would leak into other test modules
+        t, tau = mp.mpf(t), mp.mpf(tau)
 
-    def cov(s, u):
-        c = mp.exp(-abs(s - u) / tau)
-        return c if stationary else c - mp.exp(-(s + u) / tau)
+        def cov(s, u):
+            c = mp.exp(-abs(s - u) / tau)
+            return c if stationary else c - mp.exp(-(s + u) / tau)
 
-    weight = (lambda s, u: 1) if order == 1 else (lambda s, u: (t - s) * (t - u))
-    inner = lambda s: mp.quad(lambda u: weight(s, u) * cov(s, u), [0, s, t])  # noqa: E731
-    return float(sigma_b2 * mp.quad(inner, [0, t]))
+        weight = (lambda s, u: 1) if order == 1 else (lambda s, u: (t - s) * (t - u))
+        inner = lambda s: mp.quad(lambda u: weight(s, u) * cov(s, u), [0, s, t])  # noqa: E731
+        return float(sigma_b2 * mp.quad(inner, [0, t]))
 
 
 @pytest.mark.parametrize("quantity", ["velocity", "position"])

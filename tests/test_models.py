@@ -7,7 +7,6 @@ import pytest
 from bayes_imu.errors import InputError
 from bayes_imu.models import TERMS, NoiseModel, gauss_markov_avar, random_walk_avar, structure_function
 
-mp.mp.dps = 100  # x = 1e-15 cancels ~45 digits in the reference
 PARAMS = {
     "white": {"noise_variance": 2.0},
     "quantization": {"quantization": 0.3},
@@ -18,12 +17,14 @@ PARAMS = {
 
 
 def gm_avar_mpmath(m, x):
-    """Reference: the AR(1) AVAR from its definition, Var and Cov of adjacent m-averages (100 digits)."""
-    phi = mp.e ** (-mp.mpf(x))
-    m = mp.mpf(m)
-    var_mean = (m * (1 - phi**2) - 2 * phi * (1 - phi**m)) / (m * m * (1 - phi) ** 2)
-    cov_adjacent = phi * (1 - phi**m) ** 2 / (m * m * (1 - phi) ** 2)
-    return var_mean - cov_adjacent
+    """Reference: the AR(1) AVAR from its definition, Var and Cov of adjacent m-averages (100 digits:
+    x = 1e-15 cancels ~45 digits)."""
+    with mp.workdps(100):
+        phi = mp.e ** (-mp.mpf(x))
+        m = mp.mpf(m)
+        var_mean = (m * (1 - phi**2) - 2 * phi * (1 - phi**m)) / (m * m * (1 - phi) ** 2)
+        cov_adjacent = phi * (1 - phi**m) ** 2 / (m * m * (1 - phi) ** 2)
+        return +(var_mean - cov_adjacent)
 
 
 @pytest.mark.parametrize("x", [1e-15, 1e-9, 1e-6, 1e-3, 0.049, 0.05, 0.051, 0.3, 1.0, 5.0, 60.0])
@@ -56,8 +57,9 @@ def test_gauss_markov_structure_function_mpmath():
     for x in (1e-12, 1e-6, 1e-3, 0.3, 2.0):
         k = np.array([1, 2, 5, 100, 10**4, 10**6])
         got = structure_function(k, "gauss_markov", {"bias_variance": 1.0, "time_constant": 1.0 / x}, dt=1.0)
-        phi = mp.e ** (-mp.mpf(x))
-        ref = [float((int(kk) * (1 - phi**2) - 2 * phi * (1 - phi ** int(kk))) / (1 - phi) ** 2) for kk in k]
+        with mp.workdps(60):
+            phi = mp.e ** (-mp.mpf(x))
+            ref = [float((int(kk) * (1 - phi**2) - 2 * phi * (1 - phi ** int(kk))) / (1 - phi) ** 2) for kk in k]
         np.testing.assert_allclose(got, ref, rtol=1e-13)
 
 

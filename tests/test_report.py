@@ -1,0 +1,174 @@
+"""Reports: scene parsing, bounds, ranking, max outage, HTML (headless browser), Kalibr export."""
+
+import json
+import shutil
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bayes_imu.cli import main
+from bayes_imu.errors import InputError
+from bayes_imu.report import _bound, build_report, read_scene
+from bayes_imu.report_html import write_report
+
+DATA = Path(__file__).resolve().parents[1] / "data_synthetic"
+SCENE = """
+[scene]
+name = "test scene"
+outages_s = [10, 60, 300]
+credibility = 0.95
+[requirement]
+quantity = "attitude"
+max_error = 0.0175
+[[sensor]]
+name = "budget"
+log = "{data}/gyro_lowgrade.csv.gz"
+column = "gyro_x_dps"
+rate_hz = 100
+kind = "gyro"
+units = "deg/s"
+[[sensor]]
+name = "tactical"
+log = "{data}/gyro_highgrade.csv.gz"
+column = "gyro_x_dps"
+rate_hz = 100
+kind = "gyro"
+units = "deg/s"
+"""
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    path = tmp_path_factory.mktemp("scene") / "scene.toml"
+    path.write_text(SCENE.format(data=DATA))
+    rep = build_report(read_scene(path), rng=0)
+    out = path.parent / "out"
+    write_report(rep, out)
+    return rep, out
+
+
+def test_better_sensor_ranks_first_and_bounds_are_quantiles(report):
+    rep, out = report
+    assert rep.ranking == ("tactical", "budget")
+    doc = json.loads((out / "report.json").read_text())
+    assert doc["ranking"] == ["tactical", "budget"] and doc["credibility"] == 0.95
+    budget = next(s for s in doc["sensors"] if s["name"] == "budget")
+    assert budget["model"] == ["white", "gauss_markov"]
+    assert [b["outage_s"] for b in budget["bounds"]] == [10, 60, 300]
+    for b in budget["bounds"]:
+        assert b["unit"] == "rad" and b["median"] < b["bound"]
+    # the bound is the 95% posterior quantile of sigma(t), recomputed independently from the draws
+    fit = rep.sensors[0].fit
+    from bayes_imu.drift import drift_sigma
+
+    p = fit.model.unpack(fit.samples)
+    sig = drift_sigma(300.0, quantity="attitude", dt=0.01, noise_variance=p["noise_variance"],
+                      bias_variance=p["bias_variance"], time_constant=p["time_constant"]).total
+    assert budget["bounds"][2]["bound"] == pytest.approx(np.quantile(sig, 0.95), rel=1e-10)
+
+
+def test_max_outage_meets_requirement_at_the_boundary(report):
+    rep, _ = report
+    budget = rep.sensors[0]
+    t = budget.max_outage_s
+    assert 10 < t < 300
+    at = _bound(budget.fit, t, "attitude", 0.95, "zero")[0][0]
+    after = _bound(budget.fit, t * 1.001, "attitude", 0.95, "zero")[0][0]
+    assert at <= 0.0175 < after
+
+
+class _Collect(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.ids, self.images = set(), []
+
+    def handle_starttag(self, tag, attrs):
+        attrs = dict(attrs)
+        if "id" in attrs:
+            self.ids.add(attrs["id"])
+        if tag == "img":
+            self.images.append(attrs["src"])
+
+
+def test_html_is_self_contained_with_all_sections(report):
+    import base64
+
+    _, out = report
+    page = (out / "report.html").read_text()
+    parser = _Collect()
+    parser.feed(page)
+    assert {"scene", "ranking", "comparison", "bounds", "meaning", "sensors"} <= parser.ids
+    assert len(parser.images) == 1 + 2 * 2
+    for src in parser.images:
+        assert src.startswith("data:image/png;base64,")
+        assert base64.b64decode(src.split(",", 1)[1])[:8] == b"\x89PNG\r\n\x1a\n"
+    for text in ("temperature", "scale-factor", "bias start", "tactical", "budget", "white + gauss_markov"):
+        assert text in page
+
+
+def test_html_renders_in_headless_chromium(report):
+    """A real browser: every embedded picture decodes and the key elements are visible."""
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    playwright = pytest.importorskip("playwright.sync_api", reason="playwright not installed (see README)")
+    if chromium is None:
+        pytest.skip("no chromium binary (apt install chromium)")
+    _, out = report
+    with playwright.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
+        page = browser.new_page()
+        page.goto((out / "report.html").as_uri())
+        decoded = page.evaluate("Array.from(document.images).map(i => i.complete && i.naturalWidth > 0)")
+        assert decoded and all(decoded)
+        assert page.locator("#ranking li").count() == 2
+        assert page.locator("h1").inner_text().startswith("IMU selection report")
+        browser.close()
+
+
+@pytest.mark.parametrize(
+    "patch, message",
+    [
+        (("outages_s = [10, 60, 300]", "outages_s = []"), "outages_s"),
+        (("credibility = 0.95", "credibility = 1.5"), "credibility"),
+        (('quantity = "attitude"', 'quantity = "heading"'), "quantity"),
+        (('units = "deg/s"', 'units = "m/s^2"'), "units"),
+        (('kind = "gyro"', 'kind = "baro"'), "kind"),
+        (("rate_hz = 100", "rate_hz = -1"), "rate_hz"),
+        (("[scene]", "[scenery]"), "scene"),
+        (('name = "tactical"', 'name = "budget"'), "unique"),
+    ],
+)
+def test_scene_errors_are_one_line(tmp_path, patch, message):
+    text = SCENE.format(data=DATA).replace(*patch, 1)
+    path = tmp_path / "scene.toml"
+    path.write_text(text)
+    with pytest.raises(InputError, match=message) as info:
+        read_scene(path)
+    assert "\n" not in str(info.value) and str(path) in str(info.value)
+
+
+def test_report_cli_missing_scene_exit_2(tmp_path, capsys):
+    assert main(["report", str(tmp_path / "none.toml"), "--out", str(tmp_path / "o")]) == 2
+    assert "no such file" in capsys.readouterr().err
+
+
+def test_kalibr_export_from_fit_folders(tmp_path, capsys):
+    """Nominal values equal the posterior medians converted to SI; conservative ones are larger."""
+    gyro, accel = tmp_path / "g", tmp_path / "a"
+    assert main(["fit", str(DATA / "gyro_lowgrade.csv.gz"), "--column", "gyro_x_dps", "--rate", "100",
+                 "--unit", "deg/s", "--out", str(gyro)]) == 0
+    assert main(["fit", str(DATA / "accel_gravity.csv.gz"), "--column", "accel_z_mps2", "--rate", "100",
+                 "--unit", "m/s^2", "--out", str(accel)]) == 0
+    assert main(["kalibr", "--gyro", str(gyro), "--accel", str(accel), "--out", str(tmp_path / "imu.yaml")]) == 0
+    nominal = dict(line.split(": ") for line in (tmp_path / "imu.yaml").read_text().splitlines() if not line.startswith("#"))
+    summary = json.loads((gyro / "summary.json").read_text())
+    density = summary["parameters"]["noise_density"]["median"] * np.pi / 180
+    assert float(nominal["gyroscope_noise_density"]) == pytest.approx(density, rel=1e-3)
+    assert float(nominal["update_rate"]) == 100
+    assert main(["kalibr", "--gyro", str(gyro), "--accel", str(accel), "--out", str(tmp_path / "c.yaml"),
+                 "--credibility", "0.95"]) == 0
+    cons = dict(line.split(": ") for line in (tmp_path / "c.yaml").read_text().splitlines() if not line.startswith("#"))
+    for key in ("gyroscope_noise_density", "gyroscope_random_walk", "accelerometer_noise_density"):
+        assert float(cons[key]) > float(nominal[key])
+    assert main(["kalibr", "--gyro", str(accel), "--accel", str(accel), "--out", str(tmp_path / "x.yaml")]) == 2
