@@ -1,57 +1,90 @@
 """Command-line interface: a thin layer over the public API.
 
-``bayes-imu allan LOG.csv --column NAME --rate HZ --out DIR``
+``bayes-imu allan LOG --column NAME --rate HZ --out DIR``
     Overlapping Allan deviation with confidence intervals (allan.csv, allan.png).
-``bayes-imu fit LOG.csv --column NAME --rate HZ --out DIR [--seed N]``
-    Model selection and posterior (summary.json, posterior.nc, allan_fit.png, corner.png).
-``bayes-imu drift SENSOR.json --out DIR``
-    1-sigma drift curves from known (datasheet) noise parameters.
+``bayes-imu fit LOG --column NAME[,NAME...] --rate HZ --out DIR [--seed N]``
+    Model selection and posterior (summary.json, posterior.nc, allan_fit.png, corner.png,
+    drift.csv and drift.png with ``--sensor``); one sub-folder per column when several.
+``bayes-imu report SCENE.toml --out DIR``, ``bayes-imu kalibr ...``, ``bayes-imu drift SENSOR.json --out DIR``
+
+Every output is written to a temporary folder beside ``--out`` and moved into place only
+when complete; an existing non-empty ``--out`` is refused unless ``--force``.
 
 Exit status: 0 success, 2 a user error (one line on stderr, no traceback unless
-``--debug``), 1 an unexpected internal error.
+``--debug``), 1 an unexpected internal error (one line; ``--debug`` for the traceback).
 """
 
 import argparse
 import json
 import logging
+import re
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
 
 from . import __version__
+from ._output import staged_file, staged_folder
+from ._progress import show_progress
 from .allan import allan_variance
 from .drift import QUANTITY_ORDER, drift_sigma
 from .errors import BayesIMUError, InputError
-from .io import read_log, read_text
+from .io import UNITS, read_columns, read_text
+from .timebase import GAP_POLICIES, check_time
 
 __all__ = ["main"]
 
 log = logging.getLogger("bayes_imu")
 _SENSOR_QUANTITIES = {"gyro": ("attitude",), "accel": ("velocity", "position")}
+_SI = {"gyro": "rad/s", "accel": "m/s^2"}
+#: fewest samples per command: 4 octave cluster sizes (1, 2, 4, 8 <= N/4) for a fit
+_MIN_SAMPLES = {"allan": 4, "fit": 32}
+#: amplitude parameters reported per axis as worst-axis conservative values (the time
+#: constant is not monotone in the drift, so it has no "worst" direction)
+_AMPLITUDES = ("noise_variance", "noise_density", "quantization", "bias_instability", "bias_variance",
+               "rate_random_walk")
+
+
+class _UsageError(Exception):
+    """An argument error (argparse), reported in one line with exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        raise _UsageError(f"{self.prog}: {message} (see {self.prog} --help)")
+
+
+def _input_options():
+    """Options shared by the commands that read a log."""
+    common = _Parser(add_help=False)
+    common.add_argument("log", type=Path, help="delimited text log (CSV, TSV, whitespace; .gz accepted)")
+    common.add_argument("--column", required=True, help="column name or 0-based index; fit takes a comma list")
+    common.add_argument("--rate", type=float, help="sample rate (Hz); optional with --time-column")
+    common.add_argument("--time-column", help="time stamps (s): the rate is derived from them and checked")
+    common.add_argument("--gaps", choices=GAP_POLICIES, default="error",
+                        help="irregular time steps: error (default) or fit the longest regular segment")
+    common.add_argument("--units", "--unit", dest="units", choices=tuple(UNITS),
+                        help="units of the column(s), converted to SI (rad/s, m/s^2); default: left as they are")
+    common.add_argument("--out", type=Path, required=True, help="output folder (must be new or empty)")
+    common.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    common.add_argument("--quiet", action="store_true", help="no progress bars or messages")
+    return common
 
 
 def _build_parser():
-    parser = argparse.ArgumentParser(prog="bayes-imu", description="Bayesian characterization of inertial sensors.")
+    parser = _Parser(prog="bayes-imu", description="Bayesian characterization of inertial sensors.")
     parser.add_argument("--version", action="version", version=f"bayes-imu {__version__}")
-    parser.add_argument("--debug", action="store_true", help="show the traceback of user errors")
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser.add_argument("--debug", action="store_true", help="show the traceback of errors")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    common = _input_options()
 
-    allan = sub.add_parser("allan", help="overlapping Allan deviation of one column of a CSV log")
-    allan.add_argument("log", type=Path, help="CSV log with a header row (.gz accepted)")
-    allan.add_argument("--column", required=True, help="name of the rate column")
-    allan.add_argument("--rate", type=float, required=True, help="sample rate (Hz)")
-    allan.add_argument("--out", type=Path, required=True, help="output folder")
+    allan = sub.add_parser("allan", parents=[common], help="overlapping Allan deviation of one column of a log")
     allan.add_argument("--grid", default="octave", choices=("octave", "decade", "all"), help="cluster sizes")
     allan.set_defaults(handler=_cmd_allan)
 
-    fit = sub.add_parser("fit", help="Bayesian noise-model fit of one column of a CSV log")
-    fit.add_argument("log", type=Path, help="CSV log with a header row (.gz accepted)")
-    fit.add_argument("--column", required=True, help="name of the rate column")
-    fit.add_argument("--rate", type=float, required=True, help="sample rate (Hz)")
-    fit.add_argument("--out", type=Path, required=True, help="output folder")
+    fit = sub.add_parser("fit", parents=[common], help="Bayesian noise-model fit of columns of a log")
     fit.add_argument("--seed", type=int, default=0, help="random seed (recorded in the outputs), default 0")
-    fit.add_argument("--unit", default="u", help="unit of the column, used in summary.json (e.g. deg/s)")
     fit.add_argument("--terms", default="auto",
                      help="'auto' (model selection) or a comma-separated list of terms, e.g. white,gauss_markov")
     fit.add_argument("--likelihood", choices=("correlated", "independent"), default="correlated")
@@ -64,25 +97,200 @@ def _build_parser():
 
     report = sub.add_parser("report", help="conservative drift bounds for several IMUs (scene TOML)")
     report.add_argument("scene", type=Path, help="scene TOML file (see README)")
-    report.add_argument("--out", type=Path, required=True, help="output folder")
+    report.add_argument("--out", type=Path, required=True, help="output folder (must be new or empty)")
     report.add_argument("--seed", type=int, default=0, help="random seed, default 0")
+    report.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    report.add_argument("--quiet", action="store_true", help="no progress messages")
     report.set_defaults(handler=_cmd_report)
 
     kalibr = sub.add_parser("kalibr", help="Kalibr IMU noise YAML from fit folders")
-    kalibr.add_argument("--gyro", type=Path, nargs="+", required=True, help="fit folder(s) of gyro axes (rad/s or deg/s)")
+    kalibr.add_argument("--gyro", type=Path, nargs="+", required=True, help="fit folder(s) of gyro axes")
     kalibr.add_argument("--accel", type=Path, nargs="+", required=True, help="fit folder(s) of accelerometer axes")
     kalibr.add_argument("--out", type=Path, required=True, help="YAML file to write")
     kalibr.add_argument("--credibility", type=float, default=None,
                         help="upper posterior quantile for conservative values (e.g. 0.95); default: medians")
+    kalibr.add_argument("--force", action="store_true", help="replace an existing file")
     kalibr.set_defaults(handler=_cmd_kalibr)
 
     drift = sub.add_parser("drift", help="drift curves from known noise parameters (JSON)")
     drift.add_argument("sensor", type=Path, help="JSON file: rate_hz, kind, noise_density, bias_variance, time_constant")
-    drift.add_argument("--out", type=Path, required=True, help="output folder")
+    drift.add_argument("--out", type=Path, required=True, help="output folder (must be new or empty)")
     drift.add_argument("--horizon", type=float, default=3600.0, help="longest time (s), default 3600")
     drift.add_argument("--bias-start", choices=("zero", "stationary"), default="zero")
+    drift.add_argument("--force", action="store_true", help="replace a non-empty output folder")
     drift.set_defaults(handler=_cmd_drift)
     return parser
+
+
+# ---------------------------------------------------------------------------- reading
+
+def _columns(args, command):
+    columns = [c.strip() for c in args.column.split(",")]
+    if any(not c for c in columns):
+        raise InputError(f"--column {args.column!r}: expected column names or indices separated by commas")
+    if command == "allan" and len(columns) > 1:
+        raise InputError(f"--column {args.column!r}: allan takes one column (fit takes several)")
+    return columns
+
+
+def _read(args, command):
+    """Columns (SI when --units), the time base, and the unit label of the values."""
+    columns = _columns(args, command)
+    if args.units is not None and getattr(args, "sensor", None) and args.sensor != UNITS[args.units][0]:
+        raise InputError(f"--units {args.units} is a {UNITS[args.units][0]} unit but --sensor is {args.sensor}")
+    if args.rate is None and args.time_column is None:
+        raise InputError(f"{args.log}: no sample rate: give --rate HZ or a --time-column")
+    data = read_columns(args.log, columns=columns, time_column=args.time_column, progress=args.progress)
+    timebase = check_time(data.time_s, rate_hz=args.rate, gaps=args.gaps, lines=data.lines,
+                          where=f"{args.log}: column {args.time_column!r}", n_samples=data.values.shape[0])
+    values = data.values[timebase.start:timebase.stop]
+    needed = _MIN_SAMPLES[command]
+    if values.shape[0] < needed:
+        raise InputError(f"{args.log}: {values.shape[0]} samples; expected at least {needed} for {command} "
+                         f"({'4 octave cluster sizes' if command == 'fit' else 'one Allan variance'})")
+    unit = "u"
+    if args.units is not None:
+        kind, factor = UNITS[args.units]
+        values, unit = values * factor, _SI[kind]
+    info = {"log": str(args.log), "columns": list(data.columns), "delimiter": data.delimiter, "header": data.header,
+            "input_units": args.units or "unspecified (u)", "unit": unit, **timebase.to_json()}
+    return data.columns, values, timebase.rate_hz, unit, info
+
+
+# ---------------------------------------------------------------------------- commands
+
+def _cmd_allan(args):
+    columns, values, rate, unit, info = _read(args, "allan")
+    result = allan_variance(values[:, 0], rate_hz=rate, m=args.grid, progress=args.progress)
+    from .plots import plot_allan
+
+    with staged_folder(args.out, force=args.force, inputs=[args.log]) as tmp:
+        lines = ["tau,m,adev,adev_low,adev_high,edf,unit"]
+        lines += [
+            f"{t:.9g},{m},{a:.9g},{lo:.9g},{hi:.9g},{e:.6g},{unit}"
+            for t, m, a, lo, hi, e in zip(result.tau, result.m, result.adev, result.adev_low, result.adev_high, result.edf)
+        ]
+        (tmp / "allan.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+        plot_allan(result, tmp / "allan.png", label=f"{args.log.name}: {columns[0]} [{unit}]")
+    _say(args, f"{result.tau.size} cluster sizes from {result.n_samples} samples ({info['action']}); "
+               f"wrote {args.out / 'allan.csv'} and allan.png")
+    return 0
+
+
+def _cmd_fit(args):
+    columns, values, rate, unit, info = _read(args, "fit")
+    terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
+    with staged_folder(args.out, force=args.force, inputs=[args.log]) as tmp:
+        if len(columns) == 1:
+            _fit_axis(args, values[:, 0], rate, unit, info, terms, columns[0], tmp)
+        else:
+            axes = {}
+            for j, (column, folder) in enumerate(zip(columns, _folder_names(columns))):
+                _say(args, f"[{column}]")
+                axes[column] = _fit_axis(args, values[:, j], rate, unit, info, terms, column, tmp / folder)
+                axes[column]["folder"] = folder
+            summary = {"axes": axes, "worst_axis": _worst_axis(axes), "input": info, "seed": args.seed,
+                       "bayes_imu_version": __version__}
+            _write_json(tmp / "summary.json", summary)
+    _say(args, f"wrote {args.out}")
+    return 0
+
+
+def _folder_names(columns):
+    names = []
+    for c in columns:
+        name = re.sub(r"[^A-Za-z0-9_.-]+", "_", c).strip("._") or "column"
+        while name in names:
+            name += "_"
+        names.append(name)
+    return names
+
+
+def _fit_axis(args, y, rate, unit, info, terms, column, out):
+    from .fit import fit_allan
+    from .plots import plot_allan_fit, plot_corner
+
+    out.mkdir(exist_ok=True)
+    allan = allan_variance(y, rate_hz=rate, m="octave", progress=args.progress)
+    result = fit_allan(allan, terms=terms, likelihood=args.likelihood, rng=args.seed, progress=args.progress)
+    summary = result.summary(unit=unit)
+    summary.update(log=str(args.log), column=column, unit=unit, input=info)
+    label = f"{args.log.name}: {column}"
+    if args.sensor:
+        summary["drift"] = _write_drift(result, args, unit, out)
+    _write_json(out / "summary.json", summary)
+    result.inference_data.to_netcdf(str(out / "posterior.nc"))
+    plot_allan_fit(result, out / "allan_fit.png", label=label, rng=args.seed)
+    plot_corner(result, out / "corner.png")
+    _say(args, f"model: {' + '.join(result.model.terms)}  (converged: {result.diagnostics['converged']})")
+    for name, p in summary["parameters"].items():
+        _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
+    return summary
+
+
+def _worst_axis(axes):
+    """Per amplitude parameter, the largest upper (q95) value over the axes, and which axis."""
+    worst = {}
+    for name in _AMPLITUDES:
+        have = {c: s["parameters"][name] for c, s in axes.items() if name in s["parameters"]}
+        if have:
+            axis = max(have, key=lambda c: have[c]["q95"])
+            worst[name] = {"q95": have[axis]["q95"], "axis": axis, "unit": have[axis]["unit"]}
+    for quantity in ("attitude", "velocity", "position"):
+        have = {c: s["drift"][quantity] for c, s in axes.items() if quantity in s.get("drift", {})}
+        if have:
+            axis = max(have, key=lambda c: have[c]["q95"])
+            worst[f"drift_{quantity}"] = {**have[axis], "axis": axis}
+    return worst
+
+
+def _write_drift(result, args, unit, out):
+    """drift.csv / drift.png; returns the q05/q50/q95 of sigma(t) at the horizon per quantity."""
+    from .bands import SENSOR_QUANTITIES, default_times, drift_bands, integrated_unit
+    from .plots import plot_drift
+
+    t = default_times(result.model.dt, args.horizon)
+    bands = [drift_bands(result, t, quantity=q, bias_start=args.bias_start) for q in SENSOR_QUANTITIES[args.sensor]]
+    lines = ["t_s,quantity,q05,q50,q95,unit"]
+    at_horizon = {}
+    for b in bands:
+        u = integrated_unit(unit, b.quantity)
+        lines += [f"{ti:.6g},{b.quantity},{lo:.9g},{med:.9g},{hi:.9g},{u}" for ti, lo, med, hi in zip(b.t_s, *b.total)]
+        at_horizon[b.quantity] = {"t_s": float(b.t_s[-1]), "q05": float(b.total[0][-1]), "q50": float(b.total[1][-1]),
+                                  "q95": float(b.total[2][-1]), "unit": u}
+        _say(args, f"{b.quantity}: 1-sigma drift after {b.t_s[-1]:g} s: median {b.total[1][-1]:.4g}, "
+                   f"90% [{b.total[0][-1]:.4g}, {b.total[2][-1]:.4g}] {u}")
+    (out / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    plot_drift(bands, out / "drift.png", units=[integrated_unit(unit, b.quantity) for b in bands])
+    return at_horizon
+
+
+def _write_json(path, doc):
+    path.write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n", encoding="utf-8")
+
+
+def _cmd_report(args):
+    from .report import build_report, read_scene
+    from .report_html import write_report
+
+    scene = read_scene(args.scene)
+    inputs = [args.scene] + [s.log for s in scene.sensors]
+    with staged_folder(args.out, force=args.force, inputs=inputs) as tmp:
+        report = build_report(scene, rng=args.seed)
+        write_report(report, tmp)
+    _say(args, f"ranking: {', '.join(report.ranking)} ({report.reason})")
+    _say(args, f"wrote {args.out}/report.json and report.html")
+    return 0
+
+
+def _cmd_kalibr(args):
+    from .kalibr import kalibr_values, write_kalibr_yaml
+
+    values = kalibr_values(args.gyro, args.accel, credibility=args.credibility)
+    with staged_file(args.out, force=args.force) as tmp:
+        write_kalibr_yaml(values, tmp)
+    print(f"wrote {args.out} ({values['_mode']})")
+    return 0
 
 
 def _read_sensor_json(path):
@@ -120,20 +328,19 @@ def _cmd_drift(args):
     rows = []
     for quantity in _SENSOR_QUANTITIES[spec["kind"]]:
         result = drift_sigma(
-            t,
-            quantity=quantity,
-            dt=dt,
+            t, quantity=quantity, dt=dt,
             noise_density=_positive_float(args.sensor, spec, "noise_density"),
             bias_variance=_positive_float(args.sensor, spec, "bias_variance", 0.0),
             time_constant=_positive_float(args.sensor, spec, "time_constant", np.inf),
             random_walk=_positive_float(args.sensor, spec, "random_walk", 0.0),
             bias_start=args.bias_start,
         )
-        rows += [(ti, quantity, w, b, r, tot) for ti, w, b, r, tot in zip(result.t_s, result.white, result.bias, result.random_walk, result.total)]
-    args.out.mkdir(parents=True, exist_ok=True)
+        rows += [(ti, quantity, w, b, r, tot) for ti, w, b, r, tot in
+                 zip(result.t_s, result.white, result.bias, result.random_walk, result.total)]
     lines = ["t_s,quantity,white,bias,random_walk,total"]
     lines += [f"{ti:.6g},{q},{w:.9g},{b:.9g},{r:.9g},{tot:.9g}" for ti, q, w, b, r, tot in rows]
-    (args.out / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with staged_folder(args.out, force=args.force, inputs=[args.sensor]) as tmp:
+        (tmp / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
     for quantity in _SENSOR_QUANTITIES[spec["kind"]]:
         last = [row for row in rows if row[1] == quantity][-1]
         unit = {"attitude": "rad", "velocity": "m/s", "position": "m"}[quantity]
@@ -142,91 +349,30 @@ def _cmd_drift(args):
     return 0
 
 
-def _cmd_allan(args):
-    log_data = read_log(args.log, column=args.column)
-    result = allan_variance(log_data.values, rate_hz=args.rate, m=args.grid)
-    args.out.mkdir(parents=True, exist_ok=True)
-    lines = ["tau,m,adev,adev_low,adev_high,edf"]
-    lines += [
-        f"{t:.9g},{m},{a:.9g},{lo:.9g},{hi:.9g},{e:.6g}"
-        for t, m, a, lo, hi, e in zip(result.tau, result.m, result.adev, result.adev_low, result.adev_high, result.edf)
-    ]
-    (args.out / "allan.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    from .plots import plot_allan
+# ---------------------------------------------------------------------------- entry point
 
-    plot_allan(result, args.out / "allan.png", label=f"{Path(log_data.path).name}: {args.column}")
-    print(f"{result.tau.size} cluster sizes from {result.n_samples} samples; wrote {args.out / 'allan.csv'} and allan.png")
-    return 0
+def _say(args, text):
+    if not getattr(args, "quiet", False):
+        print(text)
 
 
-def _cmd_fit(args):
-    from .fit import fit_allan
-    from .plots import plot_allan_fit, plot_corner
-
-    log_data = read_log(args.log, column=args.column)
-    allan = allan_variance(log_data.values, rate_hz=args.rate, m="octave")
-    terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
-    result = fit_allan(allan, terms=terms, likelihood=args.likelihood, rng=args.seed)
-    args.out.mkdir(parents=True, exist_ok=True)
-    summary = result.summary(unit=args.unit)
-    summary.update(log=str(log_data.path), column=args.column, unit=args.unit)
-    (args.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
-    result.inference_data.to_netcdf(str(args.out / "posterior.nc"))
-    plot_allan_fit(result, args.out / "allan_fit.png", label=f"{Path(log_data.path).name}: {args.column}", rng=args.seed)
-    plot_corner(result, args.out / "corner.png")
-    if args.sensor:
-        _write_drift(result, args, args.out)
-    print(f"model: {' + '.join(result.model.terms)}  (converged: {result.diagnostics['converged']})")
-    for name, p in summary["parameters"].items():
-        print(f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
-    print(f"wrote {args.out}/summary.json, posterior.nc, allan_fit.png, corner.png")
-    return 0
-
-
-def _write_drift(result, args, out):
-    from .bands import SENSOR_QUANTITIES, default_times, drift_bands, integrated_unit
-    from .plots import plot_drift
-
-    t = default_times(result.model.dt, args.horizon)
-    bands = [drift_bands(result, t, quantity=q, bias_start=args.bias_start) for q in SENSOR_QUANTITIES[args.sensor]]
-    lines = ["t_s,quantity,q05,q50,q95,unit"]
-    for b in bands:
-        unit = integrated_unit(args.unit, b.quantity)
-        lines += [f"{ti:.6g},{b.quantity},{lo:.9g},{med:.9g},{hi:.9g},{unit}" for ti, lo, med, hi in zip(b.t_s, *b.total)]
-    (out / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    plot_drift(bands, out / "drift.png", units=[integrated_unit(args.unit, b.quantity) for b in bands])
-    for b in bands:
-        print(f"{b.quantity}: 1-sigma drift after {b.t_s[-1]:g} s: median {b.total[1][-1]:.4g}, "
-              f"90% [{b.total[0][-1]:.4g}, {b.total[2][-1]:.4g}] {integrated_unit(args.unit, b.quantity)}")
-
-
-def _cmd_report(args):
-    from .report import build_report, read_scene
-    from .report_html import write_report
-
-    scene = read_scene(args.scene)
-    report = build_report(scene, rng=args.seed)
-    write_report(report, args.out)
-    print(f"ranking: {', '.join(report.ranking)} ({report.reason})")
-    print(f"wrote {args.out}/report.json and report.html")
-    return 0
-
-
-def _cmd_kalibr(args):
-    from .kalibr import kalibr_values, write_kalibr_yaml
-
-    values = kalibr_values(args.gyro, args.accel, credibility=args.credibility)
-    write_kalibr_yaml(values, args.out)
-    print(f"wrote {args.out} ({values['_mode']})")
-    return 0
+def _one_line_warning(message, category, filename, lineno, file=None, line=None):
+    print(f"bayes-imu: warning: {message}", file=sys.stderr)
 
 
 def main(argv=None):
     """Run the ``bayes-imu`` command; return the exit status."""
     parser = _build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except _UsageError as exc:
+        print(f"bayes-imu: error: {exc}", file=sys.stderr)
+        return 2
+    args.progress = show_progress(getattr(args, "quiet", False))
     logging.basicConfig(level=logging.WARNING, format="%(message)s")  # third-party loggers stay quiet
     log.setLevel(logging.INFO)
+    shown = warnings.showwarning
+    warnings.showwarning = _one_line_warning
     try:
         return args.handler(args)
     except BayesIMUError as exc:
@@ -234,6 +380,15 @@ def main(argv=None):
             raise
         print(f"bayes-imu: error: {exc}", file=sys.stderr)
         return 2
+    except Exception as exc:  # an internal error: one line, the traceback with --debug
+        if args.debug:
+            raise
+        text = str(exc).strip().splitlines()
+        print(f"bayes-imu: internal error: {type(exc).__name__}: {text[0] if text else ''} "
+              "(rerun with --debug for the traceback, and please report it)", file=sys.stderr)
+        return 1
+    finally:
+        warnings.showwarning = shown
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._progress import progress_bar
 from ._version import __version__
 from .allan import AllanResult, allan_variance
 from .errors import ConvergenceWarning, InputError
@@ -138,7 +139,7 @@ def fit(y, *, rate_hz, m="octave", **kwargs):
 
 
 def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walkers=32, max_steps=40000,
-              threshold=1.0, n_evidence=4000):
+              threshold=1.0, n_evidence=4000, progress=False):
     """Select a noise model for ``allan`` and sample its posterior.
 
     Parameters
@@ -157,6 +158,8 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
         Selection threshold in nats (:func:`bayes_imu.selection.select`).
     n_evidence : int
         Importance draws per candidate.
+    progress : bool
+        Progress bars (candidates, sampler steps) on standard error; same numbers.
 
     Returns
     -------
@@ -166,6 +169,10 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
         raise InputError(f"allan: expected an AllanResult, got {type(allan).__name__}")
     if allan.m.size < 4:
         raise InputError(f"Allan variance has {allan.m.size} cluster sizes: need at least 4 to fit a model")
+    if not np.all(allan.avar > 0):
+        i = int(np.argmin(allan.avar))
+        raise InputError(f"Allan variance is {allan.avar[i]!r} at tau = {allan.tau[i]:g} s: a noise model needs a "
+                         "positive Allan variance at every cluster size (is the signal constant or periodic?)")
     seed = rng
     rng = np.random.default_rng(rng)
     dt = 1.0 / allan.rate_hz
@@ -180,13 +187,15 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
     reference = _pilot(pilot_model, allan)
     shared = _posterior_factory(pilot_model, reference, allan, likelihood)
     scores, draws = [], []
-    for cand in candidates:
-        model = NoiseModel(cand, dt)
-        post = shared(model)
-        u_mode, phi_mode, _ = posterior_mode(post, _starts(model, allan, reference))
-        log_z, se, ess, u, log_w = log_evidence(post, u_mode, n_draws=n_evidence, rng=rng)
-        scores.append(CandidateScore(model.terms, log_z, se, ess, phi_mode))
-        draws.append((u, log_w))
+    with progress_bar(total=len(candidates), desc="model selection", unit="model", enabled=progress) as bar:
+        for cand in candidates:
+            model = NoiseModel(cand, dt)
+            post = shared(model)
+            u_mode, phi_mode, _ = posterior_mode(post, _starts(model, allan, reference))
+            log_z, se, ess, u, log_w = log_evidence(post, u_mode, n_draws=n_evidence, rng=rng)
+            scores.append(CandidateScore(model.terms, log_z, se, ess, phi_mode))
+            draws.append((u, log_w))
+            bar.update()
     chosen = select(scores, threshold=threshold) if len(scores) > 1 else 0
     model = NoiseModel(scores[chosen].terms, dt)
     mode = dict(zip(model.parameter_names, np.exp(scores[chosen].mode)))
@@ -198,7 +207,7 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
         post = LogPosterior.build(model, allan, kind="independent")
     u_mode, phi_mode, _ = posterior_mode(post, [scores[chosen].mode])
     start = _initial_walkers(post, draws[chosen], phi_mode, n_walkers, rng)
-    samples, log_prob, diagnostics, idata = _sample(post, start, rng, max_steps, allan)
+    samples, log_prob, diagnostics, idata = _sample(post, start, rng, max_steps, allan, progress)
     return FitResult(model, samples, log_prob, allan, tuple(scores), chosen, diagnostics, likelihood, cov, seed, idata)
 
 
@@ -271,7 +280,7 @@ def _initial_walkers(post, draws, phi_mode, n_walkers, rng):
     return np.clip(start, post.bounds[:, 0] + 1e-9, post.bounds[:, 1] - 1e-9)
 
 
-def _sample(post, start, rng, max_steps, allan):
+def _sample(post, start, rng, max_steps, allan, progress=False):
     import emcee
 
     n_walkers, n_par = start.shape
@@ -284,16 +293,19 @@ def _sample(post, start, rng, max_steps, allan):
     sampler.random_state = np.random.RandomState(rng.integers(2**32)).get_state()
     chunk, state, tau_old = min(250, max_steps), start, np.inf
     converged = False
-    while sampler.iteration < max_steps:
-        state = sampler.run_mcmc(state, chunk, progress=False)
-        tau_max = float(np.max(sampler.get_autocorr_time(tol=0)))
-        long_enough = sampler.iteration >= AUTOCORR_MULTIPLE * tau_max and abs(tau_max - tau_old) < 0.05 * tau_max
-        tau_old = tau_max
-        if long_enough:
-            chain, lp, idata, diagnostics = _thinned(sampler, post, allan, tau_max, n_walkers, True)
-            if diagnostics["converged"]:
-                converged = True
-                break
+    with progress_bar(desc="sampling", unit="step", enabled=progress) as bar:
+        while sampler.iteration < max_steps:
+            state = sampler.run_mcmc(state, chunk, progress=False)
+            tau_max = float(np.max(sampler.get_autocorr_time(tol=0)))
+            bar.update(chunk)
+            bar.set_postfix_str(f"autocorrelation {tau_max:.0f} steps")
+            long_enough = sampler.iteration >= AUTOCORR_MULTIPLE * tau_max and abs(tau_max - tau_old) < 0.05 * tau_max
+            tau_old = tau_max
+            if long_enough:
+                chain, lp, idata, diagnostics = _thinned(sampler, post, allan, tau_max, n_walkers, True)
+                if diagnostics["converged"]:
+                    converged = True
+                    break
     if not converged:
         chain, lp, idata, diagnostics = _thinned(sampler, post, allan, tau_max, n_walkers, False)
         warnings.warn(

@@ -1,17 +1,31 @@
-"""Reading static IMU logs: CSV (optionally gzip) with a header row, columns by name.
+"""Reading static IMU logs: delimited text (CSV, TSV, whitespace), optionally gzip-compressed.
 
-All conversion to float64 and all validation of the numbers happens here, at the
-boundary: later modules can trust a finite 1-D float64 array.
+Accepted without options: a header row or none (detected: a first row of numbers is
+data), comma, semicolon, tab or whitespace delimiters (detected from the first rows),
+a UTF-8 byte-order mark, CRLF line ends, spaces around fields, blank lines, ``#``
+comment lines and trailing ``# ...`` comments, gzip compression (detected from the
+content, not the file name). Columns are chosen by header name or by 0-based index.
+
+Parsing runs in pandas' C reader (tens of MB/s, ``scripts/bench_io.py``); when it meets
+anything wrong, a line-by-line pass in Python finds the first offending line and the
+error names the file, the line (1-based, counting every line of the file), the column,
+what was found and what was expected. All conversion to float64 and all validation of
+the numbers happens here: later modules can trust finite 1-D float64 arrays.
 """
 
+import gzip
+import io
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from ._progress import progress_bar
 from .errors import InputError
 
-__all__ = ["LogData", "read_log", "read_text", "UNITS", "to_si"]
+__all__ = ["LogData", "read_log", "read_columns", "read_text", "check_signal", "positive_number", "UNITS", "to_si",
+           "MAX_MAGNITUDE"]
 
 #: input units and their factor to SI (rad/s for rates, m/s^2 for specific force)
 UNITS = {
@@ -22,6 +36,12 @@ UNITS = {
     "g": ("accel", 9.80665),
     "mg": ("accel", 9.80665e-3),
 }
+#: largest accepted |sample| and smallest accepted spread: beyond them squares in the
+#: Allan variance overflow (1e100**2 * 1e9 samples < 1e308) or underflow to zero
+MAX_MAGNITUDE = 1e100
+_MIN_SPREAD = 1e-100
+_SNIFF_BYTES = 1 << 16
+_DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab"}
 
 
 def read_text(path):
@@ -36,6 +56,17 @@ def read_text(path):
         raise InputError(f"{path}: cannot read ({exc})") from None
 
 
+def positive_number(name, value, *, what="number"):
+    """``float(value)``, or a one-line :class:`InputError` unless it is positive and finite."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}={value!r}: expected a positive, finite {what}") from None
+    if not np.isfinite(number) or number <= 0:
+        raise InputError(f"{name}={number!r}: expected a positive, finite {what}")
+    return number
+
+
 def to_si(values, unit, *, where=""):
     """Convert samples from ``unit`` (a key of :data:`UNITS`) to SI (rad/s or m/s^2)."""
     if unit not in UNITS:
@@ -45,84 +76,309 @@ def to_si(values, unit, *, where=""):
 
 @dataclass(frozen=True)
 class LogData:
-    """One column of a log.
+    """Columns read from a log.
 
     Attributes
     ----------
-    values : ndarray, shape (n_samples,)
-        The samples, float64, finite.
-    column : str
-        Column name.
+    values : ndarray, shape (n_samples,) or (n_samples, n_columns)
+        The samples, float64, finite; 1-D from :func:`read_log`.
+    columns : tuple of str
+        Column names (``"3"`` for the 4th column of a file without header).
     path : str
         Source file.
-    rate_hz : float or None
-        Sample rate derived from the time column (Hz), if one was given.
+    time_s : ndarray, shape (n_samples,) or None
+        The time column (s), if one was asked for.
+    lines : ndarray of int, shape (n_samples,) or None
+        1-based file line of every sample (only with a time column, for its messages).
+    delimiter : str
+        ``"comma"``, ``"semicolon"``, ``"tab"`` or ``"whitespace"``.
+    header : bool
+        Whether the file has a header row.
     """
 
     values: np.ndarray
-    column: str
+    columns: tuple
     path: str
-    rate_hz: float | None = None
+    time_s: np.ndarray | None = None
+    lines: np.ndarray | None = None
+    delimiter: str = "comma"
+    header: bool = True
+
+    @property
+    def column(self):
+        """The single column's name (:func:`read_log`)."""
+        return self.columns[0]
 
 
-def read_log(path, *, column, time_column=None):
-    """Read one numeric column (and optionally a time column in seconds) from a CSV log.
+def read_log(path, *, column, time_column=None, progress=False):
+    """Read one numeric column (and optionally a time column, s) of a log; see :func:`read_columns`."""
+    data = read_columns(path, columns=[column], time_column=time_column, progress=progress)
+    return LogData(data.values[:, 0], data.columns, data.path, data.time_s, data.lines, data.delimiter, data.header)
+
+
+def read_columns(path, *, columns, time_column=None, progress=False):
+    """Read numeric columns of a delimited text log (module docstring for the accepted forms).
 
     Parameters
     ----------
     path : str or Path
-        CSV file with a header row; ``.gz`` files are decompressed on the fly.
-    column : str
-        Name of the data column.
-    time_column : str, optional
-        Name of a time column (s); the rate is ``1 / median(diff(t))``.
+    columns : sequence of str or int
+        Header names, or 0-based column indices (an integer-looking string is an index
+        unless the header has a column of that name).
+    time_column : str or int, optional
+        Time stamps in seconds; checked by :mod:`bayes_imu.timebase`.
+    progress : bool
+        Show a progress bar (bytes read) on standard error.
+
+    Returns
+    -------
+    LogData
+        ``values`` of shape ``(n_samples, len(columns))``.
 
     Raises
     ------
     InputError
-        Missing file or column, unreadable or non-numeric content, non-finite values,
-        non-increasing time stamps.
+        One line: missing, empty, binary or corrupt file, no data rows, a missing
+        column, a ragged row, text or a non-finite value where a number belongs, a
+        constant or absurdly large signal.
     """
-    import pandas as pd
-
     path = Path(path)
+    head = _head(path)
+    fmt = _sniff(path, head)
+    wanted = [_resolve(path, fmt, c) for c in columns]
+    if time_column is not None:
+        wanted.append(_resolve(path, fmt, time_column))
+    if len(set(wanted)) != len(wanted):
+        raise InputError(f"{path}: the same column is asked for twice ({', '.join(fmt['names'][i] for i in wanted)})")
+    table = _parse(path, fmt, sorted(set(wanted)), progress)
+    order = [sorted(set(wanted)).index(i) for i in wanted]
+    table = table[:, order]
+    names = tuple(fmt["names"][i] for i in wanted)
+    for j, name in enumerate(names[: len(columns)]):
+        check_signal(table[:, j], where=f"{path}: column {name!r}")
+    values = np.ascontiguousarray(table[:, : len(columns)])
+    time_s = lines = None
+    if time_column is not None:
+        time_s = np.ascontiguousarray(table[:, -1])
+        lines = _data_line_numbers(path, fmt)
+    return LogData(values, names[: len(columns)], str(path), time_s, lines, fmt["delimiter_name"], fmt["header"])
+
+
+def check_signal(values, *, where):
+    """Reject a signal no Allan variance can be computed from: empty, constant, absurd magnitude."""
+    if values.size == 0:
+        raise InputError(f"{where}: no samples")
+    big = float(np.max(np.abs(values)))
+    if big > MAX_MAGNITUDE:
+        row = int(np.argmax(np.abs(values)))
+        raise InputError(f"{where}: sample {row + 1} is {float(values[row])!r}; expected |value| <= {MAX_MAGNITUDE:g} "
+                         "(a rate or specific force; larger values overflow the Allan variance)")
+    spread = float(np.max(values) - np.min(values))
+    if spread == 0.0:
+        raise InputError(f"{where}: constant signal (all {values.size} samples are {float(values[0])!r}); "
+                         "expected a varying sensor output")
+    if spread < _MIN_SPREAD:
+        raise InputError(f"{where}: samples vary by only {spread:g}; expected a spread above {_MIN_SPREAD:g} "
+                         "(smaller values underflow the Allan variance: rescale the column)")
+
+
+def _open_binary(path):
+    """File object of the (decompressed) bytes; gzip detected by its magic number."""
+    raw = open(path, "rb")
+    magic = raw.read(2)
+    raw.seek(0)
+    return (gzip.GzipFile(fileobj=raw), raw) if magic == b"\x1f\x8b" else (raw, raw)
+
+
+def _head(path):
+    """The first bytes of the (decompressed) file, with one-line errors for what is not a file."""
     if not path.exists():
         raise InputError(f"{path}: no such file")
     if path.is_dir():
         raise InputError(f"{path}: is a directory; expected a CSV file")
-    wanted = [column] if time_column is None else [column, time_column]
     try:
-        frame = pd.read_csv(path, usecols=lambda name: name.strip() in wanted, skipinitialspace=True, comment="#", engine="c")
-    except pd.errors.EmptyDataError:
-        raise InputError(f"{path}: empty file; expected a header row and samples") from None
-    except (pd.errors.ParserError, UnicodeDecodeError, OSError, EOFError) as exc:
-        raise InputError(f"{path}: cannot parse as CSV ({str(exc).splitlines()[0]})") from None
-    frame.columns = [name.strip() for name in frame.columns]
-    for name in wanted:
-        if name not in frame.columns:
-            raise InputError(f"{path}: no column {name!r}; expected one of the header names")
-    values = _numeric(frame[column], path, column)
-    rate = None
-    if time_column is not None:
-        t = _numeric(frame[time_column], path, time_column)
-        steps = np.diff(t)
-        if steps.size == 0 or np.any(steps <= 0):
-            row = int(np.argmax(steps <= 0)) + 3 if steps.size else 2
-            raise InputError(f"{path}: column {time_column!r} row {row}: time stamps must increase")
-        rate = 1.0 / float(np.median(steps))
-    return LogData(values=values, column=column, path=str(path), rate_hz=rate)
+        stream, raw = _open_binary(path)
+        with raw:
+            head = stream.read(_SNIFF_BYTES)
+    except (OSError, EOFError, zlib.error) as exc:
+        raise InputError(f"{path}: cannot read ({_first_line(exc)})") from None
+    return head
 
 
-def _numeric(series, path, name):
+def _first_line(exc):
+    text = str(exc).strip().splitlines()
+    return text[0] if text else type(exc).__name__
+
+
+def _sniff(path, head):
+    """Delimiter, header and column names from the first bytes."""
+    if not head:
+        raise InputError(f"{path}: empty file; expected a header row and samples")
+    nul = head.find(b"\x00")
+    if nul >= 0:
+        raise InputError(f"{path}: binary data (NUL byte at offset {nul}); expected a delimited text log")
+    try:  # a multi-byte character may be cut at the end of the sample
+        text = head.decode("utf-8") if len(head) < _SNIFF_BYTES else head[:-4].decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not UTF-8 text (byte 0x{head[exc.start]:02x} at offset {exc.start}); "
+                         "expected a delimited text log") from None
+    text = text.removeprefix("\ufeff")
+    rows = []  # (line number, content) of the first non-blank, non-comment lines
+    for number, line in enumerate(text.splitlines()[:-1] if len(head) == _SNIFF_BYTES else text.splitlines(), 1):
+        content = line.split("#", 1)[0].strip()
+        if content:
+            rows.append((number, content))
+        if len(rows) == 20:
+            break
+    if not rows:
+        raise InputError(f"{path}: no data rows (only blank or comment lines); expected a header row and samples")
+    delimiter = _delimiter(rows)
+    first = _split(rows[0][1], delimiter)
+    header = not all(_is_number(f) for f in first)
+    names = [f.strip().strip('"').strip("'") for f in first] if header else [str(i) for i in range(len(first))]
+    if header and len(rows) == 1:
+        raise InputError(f"{path}: a header row but no samples; expected samples below the header")
+    dupes = sorted({n for n in names if names.count(n) > 1})
+    return {"delimiter": delimiter, "delimiter_name": _DELIMITERS.get(delimiter, "whitespace"), "header": header,
+            "names": names, "dupes": dupes, "first_line": rows[0][0]}
+
+
+def _delimiter(rows):
+    """The candidate splitting every sampled row into the same number (> 1) of fields."""
+    for delimiter in (",", ";", "\t", None):
+        counts = {len(_split(r, delimiter)) for _, r in rows}
+        if len(counts) == 1 and counts.pop() > 1:
+            return delimiter
+    for delimiter in (",", ";", "\t"):  # ragged rows: the delimiter present in the first row
+        if delimiter in rows[0][1]:
+            return delimiter
+    return None  # one column, or whitespace-separated
+
+
+def _split(content, delimiter):
+    return content.split() if delimiter is None else content.split(delimiter)
+
+
+def _is_number(field):
+    try:
+        float(field)
+    except ValueError:
+        return False
+    return True
+
+
+def _resolve(path, fmt, column):
+    """0-based index of a column given by name or index."""
+    names = fmt["names"]
+    key = str(column).strip()
+    if key in names:
+        if key in fmt["dupes"]:
+            raise InputError(f"{path}: column name {key!r} appears more than once in the header; "
+                             "give the column by its 0-based index")
+        return names.index(key)
+    try:
+        index = int(key)
+    except ValueError:
+        shown = ", ".join(repr(n) for n in names[:12]) + (", ..." if len(names) > 12 else "")
+        raise InputError(f"{path}: no column {key!r}; expected one of the header names ({shown}) "
+                         "or a 0-based column index") from None
+    if not 0 <= index < len(names):
+        raise InputError(f"{path}: column index {index} out of range; the file has {len(names)} columns "
+                         f"(0 to {len(names) - 1})")
+    return index
+
+
+def _parse(path, fmt, usecols, progress):
+    """Fast path: pandas' C reader on the selected columns; anything odd goes to :func:`_diagnose`."""
     import pandas as pd
 
-    numbers = pd.to_numeric(series, errors="coerce").to_numpy(dtype=np.float64)
-    bad = ~np.isfinite(numbers)
-    if bad.any():
-        index = int(np.argmax(bad))
-        raise InputError(
-            f"{path}: column {name!r} row {index + 2}: got {series.iloc[index]!r}; expected a finite number"
-        )
-    if numbers.size == 0:
-        raise InputError(f"{path}: column {name!r} has no samples")
-    return numbers
+    sep = r"\s+" if fmt["delimiter"] is None else fmt["delimiter"]
+    # every column is tokenised (with usecols, pandas would drop the extra fields of a
+    # too-long row silently); only the wanted ones are converted, so text elsewhere is fine
+    n_fields = len(fmt["names"])
+    with progress_bar(total=path.stat().st_size, desc=f"reading {path.name}", unit="B", enabled=progress) as bar:
+        stream, raw = _open_binary(path)
+        try:
+            with raw:
+                frame = pd.read_csv(
+                    io.BufferedReader(_Counting(stream, raw, bar), buffer_size=1 << 20), encoding="utf-8-sig",
+                    sep=sep, header=0 if fmt["header"] else None, names=range(n_fields),
+                    dtype={i: np.float64 for i in usecols},
+                    comment="#", skip_blank_lines=True, skipinitialspace=True, engine="c", low_memory=False,
+                )
+        except (ValueError, pd.errors.ParserError, UnicodeDecodeError):
+            _diagnose(path, fmt, usecols)
+        except (OSError, EOFError, zlib.error) as exc:
+            raise InputError(f"{path}: cannot read ({_first_line(exc)})") from None
+    table = np.column_stack([frame[i].to_numpy(dtype=np.float64) for i in usecols])
+    if table.shape[0] == 0:
+        raise InputError(f"{path}: a header row but no samples; expected samples below the header")
+    if not np.all(np.isfinite(table)):  # NaN: also a too-short row that leaves a wanted field empty
+        _diagnose(path, fmt, usecols)
+    return table
+
+
+class _Counting(io.RawIOBase):
+    """Byte stream that advances a progress bar by the compressed bytes consumed."""
+
+    def __init__(self, stream, raw, bar):
+        self._stream, self._raw, self._bar, self._seen = stream, raw, bar, 0
+
+    def readable(self):
+        return True
+
+    def readinto(self, buffer):
+        data = self._stream.read(len(buffer))
+        buffer[: len(data)] = data
+        position = self._raw.tell()
+        self._bar.update(position - self._seen)
+        self._seen = position
+        return len(data)
+
+
+def _data_lines(path, fmt):
+    """Yield ``(line number, fields)`` of every data row (after the header), in file order."""
+    stream, raw = _open_binary(path)
+    with raw, io.TextIOWrapper(stream, encoding="utf-8-sig", newline=None) as text:
+        header_pending = fmt["header"]
+        for number, line in enumerate(text, 1):
+            content = line.split("#", 1)[0].strip()
+            if not content:
+                continue
+            if header_pending:
+                header_pending = False
+                continue
+            yield number, _split(content, fmt["delimiter"])
+
+
+def _diagnose(path, fmt, usecols):
+    """Slow path: find the first bad line and raise its one-line :class:`InputError`."""
+    try:
+        _find_bad_line(path, fmt, usecols)
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not UTF-8 text ({exc.reason} in the data); expected a delimited text log") from None
+    raise InputError(f"{path}: cannot parse as a delimited text log ({fmt['delimiter_name']}-separated, "
+                     f"{len(fmt['names'])} columns)")
+
+
+def _find_bad_line(path, fmt, usecols):
+    n_fields = len(fmt["names"])
+    for number, fields in _data_lines(path, fmt):
+        if len(fields) != n_fields:
+            raise InputError(f"{path}: line {number}: {len(fields)} field{'s' * (len(fields) != 1)}; expected {n_fields} "
+                             f"({'as in the header' if fmt['header'] else 'as in the first row'})")
+        for i in usecols:
+            text = fields[i].strip()
+            try:
+                value = float(text)
+            except ValueError:
+                value = None
+            if value is None or not np.isfinite(value):
+                found = repr(text) if text else "an empty field"
+                raise InputError(f"{path}: line {number}, column {fmt['names'][i]!r}: got {found}; "
+                                 "expected a finite number")
+
+
+def _data_line_numbers(path, fmt):
+    """1-based file line of every data row (for time-stamp messages)."""
+    return np.fromiter((number for number, _ in _data_lines(path, fmt)), dtype=np.int64)

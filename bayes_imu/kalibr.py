@@ -12,8 +12,9 @@ Kalibr (and most VIO / VINS packages) take four continuous-time noise densities,
   longest averaging time of the log, ``B sqrt(6 ln2 / (pi tau_max))``. Present terms add in
   quadrature, per posterior draw.
 
-Units: the fit folder's ``summary.json`` records the log's unit (``--unit`` of
-``bayes-imu fit``: rad/s, deg/s, deg/h, m/s^2, g, mg), converted to SI here.
+Units: the fit folder's ``summary.json`` records the unit of the fitted values (SI when
+``bayes-imu fit`` ran with ``--units``; rad/s, deg/s, deg/h, m/s^2, g, mg are accepted and
+converted to SI here). A folder of a several-column fit stands for all its axes.
 ``update_rate`` is the log's rate [Hz]. Nominal values are posterior medians; with
 ``credibility`` the upper posterior quantile (conservative). Several axes of one sensor
 combine to the worst axis (largest value).
@@ -30,7 +31,7 @@ from .io import UNITS, read_text
 __all__ = ["kalibr_values", "write_kalibr_yaml", "axis_densities"]
 
 
-def _load(folder):
+def _summary(folder):
     summary_path = folder / "summary.json"
     if not summary_path.exists():
         raise InputError(f"{summary_path}: no such file; expected a bayes-imu fit output folder")
@@ -38,9 +39,29 @@ def _load(folder):
         summary = json.loads(read_text(summary_path))
     except json.JSONDecodeError as exc:
         raise InputError(f"{summary_path}: invalid JSON ({exc})") from None
+    if not isinstance(summary, dict):
+        raise InputError(f"{summary_path}: expected a JSON object (a bayes-imu fit summary)")
+    return summary
+
+
+def _axis_folders(folders):
+    """Fit folders, with a several-column fit (``summary.json`` with ``axes``) expanded to its axes."""
+    out = []
+    for folder in folders:
+        summary = _summary(folder)
+        if "axes" in summary:
+            out += [folder / axis["folder"] for axis in summary["axes"].values()]
+        else:
+            out.append(folder)
+    return out
+
+
+def _load(folder):
+    summary_path = folder / "summary.json"
+    summary = _summary(folder)
     unit = summary.get("unit")
     if unit not in UNITS:
-        raise InputError(f"{summary_path}: unit {unit!r}: expected one of {', '.join(UNITS)} (rerun fit with --unit)")
+        raise InputError(f"{summary_path}: unit {unit!r}: expected one of {', '.join(UNITS)} (rerun fit with --units)")
     from .fit import _arviz
 
     try:
@@ -76,7 +97,7 @@ def kalibr_values(gyro_dirs, accel_dirs, *, credibility=None):
     out, rates = {}, set()
     for kind, dirs, want in (("gyroscope", gyro_dirs, "gyro"), ("accelerometer", accel_dirs, "accel")):
         dens, walk = [], []
-        for folder in dirs:
+        for folder in _axis_folders(dirs):
             summary, draws, (unit_kind, factor) = _load(folder)
             if unit_kind != want:
                 raise InputError(f"{folder}: unit {summary['unit']!r} is not a {want} unit")

@@ -50,7 +50,7 @@ def main(argv=None):
     for axis, iv in intervals.items():
         lo, hi = max(a for a, _ in iv), min(b for _, b in iv)
         verdict = "overlap (replicates agree)" if lo <= hi else f"do not all overlap (gap {lo - hi:.5f})"
-        print(f"axis {axis}: six 90% intervals {verdict}; spread of medians {min(a for a, _ in iv):.5f}-{max(b for _, b in iv):.5f}")
+        print(f"axis {axis}: six 90% intervals {verdict}; intervals span {min(a for a, _ in iv):.5f}-{max(b for _, b in iv):.5f}")
     return 0
 
 

@@ -163,7 +163,8 @@ def test_kalibr_export_from_fit_folders(tmp_path, capsys):
     assert main(["kalibr", "--gyro", str(gyro), "--accel", str(accel), "--out", str(tmp_path / "imu.yaml")]) == 0
     nominal = dict(line.split(": ") for line in (tmp_path / "imu.yaml").read_text().splitlines() if not line.startswith("#"))
     summary = json.loads((gyro / "summary.json").read_text())
-    density = summary["parameters"]["noise_density"]["median"] * np.pi / 180
+    assert summary["unit"] == "rad/s"  # --unit deg/s: the fit ran on SI values
+    density = summary["parameters"]["noise_density"]["median"]
     assert float(nominal["gyroscope_noise_density"]) == pytest.approx(density, rel=1e-3)
     assert float(nominal["update_rate"]) == 100
     assert main(["kalibr", "--gyro", str(gyro), "--accel", str(accel), "--out", str(tmp_path / "c.yaml"),

@@ -1,0 +1,65 @@
+"""Reading speed of ``bayes_imu.io.read_columns`` on large logs (MB/s of text, samples/s).
+
+Writes, in a temporary folder, an IMU-like log (a time column and six channels, 8
+significant digits, about 70 bytes per row) as plain CSV, gzip CSV and whitespace-separated
+text, then times reading one column and three columns (best of ``--repeat``), and compares
+with ``numpy.loadtxt`` on the plain CSV (a common baseline). Throughput is the uncompressed
+text size over the wall time.
+
+    python scripts/bench_io.py [--rows 2000000] [--repeat 3]
+"""
+
+import argparse
+import gzip
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def write_logs(folder, rows, rng):
+    data = rng.standard_normal((rows, 6)) * [0.05, 0.05, 0.05, 0.003, 0.003, 0.003] + [0, 0, 0, 0, 0, -1.0]
+    t = np.arange(rows) / 100.0
+    table = np.column_stack([t, data])
+    header = "time,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z"
+    plain = folder / "log.csv"
+    np.savetxt(plain, table, fmt="%.8g", delimiter=",", header=header, comments="")
+    text = plain.read_bytes()
+    (folder / "log.csv.gz").write_bytes(gzip.compress(text, compresslevel=6))
+    (folder / "log.txt").write_bytes(text.replace(b",", b" "))
+    return {"csv": plain, "csv.gz": folder / "log.csv.gz", "whitespace": folder / "log.txt"}, len(text)
+
+
+def best_time(fn, repeat):
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--rows", type=float, default=2e6)
+    parser.add_argument("--repeat", type=int, default=3)
+    args = parser.parse_args(argv)
+    from bayes_imu.io import read_columns
+
+    rows = int(args.rows)
+    with tempfile.TemporaryDirectory() as tmp:
+        files, n_bytes = write_logs(Path(tmp), rows, np.random.default_rng(0))
+        print(f"{rows} rows x 7 columns, {n_bytes / 1e6:.1f} MB of text "
+              f"(gzip {files['csv.gz'].stat().st_size / 1e6:.1f} MB)\n")
+        print(f"{'file':11s} {'columns read':>12s} {'time_s':>7s} {'MB/s':>6s} {'Msamples/s':>10s}")
+        for name, path in files.items():
+            for cols in (["gyro_x"], ["gyro_x", "gyro_y", "gyro_z"]):
+                t = best_time(lambda: read_columns(path, columns=cols), args.repeat)
+                print(f"{name:11s} {len(cols):12d} {t:7.2f} {n_bytes / 1e6 / t:6.0f} {rows * len(cols) / 1e6 / t:10.1f}")
+        t = best_time(lambda: np.loadtxt(files["csv"], delimiter=",", skiprows=1, usecols=[1]), 1)
+        print(f"{'csv':11s} {'1 (loadtxt)':>12s} {t:7.2f} {n_bytes / 1e6 / t:6.0f} {rows / 1e6 / t:10.1f}")
+
+
+if __name__ == "__main__":
+    main()

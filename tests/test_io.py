@@ -1,0 +1,143 @@
+"""Reading logs: every accepted form gives the same numbers; every malformed file one precise error.
+
+Reference for the valid forms: the same samples written as a plain comma-separated file
+with a header; the values must be bit-identical (the text holds the same decimal strings).
+"""
+
+import gzip
+
+import numpy as np
+import pytest
+
+from bayes_imu.errors import InputError
+from bayes_imu.io import MAX_MAGNITUDE, check_signal, read_columns, read_log
+
+
+@pytest.fixture
+def samples(rng):
+    return np.round(rng.standard_normal((200, 2)), 6)
+
+
+def _rows(values, sep=",", fmt="{:.6f}"):
+    return [sep.join(fmt.format(v) for v in row) for row in values]
+
+
+def _plain(tmp_path, values):
+    path = tmp_path / "plain.csv"
+    path.write_text("gx,gy\n" + "\n".join(_rows(values)) + "\n", encoding="utf-8")
+    return read_columns(path, columns=["gx", "gy"]).values
+
+
+VALID = {
+    "bom_crlf_spaces_blank_tail": lambda v: ("\ufeff gx , gy \r\n" + "\r\n".join(" " + r.replace(",", " , ") + " "
+                                             for r in _rows(v)) + "\r\n\r\n\r\n").encode("utf-8"),
+    "semicolon": lambda v: ("gx;gy\n" + "\n".join(_rows(v, ";")) + "\n").encode(),
+    "tab": lambda v: ("gx\tgy\n" + "\n".join(_rows(v, "\t")) + "\n").encode(),
+    "whitespace_runs": lambda v: ("gx   gy\n" + "\n".join(_rows(v, "   ")) + "\n").encode(),
+    "comments_everywhere": lambda v: ("# logger 1.2\n# rate 100 Hz\ngx,gy\n" + "\n".join(
+        r + ("  # note" if i % 7 == 0 else "") + ("\n# pause" if i == 50 else "") for i, r in enumerate(_rows(v)))
+        + "\n").encode(),
+    "gzip_without_gz_suffix": lambda v: gzip.compress(("gx,gy\n" + "\n".join(_rows(v)) + "\n").encode()),
+    "no_trailing_newline": lambda v: ("gx,gy\n" + "\n".join(_rows(v))).encode(),
+    "text_column_elsewhere": lambda v: ("status,gx,gy\n" + "\n".join("ok," + r for r in _rows(v)) + "\n").encode(),
+    "trailing_delimiter": lambda v: ("gx,gy,\n" + "\n".join(r + "," for r in _rows(v)) + "\n").encode(),
+}
+
+
+@pytest.mark.parametrize("form", sorted(VALID))
+def test_unusual_but_valid_files_read_identically(tmp_path, samples, form):
+    path = tmp_path / "log.dat"
+    path.write_bytes(VALID[form](samples))
+    got = read_columns(path, columns=["gx", "gy"]).values
+    np.testing.assert_array_equal(got, _plain(tmp_path, samples))
+
+
+def test_no_header_columns_by_index(tmp_path, samples):
+    path = tmp_path / "nohead.csv"
+    path.write_text("\n".join(_rows(samples)) + "\n")
+    data = read_columns(path, columns=[1, "0"])
+    assert not data.header and data.columns == ("1", "0")
+    np.testing.assert_array_equal(data.values, _plain(tmp_path, samples)[:, ::-1])
+
+
+def test_header_column_by_index_and_time_lines(tmp_path, samples):
+    path = tmp_path / "t.csv"
+    text = "# c\ntime,gx,gy\n" + "\n".join(f"{i / 100:.2f}," + r for i, r in enumerate(_rows(samples))) + "\n"
+    path.write_text(text)
+    data = read_log(path, column=2, time_column="time")
+    assert data.column == "gy"
+    np.testing.assert_array_equal(data.values, samples[:, 1])
+    np.testing.assert_array_equal(data.lines, np.arange(3, 3 + len(samples)))  # 1-based file lines
+    np.testing.assert_allclose(data.time_s, np.arange(len(samples)) / 100, atol=1e-12)
+
+
+def test_real_adis_log_reads_every_channel():
+    from conftest import shared_file
+
+    path = shared_file("smac_imudata", "adis_16405_imu1.csv.gz")
+    data = read_columns(path, columns=["gyro_x_dps", "accel_z_g"])
+    assert data.values.shape == (1_000_000, 2)
+    # SOURCE.md: gyro values are multiples of the 0.05 deg/s LSB; accel z reads about -1.017 g
+    np.testing.assert_allclose(data.values[:, 0] / 0.05, np.round(data.values[:, 0] / 0.05), atol=1e-6)
+    assert -1.03 < np.mean(data.values[:, 1]) < -1.0
+
+
+MALFORMED = [  # (name, bytes, column, message fragment)
+    ("empty", b"", "b", "empty file"),
+    ("header_only", b"a,b\n", "b", "a header row but no samples"),
+    ("only_comments", b"# nothing\n\n# here\n", "b", "no data rows"),
+    ("nan", b"a,b\n1,2\n3,nan\n4,5\n", "b", "line 3, column 'b': got 'nan'; expected a finite number"),
+    ("inf", b"a,b\n1,2\n3,-inf\n4,5\n", "b", "line 3, column 'b': got '-inf'"),
+    ("overflowing_literal", b"a,b\n1,2\n3,1e400\n4,5\n", "b", "got '1e400'"),
+    ("text", b"a,b\n1,2\n# c\n3,abc\n4,5\n", "b", "line 4, column 'b': got 'abc'"),
+    ("empty_field", b"a,b\n1,2\n3,\n4,5\n", "b", "line 3, column 'b': got an empty field"),
+    ("missing_column", b"a,b\n1,2\n3,4\n", "zz", "no column 'zz'; expected one of the header names ('a', 'b')"),
+    ("index_out_of_range", b"a,b\n1,2\n3,4\n", "9", "column index 9 out of range; the file has 2 columns"),
+    ("ragged_long", b"a,b\n1,2\n3,4\n5,6,7\n8,9\n", "a", "line 4: 3 fields; expected 2 (as in the header)"),
+    ("ragged_short", b"a,b\n1,2\n3\n8,9\n", "b", "line 3: 1 field; expected 2"),
+    ("constant", b"a,b\n1,2\n3,2\n4,2\n", "b", "constant signal (all 3 samples are 2.0)"),
+    ("absurd_magnitude", b"a,b\n1,2\n3,1e150\n4,5\n", "b", f"expected |value| <= {MAX_MAGNITUDE:g}"),
+    ("underflowing_spread", b"a,b\n1,1e-300\n3,2e-300\n4,0\n", "b", "underflow"),
+    ("binary", bytes(range(256)) * 8, "b", "binary data (NUL byte at offset 0)"),
+    ("not_utf8", "a,b\u00b0\n1,2\n".encode("latin-1"), "b", "not UTF-8 text (byte 0xb0 at offset 3)"),
+    ("duplicate_header", b"a,b,b\n1,2,3\n4,5,6\n", "b", "column name 'b' appears more than once"),
+]
+
+
+@pytest.mark.parametrize("name, content, column, message", MALFORMED, ids=[m[0] for m in MALFORMED])
+def test_malformed_files_give_one_precise_line(tmp_path, name, content, column, message):
+    path = tmp_path / f"{name}.csv"
+    path.write_bytes(content)
+    with pytest.raises(InputError) as info:
+        read_log(path, column=column)
+    text = str(info.value)
+    assert "\n" not in text and text.startswith(str(path)) and message in text, text
+
+
+def test_corrupt_gzip_is_reported(tmp_path, rng):
+    """Random content does not compress: the cut lands inside the data stream."""
+    body = "a,b\n" + "\n".join(f"{x:.9f},{y:.9f}" for x, y in rng.standard_normal((20000, 2)))
+    blob = gzip.compress(body.encode())
+    path = tmp_path / "cut.csv.gz"
+    path.write_bytes(blob[: len(blob) // 2])
+    with pytest.raises(InputError, match=r"cut\.csv\.gz: cannot read \(.*(end-of-stream|ended)"):
+        read_log(path, column="b")
+
+
+def test_missing_file_and_directory(tmp_path):
+    with pytest.raises(InputError, match="no such file"):
+        read_log(tmp_path / "nope.csv", column="a")
+    with pytest.raises(InputError, match="is a directory; expected a CSV file"):
+        read_log(tmp_path, column="a")
+
+
+def test_same_column_twice_is_refused(tmp_path):
+    path = tmp_path / "x.csv"
+    path.write_text("a,b\n1,2\n3,4\n")
+    with pytest.raises(InputError, match="asked for twice"):
+        read_columns(path, columns=["a", "0"])
+
+
+def test_check_signal_accepts_gravity_offset_tiny_noise(rng):
+    """An accelerometer axis reading gravity with micro-g noise is an ordinary signal."""
+    check_signal(9.80665 + 1e-7 * rng.standard_normal(1000), where="z")
