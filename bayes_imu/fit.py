@@ -26,7 +26,7 @@ from ._progress import progress_bar
 from ._version import __version__
 from .allan import AllanResult, allan_variance
 from .errors import ConvergenceWarning, InputError
-from .likelihood import LogPosterior, default_bounds
+from .likelihood import LIKELIHOODS, LogPosterior, default_bounds
 from .models import PARAMETER_UNITS, TERMS, NoiseModel
 from .selection import CandidateScore, candidate_terms, log_evidence, posterior_mode, select
 
@@ -182,8 +182,8 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
     else:
         candidates = [tuple(terms)]
         pilot_model = NoiseModel(tuple(terms), dt)
-    if likelihood not in ("correlated", "independent"):
-        raise InputError(f"likelihood={likelihood!r}: expected 'correlated' or 'independent'")
+    if likelihood not in LIKELIHOODS:
+        raise InputError(f"likelihood={likelihood!r}: expected one of {', '.join(LIKELIHOODS)}")
     reference = _pilot(pilot_model, allan)
     shared = _posterior_factory(pilot_model, reference, allan, likelihood)
     scores, draws = [], []
@@ -199,9 +199,10 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
     chosen = select(scores, threshold=threshold) if len(scores) > 1 else 0
     model = NoiseModel(scores[chosen].terms, dt)
     mode = dict(zip(model.parameter_names, np.exp(scores[chosen].mode)))
-    if likelihood == "correlated":  # covariance refined at the selected model's mode
+    if likelihood != "independent":  # covariance refined at the selected model's mode
         cov = _covariance(model, mode, allan)
-        post = LogPosterior.from_covariance(model, allan, cov, model.avar(allan.m, mode), default_bounds(model, allan))
+        post = LogPosterior.from_covariance(model, allan, cov, model.avar(allan.m, mode), default_bounds(model, allan),
+                                            kind=likelihood)
     else:
         cov = np.diag(2.0 * allan.avar**2 / allan.edf)
         post = LogPosterior.build(model, allan, kind="independent")
@@ -217,7 +218,8 @@ def _posterior_factory(ref_model, reference, allan, likelihood):
         return lambda model: LogPosterior.build(model, allan, kind="independent")
     cov = _covariance(ref_model, reference, allan)
     ref_avar = ref_model.avar(allan.m, reference)
-    return lambda model: LogPosterior.from_covariance(model, allan, cov, ref_avar, default_bounds(model, allan))
+    return lambda model: LogPosterior.from_covariance(model, allan, cov, ref_avar, default_bounds(model, allan),
+                                                      kind=likelihood)
 
 
 def _covariance(model, params, allan):

@@ -28,13 +28,14 @@ from .models import NoiseModel
 
 __all__ = ["LIKELIHOODS", "default_bounds", "LogPosterior"]
 
-LIKELIHOODS = ("correlated", "independent")
+LIKELIHOODS = ("correlated", "copula", "independent")
 #: decades below the smallest / above the largest observed AVAR that a term may reach
 PRIOR_DECADES_BELOW = 4.0
 PRIOR_DECADES_ABOVE = 1.0
 #: Gauss-Markov time constant range, in samples (low) and fraction of the record (high)
 TIME_CONSTANT_MIN_SAMPLES = 3.0
 TIME_CONSTANT_MAX_RECORD = 0.25
+_MAX_SCORE = float(-special.ndtri(np.finfo(float).tiny))  # 37.5: normal score of the smallest probability
 _GM_PEAK = 0.3  # ~max over tau of a Gauss-Markov AVAR / sigma_b^2 (continuous value 0.30)
 
 
@@ -121,24 +122,34 @@ class LogPosterior:
             norm = float(np.sum(shape * np.log(shape) - special.gammaln(shape) + (shape - 1.0) * log_avar))
             return cls(model, bounds, allan.m, log_avar, kind, np.eye(k), np.zeros(k), shape, norm)
         if reference is None:
-            raise InputError("likelihood='correlated' needs a reference parameter point")
+            raise InputError(f"likelihood={kind!r} needs a reference parameter point")
         ref_model = reference.get("_model", model)
         cov = avar_covariance(ref_model, reference, allan.m, allan.n_samples)
         ref_avar = ref_model.avar(allan.m, reference)
-        return cls.from_covariance(model, allan, cov, ref_avar, bounds)
+        return cls.from_covariance(model, allan, cov, ref_avar, bounds, kind=kind)
 
     @classmethod
-    def from_covariance(cls, model, allan, cov, ref_avar, bounds):
+    def from_covariance(cls, model, allan, cov, ref_avar, bounds, *, kind="correlated"):
         """Correlated likelihood from an AVAR covariance matrix and the AVAR it belongs to."""
         sd = np.sqrt(np.diag(cov))
         rho = cov / np.outer(sd, sd)
         nu = 2.0 * ref_avar**2 / np.diag(cov)
+        k = allan.m.size
+        log_avar = np.log(allan.avar)
+        if kind == "copula":
+            # Gaussian copula: exact gamma marginals, correlation of the normal scores = rho;
+            # the log density of the copula is -log|R|/2 - z'(R^-1 - I)z/2 (whiten = R^-1 - I)
+            shape = nu / 2.0
+            chol = np.linalg.cholesky(rho)
+            norm = float(np.sum(shape * np.log(shape) - special.gammaln(shape) + (shape - 1.0) * log_avar)
+                         - np.sum(np.log(np.diag(chol))))
+            precision = np.linalg.inv(rho) - np.eye(k)
+            return cls(model, bounds, allan.m, log_avar, "copula", precision, np.zeros(k), shape, norm)
         trig = special.polygamma(1, nu / 2.0)
         log_cov = rho * np.sqrt(np.outer(trig, trig))
         chol = np.linalg.cholesky(log_cov)
         whiten = np.linalg.inv(chol)
         offset = special.digamma(nu / 2.0) - np.log(nu / 2.0)
-        k = allan.m.size
         norm = float(-np.sum(np.log(np.diag(chol))) - 0.5 * k * np.log(2.0 * np.pi))
         return cls(model, bounds, allan.m, np.log(allan.avar), "correlated", whiten, offset, nu / 2.0, norm)
 
@@ -160,7 +171,12 @@ class LogPosterior:
             out = self.norm - 0.5 * np.sum(r * r, axis=-1)
         else:
             # gamma(shape, scale = AVAR / shape) density of each observed avar
-            out = self.norm + np.sum(-self.shape * mu - self.shape * np.exp(self.log_avar - mu), axis=-1)
+            with np.errstate(over="ignore", invalid="ignore"):
+                y = self.shape * np.exp(self.log_avar - mu)
+            out = self.norm + np.sum(-self.shape * mu - y, axis=-1)
+            if self.kind == "copula":
+                z = _normal_scores(self.shape, y)
+                out = out - 0.5 * np.sum((z @ self.whiten) * z, axis=-1)
         return np.where(np.isfinite(out), out, -np.inf)
 
     def in_prior(self, log_theta):
@@ -180,3 +196,18 @@ class LogPosterior:
         if np.any(ok):
             out[ok] = lp[ok] + self.log_likelihood(log_theta[ok])
         return out
+
+
+def _normal_scores(shape, y):
+    """``Phi^-1(P(shape, y))`` (regularised lower incomplete gamma), exact and always finite.
+
+    Each tail is computed from its own incomplete gamma function, so the score is exact
+    down to tail probabilities of 1e-308 (``|z| = 37.5``); beyond, where the probability
+    underflows, it is held at that value (continuous), and the gamma marginals alone
+    steer an optimiser back, instead of a ``-inf`` plateau.
+    """
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        lower = special.gammainc(shape, y)
+        upper = special.gammaincc(shape, y)
+        z = np.where(lower < 0.5, special.ndtri(lower), -special.ndtri(upper))
+    return np.clip(z, -_MAX_SCORE, _MAX_SCORE)

@@ -3,15 +3,16 @@
 For each scenario (white + Gauss-Markov, white only, white + rate random walk) the script
 draws ``--n-logs`` true parameter points log-uniformly within +-0.5 decade of a
 representative point (SBC-style: the truth varies from log to log), simulates a log
-(``bayes_imu.simulate``), and fits it with the true terms twice: with the correlated
-likelihood (default) and with the independent-gamma baseline. It prints, per scenario,
-likelihood and parameter, the coverage of the central 90% interval with its binomial
+(``bayes_imu.simulate``), and fits it with the true terms once per likelihood
+(``--likelihoods``: by default the Gaussian copula, the multivariate normal on log AVAR and
+the independent-gamma baseline), on the same log. It prints, per scenario, likelihood and
+parameter, the coverage of the central 90% interval with its binomial
 standard error, and a chi-squared uniformity p-value of the truth's rank among the
 posterior draws (10 bins). A second table gives how often the 90% drift band (attitude,
 zero bias start) contains the true 1-sigma drift at 1, 10, 100 and 1000 s; a third how
 often evidence-based selection (``terms="auto"``, evidence only) returns the true model.
 
-    python scripts/bench_calibration.py --n-logs 100      # ~15 min on 2 cores
+    python scripts/bench_calibration.py --n-logs 100      # ~10 min on 2 cores
 """
 
 import argparse
@@ -33,7 +34,11 @@ TERMS = {"noise_variance": "white", "bias_variance": "gauss_markov", "time_const
 
 
 def one_log(job):
-    scenario, index, seed, n_samples, select = job
+    scenario, index, seed, n_samples, select, kinds, tau_max_record = job
+    if tau_max_record is not None:  # prior study: the upper edge of the time-constant prior
+        import bayes_imu.likelihood
+
+        bayes_imu.likelihood.TIME_CONSTANT_MAX_RECORD = tau_max_record
     from bayes_imu.allan import allan_variance
     from bayes_imu.errors import ConvergenceWarning
     from bayes_imu.fit import fit_allan
@@ -53,7 +58,7 @@ def one_log(job):
     y = simulate_log(model, truth, n_samples, rng=rng)
     allan = allan_variance(y, rate_hz=RATE)
     out = {"scenario": scenario, "truth": truth}
-    for kind in ("correlated", "independent"):
+    for kind in kinds:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ConvergenceWarning)
             res = fit_allan(allan, terms=terms, likelihood=kind, rng=rng)
@@ -62,7 +67,7 @@ def one_log(job):
             for name in truth
         }
         out[kind + "_converged"] = bool(res.diagnostics["converged"]) and not caught
-        if kind == "correlated":  # drift bands (attitude, zero bias start) against the true drift
+        if kind != "independent":  # drift bands (attitude, zero bias start) against the true drift
             from bayes_imu.bands import drift_bands
             from bayes_imu.drift import drift_sigma
 
@@ -70,7 +75,7 @@ def one_log(job):
             true = drift_sigma(BAND_TIMES, quantity="attitude", dt=1.0 / RATE, noise_variance=truth["noise_variance"],
                                bias_variance=truth.get("bias_variance", 0.0), time_constant=truth.get("time_constant", np.inf),
                                random_walk=truth.get("rate_random_walk", 0.0)).total
-            out["band"] = (bands.quantile(0.05) <= true) & (true <= bands.quantile(0.95))
+            out[kind + "_band"] = (bands.quantile(0.05) <= true) & (true <= bands.quantile(0.95))
     if select:
         full = NoiseModel(("white", "quantization", "bias_instability", "gauss_markov", "random_walk"), 1.0 / RATE)
         ref = _pilot(full, allan)
@@ -79,7 +84,7 @@ def one_log(job):
         scores = []
         for cand in candidate_terms():
             cm = NoiseModel(cand, 1.0 / RATE)
-            post = LogPosterior.from_covariance(cm, allan, cov, ref_avar, default_bounds(cm, allan))
+            post = LogPosterior.from_covariance(cm, allan, cov, ref_avar, default_bounds(cm, allan), kind=kinds[0])
             u, phi, _ = posterior_mode(post, _starts(cm, allan, ref))
             lz, se, ess, _, _ = log_evidence(post, u, rng=rng)
             scores.append(CandidateScore(cm.terms, lz, se, ess, phi))
@@ -95,8 +100,14 @@ def main(argv=None):
     parser.add_argument("--processes", type=int, default=2)
     parser.add_argument("--seed", type=int, default=20261121)
     parser.add_argument("--no-selection", action="store_true")
+    parser.add_argument("--tau-max-record", type=float, default=None,
+                        help="upper edge of the time-constant prior, in records (default: the package's)")
+    parser.add_argument("--likelihoods", default="copula,correlated,independent",
+                        help="comma list; the first is used for the model-selection table")
     args = parser.parse_args(argv)
-    jobs = [(s, i, args.seed, args.n_samples, not args.no_selection) for s in SCENARIOS for i in range(args.n_logs)]
+    kinds = tuple(args.likelihoods.split(","))
+    jobs = [(s, i, args.seed, args.n_samples, not args.no_selection, kinds, args.tau_max_record)
+            for s in SCENARIOS for i in range(args.n_logs)]
     start = time.perf_counter()
     with ProcessPoolExecutor(args.processes) as pool:
         results = list(pool.map(one_log, jobs, chunksize=1))
@@ -105,7 +116,7 @@ def main(argv=None):
     print(f"{'scenario':10s} {'likelihood':12s} {'parameter':17s} {'coverage90':>10s} {'+-se':>6s} {'rank_p':>7s} {'converged':>9s}")
     for scenario in SCENARIOS:
         rows = [r for r in results if r["scenario"] == scenario]
-        for kind in ("correlated", "independent"):
+        for kind in kinds:
             conv = np.mean([r[kind + "_converged"] for r in rows])
             for name in rows[0]["truth"]:
                 ranks = np.array([r[kind][name][0] for r in rows])
@@ -116,10 +127,14 @@ def main(argv=None):
 
                 p = stats.chisquare(counts).pvalue
                 print(f"{scenario:10s} {kind:12s} {name:17s} {cover:10.3f} {se:6.3f} {p:7.3f} {conv:9.2f}")
-    print(f"\n{'scenario':10s} 90% attitude-drift band covers the true 1-sigma drift at t = {BAND_TIMES.tolist()} s")
+    print(f"\n{'scenario':10s} {'likelihood':12s} 90% attitude-drift band covers the true 1-sigma drift at t = "
+          f"{BAND_TIMES.tolist()} s")
     for scenario in SCENARIOS:
         rows = [r for r in results if r["scenario"] == scenario]
-        print(f"{scenario:10s} " + " ".join(f"{c:6.3f}" for c in np.mean([r["band"] for r in rows], axis=0)))
+        for kind in kinds:
+            if kind + "_band" in rows[0]:
+                cover = np.mean([r[kind + "_band"] for r in rows], axis=0)
+                print(f"{scenario:10s} {kind:12s} " + " ".join(f"{c:6.3f}" for c in cover))
     if not args.no_selection:
         print(f"\n{'scenario':10s} {'true model':28s} {'selected true':>13s}  most frequent wrong choice")
         for scenario in SCENARIOS:
