@@ -47,6 +47,9 @@ class DriftBands:
     crossover_s : float
         First time where the median bias part exceeds the median white part (``nan`` if never).
     bias_start : str
+    record_s : float
+        Duration of the fitted log (s); bands beyond it extrapolate the model (terms slower
+        than the record, a long time constant or a random walk, are not identified there).
     """
 
     t_s: np.ndarray
@@ -57,6 +60,12 @@ class DriftBands:
     bias: np.ndarray
     crossover_s: float
     bias_start: str
+    record_s: float = float("nan")
+
+    @property
+    def extrapolated(self):
+        """``(n_t,)`` bool: times beyond the fitted log's duration."""
+        return self.t_s > self.record_s
 
     def quantile(self, q):
         """Band at probability ``q`` (one of :attr:`quantiles`)."""
@@ -165,4 +174,6 @@ def drift_bands(fit, t=None, *, quantity, bias_start="zero", quantiles=(0.05, 0.
     bias = np.median(draws["bias"][sub], axis=0)
     above = np.flatnonzero(bias > white)
     crossover = float(draws["t_s"][above[0]]) if above.size else float("nan")
-    return DriftBands(draws["t_s"], quantity, q, np.quantile(draws["total"], q, axis=0), white, bias, crossover, bias_start)
+    record = fit.allan.n_samples / fit.allan.rate_hz if fit.allan is not None else float("nan")
+    return DriftBands(draws["t_s"], quantity, q, np.quantile(draws["total"], q, axis=0), white, bias, crossover,
+                      bias_start, record)

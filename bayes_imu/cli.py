@@ -251,13 +251,18 @@ def _write_drift(result, args, unit, out):
 
     t = default_times(result.model.dt, args.horizon)
     bands = [drift_bands(result, t, quantity=q, bias_start=args.bias_start) for q in SENSOR_QUANTITIES[args.sensor]]
-    lines = ["t_s,quantity,q05,q50,q95,unit"]
+    lines = ["t_s,quantity,q05,q50,q95,unit,extrapolated"]
     at_horizon = {}
     for b in bands:
         u = integrated_unit(unit, b.quantity)
-        lines += [f"{ti:.6g},{b.quantity},{lo:.9g},{med:.9g},{hi:.9g},{u}" for ti, lo, med, hi in zip(b.t_s, *b.total)]
+        lines += [f"{ti:.6g},{b.quantity},{lo:.9g},{med:.9g},{hi:.9g},{u},{str(x).lower()}"
+                  for ti, lo, med, hi, x in zip(b.t_s, *b.total, b.extrapolated)]
         at_horizon[b.quantity] = {"t_s": float(b.t_s[-1]), "q05": float(b.total[0][-1]), "q50": float(b.total[1][-1]),
-                                  "q95": float(b.total[2][-1]), "unit": u}
+                                  "q95": float(b.total[2][-1]), "unit": u, "record_s": b.record_s,
+                                  "extrapolated": bool(b.extrapolated[-1])}
+    if bands[0].extrapolated[-1]:
+        _warn(f"the drift horizon ({args.horizon:g} s) is longer than the log ({bands[0].record_s:g} s): beyond the "
+              "log the bands extrapolate the fitted model (drift.csv column 'extrapolated')")
         _say(args, f"{b.quantity}: 1-sigma drift after {b.t_s[-1]:g} s: median {b.total[1][-1]:.4g}, "
                    f"90% [{b.total[0][-1]:.4g}, {b.total[2][-1]:.4g}] {u}")
     (out / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
@@ -356,8 +361,12 @@ def _say(args, text):
         print(text)
 
 
+def _warn(text):
+    print(f"bayes-imu: warning: {text}", file=sys.stderr)
+
+
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):
-    print(f"bayes-imu: warning: {message}", file=sys.stderr)
+    _warn(message)
 
 
 def main(argv=None):
@@ -371,8 +380,13 @@ def main(argv=None):
     args.progress = show_progress(getattr(args, "quiet", False))
     logging.basicConfig(level=logging.WARNING, format="%(message)s")  # third-party loggers stay quiet
     log.setLevel(logging.INFO)
-    shown = warnings.showwarning
-    warnings.showwarning = _one_line_warning
+    with warnings.catch_warnings():  # the command shows warnings its own way, whatever the caller's filters
+        warnings.simplefilter("default")
+        warnings.showwarning = _one_line_warning
+        return _run(args)
+
+
+def _run(args):
     try:
         return args.handler(args)
     except BayesIMUError as exc:
@@ -387,8 +401,6 @@ def main(argv=None):
         print(f"bayes-imu: internal error: {type(exc).__name__}: {text[0] if text else ''} "
               "(rerun with --debug for the traceback, and please report it)", file=sys.stderr)
         return 1
-    finally:
-        warnings.showwarning = shown
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -136,6 +136,9 @@ def plot_drift(bands_list, path, *, units, title=""):
             ax.axvline(bands.crossover_s, color="gray", lw=1, ls=":")
             ax.annotate(f"bias dominates after {bands.crossover_s:.3g} s", (bands.crossover_s, lo[0]),
                         textcoords="offset points", xytext=(4, 4), fontsize=8, color="dimgray")
+        if bands.record_s < t[-1]:
+            ax.axvspan(bands.record_s, t[-1], color="gray", alpha=0.12,
+                       label=f"beyond the log ({bands.record_s:.4g} s): extrapolation")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("time since GPS loss (s)")

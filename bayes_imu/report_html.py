@@ -32,6 +32,9 @@ ASSUMPTIONS = (
     "Not modelled: temperature dependence, scale-factor and misalignment errors, vibration and g-sensitivity, "
     "turn-on bias repeatability, and the navigation filter itself (no gravity, Schuler or attitude coupling). "
     "The log must be static and representative of the operating conditions.",
+    "A bound at an outage longer than the sensor's log extrapolates its fitted model: noise slower than the record "
+    "(a long bias time constant, a random walk) is not identified there, so such bounds (marked * in the table) can be "
+    "optimistic; record logs several times longer than the longest outage.",
 )
 
 
@@ -117,10 +120,12 @@ def report_html(report, comparison_png=None):
     bound_rows = []
     for s in report.sensors:
         for b in s.bounds:
-            bound_rows.append(f"<tr><td>{html.escape(s.spec.name)}</td><td>{b['quantity']}</td><td>{b['outage_s']:g}</td>"
+            star = "*" if b.get("extrapolated") else ""
+            bound_rows.append(f"<tr><td>{html.escape(s.spec.name)}</td><td>{b['quantity']}</td><td>{b['outage_s']:g}{star}</td>"
                               f"<td>{b['median']:.4g}</td><td>{b['bound']:.4g}</td><td>{b['unit']}</td></tr>")
     rank_rows = "".join(
         f"<li>{html.escape(name)}" + (f": longest outage within the requirement {_fmt_time(s.max_outage_s)}"
+                                        + _beyond_log(s)
                                         if s.max_outage_s is not None else (": cannot provide the required quantity" if req else ""))
         + "</li>"
         for name in report.ranking for s in report.sensors if s.spec.name == name
@@ -146,6 +151,11 @@ requirement: {html.escape(req_text)}; bias start: {scene.bias_start}; sensors: {
 <footer><p>bayes_imu {__version__}; scene file {html.escape(scene.path)}.</p></footer>
 </body></html>
 """
+
+
+def _beyond_log(sensor):
+    record = sensor.fit.allan.n_samples / sensor.fit.allan.rate_hz
+    return f" (beyond its {_fmt_time(record)} log: extrapolated)" if sensor.max_outage_s > record else ""
 
 
 def _fmt_time(t):

@@ -135,3 +135,19 @@ def test_progress_bars_change_no_number(rng, capsys):
             return True
 
     assert show_progress(False, Tty()) and not show_progress(True, Tty()) and not show_progress(False, io.StringIO())
+
+
+def test_drift_beyond_the_log_is_flagged_as_extrapolation(tmp_path, rng, capsys):
+    """A 41 s log and a 100 s horizon: one warning line, the drift.csv rows after 41 s flagged."""
+    log = tmp_path / "short.csv"
+    log.write_text("g\n" + "\n".join(f"{v:.6f}" for v in rng.standard_normal(2**12)))
+    out = tmp_path / "out"
+    assert main(["fit", str(log), "--column", "g", "--rate", "100", "--terms", "white", "--sensor", "gyro",
+                 "--horizon", "100", "--out", str(out), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert "bayes-imu: warning: the drift horizon (100 s) is longer than the log (40.96 s)" in err
+    rows = [r.split(",") for r in (out / "drift.csv").read_text().splitlines()]
+    assert rows[0][-1] == "extrapolated"
+    assert all((float(r[0]) > 40.96) == (r[-1] == "true") for r in rows[1:])
+    drift = json.loads((out / "summary.json").read_text())["drift"]["attitude"]
+    assert drift["extrapolated"] and drift["record_s"] == 40.96

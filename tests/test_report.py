@@ -58,7 +58,7 @@ def test_better_sensor_ranks_first_and_bounds_are_quantiles(report):
     assert budget["model"] == ["white", "gauss_markov"]
     assert [b["outage_s"] for b in budget["bounds"]] == [10, 60, 300]
     for b in budget["bounds"]:
-        assert b["unit"] == "rad" and b["median"] < b["bound"]
+        assert b["unit"] == "rad" and b["median"] < b["bound"] and b["extrapolated"] is False  # 1 h logs
     # the bound is the 95% posterior quantile of sigma(t), recomputed independently from the draws
     fit = rep.sensors[0].fit
     from bayes_imu.drift import drift_sigma
@@ -173,3 +173,12 @@ def test_kalibr_export_from_fit_folders(tmp_path, capsys):
     for key in ("gyroscope_noise_density", "gyroscope_random_walk", "accelerometer_noise_density"):
         assert float(cons[key]) > float(nominal[key])
     assert main(["kalibr", "--gyro", str(accel), "--accel", str(accel), "--out", str(tmp_path / "x.yaml")]) == 2
+
+
+def test_outage_longer_than_the_log_is_marked_extrapolated(report):
+    """The tactical gyro stays within 1 deg far beyond its one-hour log: the ranking says so."""
+    rep, out = report
+    tactical = next(s for s in rep.sensors if s.spec.name == "tactical")
+    assert tactical.max_outage_s > 3600.0
+    page = (out / "report.html").read_text()
+    assert "(beyond its 3600 s log: extrapolated)" in page
