@@ -150,24 +150,43 @@ def _importance(post, loc, cov, n_draws, rng):
     return float(log_z), se, float(ess), u, log_w
 
 
-def log_evidence(post, u_mode, *, n_draws=4000, rng=None, target_se=0.05):
+def log_evidence(post, u_mode, *, n_draws=4000, rng=None, target_se=0.05, max_rounds=3):
     """Defensive importance-sampling estimate of ``log Z``; returns ``(log_z, se, ess, u_draws, log_w)``.
 
-    When the standard error exceeds ``target_se`` (a posterior far from Gaussian in ``u``,
-    typically an unsupported term), the proposal is refitted once to the weighted draws
-    (mean and covariance, an adaptive-importance-sampling step) and 4x as many draws are used.
+    If an importance draw is denser than ``u_mode``, the optimiser stopped short of the mode:
+    it is restarted from the densest draws and the first pass repeated around the new mode.
+    While the standard error exceeds ``target_se`` (a posterior far from Gaussian in ``u``,
+    typically an unsupported term, or a mode the optimiser stopped short of), the proposal is
+    refitted to the weighted draws (mean and covariance, an adaptive-importance-sampling
+    step, 4x as many draws), at most ``max_rounds`` times; the pass with the smallest standard
+    error is returned. When the weight sits on too few draws to estimate a covariance
+    (effective sample size below ``n_par + 2``), the refit is the previous proposal widened
+    2x and recentred on the best draw.
     """
     rng = np.random.default_rng(rng)
-    out = _importance(post, u_mode, _INFLATE**2 * _hessian_cov(post, u_mode), n_draws, rng)
-    if out[1] > target_se:
-        u, log_w = out[3], out[4]
-        w = np.exp(log_w - log_w.max())
-        w /= w.sum()
-        mean = w @ u
-        cov = np.atleast_2d(np.cov(u.T, aweights=w)) + 1e-6 * np.eye(u.shape[1])
-        second = _importance(post, mean, _INFLATE**2 * cov, 4 * n_draws, rng)
-        if second[1] < out[1]:
-            out = second
+    cov = _INFLATE**2 * _hessian_cov(post, u_mode)
+    out = _importance(post, u_mode, cov, n_draws, rng)
+    # a draw denser than the "mode" means the optimiser stopped short: restart it from the best draws
+    top = out[3][np.argsort(out[4])[-5:]]
+    density = _log_density_u(post, top)
+    if np.max(density) > _log_density_u(post, u_mode)[0] + 1e-6:
+        u_mode, _, _ = posterior_mode(post, np.vstack([_to_phi(top, post.bounds), _to_phi(u_mode, post.bounds)]))
+        cov = _INFLATE**2 * _hessian_cov(post, u_mode)
+        out = _importance(post, u_mode, cov, n_draws, rng)
+    for _ in range(max_rounds):
+        u, log_w, ess = out[3], out[4], out[2]
+        if out[1] <= target_se or not np.isfinite(log_w).any():
+            break
+        if ess >= u.shape[1] + 2:
+            w = np.exp(log_w - log_w.max())
+            w /= w.sum()
+            mean, cov = w @ u, _INFLATE**2 * (np.atleast_2d(np.cov(u.T, aweights=w)) + 1e-6 * np.eye(u.shape[1]))
+        else:
+            mean, cov = u[np.argmax(log_w)], 4.0 * cov
+        refit = _importance(post, mean, cov, 4 * n_draws, rng)
+        if not refit[1] < out[1]:
+            break
+        out = refit
     return out
 
 
