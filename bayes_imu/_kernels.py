@@ -11,7 +11,7 @@ record once per cluster size and is memory-bandwidth bound.
 
 import numpy as np
 
-__all__ = ["phase_from_rate", "second_difference_sums", "avar_pair_sums"]
+__all__ = ["phase_from_rate", "phase_chunk", "second_difference_sum", "second_difference_sums", "avar_pair_sums"]
 
 _BLOCK = 1 << 14
 _compiled = {}
@@ -83,7 +83,46 @@ def _compile():
             out[ib, ia] = out[ia, ib]
         return out
 
-    _compiled.update(phase=phase, sums=sums, pair_sums=pair_sums)
+    @numba.njit(cache=True)
+    def phase_chunk(y, offset, out, block, state):
+        # the loop of `phase` for one chunk of a longer record: state = [s, c] carried between
+        # chunks; out[i] is the running sum after y[i]. Chunks of a multiple of `block` samples
+        # give exactly the numbers of one call on the whole record.
+        s = state[0]
+        c = state[1]
+        for lo in range(0, y.size, block):
+            hi = min(lo + block, y.size)
+            base = s + c
+            acc = 0.0
+            for i in range(lo, hi):
+                acc += y[i] - offset
+                out[i] = base + acc
+            t = s + acc
+            if abs(s) >= abs(acc):
+                c += (s - t) + acc
+            else:
+                c += (acc - t) + s
+            s = t
+        state[0] = s
+        state[1] = c
+        return out
+
+    @numba.njit(parallel=True, cache=True, fastmath={"reassoc", "contract", "nsz", "arcp"})
+    def sum3(x0, x1, x2, block):
+        n = x0.size
+        n_blocks = (n + block - 1) // block
+        partial = np.empty(n_blocks)
+        for b in numba.prange(n_blocks):
+            lo = b * block
+            hi = min(lo + block, n)
+            s = 0.0
+            for i in range(lo, hi):
+                d = x2[i] - 2.0 * x1[i] + x0[i]
+                s += d * d
+            partial[b] = s
+        return partial.sum()
+
+    _compiled.update(phase=phase, sums=sums, pair_sums=pair_sums, phase_chunk=phase_chunk, sum3=sum3)
     return _compiled
 
 
@@ -145,6 +184,21 @@ def phase_from_rate(y, offset):
     """
     out = np.empty(y.size + 1)
     return _compile()["phase"](y, float(offset), out, 256)
+
+
+def phase_chunk(y, offset, state):
+    """Running sums of one chunk of a record, continuing ``state = [s, c]`` (updated in place).
+
+    Returns ``x`` after each sample of the chunk; with chunks of a multiple of 256 samples
+    the concatenation equals :func:`phase_from_rate` (without its leading 0) bit for bit.
+    """
+    out = np.empty(y.size)
+    return _compile()["phase_chunk"](np.ascontiguousarray(y, dtype=float), float(offset), out, 256, state)
+
+
+def second_difference_sum(x0, x1, x2):
+    """``sum_i (x2[i] - 2 x1[i] + x0[i])**2`` over three equal-length slices of a phase record."""
+    return float(_compile()["sum3"](x0, x1, x2, _BLOCK))
 
 
 def second_difference_sums(x, ms):

@@ -139,27 +139,39 @@ def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, inte
     AllanResult
     """
     y = _as_samples(y)
-    rate_hz = positive_number("rate_hz", rate_hz, what="sample rate in Hz")
-    if not 0 < confidence < 1:
-        raise InputError(f"confidence={confidence!r}: expected a probability strictly between 0 and 1")
-    if interval not in ("exact", "stable32"):
-        raise InputError(f"interval={interval!r}: expected 'exact' or 'stable32'")
+    rate_hz = check_options(rate_hz, confidence, interval)
     ms = cluster_sizes(m, y.size)
     x = phase_from_rate(y, np.mean(y))  # mean removed before the running sum (precision)
-    n_terms = x.size - 2 * ms
     sums = np.empty(ms.size)
     groups = np.array_split(np.arange(ms.size), min(ms.size, 8)) if progress else [np.arange(ms.size)]
     with progress_bar(total=ms.size, desc="Allan variance", unit="tau", enabled=progress) as bar:
         for group in groups:  # each cluster size is summed independently: grouping changes no bit
             sums[group] = second_difference_sums(x, ms[group])
             bar.update(group.size)
+    alphas = identify_noise(x, ms) if alpha is None else alpha
+    return assemble_result(ms, sums, alphas, y.size, rate_hz, confidence, interval)
+
+
+def check_options(rate_hz, confidence, interval):
+    """Validated ``rate_hz`` (and the interval options) of an Allan variance computation."""
+    rate_hz = positive_number("rate_hz", rate_hz, what="sample rate in Hz")
+    if not 0 < confidence < 1:
+        raise InputError(f"confidence={confidence!r}: expected a probability strictly between 0 and 1")
+    if interval not in ("exact", "stable32"):
+        raise InputError(f"interval={interval!r}: expected 'exact' or 'stable32'")
+    return rate_hz
+
+
+def assemble_result(ms, sums, alpha, n_samples, rate_hz, confidence, interval):
+    """:class:`AllanResult` from the second-difference sums of each cluster size (SP1065 eq 14)."""
+    n_terms = n_samples + 1 - 2 * ms
     avar = sums / (2.0 * n_terms * ms.astype(float) ** 2)
-    alphas = identify_noise(x, ms) if alpha is None else _alpha_array(alpha, ms.size)
-    edf = greenhall_edf(alphas, ms, x.size)
+    alphas = _alpha_array(alpha, ms.size)
+    edf = greenhall_edf(alphas, ms, n_samples + 1)
     low, high = _chi2_interval(avar, edf, confidence, interval)
     return AllanResult(
         tau=ms / rate_hz, m=ms, avar=avar, adev=np.sqrt(avar), n_terms=n_terms, edf=edf, alpha=alphas,
-        avar_low=low, avar_high=high, confidence=float(confidence), rate_hz=rate_hz, n_samples=y.size,
+        avar_low=low, avar_high=high, confidence=float(confidence), rate_hz=rate_hz, n_samples=n_samples,
     )
 
 
@@ -219,14 +231,28 @@ def identify_noise(x, ms, *, max_differences=2):
     kept (0, white rate noise, if there is none). At most the central 2**18 averages
     are used (bounded time and memory on long records).
     """
+    samples = []
+    for m in ms:
+        start, stop = identification_span(int(m), x.size - 1)
+        samples.append(x[start:stop:int(m)])
+    return noise_from_phase_samples(samples, ms, max_differences=max_differences)
+
+
+def identification_span(m, n_samples):
+    """``(start, stop)`` of the phase indices ``start, start + m, ... < stop`` that
+    :func:`identify_noise` uses for cluster size ``m`` (the central 2**18 averages at most)."""
+    n_blocks = n_samples // m
+    use = min(n_blocks, _MAX_ID_POINTS)
+    start = (n_blocks - use) // 2 * m
+    return start, start + use * m + 1
+
+
+def noise_from_phase_samples(samples, ms, *, max_differences=2):
+    """:func:`identify_noise` from the phase values at :func:`identification_span` of each ``m``."""
     out = np.empty(len(ms), dtype=np.int64)
     previous = 0
-    for i, m in enumerate(ms):
-        m = int(m)
-        n_blocks = (x.size - 1) // m
-        use = min(n_blocks, _MAX_ID_POINTS)
-        start = (n_blocks - use) // 2 * m
-        means = np.diff(x[start : start + use * m + 1 : m]) / m
+    for i, (m, x_m) in enumerate(zip(ms, samples)):
+        means = np.diff(x_m) / int(m)
         if means.size >= _MIN_ID_POINTS:
             previous = _lag1_alpha(means, max_differences)
         out[i] = previous

@@ -15,6 +15,7 @@ Exit status: 0 success, 2 a user error (one line on stderr, no traceback unless
 """
 
 import argparse
+import dataclasses
 import json
 import logging
 import re
@@ -31,6 +32,7 @@ from .allan import allan_variance
 from .drift import QUANTITY_ORDER, drift_sigma
 from .errors import BayesIMUError, InputError
 from .io import UNITS, read_columns, read_text
+from .outofcore import BINARY_SUFFIXES
 from .timebase import GAP_POLICIES, check_time
 
 __all__ = ["main"]
@@ -59,7 +61,9 @@ def _input_options():
     """Options shared by the commands that read a log."""
     common = _Parser(add_help=False)
     common.add_argument("log", type=Path, help="delimited text log (CSV, TSV, whitespace; .gz accepted)")
-    common.add_argument("--column", required=True, help="column name or 0-based index; fit takes a comma list")
+    common.add_argument("--column", help="column name or 0-based index (text logs); fit takes a comma list")
+    common.add_argument("--stream", action="store_true",
+                        help="read a text log out of core, in chunks (automatic for .npy and raw binary logs)")
     common.add_argument("--rate", type=float, help="sample rate (Hz); optional with --time-column")
     common.add_argument("--time-column", help="time stamps (s): the rate is derived from them and checked")
     common.add_argument("--gaps", choices=GAP_POLICIES, default="error",
@@ -125,6 +129,8 @@ def _build_parser():
 # ---------------------------------------------------------------------------- reading
 
 def _columns(args, command):
+    if args.column is None:
+        raise InputError(f"{args.log}: a text log needs --column (a header name or 0-based index)")
     columns = [c.strip() for c in args.column.split(",")]
     if any(not c for c in columns):
         raise InputError(f"--column {args.column!r}: expected column names or indices separated by commas")
@@ -133,13 +139,60 @@ def _columns(args, command):
     return columns
 
 
-def _read(args, command):
-    """Columns (SI when --units), the time base, and the unit label of the values."""
-    columns = _columns(args, command)
+def _allan_results(args, command, grid="octave"):
+    """One AllanResult per column (SI when --units), the unit label and the input description.
+
+    Binary logs (.npy, raw) and ``--stream`` are read out of core (:mod:`bayes_imu.outofcore`),
+    everything else in memory with the full checks of :mod:`bayes_imu.io` and the time column.
+    """
     if args.units is not None and getattr(args, "sensor", None) and args.sensor != UNITS[args.units][0]:
         raise InputError(f"--units {args.units} is a {UNITS[args.units][0]} unit but --sensor is {args.sensor}")
     if args.rate is None and args.time_column is None:
         raise InputError(f"{args.log}: no sample rate: give --rate HZ or a --time-column")
+    factor, unit = (1.0, "u") if args.units is None else (UNITS[args.units][1], _SI[UNITS[args.units][0]])
+    if args.stream or args.log.suffix.lower() in BINARY_SUFFIXES:
+        columns, results, info = _streamed(args, command, grid)
+    else:
+        columns, values, rate, info = _read(args, command)
+        results = [allan_variance(values[:, j], rate_hz=rate, m=grid, progress=args.progress)
+                   for j in range(values.shape[1])]
+    info.update(input_units=args.units or "unspecified (u)", unit=unit)
+    return columns, [_scaled(r, factor) for r in results], unit, info
+
+
+def _scaled(result, factor):
+    """The Allan variance of ``factor * y`` (unit conversion): every variance times factor**2."""
+    if factor == 1.0:
+        return result
+    f2 = factor * factor
+    return dataclasses.replace(result, avar=result.avar * f2, adev=result.adev * factor,
+                               avar_low=result.avar_low * f2, avar_high=result.avar_high * f2)
+
+
+def _streamed(args, command, grid):
+    from .outofcore import allan_variance_file
+
+    if args.time_column is not None:
+        raise InputError(f"{args.log}: --time-column is not available out of core; give --rate HZ")
+    if args.log.suffix.lower() in BINARY_SUFFIXES:
+        if args.column is not None:
+            raise InputError(f"{args.log}: a binary log has one channel; leave out --column")
+        columns = ["0"]
+    else:
+        columns = _columns(args, command)
+    results = [allan_variance_file(args.log, rate_hz=args.rate, column=None if c == "0" and args.column is None else c,
+                                   m=grid, progress=args.progress) for c in columns]
+    needed = _MIN_SAMPLES[command]
+    if results[0].n_samples < needed:
+        raise InputError(f"{args.log}: {results[0].n_samples} samples; expected at least {needed} for {command}")
+    info = {"log": str(args.log), "columns": columns, "read": "out of core", "rate_hz": results[0].rate_hz,
+            "rate_source": "--rate", "samples_used": results[0].n_samples, "action": "all samples used"}
+    return columns, results, info
+
+
+def _read(args, command):
+    """Columns read in memory, cut to the usable time base, and the input description."""
+    columns = _columns(args, command)
     data = read_columns(args.log, columns=columns, time_column=args.time_column, progress=args.progress)
     timebase = check_time(data.time_s, rate_hz=args.rate, gaps=args.gaps, lines=data.lines,
                           where=f"{args.log}: column {args.time_column!r}", n_samples=data.values.shape[0])
@@ -148,20 +201,16 @@ def _read(args, command):
     if values.shape[0] < needed:
         raise InputError(f"{args.log}: {values.shape[0]} samples; expected at least {needed} for {command} "
                          f"({'4 octave cluster sizes' if command == 'fit' else 'one Allan variance'})")
-    unit = "u"
-    if args.units is not None:
-        kind, factor = UNITS[args.units]
-        values, unit = values * factor, _SI[kind]
     info = {"log": str(args.log), "columns": list(data.columns), "delimiter": data.delimiter, "header": data.header,
-            "input_units": args.units or "unspecified (u)", "unit": unit, **timebase.to_json()}
-    return data.columns, values, timebase.rate_hz, unit, info
+            "read": "in memory", **timebase.to_json()}
+    return data.columns, values, timebase.rate_hz, info
 
 
 # ---------------------------------------------------------------------------- commands
 
 def _cmd_allan(args):
-    columns, values, rate, unit, info = _read(args, "allan")
-    result = allan_variance(values[:, 0], rate_hz=rate, m=args.grid, progress=args.progress)
+    columns, results, unit, info = _allan_results(args, "allan", args.grid)
+    result = results[0]
     from .plots import plot_allan
 
     with staged_folder(args.out, force=args.force, inputs=[args.log]) as tmp:
@@ -178,16 +227,16 @@ def _cmd_allan(args):
 
 
 def _cmd_fit(args):
-    columns, values, rate, unit, info = _read(args, "fit")
+    columns, results, unit, info = _allan_results(args, "fit")
     terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
     with staged_folder(args.out, force=args.force, inputs=[args.log]) as tmp:
         if len(columns) == 1:
-            _fit_axis(args, values[:, 0], rate, unit, info, terms, columns[0], tmp)
+            _fit_axis(args, results[0], unit, info, terms, columns[0], tmp)
         else:
             axes = {}
-            for j, (column, folder) in enumerate(zip(columns, _folder_names(columns))):
+            for allan, column, folder in zip(results, columns, _folder_names(columns)):
                 _say(args, f"[{column}]")
-                axes[column] = _fit_axis(args, values[:, j], rate, unit, info, terms, column, tmp / folder)
+                axes[column] = _fit_axis(args, allan, unit, info, terms, column, tmp / folder)
                 axes[column]["folder"] = folder
             summary = {"axes": axes, "worst_axis": _worst_axis(axes), "input": info, "seed": args.seed,
                        "bayes_imu_version": __version__}
@@ -206,12 +255,11 @@ def _folder_names(columns):
     return names
 
 
-def _fit_axis(args, y, rate, unit, info, terms, column, out):
+def _fit_axis(args, allan, unit, info, terms, column, out):
     from .fit import fit_allan
     from .plots import plot_allan_fit, plot_corner
 
     out.mkdir(exist_ok=True)
-    allan = allan_variance(y, rate_hz=rate, m="octave", progress=args.progress)
     result = fit_allan(allan, terms=terms, likelihood=args.likelihood, rng=args.seed, progress=args.progress)
     summary = result.summary(unit=unit)
     summary.update(log=str(args.log), column=column, unit=unit, input=info)
