@@ -24,28 +24,6 @@ def _compile():
 
     _pair_sum = numba.njit(cache=True)(_pair_sum_py)
 
-    @numba.njit(cache=True)
-    def phase(y, offset, out, block):
-        # out[i] = sum_{j<i} (y[j] - offset): plain sums inside blocks, block totals added
-        # with Kahan-Babuska compensation (strict IEEE: no fastmath, so it is not optimised away)
-        s = 0.0
-        c = 0.0
-        out[0] = 0.0
-        for lo in range(0, y.size, block):
-            hi = min(lo + block, y.size)
-            base = s + c
-            acc = 0.0
-            for i in range(lo, hi):
-                acc += y[i] - offset
-                out[i + 1] = base + acc
-            t = s + acc
-            if abs(s) >= abs(acc):
-                c += (s - t) + acc
-            else:
-                c += (acc - t) + s
-            s = t
-        return out
-
     @numba.njit(parallel=True, cache=True, fastmath={"reassoc", "contract", "nsz", "arcp"})
     def sums(x, ms, block):
         out = np.empty(ms.size)
@@ -85,9 +63,10 @@ def _compile():
 
     @numba.njit(cache=True)
     def phase_chunk(y, offset, out, block, state):
-        # the loop of `phase` for one chunk of a longer record: state = [s, c] carried between
-        # chunks; out[i] is the running sum after y[i]. Chunks of a multiple of `block` samples
-        # give exactly the numbers of one call on the whole record.
+        # out[i] = running sum of (y - offset) after y[i], continuing state = [s, c]: plain sums
+        # inside blocks, block totals added with Kahan-Babuska compensation (strict IEEE: no
+        # fastmath, so it is not optimised away). A whole record is one chunk from [0, 0];
+        # chunks of a multiple of `block` samples give exactly the same numbers.
         s = state[0]
         c = state[1]
         for lo in range(0, y.size, block):
@@ -122,7 +101,7 @@ def _compile():
             partial[b] = s
         return partial.sum()
 
-    _compiled.update(phase=phase, sums=sums, pair_sums=pair_sums, phase_chunk=phase_chunk, sum3=sum3)
+    _compiled.update(sums=sums, pair_sums=pair_sums, phase_chunk=phase_chunk, sum3=sum3)
     return _compiled
 
 
@@ -183,7 +162,9 @@ def phase_from_rate(y, offset):
     differences of ``x`` keep their precision on long records.
     """
     out = np.empty(y.size + 1)
-    return _compile()["phase"](y, float(offset), out, 256)
+    out[0] = 0.0
+    _compile()["phase_chunk"](y, float(offset), out[1:], 256, np.zeros(2))
+    return out
 
 
 def phase_chunk(y, offset, state):
