@@ -29,6 +29,7 @@ from . import __version__
 from ._output import staged_file, staged_folder
 from ._progress import show_progress
 from .allan import allan_variance
+from .bags import is_bag, read_imu_bag
 from .drift import QUANTITY_ORDER, drift_sigma
 from .errors import BayesIMUError, InputError
 from .io import UNITS, read_columns, read_text
@@ -62,6 +63,7 @@ def _input_options():
     common = _Parser(add_help=False)
     common.add_argument("log", type=Path, help="delimited text log (CSV, TSV, whitespace; .gz accepted)")
     common.add_argument("--column", help="column name or 0-based index (text logs); fit takes a comma list")
+    common.add_argument("--topic", help="ROS bag: the sensor_msgs/Imu topic (columns gyro_x ... accel_z)")
     common.add_argument("--stream", action="store_true",
                         help="read a text log out of core, in chunks (automatic for .npy and raw binary logs)")
     common.add_argument("--rate", type=float, help="sample rate (Hz); optional with --time-column")
@@ -147,16 +149,22 @@ def _allan_results(args, command, grid="octave"):
     """
     if args.units is not None and getattr(args, "sensor", None) and args.sensor != UNITS[args.units][0]:
         raise InputError(f"--units {args.units} is a {UNITS[args.units][0]} unit but --sensor is {args.sensor}")
-    if args.rate is None and args.time_column is None:
+    bag = is_bag(args.log)
+    if args.rate is None and args.time_column is None and not bag:
         raise InputError(f"{args.log}: no sample rate: give --rate HZ or a --time-column")
     factor, unit = (1.0, "u") if args.units is None else (UNITS[args.units][1], _SI[UNITS[args.units][0]])
-    if args.stream or args.log.suffix.lower() in BINARY_SUFFIXES:
+    if bag and args.units is None:  # sensor_msgs/Imu is SI by definition
+        kinds = {c.strip().split("_")[0] for c in (args.column or "").split(",")}
+        unit = {"gyro": "rad/s", "accel": "m/s^2"}.get(kinds.pop()) if len(kinds) == 1 else None
+        if unit is None:
+            raise InputError(f"--column {args.column!r}: fit gyro and accelerometer fields of a bag separately")
+    if not bag and (args.stream or args.log.suffix.lower() in BINARY_SUFFIXES):
         columns, results, info = _streamed(args, command, grid)
     else:
         columns, values, rate, info = _read(args, command)
         results = [allan_variance(values[:, j], rate_hz=rate, m=grid, progress=args.progress)
                    for j in range(values.shape[1])]
-    info.update(input_units=args.units or "unspecified (u)", unit=unit)
+    info.update(input_units=args.units or (unit if bag else "unspecified (u)"), unit=unit)
     return columns, [_scaled(r, factor) for r in results], unit, info
 
 
@@ -193,9 +201,16 @@ def _streamed(args, command, grid):
 def _read(args, command):
     """Columns read in memory, cut to the usable time base, and the input description."""
     columns = _columns(args, command)
-    data = read_columns(args.log, columns=columns, time_column=args.time_column, progress=args.progress)
-    timebase = check_time(data.time_s, rate_hz=args.rate, gaps=args.gaps, lines=data.lines,
-                          where=f"{args.log}: column {args.time_column!r}", n_samples=data.values.shape[0])
+    if is_bag(args.log):
+        if args.topic is None:
+            raise InputError(f"{args.log}: a ROS bag needs --topic (a sensor_msgs/Imu topic)")
+        data = read_imu_bag(args.log, topic=args.topic, columns=columns)
+        where, what = f"{args.log}: {args.topic} header stamps", "message"
+    else:
+        data = read_columns(args.log, columns=columns, time_column=args.time_column, progress=args.progress)
+        where, what = f"{args.log}: column {args.time_column!r}", "line"
+    timebase = check_time(data.time_s, rate_hz=args.rate, gaps=args.gaps, lines=data.lines, where=where,
+                          n_samples=data.values.shape[0], what=what)
     values = data.values[timebase.start:timebase.stop]
     needed = _MIN_SAMPLES[command]
     if values.shape[0] < needed:

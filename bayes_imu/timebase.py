@@ -69,7 +69,7 @@ class TimeBase:
                 "dropped_samples": self.dropped, "action": self.action}
 
 
-def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n_samples=None):
+def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n_samples=None, what="line"):
     """Sample rate and usable segment from a time column (or from ``rate_hz`` alone).
 
     Parameters
@@ -86,6 +86,8 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
         File (and column) named in the messages.
     n_samples : int
         Number of samples when ``time_s`` is None.
+    what : str
+        What ``lines`` count, in the messages (``"line"`` of a file, ``"message"`` of a bag).
 
     Returns
     -------
@@ -106,14 +108,14 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
     steps = np.diff(t)
     positive = steps[steps > 0]
     if positive.size == 0:
-        raise InputError(f"{where}: time stamps never increase (line {lines[0]}: {float(t[0])!r}); expected seconds")
+        raise InputError(f"{where}: time stamps never increase ({what} {lines[0]}: {float(t[0])!r}); expected seconds")
     step = float(np.median(positive))  # classifies the steps; the rate comes from the segment's span
     bad = ~((steps >= (1 - STEP_TOLERANCE) * step) & (steps <= (1 + STEP_TOLERANCE) * step))
     n_bad = int(np.count_nonzero(bad))
     if n_bad and gaps == "error":
         i = int(np.argmax(bad))
         more = f" ({n_bad - 1} more irregular steps after it)" if n_bad > 1 else ""
-        raise InputError(f"{where}: line {lines[i + 1]}: {_describe(t[i], t[i + 1], step)}{more}; expected steps of "
+        raise InputError(f"{where}: {what} {lines[i + 1]}: {_describe(t[i], t[i + 1], step)}{more}; expected steps of "
                          f"{step:.6g} s; use --gaps longest to fit the longest regular segment")
     # longest run of regular steps: segments are split at every irregular step
     cuts = np.concatenate(([0], np.flatnonzero(bad) + 1, [t.size]))
@@ -128,7 +130,7 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
                          f"{rate_hz:g} Hz; expected them to agree within {RATE_TOLERANCE:.0%} (or give only one)")
     if not n_bad:
         return TimeBase(rate, "time column", 0, t.size, int(lines[0]), int(lines[-1]))
-    action = (f"{n_bad} irregular time steps; used the longest regular segment, lines {lines[start]}-{lines[stop - 1]} "
+    action = (f"{n_bad} irregular time steps; used the longest regular segment, {what}s {lines[start]}-{lines[stop - 1]} "
               f"({stop - start} of {t.size} samples)")
     return TimeBase(rate, "time column", start, stop, int(lines[start]), int(lines[stop - 1]), n_bad,
                     t.size - (stop - start), action)
