@@ -20,6 +20,7 @@ import json
 import logging
 import re
 import sys
+import time
 import warnings
 from pathlib import Path
 
@@ -33,6 +34,7 @@ from .bags import is_bag, read_imu_bag
 from .drift import QUANTITY_ORDER, drift_sigma
 from .errors import BayesIMUError, InputError
 from .io import UNITS, read_columns, read_text
+from .likelihood import LIKELIHOODS
 from .outofcore import BINARY_SUFFIXES
 from .timebase import GAP_POLICIES, check_time
 
@@ -58,10 +60,20 @@ class _Parser(argparse.ArgumentParser):
         raise _UsageError(f"{self.prog}: {message} (see {self.prog} --help)")
 
 
-def _input_options():
-    """Options shared by the commands that read a log."""
+#: options of ``fit`` that ``fit-batch`` forwards to every log: (dest, flag)
+_FORWARDED = (("column", "--column"), ("topic", "--topic"), ("stream", "--stream"), ("rate", "--rate"),
+              ("time_column", "--time-column"), ("gaps", "--gaps"), ("units", "--units"), ("seed", "--seed"),
+              ("terms", "--terms"), ("likelihood", "--likelihood"), ("sensor", "--sensor"), ("horizon", "--horizon"),
+              ("bias_start", "--bias-start"), ("force", "--force"))
+
+
+def _input_options(batch=False):
+    """Options shared by the commands that read logs (``batch``: several logs)."""
     common = _Parser(add_help=False)
-    common.add_argument("log", type=Path, help="delimited text log (CSV, TSV, whitespace; .gz accepted)")
+    if batch:
+        common.add_argument("logs", type=Path, nargs="+", help="logs, all with the same columns and options")
+    else:
+        common.add_argument("log", type=Path, help="log: delimited text (.gz accepted), .npy / raw binary, ROS bag")
     common.add_argument("--column", help="column name or 0-based index (text logs); fit takes a comma list")
     common.add_argument("--topic", help="ROS bag: the sensor_msgs/Imu topic (columns gyro_x ... accel_z)")
     common.add_argument("--stream", action="store_true",
@@ -90,16 +102,16 @@ def _build_parser():
     allan.set_defaults(handler=_cmd_allan)
 
     fit = sub.add_parser("fit", parents=[common], help="Bayesian noise-model fit of columns of a log")
-    fit.add_argument("--seed", type=int, default=0, help="random seed (recorded in the outputs), default 0")
-    fit.add_argument("--terms", default="auto",
-                     help="'auto' (model selection) or a comma-separated list of terms, e.g. white,gauss_markov")
-    fit.add_argument("--likelihood", choices=("correlated", "independent"), default="correlated")
-    fit.add_argument("--sensor", choices=("gyro", "accel"),
-                     help="also write drift.csv / drift.png: attitude (gyro) or velocity and position (accel)")
-    fit.add_argument("--horizon", type=float, default=3600.0, help="longest drift time (s), default 3600")
-    fit.add_argument("--bias-start", choices=("zero", "stationary"), default="zero",
-                     help="bias at the start of the outage: zero (paper) or stationary (conservative)")
+    _fit_options(fit)
     fit.set_defaults(handler=_cmd_fit)
+
+    batch = sub.add_parser("fit-batch", parents=[_input_options(batch=True)],
+                           help="fit many logs in parallel (Dask), one output folder per log")
+    _fit_options(batch)
+    batch.add_argument("--scheduler", help="address of a running Dask scheduler (default: a LocalCluster)")
+    batch.add_argument("--workers", type=int, help="LocalCluster worker processes (default: one per core)")
+    batch.add_argument("--serial", action="store_true", help="no Dask: one log after another in this process")
+    batch.set_defaults(handler=_cmd_fit_batch)
 
     report = sub.add_parser("report", help="conservative drift bounds for several IMUs (scene TOML)")
     report.add_argument("scene", type=Path, help="scene TOML file (see README)")
@@ -359,6 +371,58 @@ def _cmd_kalibr(args):
         write_kalibr_yaml(values, tmp)
     print(f"wrote {args.out} ({values['_mode']})")
     return 0
+
+
+def _fit_options(parser):
+    parser.add_argument("--seed", type=int, default=0, help="random seed (recorded in the outputs), default 0")
+    parser.add_argument("--terms", default="auto",
+                        help="'auto' (model selection) or a comma-separated list of terms, e.g. white,gauss_markov")
+    parser.add_argument("--likelihood", choices=LIKELIHOODS, default=LIKELIHOODS[0])
+    parser.add_argument("--sensor", choices=("gyro", "accel"),
+                        help="also write drift.csv / drift.png: attitude (gyro) or velocity and position (accel)")
+    parser.add_argument("--horizon", type=float, default=3600.0, help="longest drift time (s), default 3600")
+    parser.add_argument("--bias-start", choices=("zero", "stationary"), default="zero",
+                        help="bias at the start of the outage: zero (paper) or stationary (conservative)")
+
+
+def _cmd_fit_batch(args):
+    from .fleet import BatchJob, job_name, run_batch
+
+    if args.out.exists() and (not args.out.is_dir() or (any(args.out.iterdir()) and not args.force)):
+        raise InputError(f"--out {args.out}: exists and is not an empty folder; use --force to replace its logs")
+    names, jobs = [], []
+    for log in args.logs:
+        names.append(job_name(log, names))
+        argv = ["fit", str(log), "--out", str(args.out / names[-1]), "--quiet"]
+        for dest, flag in _FORWARDED:
+            value = getattr(args, dest)
+            if value is True:
+                argv.append(flag)
+            elif value not in (None, False):
+                argv += [flag, str(value)]
+        jobs.append(BatchJob(names[-1], tuple(argv)))
+    args.out.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    scheduler = "serial" if args.serial else args.scheduler
+    results = run_batch(jobs, scheduler=scheduler, n_workers=args.workers, progress=args.progress)
+    seconds = time.perf_counter() - start
+    samples = 0
+    for r in results:
+        if r.status == 0:
+            summary = json.loads((args.out / r.name / "summary.json").read_text())
+            samples += sum(a["n_samples"] for a in summary["axes"].values()) if "axes" in summary else summary["n_samples"]
+    failed = [r for r in results if r.status]
+    doc = {"logs": [dict(r.to_json(), log=str(log)) for r, log in zip(results, args.logs)],
+           "n_logs": len(results), "n_failed": len(failed), "seconds": seconds, "logs_per_minute": 60 * len(results) / seconds,
+           "samples_per_second": samples / seconds, "scheduler": scheduler or "LocalCluster", "seed": args.seed,
+           "bayes_imu_version": __version__}
+    with staged_file(args.out / "batch.json", force=True) as tmp:
+        _write_json(tmp, doc)
+    for r in failed:
+        print(f"bayes-imu: error: {r.name}: {r.error.removeprefix('bayes-imu: error: ')}", file=sys.stderr)
+    _say(args, f"{len(results) - len(failed)} of {len(results)} logs fitted in {seconds:.1f} s "
+               f"({doc['logs_per_minute']:.1f} logs/min); wrote {args.out / 'batch.json'}")
+    return 2 if failed else 0
 
 
 def _read_sensor_json(path):

@@ -1,0 +1,81 @@
+"""Fleets: fit-batch on a small Dask LocalCluster equals serial runs byte for byte; failures isolated."""
+
+import json
+
+import numpy as np
+import pytest
+
+from bayes_imu.cli import main
+
+pytest.importorskip("distributed", reason="the fleet extra (pip install 'bayes_imu[fleet]') is not installed")
+
+
+@pytest.fixture
+def logs(tmp_path, rng):
+    folder = tmp_path / "logs"
+    folder.mkdir()
+    paths = []
+    for k, sigma in enumerate((0.01, 0.02, 0.05)):
+        path = folder / f"unit{k:03d}.csv"
+        path.write_text("gx\n" + "\n".join(f"{v:.8f}" for v in sigma * rng.standard_normal(2**13)) + "\n")
+        paths.append(path)
+    bad = folder / "unit_bad.csv"
+    bad.write_text("gx\n0.1\n0.2\nnan\n0.3\n")
+    return paths, bad
+
+
+OPTIONS = ["--column", "gx", "--rate", "100", "--terms", "white", "--seed", "5", "--units", "deg/s"]
+
+
+def _serial_summaries(tmp_path, paths):
+    out = {}
+    for path in paths:
+        target = tmp_path / "serial" / path.stem
+        assert main(["fit", str(path), *OPTIONS, "--out", str(target), "--quiet"]) == 0
+        out[path.stem] = (target / "summary.json").read_bytes()
+    return out
+
+
+def test_local_cluster_matches_serial_and_isolates_failures(tmp_path, logs, capsys):
+    paths, bad = logs
+    out = tmp_path / "batch"
+    status = main(["fit-batch", *map(str, paths), str(bad), *OPTIONS, "--workers", "2", "--out", str(out), "--quiet"])
+    assert status == 2  # one log failed
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"bayes-imu: error: unit_bad: {bad}: line 4, column 'gx': got 'nan'; expected a finite number"]
+    batch = json.loads((out / "batch.json").read_text())
+    assert [r["status"] for r in batch["logs"]] == [0, 0, 0, 2] and batch["n_failed"] == 1
+    assert batch["scheduler"] == "LocalCluster" and batch["logs_per_minute"] > 0
+    assert len({r["worker"] for r in batch["logs"]}) >= 1 and not (out / "unit_bad").exists()
+    serial = _serial_summaries(tmp_path, paths)
+    for path in paths:  # the same seed gives the same bytes, whichever process ran it
+        assert (out / path.stem / "summary.json").read_bytes().replace(str(out / path.stem).encode(), b"") == \
+            serial[path.stem].replace(str(tmp_path / "serial" / path.stem).encode(), b"")
+
+
+def test_existing_scheduler_and_serial_mode(tmp_path, logs):
+    from dask.distributed import LocalCluster
+
+    paths, _ = logs
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        assert main(["fit-batch", *map(str, paths[:2]), *OPTIONS, "--scheduler", cluster.scheduler_address,
+                     "--out", str(tmp_path / "remote"), "--quiet"]) == 0
+    assert main(["fit-batch", *map(str, paths[:2]), *OPTIONS, "--serial", "--out", str(tmp_path / "local"),
+                 "--quiet"]) == 0
+    for path in paths[:2]:
+        remote = json.loads((tmp_path / "remote" / path.stem / "summary.json").read_text())
+        local = json.loads((tmp_path / "local" / path.stem / "summary.json").read_text())
+        assert remote["parameters"] == local["parameters"]
+    assert json.loads((tmp_path / "local" / "batch.json").read_text())["scheduler"] == "serial"
+
+
+def test_batch_refuses_busy_output_and_bad_scheduler(tmp_path, logs, capsys):
+    paths, _ = logs
+    busy = tmp_path / "busy"
+    busy.mkdir()
+    (busy / "x").write_text("x")
+    assert main(["fit-batch", str(paths[0]), *OPTIONS, "--serial", "--out", str(busy)]) == 2
+    assert "use --force" in capsys.readouterr().err
+    assert main(["fit-batch", str(paths[0]), *OPTIONS, "--scheduler", "tcp://127.0.0.1:1",
+                 "--out", str(tmp_path / "o")]) == 2
+    assert "cannot connect" in capsys.readouterr().err
