@@ -99,10 +99,14 @@ def run_batch(jobs, *, scheduler=None, n_workers=None, progress=False):
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError:
         raise InputError("parallel batches need Dask: pip install 'bayes_imu[fleet]' (or use --serial)") from None
+    import logging
+
+    for name in ("distributed", "tornado"):  # Dask's INFO chatter would drown the command's own lines
+        logging.getLogger(name).setLevel(logging.ERROR)
     with contextlib.ExitStack() as stack:
         if scheduler is None:
             cluster = stack.enter_context(LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                                                       dashboard_address=None))
+                                                       dashboard_address=None, silence_logs=logging.ERROR))
             client = stack.enter_context(Client(cluster))
         else:
             try:

