@@ -8,7 +8,6 @@ folder holds exactly what it held before (no partial folder left behind).
 import gzip
 import hashlib
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
