@@ -33,7 +33,7 @@ from .io import MAX_MAGNITUDE
 
 __all__ = ["allan_variance_file", "BINARY_SUFFIXES"]
 
-BINARY_SUFFIXES = (".npy", ".bin", ".raw", ".f64", ".f32", ".dat")
+BINARY_SUFFIXES = (".npy", ".bin", ".raw", ".f64", ".f32")  # not .dat: text logs use it too (PHASE.DAT)
 _TEXT = (".csv", ".tsv", ".txt", ".gz")
 _ALIGN = 256  # the phase kernel's block: chunk boundaries on multiples keep it bit-identical
 
@@ -46,7 +46,7 @@ def allan_variance_file(path, *, rate_hz, column=None, dtype="<f8", m="octave", 
     Parameters
     ----------
     path : str or Path
-        ``.npy``, raw binary (``.bin``, ``.raw``, ``.f64``, ``.f32``, ``.dat``) or delimited text.
+        ``.npy``, raw binary (``.bin``, ``.raw``, ``.f64``, ``.f32``) or delimited text.
     rate_hz : float
         Sample rate (Hz).
     column : str or int, optional

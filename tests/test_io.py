@@ -141,3 +141,18 @@ def test_same_column_twice_is_refused(tmp_path):
 def test_check_signal_accepts_gravity_offset_tiny_noise(rng):
     """An accelerometer axis reading gravity with micro-g noise is an ordinary signal."""
     check_signal(9.80665 + 1e-7 * rng.standard_normal(1000), where="z")
+
+
+@pytest.mark.parametrize("form", sorted(VALID))
+def test_unusual_but_valid_files_through_the_command(tmp_path, samples, form, capsys):
+    """Exit status 0, nothing on stderr, and the same allan.csv as the plain CSV."""
+    from bayes_imu.cli import main
+
+    plain = tmp_path / "plain.csv"
+    plain.write_text("gx,gy\n" + "\n".join(_rows(samples)) + "\n", encoding="utf-8")
+    path = tmp_path / "log.dat"
+    path.write_bytes(VALID[form](samples))
+    for log, out in ((plain, "a"), (path, "b")):
+        assert main(["allan", str(log), "--column", "gy", "--rate", "100", "--out", str(tmp_path / out), "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+    assert (tmp_path / "a" / "allan.csv").read_text() == (tmp_path / "b" / "allan.csv").read_text()
