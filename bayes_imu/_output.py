@@ -9,6 +9,7 @@ failed run leaves nothing behind. An existing non-empty target is refused unless
 """
 
 import os
+import re
 import shutil
 import tempfile
 from contextlib import contextmanager
@@ -16,7 +17,7 @@ from pathlib import Path
 
 from .errors import InputError
 
-__all__ = ["staged_folder", "staged_file"]
+__all__ = ["staged_folder", "staged_file", "safe_folder_name"]
 
 
 def _check_inputs(target, inputs):
@@ -117,3 +118,11 @@ def staged_file(target, *, force=False, inputs=()):
         _remove_created(created)
         raise
     os.replace(tmp, target)
+
+
+def safe_folder_name(text, taken=()):
+    """A folder name from ``text`` (letters, digits, ``_.-``), made unique against ``taken``."""
+    name = re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("._") or "log"
+    while name in taken:
+        name += "_"
+    return name

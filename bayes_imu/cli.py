@@ -17,7 +17,6 @@ Exit status: 0 success, 2 a user error (one line on stderr, no traceback unless
 import argparse
 import json
 import logging
-import re
 import sys
 import time
 import warnings
@@ -26,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from ._output import staged_file, staged_folder
+from ._output import safe_folder_name, staged_file, staged_folder
 from ._progress import show_progress
 from ._sources import allan_results
 from .drift import QUANTITY_ORDER, drift_sigma
@@ -178,10 +177,7 @@ def _cmd_fit(args):
 def _folder_names(columns):
     names = []
     for c in columns:
-        name = re.sub(r"[^A-Za-z0-9_.-]+", "_", c).strip("._") or "column"
-        while name in names:
-            name += "_"
-        names.append(name)
+        names.append(safe_folder_name(c, names))
     return names
 
 

@@ -11,10 +11,10 @@ Dask is an optional dependency (``pip install 'bayes_imu[fleet]'``), imported on
 
 import contextlib
 import io
-import re
 import time
 from dataclasses import asdict, dataclass
 
+from ._output import safe_folder_name
 from .errors import InputError
 
 __all__ = ["BatchJob", "JobResult", "run_batch", "job_name"]
@@ -47,10 +47,7 @@ def job_name(path, taken):
     stem = path.name
     for suffix in (".gz", ".csv", ".tsv", ".txt", ".npy", ".bag", ".f64", ".f32", ".bin", ".raw"):
         stem = stem.removesuffix(suffix)
-    name = re.sub(r"[^A-Za-z0-9_.-]+", "_", stem).strip("._") or "log"
-    while name in taken:
-        name += "_"
-    return name
+    return safe_folder_name(stem, taken)
 
 
 def run_job(job):
