@@ -71,6 +71,11 @@ class AllanResult:
     n_samples: int
 
     @property
+    def duration_s(self):
+        """Length of the record (s): ``n_samples / rate_hz``."""
+        return self.n_samples / self.rate_hz
+
+    @property
     def adev_low(self):
         """Lower end of the interval on the Allan deviation (units)."""
         return np.sqrt(self.avar_low)

@@ -174,6 +174,6 @@ def drift_bands(fit, t=None, *, quantity, bias_start="zero", quantiles=(0.05, 0.
     bias = np.median(draws["bias"][sub], axis=0)
     above = np.flatnonzero(bias > white)
     crossover = float(draws["t_s"][above[0]]) if above.size else float("nan")
-    record = fit.allan.n_samples / fit.allan.rate_hz if fit.allan is not None else float("nan")
+    record = fit.allan.duration_s if fit.allan is not None else float("nan")
     return DriftBands(draws["t_s"], quantity, q, np.quantile(draws["total"], q, axis=0), white, bias, crossover,
                       bias_start, record)

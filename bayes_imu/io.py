@@ -24,8 +24,8 @@ import numpy as np
 from ._progress import progress_bar
 from .errors import InputError
 
-__all__ = ["LogData", "read_log", "read_columns", "read_text", "check_signal", "positive_number", "UNITS", "to_si",
-           "MAX_MAGNITUDE"]
+__all__ = ["LogData", "read_log", "read_columns", "read_text", "check_signal", "SignalExtent", "positive_number",
+           "UNITS", "to_si", "MAX_MAGNITUDE"]
 
 #: input units and their factor to SI (rad/s for rates, m/s^2 for specific force)
 UNITS = {
@@ -166,20 +166,46 @@ def read_columns(path, *, columns, time_column=None, progress=False):
 
 def check_signal(values, *, where):
     """Reject a signal no Allan variance can be computed from: empty, constant, absurd magnitude."""
-    if values.size == 0:
-        raise InputError(f"{where}: no samples")
-    big = float(np.max(np.abs(values)))
-    if big > MAX_MAGNITUDE:
-        row = int(np.argmax(np.abs(values)))
-        raise InputError(f"{where}: sample {row + 1} is {float(values[row])!r}; expected |value| <= {MAX_MAGNITUDE:g} "
-                         "(a rate or specific force; larger values overflow the Allan variance)")
-    spread = float(np.max(values) - np.min(values))
-    if spread == 0.0:
-        raise InputError(f"{where}: constant signal (all {values.size} samples are {float(values[0])!r}); "
-                         "expected a varying sensor output")
-    if spread < _MIN_SPREAD:
-        raise InputError(f"{where}: samples vary by only {spread:g}; expected a spread above {_MIN_SPREAD:g} "
-                         "(smaller values underflow the Allan variance: rescale the column)")
+    SignalExtent().update(values).check(where)
+
+
+class SignalExtent:
+    """Running extent of a signal, so that :func:`check_signal` also works chunk by chunk.
+
+    ``update(chunk, start)`` for each chunk (``start``: index of its first sample), then
+    ``check(where)`` raises the one-line :class:`InputError` of an empty, constant,
+    overflowing or underflowing signal.
+    """
+
+    def __init__(self):
+        self.n, self.low, self.high = 0, np.inf, -np.inf
+        self.big, self.big_index, self.big_value, self.first = 0.0, 0, 0.0, None
+
+    def update(self, values, start=0):
+        if values.size == 0:
+            return self
+        if self.first is None:
+            self.first = float(values[0])
+        i = int(np.argmax(np.abs(values)))
+        if abs(values[i]) > self.big:
+            self.big, self.big_index, self.big_value = float(abs(values[i])), start + i, float(values[i])
+        self.low, self.high = min(self.low, float(values.min())), max(self.high, float(values.max()))
+        self.n += values.size
+        return self
+
+    def check(self, where):
+        if self.n == 0:
+            raise InputError(f"{where}: no samples")
+        if self.big > MAX_MAGNITUDE:
+            raise InputError(f"{where}: sample {self.big_index + 1} is {self.big_value!r}; expected |value| <= "
+                             f"{MAX_MAGNITUDE:g} (a rate or specific force; larger values overflow the Allan variance)")
+        spread = self.high - self.low
+        if spread == 0.0:
+            raise InputError(f"{where}: constant signal (all {self.n} samples are {self.first!r}); "
+                             "expected a varying sensor output")
+        if spread < _MIN_SPREAD:
+            raise InputError(f"{where}: samples vary by only {spread:g}; expected a spread above {_MIN_SPREAD:g} "
+                             "(smaller values underflow the Allan variance: rescale the column)")
 
 
 def _open_binary(path):
@@ -292,20 +318,12 @@ def _parse(path, fmt, usecols, progress):
     """Fast path: pandas' C reader on the selected columns; anything odd goes to :func:`_diagnose`."""
     import pandas as pd
 
-    sep = r"\s+" if fmt["delimiter"] is None else fmt["delimiter"]
-    # every column is tokenised (with usecols, pandas would drop the extra fields of a
-    # too-long row silently); only the wanted ones are converted, so text elsewhere is fine
-    n_fields = len(fmt["names"])
     with progress_bar(total=path.stat().st_size, desc=f"reading {path.name}", unit="B", enabled=progress) as bar:
         stream, raw = _open_binary(path)
         try:
             with raw:
-                frame = pd.read_csv(
-                    io.BufferedReader(_Counting(stream, raw, bar), buffer_size=1 << 20), encoding="utf-8-sig",
-                    sep=sep, header=0 if fmt["header"] else None, names=range(n_fields),
-                    dtype={i: np.float64 for i in usecols},
-                    comment="#", skip_blank_lines=True, skipinitialspace=True, engine="c", low_memory=False,
-                )
+                frame = pd.read_csv(io.BufferedReader(_Counting(stream, raw, bar), buffer_size=1 << 20),
+                                    low_memory=False, **csv_options(fmt, usecols))
         except (ValueError, pd.errors.ParserError, UnicodeDecodeError):
             _diagnose(path, fmt, usecols)
         except (OSError, EOFError, zlib.error) as exc:
@@ -316,6 +334,18 @@ def _parse(path, fmt, usecols, progress):
     if not np.all(np.isfinite(table)):  # NaN: also a too-short row that leaves a wanted field empty
         _diagnose(path, fmt, usecols)
     return table
+
+
+def csv_options(fmt, usecols):
+    """``pandas.read_csv`` options for a sniffed format, converting the columns ``usecols``.
+
+    Every column is tokenised (with ``usecols``, pandas would drop the extra fields of a
+    too-long row silently); only the wanted ones are converted, so text elsewhere is fine.
+    """
+    return {"encoding": "utf-8-sig", "sep": r"\s+" if fmt["delimiter"] is None else fmt["delimiter"],
+            "header": 0 if fmt["header"] else None, "names": range(len(fmt["names"])),
+            "dtype": {i: np.float64 for i in usecols}, "comment": "#", "skip_blank_lines": True,
+            "skipinitialspace": True, "engine": "c"}
 
 
 class _Counting(io.RawIOBase):

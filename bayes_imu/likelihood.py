@@ -119,7 +119,7 @@ class LogPosterior:
         k = allan.m.size
         if kind == "independent":
             shape = allan.edf / 2.0
-            norm = float(np.sum(shape * np.log(shape) - special.gammaln(shape) + (shape - 1.0) * log_avar))
+            norm = _gamma_norm(shape, log_avar)
             return cls(model, bounds, allan.m, log_avar, kind, np.eye(k), np.zeros(k), shape, norm)
         if reference is None:
             raise InputError(f"likelihood={kind!r} needs a reference parameter point")
@@ -141,8 +141,7 @@ class LogPosterior:
             # the log density of the copula is -log|R|/2 - z'(R^-1 - I)z/2 (whiten = R^-1 - I)
             shape = nu / 2.0
             chol = np.linalg.cholesky(rho)
-            norm = float(np.sum(shape * np.log(shape) - special.gammaln(shape) + (shape - 1.0) * log_avar)
-                         - np.sum(np.log(np.diag(chol))))
+            norm = _gamma_norm(shape, log_avar) - float(np.sum(np.log(np.diag(chol))))
             precision = np.linalg.inv(rho) - np.eye(k)
             return cls(model, bounds, allan.m, log_avar, "copula", precision, np.zeros(k), shape, norm)
         trig = special.polygamma(1, nu / 2.0)
@@ -151,7 +150,7 @@ class LogPosterior:
         whiten = np.linalg.inv(chol)
         offset = special.digamma(nu / 2.0) - np.log(nu / 2.0)
         norm = float(-np.sum(np.log(np.diag(chol))) - 0.5 * k * np.log(2.0 * np.pi))
-        return cls(model, bounds, allan.m, np.log(allan.avar), "correlated", whiten, offset, nu / 2.0, norm)
+        return cls(model, bounds, allan.m, log_avar, "correlated", whiten, offset, nu / 2.0, norm)
 
     @property
     def n_par(self):
@@ -196,6 +195,11 @@ class LogPosterior:
         if np.any(ok):
             out[ok] = lp[ok] + self.log_likelihood(log_theta[ok])
         return out
+
+
+def _gamma_norm(shape, log_avar):
+    """Constant part of the gamma(shape, AVAR / shape) log density of the observed AVARs."""
+    return float(np.sum(shape * np.log(shape) - special.gammaln(shape) + (shape - 1.0) * log_avar))
 
 
 def _normal_scores(shape, y):

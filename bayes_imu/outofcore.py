@@ -29,7 +29,7 @@ from ._kernels import phase_chunk, second_difference_sum
 from ._progress import progress_bar
 from .allan import assemble_result, check_options, cluster_sizes, identification_span, noise_from_phase_samples
 from .errors import InputError
-from .io import MAX_MAGNITUDE
+from .io import SignalExtent
 
 __all__ = ["allan_variance_file", "BINARY_SUFFIXES"]
 
@@ -138,15 +138,12 @@ class _Source:
     def _text_chunks(self):
         import pandas as pd
 
-        from .io import _diagnose, _open_binary
+        from .io import _diagnose, _open_binary, csv_options
 
-        sep = r"\s+" if self.fmt["delimiter"] is None else self.fmt["delimiter"]
         stream, raw = _open_binary(self.path)
         done = 0
         with raw:
-            reader = pd.read_csv(stream, encoding="utf-8-sig", sep=sep, header=0 if self.fmt["header"] else None,
-                                 names=range(len(self.fmt["names"])), dtype={self.index: np.float64}, comment="#",
-                                 skip_blank_lines=True, skipinitialspace=True, engine="c", chunksize=self.chunk)
+            reader = pd.read_csv(stream, chunksize=self.chunk, **csv_options(self.fmt, [self.index]))
             try:
                 for frame in reader:
                     values = frame[self.index].to_numpy(dtype=np.float64)
@@ -177,8 +174,8 @@ def _npy_layout(path):
 
 def _first_pass(source):
     """Sample count and mean (compensated sum of chunk sums), with the checks of io.check_signal."""
-    n, total, comp = 0, 0.0, 0.0
-    low, high, big = np.inf, -np.inf, 0.0
+    total, comp = 0.0, 0.0
+    extent = SignalExtent()
     for start, values in source:
         bad = ~np.isfinite(values)
         if bad.any():
@@ -188,16 +185,9 @@ def _first_pass(source):
         t = total + s  # Neumaier summation of the chunk sums
         comp += (total - t) + s if abs(total) >= abs(s) else (s - t) + total
         total = t
-        n += values.size
-        low, high = min(low, float(values.min())), max(high, float(values.max()))
-        big = max(big, float(np.max(np.abs(values))))
-    if n == 0:
-        raise InputError(f"{source.path}: no samples")
-    if big > MAX_MAGNITUDE:
-        raise InputError(f"{source.path}: a sample of magnitude {big:g}; expected |value| <= {MAX_MAGNITUDE:g}")
-    if high == low:
-        raise InputError(f"{source.path}: constant signal (all {n} samples are {low!r}); expected a varying sensor output")
-    return n, (total + comp) / n
+        extent.update(values, start)
+    extent.check(str(source.path))
+    return extent.n, (total + comp) / extent.n
 
 
 def _write_phase(source, mean, phase_path, ms, spans, bar):

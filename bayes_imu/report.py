@@ -196,9 +196,8 @@ def build_report(scene, *, rng=None):
         bounds, bands = [], []
         for quantity in SENSOR_QUANTITIES[spec.kind]:
             bound, median = _bound(fit, np.array(scene.outages_s), quantity, scene.credibility, scene.bias_start)
-            record = fit.allan.n_samples / fit.allan.rate_hz
             bounds += [{"outage_s": t, "quantity": quantity, "bound": float(b), "median": float(m),
-                        "unit": OUTPUT_UNITS[quantity], "extrapolated": bool(t > record)}
+                        "unit": OUTPUT_UNITS[quantity], "extrapolated": bool(t > fit.allan.duration_s)}
                        for t, b, m in zip(scene.outages_s, bound, median)]
             horizon = max(scene.outages_s) * 2.0
             bands.append(drift_bands(fit, quantity=quantity, bias_start=scene.bias_start, horizon_s=horizon,

@@ -154,7 +154,7 @@ requirement: {html.escape(req_text)}; bias start: {scene.bias_start}; sensors: {
 
 
 def _beyond_log(sensor):
-    record = sensor.fit.allan.n_samples / sensor.fit.allan.rate_hz
+    record = sensor.fit.allan.duration_s
     return f" (beyond its {_fmt_time(record)} log: extrapolated)" if sensor.max_outage_s > record else ""
 
 

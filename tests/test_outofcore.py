@@ -63,6 +63,8 @@ def test_float32_all_grid_and_progress(tmp_path, samples, capsys):
     (lambda p: p.with_suffix(".f64").write_bytes(b"\0" * 20), {}, "not a whole number of float64 samples"),
     (lambda p: np.array([1.0, np.nan, 2.0] * 20).tofile(p.with_suffix(".f64")), {}, "sample 2 is nan"),
     (lambda p: np.full(100, 3.0).tofile(p.with_suffix(".f64")), {}, "constant signal"),
+    (lambda p: np.array([1e-300, 2e-300, 0.0] * 20).tofile(p.with_suffix(".f64")), {}, "underflow the Allan variance"),
+    (lambda p: np.array([1.0, 2e150, 3.0] * 20).tofile(p.with_suffix(".f64")), {}, r"sample 2 is 2e\+150; expected"),
     (lambda p: np.array([1.0, 2.0, 3.0]).tofile(p.with_suffix(".f64")), {}, "too few for an Allan variance"),
     (lambda p: p.with_suffix(".csv").write_text("a\n1\n2\n3\n4\n5\n"), {}, "needs a column"),
     (lambda p: p.with_suffix(".csv").write_text("a\n1\nx\n3\n4\n5\n"), {"column": "a"}, "line 3, column 'a': got 'x'"),
