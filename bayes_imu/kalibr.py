@@ -45,20 +45,19 @@ def _summary(folder):
 
 
 def _axis_folders(folders):
-    """Fit folders, with a several-column fit (``summary.json`` with ``axes``) expanded to its axes."""
+    """``(folder, summary)`` of each fitted axis: a several-column fit (``axes``) expands to its axes."""
     out = []
     for folder in folders:
         summary = _summary(folder)
         if "axes" in summary:
-            out += [folder / axis["folder"] for axis in summary["axes"].values()]
+            out += [(folder / axis["folder"], _summary(folder / axis["folder"])) for axis in summary["axes"].values()]
         else:
-            out.append(folder)
+            out.append((folder, summary))
     return out
 
 
-def _load(folder):
+def _load(folder, summary):
     summary_path = folder / "summary.json"
-    summary = _summary(folder)
     unit = summary.get("unit")
     if unit not in UNITS:
         raise InputError(f"{summary_path}: unit {unit!r}: expected one of {', '.join(UNITS)} (rerun fit with --units)")
@@ -69,7 +68,7 @@ def _load(folder):
     except (OSError, ValueError) as exc:
         raise InputError(f"{folder / 'posterior.nc'}: cannot read ({exc})") from None
     draws = {name: posterior[name].values.reshape(-1) for name in summary["parameters"] if name in posterior}
-    return summary, draws, UNITS[unit]
+    return draws, UNITS[unit]
 
 
 def axis_densities(summary, draws, factor):
@@ -97,8 +96,8 @@ def kalibr_values(gyro_dirs, accel_dirs, *, credibility=None):
     out, rates = {}, set()
     for kind, dirs, want in (("gyroscope", gyro_dirs, "gyro"), ("accelerometer", accel_dirs, "accel")):
         dens, walk = [], []
-        for folder in _axis_folders(dirs):
-            summary, draws, (unit_kind, factor) = _load(folder)
+        for folder, summary in _axis_folders(dirs):
+            draws, (unit_kind, factor) = _load(folder, summary)
             if unit_kind != want:
                 raise InputError(f"{folder}: unit {summary['unit']!r} is not a {want} unit")
             d, w = axis_densities(summary, draws, factor)

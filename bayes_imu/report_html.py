@@ -41,7 +41,11 @@ ASSUMPTIONS = (
 def _png(fig_function, *args, **kwargs):
     buffer = io.BytesIO()
     fig_function(*args, buffer, **kwargs)
-    return "data:image/png;base64," + base64.b64encode(buffer.getvalue()).decode("ascii")
+    return _data_uri(buffer.getvalue())
+
+
+def _data_uri(png):
+    return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
 
 
 def _comparison_figure(report, target):
@@ -113,10 +117,7 @@ def report_html(report, comparison_png=None):
     cred = scene.credibility
     req = scene.requirement
     req_text = (f"{req['quantity']} error (1-sigma) at most {req['max_error']:g} {req['unit']}" if req else "none")
-    if comparison_png is None:
-        comparison = _png(_comparison_figure, report)
-    else:
-        comparison = "data:image/png;base64," + base64.b64encode(comparison_png).decode("ascii")
+    comparison = _png(_comparison_figure, report) if comparison_png is None else _data_uri(comparison_png)
     bound_rows = []
     for s in report.sensors:
         for b in s.bounds:
