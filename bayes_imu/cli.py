@@ -28,6 +28,7 @@ from . import __version__
 from ._output import safe_folder_name, staged_file, staged_folder
 from ._progress import show_progress
 from ._sources import allan_results
+from .bands import SENSOR_QUANTITIES
 from .drift import QUANTITY_ORDER, drift_sigma
 from .errors import BayesIMUError, InputError
 from .io import UNITS, read_text
@@ -37,7 +38,6 @@ from .timebase import GAP_POLICIES
 __all__ = ["main"]
 
 log = logging.getLogger("bayes_imu")
-_SENSOR_QUANTITIES = {"gyro": ("attitude",), "accel": ("velocity", "position")}
 #: amplitude parameters reported per axis as worst-axis conservative values (the time
 #: constant is not monotone in the drift, so it has no "worst" direction)
 _AMPLITUDES = ("noise_variance", "noise_density", "quantization", "bias_instability", "bias_variance",
@@ -334,7 +334,7 @@ def _read_sensor_json(path):
     for key in ("rate_hz", "kind", "noise_density"):
         if key not in spec:
             raise InputError(f"{path}: missing key {key!r}")
-    if spec["kind"] not in _SENSOR_QUANTITIES:
+    if spec["kind"] not in SENSOR_QUANTITIES:
         raise InputError(f"{path}: kind={spec['kind']!r}: expected 'gyro' or 'accel'")
     return spec
 
@@ -357,7 +357,7 @@ def _cmd_drift(args):
         raise InputError(f"--horizon={args.horizon!r}: expected a time (s) longer than one sample ({dt} s)")
     t = np.unique(np.round(np.geomspace(dt, args.horizon, 200) / dt)) * dt
     rows = []
-    for quantity in _SENSOR_QUANTITIES[spec["kind"]]:
+    for quantity in SENSOR_QUANTITIES[spec["kind"]]:
         result = drift_sigma(
             t, quantity=quantity, dt=dt,
             noise_density=_positive_float(args.sensor, spec, "noise_density"),
@@ -372,7 +372,7 @@ def _cmd_drift(args):
     lines += [f"{ti:.6g},{q},{w:.9g},{b:.9g},{r:.9g},{tot:.9g}" for ti, q, w, b, r, tot in rows]
     with staged_folder(args.out, force=args.force, inputs=[args.sensor]) as tmp:
         (tmp / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    for quantity in _SENSOR_QUANTITIES[spec["kind"]]:
+    for quantity in SENSOR_QUANTITIES[spec["kind"]]:
         last = [row for row in rows if row[1] == quantity][-1]
         unit = {"attitude": "rad", "velocity": "m/s", "position": "m"}[quantity]
         print(f"{quantity}: 1-sigma drift after {last[0]:g} s = {last[5]:.4g} {unit} (order {QUANTITY_ORDER[quantity]})")
