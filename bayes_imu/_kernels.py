@@ -28,14 +28,12 @@ def _compile():
     def pair_sums(table, ms, n, h, s2, x):
         k = ms.size
         out = np.zeros((k, k))
-        phi = np.exp(-x)
-        one_minus_phi = -np.expm1(-x)
         for idx in numba.prange(k * k):
             ia = idx // k
             ib = idx % k
             if ib < ia:
                 continue
-            out[ia, ib] = _pair_sum(table, ms[ia], ms[ib], n, h, s2, x, phi, one_minus_phi)
+            out[ia, ib] = _pair_sum(table, ms[ia], ms[ib], n, h, s2, x)
             out[ib, ia] = out[ia, ib]
         return out
 
@@ -88,8 +86,11 @@ def _compile():
     return _compiled
 
 
-def _pair_sum_py(table, a, b, n, h, s2, x, phi, one_minus_phi):
-    """``sum_l n(l) c(l)^2`` for one pair of cluster sizes (see :mod:`bayes_imu.avar_covariance`)."""
+def _pair_sum_py(table, a, b, n, h, s2, x):
+    """``sum_l n(l) c(l)^2`` for one pair of cluster sizes (see :mod:`bayes_imu.avar_covariance`).
+
+    ``s2`` and ``x`` are arrays over the model's Gauss-Markov components (variance and dt/T).
+    """
     ma = n - 2 * a + 1
     mb = n - 2 * b + 1
     total = 0.0
@@ -106,32 +107,51 @@ def _pair_sum_py(table, a, b, n, h, s2, x, phi, one_minus_phi):
                 c += wa * wb * table[abs(p * a - q * b - l)]
         c *= -0.5
         total += cnt * c * c
-    if s2 == 0.0 and h == 0.0:
+    n_gm = s2.size
+    if n_gm == 0 and h == 0.0:
         return total
-    # outside the window: exact geometric Gauss-Markov part, asymptotic flicker part
-    ga = -np.expm1(-a * x) / one_minus_phi
-    gb = -np.expm1(-b * x) / one_minus_phi
-    amp = s2 * phi * (ga * one_minus_phi) ** 2 * (gb * one_minus_phi) ** 2 / one_minus_phi**2
+    # outside the window: exact geometric Gauss-Markov parts, asymptotic flicker part
+    amp = np.empty(n_gm)
+    for g in range(n_gm):
+        one_minus_phi = -np.expm1(-x[g])
+        phi = 1.0 - one_minus_phi
+        amp[g] = s2[g] * phi * (-np.expm1(-a * x[g])) ** 2 * (-np.expm1(-b * x[g])) ** 2 / one_minus_phi**2
     for side in range(2):
         start = 2 * a + 1 if side == 0 else 2 * b + 1
         lag = start
         while True:
             # the tail summand is smooth (geometric and ~lc^-4): midpoint rule with steps
-            # <= lc/64 and <= 0.1 T/dt (relative error ~1e-4)
+            # <= lc/64 and <= 0.1 T/dt for every Gauss-Markov part still above 1e-9 of the
+            # summand (relative error ~1e-4)
             lc0 = lag + (b - a if side == 0 else a - b)
-            step = max(1, int(min(lc0 / 64.0, 0.1 / x if s2 > 0.0 else 1e18)))
+            mid0 = lag
+            geo0 = 0.0
+            for g in range(n_gm):
+                geo0 += amp[g] * np.exp(-(mid0 - start + 1.0) * x[g])
+            c0 = geo0 + h * (float(a) * a) * (float(b) * b) / (lc0 * lc0)
+            limit = lc0 / 64.0
+            decay = 0.0
+            for g in range(n_gm):
+                part = amp[g] * np.exp(-(mid0 - start + 1.0) * x[g])
+                if part > 1e-9 * c0:
+                    limit = min(limit, 0.1 / x[g])
+                    decay = max(decay, 1.0 - np.exp(-2.0 * x[g]))
+            step = max(1, int(limit))
             mid = lag + 0.5 * (step - 1)
             l = mid if side == 0 else -mid
             cnt = min(ma, mb - l) - max(0.0, -l)
             if cnt <= 0:
                 break
             lc = mid + (b - a if side == 0 else a - b)
-            geo = amp * np.exp(-(mid - start + 1.0) * x) if s2 > 0.0 else 0.0
+            geo = 0.0
+            for g in range(n_gm):
+                geo += amp[g] * np.exp(-(mid - start + 1.0) * x[g])
             c = -geo - h * (float(a) * a) * (float(b) * b) / (lc * lc)
             term = step * cnt * c * c
             total += term
             # stop when a bound on the remainder is negligible: geometric (GM) or ~ l^-4 (flicker)
-            if term / step * min(cnt, mid + 1.0 / (1.0 - phi * phi)) <= 1e-12 * total:
+            reach = mid + 1.0 / (decay if decay > 0.0 else -np.expm1(-2.0))
+            if term / step * min(cnt, reach) <= 1e-12 * total:
                 break
             lag += step
     return total
@@ -180,8 +200,9 @@ def avar_pair_sums(table, ms, n, h, s2, x):
     """Lag sums ``sum_l n(l) c(l)^2`` for every pair of cluster sizes (symmetric matrix).
 
     ``table[k] = D(k)`` is the model's phase structure function for ``0 <= k <= 4 max(ms)``;
-    ``h`` the flicker level ``B^2/pi``, ``s2`` and ``x = dt/T`` the Gauss-Markov term (0 and
-    1 when absent).
+    ``h`` the flicker level ``B^2/pi``; ``s2`` and ``x = dt/T`` arrays over the Gauss-Markov
+    components (empty when there are none).
     """
     return _compile()["pair_sums"](np.ascontiguousarray(table, dtype=float),
-                                    np.ascontiguousarray(ms, dtype=np.int64), int(n), float(h), float(s2), float(x))
+                                    np.ascontiguousarray(ms, dtype=np.int64), int(n), float(h),
+                                    np.ascontiguousarray(s2, dtype=float), np.ascontiguousarray(x, dtype=float))

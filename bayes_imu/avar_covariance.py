@@ -26,7 +26,7 @@ of an octave grid on 1e6 samples at ~0.1 s.
 import numpy as np
 
 from ._kernels import avar_pair_sums
-from .models import NoiseModel
+from .noise import NoiseModel
 
 __all__ = ["avar_covariance", "equivalent_dof"]
 
@@ -55,12 +55,10 @@ def avar_covariance(model, params, m, n_samples):
     n = int(n_samples)
     kmax = int(4 * ms.max() + 2)
     table = np.asarray(model.structure_function(np.arange(kmax + 1), params), dtype=float)
-    h = params["bias_instability"] ** 2 / np.pi if "bias_instability" in model.terms else 0.0
-    if "gauss_markov" in model.terms:
-        s2 = float(params["bias_variance"])
-        x = model.dt / float(params["time_constant"])
-    else:
-        s2, x = 0.0, 1.0
+    h = sum(t.flicker_level(params) for t in model.components)
+    gm = [c for t in model.components for c in t.gm_components(params, model.dt) if c[0] > 0.0]
+    s2 = np.array([c[0] for c in gm])
+    x = np.array([c[1] for c in gm])
     sums = avar_pair_sums(table, ms, n, h, s2, x)
     mf = ms.astype(float)
     terms = (n - 2 * mf + 1).astype(float)

@@ -1,34 +1,35 @@
 """Drift credible bands: posterior draws pushed through the integrated-noise variances.
 
-Each posterior draw of a :class:`~bayes_imu.fit.FitResult` gives a 1-sigma drift curve
-``sigma(t)`` of the integrated quantity (attitude from a gyro; velocity and position from
-an accelerometer) from the exact, stable formulas of :func:`bayes_imu.drift.drift_sigma`
-at the log's sample interval; the bands are pointwise posterior quantiles of ``sigma(t)``.
+Each posterior draw gives a 1-sigma drift curve ``sigma(t)`` of the integrated quantity
+(attitude from a gyro; velocity and position from an accelerometer): the sum over the
+model's terms of each term's exact drift variance (:meth:`bayes_imu.noise.Term.drift_variance`,
+paper eqs 5, 11, 16, 22, 29 corrected, and the exact forms of the other terms). The bands
+are pointwise posterior quantiles of ``sigma(t)``.
 
-Terms and their drift (variances add; ``k = t/dt`` samples):
+Model uncertainty: by default (``models="averaged"``) the draws come from every candidate
+model in proportion to its posterior probability (:attr:`bayes_imu.fit.FitResult.mixture`);
+``models="selected"`` uses the selected model alone.
 
-* ``white``, ``gauss_markov``, ``random_walk``: :func:`~bayes_imu.drift.drift_sigma`
-  (paper eqs 5, 11, 16, 22, 29 corrected; bias started at zero or stationary);
-* ``quantization`` (white angle / velocity noise of std ``Q``): exact, ``2 Q^2`` for a
-  single integral, ``Q^2 dt^2 k (k + 1)`` for the double integral;
-* ``bias_instability`` (flicker): it has no stationary drift variance (the process is not
-  stationary), so it is bounded conservatively as a constant residual bias of standard
-  deviation equal to its Allan deviation plateau ``B sqrt(2 ln2 / pi)``: ``sigma = b t``
-  (single integral), ``b t^2 / 2`` (double). This is stated in every report.
+Bias semantics (``bias_start``, :mod:`bayes_imu.noise._base`): ``"zero"`` (the paper),
+``"stationary"`` and ``"calibrated"`` (the bias estimated as the mean of the
+``calibration_s`` seconds before the outage; the conservative, actionable default of reports).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._euler import drift_grid, gm_sum
-from .drift import QUANTITY_ORDER, euler_variance
+from .drift import QUANTITY_ORDER
 from .errors import InputError
+from .noise import BIAS_STARTS, REGISTRY, TERMS, NoiseModel
 
-__all__ = ["SENSOR_QUANTITIES", "DriftBands", "drift_bands", "drift_draws", "default_times", "integrated_unit"]
+__all__ = ["SENSOR_QUANTITIES", "MODEL_CHOICES", "DEFAULT_CALIBRATION_S", "DriftBands", "drift_bands", "drift_draws",
+           "default_times", "integrated_unit", "model_draws"]
 
 SENSOR_QUANTITIES = {"gyro": ("attitude",), "accel": ("velocity", "position")}
-_FLICKER_PLATEAU = np.sqrt(2.0 * np.log(2.0) / np.pi)
+MODEL_CHOICES = ("averaged", "selected")
+#: default calibration window of the calibrated bias start [s]
+DEFAULT_CALIBRATION_S = 60.0
 
 
 @dataclass(frozen=True)
@@ -41,15 +42,21 @@ class DriftBands:
     quantity : str
     quantiles : (n_q,) probabilities.
     total : (n_q, n_t) quantiles of the total 1-sigma drift [unit x s^order].
-    white, bias : (n_t,) posterior medians of the white-noise part and of the bias part
-        (Gauss-Markov, random walk, bias instability), from at most 1000 evenly spaced draws
+    white, bias : (n_t,) posterior medians of the short-term part (white, filtered white,
+        quantization, high-frequency correlated) and of the rest (biases, random walk, ramp)
         (display aids; the bands themselves use every draw).
     crossover_s : float
-        First time where the median bias part exceeds the median white part (``nan`` if never).
+        First time where the median of the rest exceeds the median short-term part (``nan`` if never).
     bias_start : str
     record_s : float
         Duration of the fitted log (s); bands beyond it extrapolate the model (terms slower
         than the record, a long time constant or a random walk, are not identified there).
+    terms : dict
+        Term name -> ``(n_t,)`` posterior median of its 1-sigma contribution.
+    calibration_s : float
+        Calibration window of ``bias_start="calibrated"`` (s), else ``nan``.
+    models : str
+        ``"averaged"`` or ``"selected"``.
     """
 
     t_s: np.ndarray
@@ -61,6 +68,9 @@ class DriftBands:
     crossover_s: float
     bias_start: str
     record_s: float = float("nan")
+    terms: dict = field(default_factory=dict)
+    calibration_s: float = float("nan")
+    models: str = "selected"
 
     @property
     def extrapolated(self):
@@ -97,65 +107,91 @@ def default_times(dt, horizon_s=3600.0, n=60):
     return k * dt
 
 
-def drift_draws(fit, t, *, quantity, bias_start="zero", max_draws=None, rng=None, white_draws=slice(None)):
-    """Per-draw 1-sigma drift: dict with ``t_s`` and ``total``, ``white``, ``bias`` arrays ``(n_draws, n_t)``.
+def model_draws(fit, models="averaged"):
+    """``[(NoiseModel, samples), ...]``: the mixture of candidates (``"averaged"``) or the selected model."""
+    if models not in MODEL_CHOICES:
+        raise InputError(f"models={models!r}: expected one of {', '.join(MODEL_CHOICES)}")
+    if models == "selected" or not getattr(fit, "mixture", ()):
+        return [(fit.model, fit.samples)]
+    return [(NoiseModel(c.terms, fit.model.dt), c.samples) for c in fit.mixture]
 
-    ``white`` is computed for the draws selected by ``white_draws`` only (default all).
-    One compiled pass over draws x times (:func:`bayes_imu._euler.drift_grid`), the same
-    exact, stable formulas as :func:`bayes_imu.drift.drift_sigma` (tests compare them).
+
+def _check_times(t):
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    if t.ndim != 1 or np.any(~np.isfinite(t) | (t < 0)):
+        raise InputError("t: expected a 1-D array of finite times >= 0 (s)")
+    return t
+
+
+def drift_draws(fit, t, *, quantity, bias_start="zero", calibration_s=DEFAULT_CALIBRATION_S, models="averaged",
+                max_draws=None, rng=None):
+    """Per-draw 1-sigma drift of ``quantity`` at times ``t`` [s].
+
+    Returns
+    -------
+    dict
+        ``t_s`` (whole samples), ``total``, ``white`` (short-term part), ``bias`` (the rest),
+        each ``(n_draws, n_t)`` [unit x s^order], and ``terms``: name -> 1-sigma
+        contribution ``(n_draws, n_t)`` (zero for draws of models without that term).
     """
     if quantity not in QUANTITY_ORDER:
         raise InputError(f"quantity={quantity!r}: expected one of {', '.join(QUANTITY_ORDER)}")
-    if bias_start not in ("zero", "stationary"):
-        raise InputError(f"bias_start={bias_start!r}: expected 'zero' or 'stationary'")
-    order = QUANTITY_ORDER[quantity]
-    samples = fit.samples
-    if max_draws is not None and samples.shape[0] > max_draws:
-        idx = np.random.default_rng(rng).choice(samples.shape[0], size=max_draws, replace=False)
-        samples = samples[idx]
-    p = fit.model.unpack(samples)
-    zeros = np.zeros(samples.shape[0])
+    if bias_start not in BIAS_STARTS:
+        raise InputError(f"bias_start={bias_start!r}: expected one of {', '.join(BIAS_STARTS)}")
     dt = fit.model.dt
-    t = np.atleast_1d(np.asarray(t, dtype=float))
-    if np.any(~np.isfinite(t) | (t < 0)):
-        raise InputError("t: expected finite times >= 0 (s)")
+    if not (np.isfinite(calibration_s) and calibration_s >= dt):
+        raise InputError(f"calibration={calibration_s!r} s: expected at least one sample ({dt:g} s)")
+    order = QUANTITY_ORDER[quantity]
+    t = _check_times(t)
     k = np.round(t / dt)
-    scale = dt ** (2 * order)
-    s2 = p.get("bias_variance", zeros)
-    a = -np.expm1(-dt / p["time_constant"]) if "time_constant" in p else zeros
-    white_scales = [p.get("noise_variance", zeros)]
-    white_ks = [euler_variance("white", order, k, dt=dt, noise_variance=1.0)]
-    if "quantization" in p:
-        white_scales.append(p["quantization"] ** 2)
-        white_ks.append(2.0 * (k > 0) if order == 1 else dt**2 * k * (k + 1.0))
-    extra_scales = [p.get("rate_random_walk", zeros) ** 2]
-    extra_ks = [dt ** (2 * order + 1) * gm_sum(order, k, np.zeros_like(k))]
-    if "bias_instability" in p:
-        extra_scales.append((_FLICKER_PLATEAU * p["bias_instability"]) ** 2)
-        extra_ks.append((k * dt) ** (2 * order) / (1.0 if order == 1 else 4.0))
-    stationary = s2 * scale if bias_start == "stationary" else zeros
-    total, bias = drift_grid(order, k, a, s2 * a * (2.0 - a) * scale, stationary, np.array(white_scales),
-                             np.array(white_ks), np.array(extra_scales), np.array(extra_ks))
-    white = np.sqrt(np.array(white_scales).T[white_draws] @ np.array(white_ks))
-    return {"t_s": k * dt, "total": total, "white": white, "bias": bias}
+    n_cal = float(np.round(calibration_s / dt))
+    parts = model_draws(fit, models)
+    n_all = sum(p[1].shape[0] for p in parts)
+    rng = np.random.default_rng(rng)
+    if max_draws is not None and n_all > max_draws:
+        keep = np.sort(rng.choice(n_all, size=max_draws, replace=False))
+        bounds = np.cumsum([0] + [p[1].shape[0] for p in parts])
+        parts = [(m, s[keep[(keep >= lo) & (keep < hi)] - lo]) for (m, s), lo, hi in zip(parts, bounds[:-1], bounds[1:])]
+    names = _term_order(parts)
+    blocks = {n: [] for n in names}
+    for model, samples in parts:
+        if samples.shape[0] == 0:
+            continue
+        params = model.unpack(samples)
+        for name in names:
+            term = next((c for c in model.components if c.name == name), None)
+            if term is None:
+                blocks[name].append(np.zeros((samples.shape[0], k.size)))
+            else:
+                blocks[name].append(term.drift_variance(order, k, params, dt, bias_start=bias_start, n_cal=n_cal))
+    variances = {n: np.concatenate(v) for n, v in blocks.items()}
+    zero = np.zeros((sum(s.shape[0] for _, s in parts), k.size))
+    short = sum((v for n, v in variances.items() if REGISTRY[n].role == "short_term"), zero)
+    rest = sum((v for n, v in variances.items() if REGISTRY[n].role != "short_term"), zero)
+    return {"t_s": k * dt, "total": np.sqrt(short + rest), "white": np.sqrt(short), "bias": np.sqrt(rest),
+            "terms": {n: np.sqrt(v) for n, v in variances.items()}}
 
 
-def _component_subset(n, limit=1000):
-    """Every draw up to ``limit``, else an evenly spaced subset (component medians are display aids)."""
-    return slice(None) if n <= limit else slice(None, None, int(np.ceil(n / limit)))
+def _term_order(parts):
+    present = {t for model, _ in parts for t in model.terms}
+    return [t for t in TERMS if t in present]
 
 
-def drift_bands(fit, t=None, *, quantity, bias_start="zero", quantiles=(0.05, 0.5, 0.95), horizon_s=3600.0,
-                max_draws=None, rng=None):
+def drift_bands(fit, t=None, *, quantity, bias_start="zero", calibration_s=DEFAULT_CALIBRATION_S, models="averaged",
+                quantiles=(0.05, 0.5, 0.95), horizon_s=3600.0, max_draws=None, rng=None):
     """Posterior quantiles of the 1-sigma drift of ``quantity`` at times ``t`` (s).
 
     Parameters
     ----------
     fit : FitResult
     t : array_like, optional
-        Times (s); default :func:`default_times` up to ``horizon_s``.
+        Times (s); default :func:`default_times` up to ``horizon_s``. Given times are kept
+        exactly (rounded to whole samples).
     quantity : {"attitude", "velocity", "position"}
-    bias_start : {"zero", "stationary"}
+    bias_start : {"zero", "stationary", "calibrated"}
+    calibration_s : float
+        Calibration window of ``"calibrated"`` (s).
+    models : {"averaged", "selected"}
     quantiles : sequence of float
     max_draws : int, optional
         Use at most this many posterior draws (random subset, ``rng``).
@@ -166,14 +202,15 @@ def drift_bands(fit, t=None, *, quantity, bias_start="zero", quantiles=(0.05, 0.
         Units: the log's unit times s (attitude, velocity) or s^2 (position).
     """
     t = default_times(fit.model.dt, horizon_s) if t is None else t
-    n = fit.samples.shape[0] if max_draws is None else min(max_draws, fit.samples.shape[0])
-    sub = _component_subset(n)
-    draws = drift_draws(fit, t, quantity=quantity, bias_start=bias_start, max_draws=max_draws, rng=rng, white_draws=sub)
+    draws = drift_draws(fit, t, quantity=quantity, bias_start=bias_start, calibration_s=calibration_s, models=models,
+                        max_draws=max_draws, rng=rng)
     q = np.asarray(quantiles, dtype=float)
     white = np.median(draws["white"], axis=0)
-    bias = np.median(draws["bias"][sub], axis=0)
+    bias = np.median(draws["bias"], axis=0)
     above = np.flatnonzero(bias > white)
     crossover = float(draws["t_s"][above[0]]) if above.size else float("nan")
     record = fit.allan.duration_s if fit.allan is not None else float("nan")
+    terms = {n: np.median(v, axis=0) for n, v in draws["terms"].items()}
+    cal = float(calibration_s) if bias_start == "calibrated" else float("nan")
     return DriftBands(draws["t_s"], quantity, q, np.quantile(draws["total"], q, axis=0), white, bias, crossover,
-                      bias_start, record)
+                      bias_start, record, terms, cal, models)

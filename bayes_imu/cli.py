@@ -28,11 +28,13 @@ from . import __version__
 from ._output import safe_folder_name, staged_file, staged_folder
 from ._progress import show_progress
 from ._sources import allan_results
-from .bands import SENSOR_QUANTITIES
+from .bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, SENSOR_QUANTITIES
 from .drift import QUANTITY_ORDER, drift_sigma
 from .errors import BayesIMUError, InputError
 from .io import UNITS, read_text
+from .fit import DISCREPANCY_MODES
 from .likelihood import LIKELIHOODS
+from .noise import BIAS_STARTS
 from .timebase import GAP_POLICIES
 
 __all__ = ["main"]
@@ -57,7 +59,8 @@ class _Parser(argparse.ArgumentParser):
 _FORWARDED = (("column", "--column"), ("topic", "--topic"), ("stream", "--stream"), ("rate", "--rate"),
               ("time_column", "--time-column"), ("gaps", "--gaps"), ("units", "--units"), ("seed", "--seed"),
               ("terms", "--terms"), ("likelihood", "--likelihood"), ("sensor", "--sensor"), ("horizon", "--horizon"),
-              ("bias_start", "--bias-start"), ("force", "--force"))
+              ("bias_start", "--bias-start"), ("calibration", "--calibration"), ("models", "--models"),
+              ("times", "--times"), ("discrepancy", "--discrepancy"), ("force", "--force"))
 
 
 def _input_options(batch=False):
@@ -186,19 +189,28 @@ def _fit_axis(args, allan, unit, info, terms, column, out):
     from .plots import plot_allan_fit, plot_corner
 
     out.mkdir(exist_ok=True)
-    result = fit_allan(allan, terms=terms, likelihood=args.likelihood, rng=args.seed, progress=args.progress)
+    result = fit_allan(allan, terms=terms, likelihood=args.likelihood, rng=args.seed, discrepancy=args.discrepancy,
+                       progress=args.progress)
     summary = result.summary(unit=unit)
     summary.update(log=str(args.log), column=column, unit=unit, input=info)
+    _say(args, f"model: {' + '.join(result.model.terms)}  (converged: {result.diagnostics['converged']})")
+    for name, p in summary["parameters"].items():
+        _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
+    adequacy = result.adequacy
+    if not adequacy.adequate:
+        what = [f"goodness of fit p = {adequacy.p_value:.2g} (worst at tau = {adequacy.worst_tau_s:g} s)"]
+        if adequacy.at_prior_bound:
+            what.append("at a prior bound: " + ", ".join(adequacy.at_prior_bound))
+        widened = ("intervals widened by a fitted model discrepancy" if result.widened
+                   else "intervals NOT widened: treat them as too narrow")
+        _warn(f"{column}: the noise model does not describe this log ({'; '.join(what)}); {widened}")
     label = f"{args.log.name}: {column}"
     if args.sensor:
         summary["drift"] = _write_drift(result, args, unit, out)
     _write_json(out / "summary.json", summary)
     result.inference_data.to_netcdf(str(out / "posterior.nc"))
-    plot_allan_fit(result, out / "allan_fit.png", label=label, rng=args.seed)
+    plot_allan_fit(result, out / "allan_fit.png", label=label, unit=unit, rng=args.seed)
     plot_corner(result, out / "corner.png")
-    _say(args, f"model: {' + '.join(result.model.terms)}  (converged: {result.diagnostics['converged']})")
-    for name, p in summary["parameters"].items():
-        _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
     return summary
 
 
@@ -223,8 +235,9 @@ def _write_drift(result, args, unit, out):
     from .bands import SENSOR_QUANTITIES, default_times, drift_bands, integrated_unit
     from .plots import plot_drift
 
-    t = default_times(result.model.dt, args.horizon)
-    bands = [drift_bands(result, t, quantity=q, bias_start=args.bias_start) for q in SENSOR_QUANTITIES[args.sensor]]
+    t = np.array(args.times) if args.times is not None else default_times(result.model.dt, args.horizon)
+    bands = [drift_bands(result, t, quantity=q, bias_start=args.bias_start, calibration_s=args.calibration,
+                         models=args.models) for q in SENSOR_QUANTITIES[args.sensor]]
     lines = ["t_s,quantity,q05,q50,q95,unit,extrapolated"]
     at_horizon = {}
     for b in bands:
@@ -233,12 +246,14 @@ def _write_drift(result, args, unit, out):
                   for ti, lo, med, hi, x in zip(b.t_s, *b.total, b.extrapolated)]
         at_horizon[b.quantity] = {"t_s": float(b.t_s[-1]), "q05": float(b.total[0][-1]), "q50": float(b.total[1][-1]),
                                   "q95": float(b.total[2][-1]), "unit": u, "record_s": b.record_s,
-                                  "extrapolated": bool(b.extrapolated[-1])}
-    if bands[0].extrapolated[-1]:
-        _warn(f"the drift horizon ({args.horizon:g} s) is longer than the log ({bands[0].record_s:g} s): beyond the "
-              "log the bands extrapolate the fitted model (drift.csv column 'extrapolated')")
+                                  "extrapolated": bool(b.extrapolated[-1]), "bias_start": b.bias_start,
+                                  "calibration_s": None if np.isnan(b.calibration_s) else b.calibration_s,
+                                  "models": b.models}
         _say(args, f"{b.quantity}: 1-sigma drift after {b.t_s[-1]:g} s: median {b.total[1][-1]:.4g}, "
                    f"90% [{b.total[0][-1]:.4g}, {b.total[2][-1]:.4g}] {u}")
+    if bands[0].extrapolated[-1]:
+        _warn(f"the drift horizon ({bands[0].t_s[-1]:g} s) is longer than the log ({bands[0].record_s:g} s): beyond "
+              "the log the bands extrapolate the fitted model (drift.csv column 'extrapolated')")
     (out / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
     plot_drift(bands, out / "drift.png", units=[integrated_unit(unit, b.quantity) for b in bands])
     return at_horizon
@@ -280,8 +295,19 @@ def _fit_options(parser):
     parser.add_argument("--sensor", choices=("gyro", "accel"),
                         help="also write drift.csv / drift.png: attitude (gyro) or velocity and position (accel)")
     parser.add_argument("--horizon", type=float, default=3600.0, help="longest drift time (s), default 3600")
-    parser.add_argument("--bias-start", choices=("zero", "stationary"), default="zero",
-                        help="bias at the start of the outage: zero (paper) or stationary (conservative)")
+    parser.add_argument("--bias-start", choices=BIAS_STARTS, default="calibrated",
+                        help="bias at the start of the outage: calibrated (default: the mean of the --calibration "
+                             "seconds before it is removed), zero (the paper) or stationary (never estimated)")
+    parser.add_argument("--calibration", type=_positive_float, default=DEFAULT_CALIBRATION_S, metavar="S",
+                        help=f"calibration window of --bias-start calibrated (s), default {DEFAULT_CALIBRATION_S:g}")
+    parser.add_argument("--models", choices=MODEL_CHOICES, default="averaged",
+                        help="drift from every candidate model weighted by its posterior probability (averaged, "
+                             "default) or from the selected model alone (selected)")
+    parser.add_argument("--times", type=_times, metavar="T1,T2,...",
+                        help="write drift.csv rows at exactly these times (s) instead of a log grid up to --horizon")
+    parser.add_argument("--discrepancy", choices=DISCREPANCY_MODES, default="auto",
+                        help="model-discrepancy term that widens the intervals of an inadequate fit: auto (added "
+                             "when the best model fails the goodness-of-fit check), never, always")
 
 
 def _cmd_fit_batch(args):
@@ -297,6 +323,8 @@ def _cmd_fit_batch(args):
             value = getattr(args, dest)
             if value is True:
                 argv.append(flag)
+            elif isinstance(value, tuple):
+                argv += [flag, ",".join(repr(v) for v in value)]
             elif value not in (None, False):
                 argv += [flag, str(value)]
         jobs.append(BatchJob(names[-1], tuple(argv)))
@@ -381,6 +409,26 @@ def _cmd_drift(args):
 
 
 # ---------------------------------------------------------------------------- entry point
+
+def _positive_float(text):
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (np.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
+
+
+def _times(text):
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated times in seconds, got {text!r}") from None
+    if not values or not all(np.isfinite(v) and v > 0 for v in values):
+        raise argparse.ArgumentTypeError(f"expected positive times in seconds, got {text!r}")
+    return tuple(sorted(set(values)))
+
 
 def _say(args, text):
     if not getattr(args, "quiet", False):

@@ -27,14 +27,46 @@ from ._version import __version__
 from .allan import AllanResult, allan_variance
 from .errors import ConvergenceWarning, InputError
 from .likelihood import LIKELIHOODS, LogPosterior, default_bounds
-from .models import PARAMETER_UNITS, TERMS, NoiseModel
-from .selection import CandidateScore, candidate_terms, log_evidence, posterior_mode, select
+from .models import BASE_TERMS, PARAMETER_UNITS, NoiseModel
+from .selection import (
+    Adequacy,
+    CandidateScore,
+    EvidenceResult,
+    adequacy,
+    candidate_terms,
+    extensions,
+    log_evidence,
+    model_probabilities,
+    posterior_mode,
+    reductions,
+    select,
+    to_phi,
+)
 
-__all__ = ["FitResult", "fit", "fit_allan"]
+__all__ = ["FitResult", "MixtureComponent", "fit", "fit_allan", "DISCREPANCY_MODES"]
 
+DISCREPANCY_MODES = ("auto", "never", "always")
 AUTOCORR_MULTIPLE = 50
 RHAT_MAX = 1.01
 ESS_MIN = 400
+
+
+@dataclass(frozen=True)
+class MixtureComponent:
+    """One candidate's share of the model-averaged posterior.
+
+    Attributes
+    ----------
+    terms : tuple of str
+    probability : float
+        Its posterior probability (renormalised over the components kept).
+    samples : ndarray, shape (n, n_par)
+        Draws of its parameters (physical units, its own ``parameter_names`` order).
+    """
+
+    terms: tuple
+    probability: float
+    samples: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -44,15 +76,16 @@ class FitResult:
     Attributes
     ----------
     model : NoiseModel
-        Selected model (term names in :data:`bayes_imu.models.TERMS`).
+        Selected model (term names in :data:`bayes_imu.noise.TERMS`): the answer to "which
+        terms does this sensor need".
     samples : ndarray, shape (n_draws, n_par)
-        Posterior draws of the parameters (physical units, ``model.parameter_names`` order),
-        after burn-in and thinning.
+        Posterior draws of the parameters (physical units, ``parameter_names`` order: the
+        model's, then ``model_discrepancy`` when the fit was widened), after burn-in and thinning.
     log_prob : ndarray, shape (n_draws,)
     allan : AllanResult
         The data.
     candidates : tuple of CandidateScore
-        Evidence of every candidate model.
+        Evidence of every candidate model scored.
     selected : int
         Index of the selected candidate.
     diagnostics : dict
@@ -64,6 +97,14 @@ class FitResult:
     seed : object
         The ``rng`` argument as given (an int for reproducible runs).
     inference_data : arviz.InferenceData
+    adequacy : Adequacy
+        Goodness of fit of the selected model (without the discrepancy term).
+    probabilities : ndarray, shape (n_candidates,)
+        Posterior probability of each candidate (equal prior odds over those scored).
+    mixture : tuple of MixtureComponent
+        The model-averaged posterior that drift numbers use by default.
+    widened : bool
+        The model-discrepancy term was added (the best candidate was inadequate).
     """
 
     model: NoiseModel
@@ -77,23 +118,39 @@ class FitResult:
     covariance: np.ndarray
     seed: object = None
     inference_data: object = field(default=None, repr=False, compare=False)
+    adequacy: Adequacy = None
+    probabilities: np.ndarray = None
+    mixture: tuple = ()
+    widened: bool = False
 
     @property
     def parameter_names(self):
-        return self.model.parameter_names
+        return self.model.parameter_names + (("model_discrepancy",) if self.widened else ())
 
     def draws(self, name):
-        """Posterior draws of one parameter (or the derived ``noise_density``)."""
+        """Posterior draws of one parameter, or of a derived one: ``noise_density`` (white plus
+        the white-noise equivalents of the filtered-white and high-frequency correlated terms, the value to compare
+        with a datasheet ARW / VRW), ``white_noise_density`` (the white term alone)."""
         if name == "noise_density":
+            return np.sqrt(self.model.short_term_variance(self.samples) * self.model.dt)
+        if name == "white_noise_density":
             return np.sqrt(self.draws("noise_variance") * self.model.dt)
         if name not in self.parameter_names:
             raise InputError(f"parameter {name!r}: the model {self.model.terms} has {', '.join(self.parameter_names)}")
         return self.samples[:, self.parameter_names.index(name)]
 
+    def _derived_names(self):
+        names = list(self.parameter_names)
+        short = [t.name for t in self.model.components if t.role == "short_term" and t.name != "quantization"]
+        if short:
+            names.append("noise_density")
+        if "white" in short and len(short) > 1:
+            names.append("white_noise_density")
+        return names
+
     def quantiles(self, q=(0.05, 0.5, 0.95)):
-        """Dict name -> quantiles of each parameter (and ``noise_density`` when white)."""
-        names = list(self.parameter_names) + (["noise_density"] if "white" in self.model.terms else [])
-        return {n: np.quantile(self.draws(n), q) for n in names}
+        """Dict name -> quantiles of each parameter (and the derived densities)."""
+        return {n: np.quantile(self.draws(n), q) for n in self._derived_names()}
 
     def predictive_avar(self, m=None, *, n_draws=400, rng=None, term=None):
         """Posterior draws of the model Allan variance, ``(n_draws, n_tau)`` (one term if given)."""
@@ -106,25 +163,31 @@ class FitResult:
     def summary(self, *, unit="u"):
         """JSON-ready summary (see the ``bayes-imu fit`` documentation)."""
         parameters = {}
-        names = list(self.parameter_names) + (["noise_density"] if "white" in self.model.terms else [])
-        for name in names:
+        for name in self._derived_names():
             d = self.draws(name)
             parameters[name] = {
                 "median": float(np.median(d)),
                 "mean": float(np.mean(d)),
                 "q05": float(np.quantile(d, 0.05)),
                 "q95": float(np.quantile(d, 0.95)),
-                "unit": PARAMETER_UNITS[name].format(u=unit),
+                "unit": PARAMETER_UNITS.get(name, "1").format(u=unit),
             }
+        probabilities = self.probabilities if self.probabilities is not None else np.full(len(self.candidates), np.nan)
+        adequacy = self.adequacy.to_dict() if self.adequacy is not None else None
+        if adequacy is not None:
+            adequacy["widened"] = bool(self.widened)
         return {
             "model": list(self.model.terms),
             "parameters": parameters,
-            "diagnostics": {k: (bool(v) if k == "converged" else float(v)) for k, v in self.diagnostics.items()},
+            "adequacy": adequacy,
+            "diagnostics": {k: (bool(v) if k == "converged" else int(v) if k in ("n_steps", "n_walkers") else float(v))
+                            for k, v in self.diagnostics.items()},
             "candidates": [
                 {"model": list(c.terms), "log_evidence": c.log_evidence, "log_evidence_se": c.log_evidence_se,
-                 "selected": i == self.selected}
-                for i, c in enumerate(self.candidates)
+                 "probability": float(p), "selected": i == self.selected}
+                for i, (c, p) in enumerate(zip(self.candidates, probabilities))
             ],
+            "model_averaging": [{"model": list(c.terms), "probability": c.probability} for c in self.mixture],
             "likelihood": self.likelihood,
             "rate_hz": float(self.allan.rate_hz),
             "n_samples": int(self.allan.n_samples),
@@ -133,22 +196,35 @@ class FitResult:
         }
 
 
-def fit(y, *, rate_hz, m="octave", **kwargs):
-    """Fit rate samples ``y`` (1-D, units u) at ``rate_hz``; see :func:`fit_allan` for options."""
-    return fit_allan(allan_variance(y, rate_hz=rate_hz, m=m), **kwargs)
+def fit(y, *, rate_hz, m="octave", terms="auto", likelihood="correlated", rng=None, n_walkers=32, max_steps=40000,
+        threshold=1.0, n_evidence=4000, discrepancy="auto", progress=False):
+    """Fit rate samples ``y`` (1-D, units u) at ``rate_hz`` [Hz]; options as :func:`fit_allan`."""
+    return fit_allan(allan_variance(y, rate_hz=rate_hz, m=m), terms=terms, likelihood=likelihood, rng=rng,
+                     n_walkers=n_walkers, max_steps=max_steps, threshold=threshold, n_evidence=n_evidence,
+                     discrepancy=discrepancy, progress=progress)
+
+
+@dataclass(frozen=True)
+class _Scored:
+    """One candidate's score, its likelihood and its importance draws."""
+
+    score: CandidateScore
+    post: LogPosterior
+    evidence: EvidenceResult
 
 
 def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walkers=32, max_steps=40000,
-              threshold=1.0, n_evidence=4000, progress=False):
-    """Select a noise model for ``allan`` and sample its posterior.
+              threshold=1.0, n_evidence=4000, discrepancy="auto", progress=False):
+    """Select a noise model for ``allan``, sample its posterior, check its adequacy.
 
     Parameters
     ----------
     allan : AllanResult
         Overlapping Allan variance (octave grid recommended; at least 4 cluster sizes).
     terms : "auto" or sequence of str
-        ``"auto"`` selects among all candidates by evidence; a sequence fixes the model.
-    likelihood : {"correlated", "independent"}
+        ``"auto"``: every ``white + subset`` of the IEEE terms, then the stepwise search over
+        the extension terms (:mod:`bayes_imu.selection`); a sequence fixes the model.
+    likelihood : {"correlated", "copula", "independent"}
     rng : None, int or numpy.random.Generator
         Seeds the evidence draws and the sampler; the same int gives the same numbers.
     n_walkers : int
@@ -158,6 +234,11 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
         Selection threshold in nats (:func:`bayes_imu.selection.select`).
     n_evidence : int
         Importance draws per candidate.
+    discrepancy : {"auto", "never", "always"}
+        The model-discrepancy term (a fitted relative error on the Allan variance): with
+        ``"auto"`` it is added, to every candidate, when the best candidate fails the
+        adequacy check, so that intervals widen with the misfit instead of shrinking
+        (``"correlated"`` likelihood only).
     progress : bool
         Progress bars (candidates, sampler steps) on standard error; same numbers.
 
@@ -173,32 +254,41 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
         i = int(np.argmin(allan.avar))
         raise InputError(f"Allan variance is {allan.avar[i]!r} at tau = {allan.tau[i]:g} s: a noise model needs a "
                          "positive Allan variance at every cluster size (is the signal constant or periodic?)")
+    if likelihood not in LIKELIHOODS:
+        raise InputError(f"likelihood={likelihood!r}: expected one of {', '.join(LIKELIHOODS)}")
+    if discrepancy not in DISCREPANCY_MODES:
+        raise InputError(f"discrepancy={discrepancy!r}: expected one of {', '.join(DISCREPANCY_MODES)}")
+    if discrepancy == "always" and likelihood != "correlated":
+        raise InputError(f"discrepancy='always' needs likelihood='correlated', got {likelihood!r}")
     seed = rng
     rng = np.random.default_rng(rng)
     dt = 1.0 / allan.rate_hz
-    if terms == "auto":
+    stepwise = terms == "auto"
+    if stepwise:
         candidates = candidate_terms()
-        pilot_model = NoiseModel(TERMS, dt)
+        pilot_model = NoiseModel(BASE_TERMS, dt)
     else:
         candidates = [tuple(terms)]
         pilot_model = NoiseModel(tuple(terms), dt)
-    if likelihood not in LIKELIHOODS:
-        raise InputError(f"likelihood={likelihood!r}: expected one of {', '.join(LIKELIHOODS)}")
     reference = _pilot(pilot_model, allan)
     shared = _posterior_factory(pilot_model, reference, allan, likelihood)
-    scores, draws = [], []
-    with progress_bar(total=len(candidates), desc="model selection", unit="model", enabled=progress) as bar:
-        for cand in candidates:
-            model = NoiseModel(cand, dt)
-            post = shared(model)
-            u_mode, phi_mode, _ = posterior_mode(post, _starts(model, allan, reference))
-            log_z, se, ess, u, log_w = log_evidence(post, u_mode, n_draws=n_evidence, rng=rng)
-            scores.append(CandidateScore(model.terms, log_z, se, ess, phi_mode))
-            draws.append((u, log_w))
-            bar.update()
-    chosen = select(scores, threshold=threshold) if len(scores) > 1 else 0
+    widen = discrepancy == "always"
+    make = (lambda model: shared(model).with_discrepancy()) if widen else shared
+    with progress_bar(desc="model selection", unit="model", enabled=progress) as bar:
+        scored = _search(make, allan, reference, candidates, stepwise, threshold, n_evidence, rng, bar)
+        chosen = select([c.score for c in scored], threshold=threshold) if len(scored) > 1 else 0
+        if discrepancy == "auto" and likelihood == "correlated":
+            best = scored[chosen]
+            if not adequacy(best.post, best.score.mode, allan.tau).adequate:
+                widen = True
+                scored = [_score(NoiseModel(c.score.terms, dt), c.post.with_discrepancy(), allan, reference,
+                                 n_evidence, rng) for c in scored]
+                bar.update(len(scored))
+                chosen = select([c.score for c in scored], threshold=threshold) if len(scored) > 1 else 0
+    scores = tuple(c.score for c in scored)
     model = NoiseModel(scores[chosen].terms, dt)
-    mode = dict(zip(model.parameter_names, np.exp(scores[chosen].mode)))
+    n_model = len(model.parameter_names)
+    mode = dict(zip(model.parameter_names, np.exp(scores[chosen].mode[:n_model])))
     if likelihood != "independent":  # covariance refined at the selected model's mode
         cov = _covariance(model, mode, allan)
         post = LogPosterior.from_covariance(model, allan, cov, model.avar(allan.m, mode), default_bounds(model, allan),
@@ -206,10 +296,83 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
     else:
         cov = np.diag(2.0 * allan.avar**2 / allan.edf)
         post = LogPosterior.build(model, allan, kind="independent")
-    u_mode, phi_mode, _ = posterior_mode(post, [scores[chosen].mode])
-    start = _initial_walkers(post, draws[chosen], phi_mode, n_walkers, rng)
-    samples, log_prob, diagnostics, idata = _sample(post, start, rng, max_steps, allan, progress)
-    return FitResult(model, samples, log_prob, allan, tuple(scores), chosen, diagnostics, likelihood, cov, seed, idata)
+    sampled = post.with_discrepancy() if widen else post
+    phi_mode = posterior_mode(sampled, [scores[chosen].mode]).phi
+    start = _initial_walkers(sampled, scored[chosen].evidence, phi_mode, n_walkers, rng)
+    log_samples, log_prob, diagnostics, idata = _sample(sampled, start, rng, max_steps, allan, progress)
+    best_draw = log_samples[int(np.argmax(log_prob))]
+    check = adequacy(post, best_draw, allan.tau, log_samples)
+    probabilities = model_probabilities(scores)
+    mixture = _mixture(scored, chosen, probabilities, np.exp(log_samples), rng)
+    return FitResult(model, np.exp(log_samples), log_prob, allan, scores, chosen, diagnostics, likelihood, cov, seed,
+                     idata, check, probabilities, mixture, widen)
+
+
+def _score(model, post, allan, reference, n_evidence, rng):
+    """Mode and evidence of one candidate."""
+    starts = _starts(model, allan, reference)
+    if post.discrepancy:
+        starts = np.column_stack([starts, np.full(len(starts), np.log(0.1))])
+    mode = posterior_mode(post, starts)
+    ev = log_evidence(post, mode.u, n_draws=n_evidence, rng=rng)
+    return _Scored(CandidateScore(model.terms, ev.log_z, ev.se, ev.ess, mode.phi), post, ev)
+
+
+def _search(make_post, allan, reference, candidates, stepwise, threshold, n_evidence, rng, bar):
+    """Score the base candidates, then (``stepwise``) the extension search of :mod:`bayes_imu.selection`."""
+    dt = 1.0 / allan.rate_hz
+    scored = {}
+
+    def run(terms):
+        key = NoiseModel(terms, dt).terms
+        if key not in scored:
+            model = NoiseModel(key, dt)
+            scored[key] = _score(model, make_post(model), allan, reference, n_evidence, rng)
+            bar.update()
+        return scored[key]
+
+    for cand in candidates:
+        run(cand)
+    if stepwise:
+        current = max(scored.values(), key=lambda c: c.score.log_evidence)
+        while True:
+            new = [run(c) for c in extensions(current.score.terms)]
+            if not new:
+                break
+            best = max(new, key=lambda c: c.score.log_evidence)
+            margin = threshold + 2.0 * np.hypot(best.score.log_evidence_se, current.score.log_evidence_se)
+            if best.score.log_evidence <= current.score.log_evidence + margin:
+                break
+            current = best
+        for c in reductions(current.score.terms):
+            run(c)
+    return list(scored.values())
+
+
+def _mixture(scored, chosen, probabilities, samples, rng, floor=1e-3):
+    """Model-averaged draws: each candidate with probability >= ``floor`` contributes that share.
+
+    The selected model contributes its MCMC draws; the others their importance draws,
+    resampled by weight. Returns a tuple of :class:`MixtureComponent`.
+    """
+    keep = np.flatnonzero(probabilities >= floor)
+    weights = probabilities[keep] / probabilities[keep].sum()
+    n_total = samples.shape[0]
+    out = []
+    for i, w in zip(keep, weights):
+        count = int(round(w * n_total))
+        if count == 0:
+            continue
+        if i == chosen:
+            draws = samples[rng.choice(n_total, size=min(count, n_total), replace=False)]
+        else:
+            ev = scored[i].evidence
+            lw = np.where(np.isfinite(ev.log_w), ev.log_w, -np.inf)
+            p = np.exp(lw - lw.max())
+            idx = rng.choice(p.size, size=count, replace=True, p=p / p.sum())
+            draws = np.exp(to_phi(ev.u[idx], scored[i].post.bounds))
+        out.append(MixtureComponent(scored[i].score.terms, float(w), draws))
+    return tuple(out)
 
 
 def _posterior_factory(ref_model, reference, allan, likelihood):
@@ -231,13 +394,17 @@ def _covariance(model, params, allan):
 def _pilot(model, allan):
     """Mode under the independent-gamma likelihood: dict of physical parameters."""
     post = LogPosterior.build(model, allan, kind="independent")
-    _, phi, _ = posterior_mode(post, _starts(model, allan, None))
+    phi = posterior_mode(post, _starts(model, allan, None)).phi
     return dict(zip(model.parameter_names, np.exp(phi)))
 
 
 def _starts(model, allan, reference):
-    """Starting log-parameter vectors: heuristics from the curve, one per GM time constant guess."""
+    """Starting log-parameter vectors: heuristics from the curve, one per GM time constant guess.
+
+    Time constants of ordered Gauss-Markov terms are sorted into their order.
+    """
     tau, avar = allan.tau, allan.avar
+    dt = 1.0 / allan.rate_hz
     guess = {
         "noise_variance": avar[0] * allan.m[0],
         "quantization": np.sqrt(0.1 * avar[0] * tau[0] ** 2 / 3.0),
@@ -245,6 +412,12 @@ def _starts(model, allan, reference):
         "bias_variance": avar.min(),
         "time_constant": tau[np.argmin(avar)],
         "rate_random_walk": np.sqrt(1.5 * avar[-1] / tau[-1]),
+        "correlated_variance": 0.5 * avar[0],
+        "correlated_time_constant": 2.0 * dt,
+        "bias_variance_2": avar.min(),
+        "time_constant_2": 0.5 * tau[-1],
+        "rate_ramp": 0.3 * np.sqrt(2.0 * avar[-1]) / tau[-1],
+        "filtered_variance": 0.1 * avar[0] * allan.m[0],
     }
     bounds = default_bounds(model, allan)
     out = []
@@ -255,6 +428,7 @@ def _starts(model, allan, reference):
     else:  # candidates: the full-model pilot plus one guess
         gm_taus = [tau[len(tau) // 2]]
     sources = [guess] + ([reference] if reference is not None else [])
+    order = model.ordered
     for src in sources:
         for t in gm_taus:
             values = {k: src.get(k, guess[k]) for k in model.parameter_names}
@@ -263,22 +437,40 @@ def _starts(model, allan, reference):
                 values["bias_variance"] = 2.0 * np.interp(1.9 * t, tau, avar)
             phi = np.log([max(values[k], 1e-300) for k in model.parameter_names])
             width = bounds[:, 1] - bounds[:, 0]
-            out.append(np.clip(phi, bounds[:, 0] + 0.01 * width, bounds[:, 1] - 0.01 * width))
+            phi = np.clip(phi, bounds[:, 0] + 0.01 * width, bounds[:, 1] - 0.01 * width)
+            if len(order) > 1:
+                phi[list(order)] = _ordered_inside(phi[list(order)], bounds[list(order)])
+            out.append(phi)
     return np.array(out)
 
 
-def _initial_walkers(post, draws, phi_mode, n_walkers, rng):
-    """Walkers from the importance draws, resampled by weight (distinct), else around the mode."""
-    from .selection import _to_phi
+def _ordered_inside(values, bounds):
+    """Strictly increasing values, each inside its own box row (boxes of ordered terms overlap)."""
+    values = np.sort(values)
+    lo = bounds[:, 0] + 0.01 * (bounds[:, 1] - bounds[:, 0])
+    hi = bounds[:, 1] - 0.01 * (bounds[:, 1] - bounds[:, 0])
+    out = np.clip(values, lo, hi)
+    for i in range(1, out.size):
+        if out[i] <= out[i - 1]:
+            out[i] = min(hi[i], out[i - 1] + 0.05 * (hi[i] - lo[i]))
+    for i in range(out.size - 2, -1, -1):
+        if out[i] >= out[i + 1]:
+            out[i] = max(lo[i], out[i + 1] - 0.05 * (hi[i] - lo[i]))
+    return out
 
-    u, log_w = draws
+
+def _initial_walkers(post, evidence, phi_mode, n_walkers, rng):
+    """Walkers from the importance draws, resampled by weight (distinct), else around the mode."""
+    u, log_w = evidence.u, evidence.log_w
     w = np.exp(log_w - log_w.max())
     w /= w.sum()
     k = min(n_walkers, int(np.count_nonzero(w)))
     idx = rng.choice(w.size, size=k, replace=False, p=w) if k == n_walkers else np.array([], int)
-    start = _to_phi(u[idx], post.bounds) if idx.size else np.empty((0, phi_mode.size))
-    if start.shape[0] < n_walkers or start.shape[1] != phi_mode.size:
+    start = to_phi(u[idx], post.bounds) if idx.size and u.shape[1] == phi_mode.size else np.empty((0, phi_mode.size))
+    if start.shape[0] < n_walkers:
         start = phi_mode + 1e-3 * rng.standard_normal((n_walkers, phi_mode.size))
+        if len(post.order) > 1:
+            start[:, list(post.order)] = np.sort(start[:, list(post.order)], axis=1)
     return np.clip(start, post.bounds[:, 0] + 1e-9, post.bounds[:, 1] - 1e-9)
 
 
@@ -317,8 +509,7 @@ def _sample(post, start, rng, max_steps, allan, progress=False):
             ConvergenceWarning,
             stacklevel=3,
         )
-    samples = np.exp(chain.reshape(-1, n_par))
-    return samples, lp.reshape(-1), diagnostics, idata
+    return chain.reshape(-1, n_par), lp.reshape(-1), diagnostics, idata
 
 
 def _arviz():
@@ -349,7 +540,7 @@ def _thinned(sampler, post, allan, tau_max, n_walkers, long_enough):
 def _inference_data(post, chain, lp, allan):
     az = _arviz()
 
-    names = post.model.parameter_names
+    names = post.model.parameter_names + (("model_discrepancy",) if post.discrepancy else ())
     posterior = {f"log_{n}": chain[:, :, i].T for i, n in enumerate(names)}
     posterior.update({n: np.exp(chain[:, :, i].T) for i, n in enumerate(names)})
     loglik = post.log_likelihood(chain).T

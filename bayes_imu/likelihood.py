@@ -24,48 +24,71 @@ from scipy import special
 
 from .avar_covariance import avar_covariance
 from .errors import InputError
-from .models import NoiseModel
+from .noise import NoiseModel, PriorScale
 
-__all__ = ["LIKELIHOODS", "default_bounds", "LogPosterior"]
+__all__ = ["LIKELIHOODS", "default_bounds", "prior_scale", "ordered_log_mass", "LogPosterior"]
 
 LIKELIHOODS = ("correlated", "copula", "independent")
 #: decades below the smallest / above the largest observed AVAR that a term may reach
 PRIOR_DECADES_BELOW = 4.0
 PRIOR_DECADES_ABOVE = 1.0
-#: Gauss-Markov time constant range, in samples (low) and fraction of the record (high)
-TIME_CONSTANT_MIN_SAMPLES = 3.0
-TIME_CONSTANT_MAX_RECORD = 0.25
+#: log of the model-discrepancy standard deviation (relative error on the Allan variance)
+DISCREPANCY_BOUNDS = (float(np.log(1e-3)), float(np.log(3.0)))
 _MAX_SCORE = float(-special.ndtri(np.finfo(float).tiny))  # 37.5: normal score of the smallest probability
-_GM_PEAK = 0.3  # ~max over tau of a Gauss-Markov AVAR / sigma_b^2 (continuous value 0.30)
 
 
-def default_bounds(model, allan):
+def prior_scale(allan):
+    """The :class:`~bayes_imu.noise.PriorScale` of an Allan result."""
+    return PriorScale(
+        log_lo=float(np.log(np.min(allan.avar)) - PRIOR_DECADES_BELOW * np.log(10.0)),
+        log_hi=float(np.log(np.max(allan.avar)) + PRIOR_DECADES_ABOVE * np.log(10.0)),
+        dt=1.0 / allan.rate_hz,
+        tau_min=float(allan.tau[0]),
+        tau_max=float(allan.tau[-1]),
+        m_min=float(allan.m[0]),
+        record_s=allan.n_samples / allan.rate_hz,
+    )
+
+
+def default_bounds(model, allan, *, discrepancy=False):
     """Box of the log-parameters, shape ``(n_par, 2)`` (natural log of the parameter units).
 
     Each amplitude is bounded so that its term's largest Allan variance over the fitted
     grid lies between ``10**-4`` times the smallest and ``10**1`` times the largest
-    observed value; the time constant between 3 samples and a quarter of the record.
+    observed value; time constants as each term states (:mod:`bayes_imu.noise`). With
+    ``discrepancy``, a last row bounds the log of the model-discrepancy standard deviation
+    (relative error on the Allan variance) to ``[1e-3, 3]``.
     """
-    lo = np.log(np.min(allan.avar)) - PRIOR_DECADES_BELOW * np.log(10.0)
-    hi = np.log(np.max(allan.avar)) + PRIOR_DECADES_ABOVE * np.log(10.0)
-    dt = 1.0 / allan.rate_hz
-    tau_min, tau_max = float(allan.tau[0]), float(allan.tau[-1])
-    # log(parameter) = log(term peak AVAR) + shift; amplitude parameters entering squared get / 2
-    rules = {
-        "noise_variance": (np.log(allan.m[0]), 1.0),
-        "quantization": (np.log(tau_min**2 / 3.0), 0.5),
-        "bias_instability": (np.log(np.pi / (2.0 * np.log(2.0))), 0.5),
-        "bias_variance": (-np.log(_GM_PEAK), 1.0),
-        "rate_random_walk": (np.log(3.0 / tau_max), 0.5),
-    }
-    rows = []
-    for name in model.parameter_names:
-        if name == "time_constant":
-            rows.append((np.log(TIME_CONSTANT_MIN_SAMPLES * dt), np.log(TIME_CONSTANT_MAX_RECORD * allan.n_samples * dt)))
+    scale = prior_scale(allan)
+    rows = [row for t in model.components for row in t.bounds(scale)]
+    if discrepancy:
+        rows.append(DISCREPANCY_BOUNDS)
+    return np.array(rows, dtype=float)
+
+
+def ordered_log_mass(bounds, order):
+    """``log P(phi_i1 < phi_i2 < ...)`` for independent uniforms on the rows ``order`` of ``bounds``.
+
+    The prior of ordered time constants is the box prior restricted to the ordered region,
+    renormalised by this mass (so evidences stay comparable). Computed by propagating the
+    chain's cumulative probability on a fine grid (error ~1e-9).
+    """
+    if len(order) < 2:
+        return 0.0
+    lo = min(bounds[i, 0] for i in order)
+    hi = max(bounds[i, 1] for i in order)
+    grid = np.linspace(lo, hi, 200001)
+    step = grid[1] - grid[0]
+    cdf = None
+    for i in order:
+        a, b = bounds[i]
+        density = np.where((grid >= a) & (grid <= b), 1.0 / (b - a), 0.0)
+        if cdf is None:
+            mass_below = density
         else:
-            shift, power = rules[name]
-            rows.append(((lo + shift) * power, (hi + shift) * power))
-    return np.array(rows)
+            mass_below = density * cdf  # density of this variable with all previous ones below it
+        cdf = np.concatenate([[0.0], np.cumsum(0.5 * (mass_below[1:] + mass_below[:-1]) * step)])
+    return float(np.log(cdf[-1]))
 
 
 @dataclass(frozen=True)
@@ -88,6 +111,14 @@ class LogPosterior:
         Constant of the log likelihood.
     evaluate : callable
         The model's Allan variance at ``m`` (:meth:`NoiseModel.avar_evaluator`).
+    discrepancy : bool
+        The last log-parameter is the log standard deviation ``s`` of a model-discrepancy
+        error on ``log avar``: the log-scale covariance becomes ``C + s^2 I``, evaluated
+        through the eigen-decomposition ``C = V diag(lam) V'`` (``eig_values``,
+        ``eig_vectors``), so each walker costs one product.
+    order : tuple of int
+        Log-parameters that must increase (ordered Gauss-Markov time constants); the prior
+        is the box restricted to that order, renormalised by ``log_order_mass``.
     """
 
     model: NoiseModel
@@ -100,10 +131,53 @@ class LogPosterior:
     shape: np.ndarray
     norm: float
     evaluate: object = None
+    discrepancy: bool = False
+    eig_values: np.ndarray = None
+    eig_vectors: np.ndarray = None
+    order: tuple = ()
+    log_order_mass: float = 0.0
 
     def __post_init__(self):
         if self.evaluate is None:
             object.__setattr__(self, "evaluate", self.model.avar_evaluator(self.m))
+        if not self.order and len(self.model.ordered) > 1:
+            object.__setattr__(self, "order", self.model.ordered)
+            object.__setattr__(self, "log_order_mass", ordered_log_mass(self.bounds, self.model.ordered))
+        n_model = len(self.model.parameter_names)
+        if self.bounds.shape[0] != n_model + int(self.discrepancy):
+            raise InputError(f"prior box has {self.bounds.shape[0]} rows: the model has {n_model} parameters"
+                             + (" plus the discrepancy" if self.discrepancy else ""))
+
+    def with_discrepancy(self):
+        """The same likelihood with a model-discrepancy parameter appended (``"correlated"`` only)."""
+        if self.kind != "correlated":
+            raise InputError(f"likelihood={self.kind!r}: the model-discrepancy term needs 'correlated'")
+        if self.discrepancy:
+            return self
+        log_cov = np.linalg.inv(self.whiten.T @ self.whiten)
+        values, vectors = np.linalg.eigh(0.5 * (log_cov + log_cov.T))
+        bounds = np.vstack([self.bounds, DISCREPANCY_BOUNDS])
+        return LogPosterior(self.model, bounds, self.m, self.log_avar, self.kind, self.whiten, self.offset, self.shape,
+                            self.norm, self.evaluate, True, np.clip(values, 0.0, None), vectors, self.order,
+                            self.log_order_mass)
+
+    def residuals(self, log_theta):
+        """Whitened residuals ``(..., n_tau)`` of ``log avar`` under this likelihood's covariance.
+
+        Standard normal and independent at the true parameters when the model is right
+        (``"correlated"``; for the others, the normal scores of the gamma marginals).
+        With the discrepancy term, whitened by ``C + s^2 I`` at that draw's ``s``.
+        """
+        log_theta = np.asarray(log_theta, float)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            mu = self.model_log_avar(log_theta)
+        if self.kind != "correlated":
+            return _normal_scores(self.shape, self.shape * np.exp(self.log_avar - mu))
+        res = self.log_avar - mu - self.offset
+        if not self.discrepancy:
+            return res @ self.whiten.T
+        s2 = np.exp(2.0 * log_theta[..., -1:])
+        return (res @ self.eig_vectors) / np.sqrt(self.eig_values + s2)
 
     @classmethod
     def build(cls, model, allan, *, kind="correlated", reference=None, bounds=None):
@@ -158,14 +232,19 @@ class LogPosterior:
 
     def model_log_avar(self, log_theta):
         """``log AVAR`` of the model at log-parameters ``(..., n_par)`` -> ``(..., n_tau)``."""
-        return np.log(self.evaluate(np.exp(log_theta)))
+        n_model = self.bounds.shape[0] - int(self.discrepancy)
+        return np.log(self.evaluate(np.exp(np.asarray(log_theta)[..., :n_model])))
 
     def log_likelihood(self, log_theta):
         """Log likelihood ``(...)`` (no prior)."""
         log_theta = np.asarray(log_theta, float)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             mu = self.model_log_avar(log_theta)
-        if self.kind == "correlated":
+        if self.kind == "correlated" and self.discrepancy:
+            var = self.eig_values + np.exp(2.0 * log_theta[..., -1:])
+            r = (self.log_avar - mu - self.offset) @ self.eig_vectors
+            out = -0.5 * np.sum(r * r / var + np.log(var), axis=-1) - 0.5 * self.m.size * np.log(2.0 * np.pi)
+        elif self.kind == "correlated":
             r = (self.log_avar - mu - self.offset) @ self.whiten.T
             out = self.norm - 0.5 * np.sum(r * r, axis=-1)
         else:
@@ -176,6 +255,10 @@ class LogPosterior:
             if self.kind == "copula":
                 z = _normal_scores(self.shape, y)
                 out = out - 0.5 * np.sum((z @ self.whiten) * z, axis=-1)
+        if self.order:
+            phi = log_theta[..., list(self.order)]
+            increasing = np.all(np.diff(phi, axis=-1) > 0, axis=-1)
+            out = np.where(increasing, out - self.log_order_mass, -np.inf)
         return np.where(np.isfinite(out), out, -np.inf)
 
     def in_prior(self, log_theta):

@@ -51,13 +51,16 @@ def plot_allan(result, path, *, label=""):
     plt.close(fig)
 
 
-def plot_allan_fit(fit, path, *, label="", rng=None):
-    """Observed Allan deviation with intervals, the 90% posterior predictive band, and each term.
+def plot_allan_fit(fit, path, *, label="", unit="input units", rng=None):
+    """Observed Allan deviation with intervals, the 90% posterior predictive band, each term,
+    and a panel of the whitened residuals of the goodness-of-fit check.
 
     Parameters
     ----------
     fit : FitResult
     path : path-like
+    unit : str
+        Unit of the rate samples (after any conversion).
     rng : seed for the posterior draws shown.
     """
     plt = _pyplot()
@@ -65,7 +68,7 @@ def plot_allan_fit(fit, path, *, label="", rng=None):
     tau_f = np.geomspace(allan.tau[0], allan.tau[-1], 80)
     m_f = np.unique(np.maximum(1, np.round(tau_f * allan.rate_hz)).astype(np.int64))
     tau_f = m_f / allan.rate_hz
-    fig, ax = plt.subplots(figsize=(7, 5))
+    fig, (ax, ax_r) = plt.subplots(2, 1, figsize=(7, 6.4), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
     err = np.vstack([allan.adev - allan.adev_low, allan.adev_high - allan.adev])
     ax.errorbar(allan.tau, allan.adev, yerr=err, fmt="o", ms=3, capsize=2, color="k", label=label or "observed ADEV")
     pred = np.sqrt(fit.predictive_avar(m_f, rng=rng))
@@ -78,14 +81,34 @@ def plot_allan_fit(fit, path, *, label="", rng=None):
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_ylim(allan.adev.min() / 5, allan.adev.max() * 2)
-    ax.set_xlabel("averaging time tau (s)")
-    ax.set_ylabel("Allan deviation (input units)")
+    ax.set_ylabel(f"Allan deviation ({unit})")
     ax.set_title("Allan deviation: data and posterior")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
+    _residual_panel(ax_r, fit)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def _residual_panel(ax, fit):
+    """Whitened residuals per cluster size (N(0, 1) each when the model is right), +-2 marked."""
+    check = fit.adequacy
+    ax.set_xscale("log")
+    ax.set_xlabel("averaging time tau (s)")
+    if check is None:
+        return
+    r = check.residuals
+    bad = np.abs(r) > 2.0
+    ax.axhspan(-2, 2, color="C2", alpha=0.12)
+    ax.axhline(0, color="gray", lw=0.8)
+    ax.vlines(fit.allan.tau, 0, r, color=np.where(bad, "C3", "k"), lw=1)
+    ax.plot(fit.allan.tau, r, "o", ms=3, color="k")
+    ax.plot(fit.allan.tau[bad], r[bad], "o", ms=4, color="C3")
+    ax.set_ylabel("whitened\nresidual")
+    verdict = "adequate" if check.adequate else ("INADEQUATE, intervals widened" if fit.widened else "INADEQUATE")
+    ax.set_title(f"goodness of fit: p = {check.p_value:.2g} ({verdict}); shaded: +-2", fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
 
 
 def plot_corner(fit, path):
@@ -106,6 +129,10 @@ def plot_corner(fit, path):
     plt.close(fig)
 
 
+_TERM_LABEL = {"white": "white noise", "quantization": "quantization", "filtered_white": "filtered white noise",
+               "hf_correlated": "fast correlated noise", "bias_instability": "bias instability",
+               "gauss_markov": "Gauss-Markov bias", "gauss_markov_2": "second Gauss-Markov bias",
+               "random_walk": "rate random walk", "ramp": "rate ramp"}
 _QUANTITY_LABEL = {"attitude": "attitude error", "velocity": "velocity error", "position": "position error"}
 
 
@@ -128,14 +155,16 @@ def plot_drift(bands_list, path, *, units, title=""):
         ax.fill_between(t, lo, hi, color="C0", alpha=0.3,
                         label=f"total, {bands.quantiles[0]:.0%}-{bands.quantiles[-1]:.0%} credible band")
         ax.plot(t, bands.total[len(bands.quantiles) // 2][keep], color="C0", lw=1.5, label="total, median")
-        ax.plot(t, bands.white[keep], "--", color="C1", label="white noise (median)")
-        positive = bands.bias[keep] > 0
-        if np.any(positive):
-            ax.plot(t[positive], bands.bias[keep][positive], "--", color="C2", label="bias drift (median)")
+        for i, (name, part) in enumerate(bands.terms.items()):
+            positive = part[keep] > 0
+            if np.any(positive):
+                ax.plot(t[positive], part[keep][positive], "--", lw=1, color=f"C{i + 1}",
+                        label=f"{_TERM_LABEL.get(name, name)} (median)")
         if np.isfinite(bands.crossover_s):
             ax.axvline(bands.crossover_s, color="gray", lw=1, ls=":")
-            ax.annotate(f"bias dominates after {bands.crossover_s:.3g} s", (bands.crossover_s, lo[0]),
-                        textcoords="offset points", xytext=(4, 4), fontsize=8, color="dimgray")
+            ax.annotate(f"biases and slow terms\nexceed short-term noise\nafter {bands.crossover_s:.3g} s",
+                        (bands.crossover_s, lo[0]), textcoords="offset points", xytext=(4, 4), fontsize=7,
+                        color="dimgray", ha="left" if bands.crossover_s < np.sqrt(t[0] * t[-1]) else "right")
         if bands.record_s < t[-1]:
             ax.axvspan(bands.record_s, t[-1], color="gray", alpha=0.12,
                        label=f"beyond the log ({bands.record_s:.4g} s): extrapolation")
@@ -143,7 +172,9 @@ def plot_drift(bands_list, path, *, units, title=""):
         ax.set_yscale("log")
         ax.set_xlabel("time since GPS loss (s)")
         ax.set_ylabel(f"1-sigma {_QUANTITY_LABEL[bands.quantity]} ({unit})")
-        ax.set_title(f"{bands.quantity} drift, bias start: {bands.bias_start}")
+        start = (f"bias calibrated over {bands.calibration_s:g} s" if bands.bias_start == "calibrated"
+                 else f"bias start: {bands.bias_start}")
+        ax.set_title(f"{bands.quantity} drift, {start}, {bands.models} models", fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8, loc="upper left")
     if title:

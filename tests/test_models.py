@@ -13,7 +13,11 @@ PARAMS = {
     "bias_instability": {"bias_instability": 0.5},
     "random_walk": {"rate_random_walk": 0.1},
     "gauss_markov": {"bias_variance": 1.5, "time_constant": 30.0},
+    "hf_correlated": {"correlated_variance": 3.0, "correlated_time_constant": 0.7},
+    "filtered_white": {"filtered_variance": 0.4},
 }
+#: stochastic terms that stand alone (the ramp is deterministic; gauss_markov_2 needs gauss_markov)
+SINGLE = tuple(PARAMS)
 
 
 def gm_avar_mpmath(m, x):
@@ -44,7 +48,7 @@ def test_gauss_markov_tends_to_random_walk():
     np.testing.assert_allclose(gm, random_walk_avar(m, np.sqrt(2.0), dt=1.0), rtol=1e-10)
 
 
-@pytest.mark.parametrize("term", TERMS)
+@pytest.mark.parametrize("term", SINGLE)
 def test_avar_equals_structure_function_form(term):
     """AVAR(m) = (4 D(m) - D(2m)) / (2 m^2): the two descriptions of each term agree."""
     model = NoiseModel((term,), 0.5)
@@ -63,9 +67,39 @@ def test_gauss_markov_structure_function_mpmath():
         np.testing.assert_allclose(got, ref, rtol=1e-13)
 
 
+def test_ramp_avar_equals_brute_force_overlapping_estimate():
+    """A sampled ramp y_k = R dt k: the overlapping AVAR of the sequence (independent numpy
+    second differences) equals R^2 tau^2 / 2 at every cluster size (deterministic, exact)."""
+    dt, rate_ramp = 0.01, 3e-4
+    y = rate_ramp * dt * np.arange(5000)
+    x = np.concatenate([[0.0], np.cumsum(y)])
+    m = np.array([1, 2, 7, 100, 1000])
+    brute = [np.mean((x[2 * k:] - 2 * x[k:-k] + x[: -2 * k]) ** 2) / (2.0 * k * k) for k in m]
+    model = NoiseModel(("ramp",), dt)
+    np.testing.assert_allclose(model.avar(m, {"rate_ramp": rate_ramp}), brute, rtol=1e-9)
+
+
+def test_two_gauss_markov_terms_add_and_are_ordered():
+    """gauss_markov_2 adds its own exact AVAR (the same formula at its own parameters), needs
+    gauss_markov, and the model lists the time constants fastest first for the ordering prior."""
+    dt = 0.01
+    model = NoiseModel(("white", "hf_correlated", "gauss_markov", "gauss_markov_2"), dt)
+    p = {"noise_variance": 1.0, "correlated_variance": 0.5, "correlated_time_constant": 0.02,
+         "bias_variance": 0.1, "time_constant": 5.0, "bias_variance_2": 0.01, "time_constant_2": 300.0}
+    m = np.array([1, 10, 1000, 10**5])
+    ref = (p["noise_variance"] / m + gauss_markov_avar(m, 0.5, 0.02, dt=dt) + gauss_markov_avar(m, 0.1, 5.0, dt=dt)
+           + gauss_markov_avar(m, 0.01, 300.0, dt=dt))
+    np.testing.assert_allclose(model.avar(m, p), ref, rtol=1e-14)
+    names = model.parameter_names
+    assert [names[i] for i in model.ordered] == ["correlated_time_constant", "time_constant", "time_constant_2"]
+    with pytest.raises(InputError, match="gauss_markov_2"):
+        NoiseModel(("white", "gauss_markov_2"), dt)
+
+
 def test_broadcasting_equals_loop(rng):
     model = NoiseModel(TERMS, 0.01)
     theta = np.exp(rng.uniform(-3, 3, size=(4, 5, len(model.parameter_names))))
+    assert len(model.parameter_names) == 12
     m = np.array([1, 3, 10, 300])
     batch = model.avar(m, theta)
     assert batch.shape == (4, 5, 4)

@@ -1,0 +1,28 @@
+"""Noise terms of inertial sensors, one module per term behind one interface (:class:`Term`).
+
+Stage ``noise`` of the data flow ``io -> allan -> noise -> inference -> drift -> report -> cli``.
+It owns, for every term, its exact sampled-data Allan variance, its phase structure function
+(the AVAR-covariance structure), its simulator, its drift contribution and its prior box;
+:class:`NoiseModel` sums terms. Adding a term is one module here and its entry in
+:data:`~bayes_imu.noise.model.REGISTRY`.
+
+====================  ===========================================  =============
+term                  parameters (units, rate in ``u``)            role
+====================  ===========================================  =============
+``white``             ``noise_variance`` [u^2]                     short term
+``quantization``      ``quantization`` Q [u s]                     short term
+``filtered_white``    ``filtered_variance`` [u^2]                  short term
+``hf_correlated``     ``correlated_variance`` [u^2], ``..._time_constant`` [s]  short term
+``bias_instability``  ``bias_instability`` B [u]                   bias
+``gauss_markov``      ``bias_variance`` [u^2], ``time_constant`` [s]  bias
+``gauss_markov_2``    ``bias_variance_2`` [u^2], ``time_constant_2`` [s]  bias
+``random_walk``       ``rate_random_walk`` K [u/sqrt(s)]           slow
+``ramp``              ``rate_ramp`` R [u/s]                        slow
+====================  ===========================================  =============
+"""
+
+from ._base import BIAS_STARTS, ROLES, PriorScale, Term, calibrated_contrast
+from .model import PARAMETER_UNITS, REGISTRY, TERM_PARAMETERS, TERMS, NoiseModel
+
+__all__ = ["Term", "PriorScale", "NoiseModel", "REGISTRY", "TERMS", "TERM_PARAMETERS", "PARAMETER_UNITS",
+           "BIAS_STARTS", "ROLES", "calibrated_contrast"]

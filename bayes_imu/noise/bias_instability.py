@@ -1,0 +1,77 @@
+"""Bias instability: flicker rate noise of level ``B`` [u] (IEEE Std 952).
+
+Defined by the generalised covariance of the phase ``D(k) = -(B^2/pi) k^2 ln k``; its AVAR
+is exactly flat, ``2 ln2 B^2 / pi`` (the Allan deviation plateau ``B sqrt(2 ln2 / pi)``).
+Simulated by circulant embedding of the stationary first differences (Dietrich & Newsam
+1997; exact when the embedding is non-negative, which is checked).
+
+Drift: flicker is not stationary, so a bias "at the start of the outage" is undefined; only
+an error relative to an estimated bias has a finite variance. ``"calibrated"`` is exact (the
+contrast of :mod:`._base`). ``"zero"`` and ``"stationary"`` use the same contrast with a
+calibration window as long as the outage: the residual rate is then the difference of two
+adjacent means, ``sqrt(2)`` times the Allan deviation, which is the least any window gives
+at that horizon (shorter windows add white-like scatter, longer ones stale bias).
+"""
+
+import numpy as np
+
+from ..errors import ModelError
+from ._base import Term
+
+__all__ = ["BIAS_INSTABILITY", "flicker_difference_acov"]
+
+FLAT = 2.0 * np.log(2.0) / np.pi
+
+
+def flicker_difference_acov(n, bias_instability):
+    """Autocovariance ``gamma(l)``, ``l = 0..n-1``, of first differences of flicker rate noise."""
+    h = bias_instability**2 / np.pi
+    k = np.arange(n + 2, dtype=float)
+    d = np.zeros_like(k)
+    d[1:] = -h * k[1:] ** 2 * np.log(k[1:])
+    lag = np.arange(n)
+    dm1 = d[np.abs(lag - 1)]
+    dm2 = d[np.abs(lag - 2)]
+    return -0.5 * (6.0 * d[lag] - 4.0 * d[lag + 1] - 4.0 * dm1 + d[lag + 2] + dm2)
+
+
+class _BiasInstability(Term):
+    def avar(self, mf, params, dt):
+        return FLAT * np.asarray(params["bias_instability"], float)[..., None] ** 2 * np.ones_like(mf)
+
+    def structure(self, k, params, dt):
+        k = np.asarray(k, dtype=float)
+        h = params["bias_instability"] ** 2 / np.pi
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(k > 0, -h * k * k * np.log(np.where(k > 0, k, 1.0)), 0.0)
+
+    def flicker_level(self, params):
+        return params["bias_instability"] ** 2 / np.pi
+
+    def simulate(self, params, n, dt, rng):
+        if params["bias_instability"] == 0:
+            return np.zeros(n)
+        gamma = flicker_difference_acov(n, params["bias_instability"])
+        row = np.concatenate([gamma, gamma[-2:0:-1]])
+        lam = np.fft.rfft(row).real
+        if lam.min() < -1e-9 * np.max(np.abs(lam)):
+            raise ModelError(f"flicker circulant embedding not non-negative for n={n} (min eigenvalue {lam.min():.3g})")
+        lam = np.clip(lam, 0.0, None)
+        z = np.fft.irfft(np.sqrt(lam) * np.fft.rfft(rng.standard_normal(row.size)), n=row.size)[: n - 1]
+        y = np.empty(n)
+        y[0] = 0.0
+        np.cumsum(z, out=y[1:])
+        return y
+
+    def bounds(self, scale):
+        return [scale.amplitude(np.log(1.0 / FLAT), 0.5)]
+
+    def amplitude2(self, params):
+        return np.asarray(params["bias_instability"], float) ** 2
+
+    def unit_drift(self, order, k, dt, bias_start, n_cal):
+        return super().unit_drift(order, k, dt, "calibrated", n_cal if bias_start == "calibrated" else np.maximum(k, 1.0))
+
+
+BIAS_INSTABILITY = _BiasInstability("bias_instability", ("bias_instability",), {"bias_instability": "{u}"},
+                                    "bias instability", "bias")

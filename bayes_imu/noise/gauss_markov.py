@@ -1,0 +1,185 @@
+"""First-order Gauss-Markov processes: the bias terms and the high-frequency correlated term.
+
+A stationary AR(1) ``b_k = phi b_{k-1} + w_k``, ``phi = exp(-dt/T)``, variance ``s^2``
+(paper eq 4 sampled exactly). Three terms share this module, told apart by their prior on
+``T`` and by what they mean:
+
+``hf_correlated`` (``correlated_variance``, ``correlated_time_constant``)
+    a fast component, ``dt <= T <= 50 dt``: sensor bandwidth, internal filtering, the
+    "hump" of MEMS logs at 0.01-0.1 s. It is short-term noise, not a bias: at averaging
+    times ``tau >> T`` it is white noise of density ``sqrt(dt s^2 (1 + phi)/(1 - phi))``,
+    which :attr:`bayes_imu.fit.FitResult` adds to the white term's noise density.
+``gauss_markov`` (``bias_variance``, ``time_constant``)
+    a wandering bias, ``3 dt <= T <= record / 4``;
+``gauss_markov_2`` (``bias_variance_2``, ``time_constant_2``)
+    a second, slower bias on the same box (GMWM practice for MEMS gyros).
+
+In one model the time constants are ordered, ``hf < gauss_markov < gauss_markov_2``
+(:func:`bayes_imu.noise.model.NoiseModel.ordered`), which removes label switching.
+
+AVAR (``x = dt/T``)::
+
+    AVAR(m) = s^2 [m (1 - phi^2) - phi (1 - phi^m)(3 - phi^m)] / (m^2 (1 - phi)^2)
+
+below ``m x = 0.1`` from its exact Taylor series ``-x^3 sum_n (-x)^(n-3) b_n(m) / n!`` with
+integer coefficients ``b_n(m) = 4 (m+1)^n - (2m+1)^n - m 2^n - 3`` (exact arithmetic), whose
+leading term is the random-walk limit ``s^2 x (2m^2 + 1)/(3m)``.
+
+Structure function ``D(k) = s^2 [k (1 - phi^2) - 2 phi (1 - phi^k)] / (1 - phi)^2`` (the
+variance of a sum of ``k`` consecutive samples), series below ``k x = 0.5``.
+
+Drift of the Euler integral, ``a = 1 - phi`` (:mod:`bayes_imu._euler`, ``c_r`` and ``V_r``)::
+
+    zero        s^2 a (2 - a) dt^(2r) V_r(k, a)                    (paper eqs 16, 22, 29)
+    stationary  + s^2 dt^(2r) c_r(k)^2
+    calibrated  stationary + s^2 dt^(2r) [P^2 D(N)/(s^2 N^2) - 2 P c_r(k) S_N / N]
+
+with ``P = k`` (r = 1) or ``k (k-1)/2`` (r = 2), the weight of the estimated bias, and
+``S_N = sum_{j=1}^N phi^j`` from ``Cov(b_i, b_{-j}) = s^2 phi^(i+j)``. The calibrated form
+cancels the constant part of a slow bias; the time-constant prior (at most a quarter of the
+record) bounds that cancellation to a few digits.
+"""
+
+from fractions import Fraction
+from functools import lru_cache
+from math import factorial
+
+import numpy as np
+
+from .._euler import gm_coefficient, gm_sum
+from ._base import Term
+
+__all__ = ["HF_CORRELATED", "GAUSS_MARKOV", "GAUSS_MARKOV_2", "gm_avar", "gm_structure"]
+
+_AVAR_SWITCH = 0.1  # m dt/T below which the AVAR uses its series
+_AVAR_TERMS = 13  # (2 * 0.1)^13 / 16! ~ 4e-23
+_SWITCH = 0.5
+_SERIES_TERMS = 24
+GM_PEAK = 0.3  # ~max over tau of a Gauss-Markov AVAR / s^2 (continuous value 0.30)
+#: time-constant box of each kind: (lowest in samples, highest in samples or None, highest as a record fraction)
+HF_T_SAMPLES = (1.0, 50.0)
+BIAS_T_MIN_SAMPLES = 3.0
+BIAS_T_MAX_RECORD = 0.25
+
+
+@lru_cache(maxsize=64)
+def _series_coefficients(ms):
+    """``c[j, i] = -b_{j+3}(m_i) / ((j+3)! m_i^j)``, exact rationals rounded once."""
+    out = np.empty((_AVAR_TERMS, len(ms)))
+    for i, m in enumerate(ms):
+        for j in range(_AVAR_TERMS):
+            n = j + 3
+            b = 4 * (m + 1) ** n - (2 * m + 1) ** n - m * 2**n - 3
+            out[j, i] = float(Fraction(-b, factorial(n) * m**j))
+    return out
+
+
+def gm_avar(mf, variance, time_constant, dt):
+    """Exact AVAR ``(..., n_tau)`` of a sampled Gauss-Markov process (module docstring)."""
+    coeffs = _series_coefficients(tuple(int(v) for v in mf))
+    s2 = np.asarray(variance, float)[..., None]
+    x = (dt / np.asarray(time_constant, float))[..., None]
+    fx = -np.expm1(-x)
+    y = mf * x
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        fy = -np.expm1(-y)
+        closed = (mf * -np.expm1(-2.0 * x) - (1.0 - fx) * fy * (2.0 + fy)) / (mf * mf * fx * fx)
+        ys = -np.minimum(y, _AVAR_SWITCH)
+        poly = coeffs[-1] * ys + coeffs[-2]
+        for j in range(coeffs.shape[0] - 3, -1, -1):
+            poly = poly * ys + coeffs[j]
+        ratio = np.where(fx > 0, x / fx, 1.0)
+        series = x * ratio * ratio * poly / (mf * mf)
+    return s2 * np.where(y <= _AVAR_SWITCH, series, closed)
+
+
+def gm_structure(k, s2, x):
+    """``D(k)``, broadcast over ``k``, ``s2`` and ``x = dt/T``; series below ``k x = 0.5``."""
+    k, s2, x = np.broadcast_arrays(np.asarray(k, float), np.asarray(s2, float), np.asarray(x, float))
+    fx = -np.expm1(-x)
+    out = np.zeros(k.shape)
+    big = k * x > _SWITCH
+    kb, xb, fb = k[big], x[big], fx[big]
+    out[big] = (kb * -np.expm1(-2.0 * xb) - 2.0 * (1.0 - fb) * -np.expm1(-kb * xb)) / (fb * fb)
+    # series: (x/f)^2 sum_{n>=2} (-x)^(n-2) e_n(k)/n!, e_n = 2 (k+1)^n - 2 - k 2^n, scaled by k^(n-2)
+    small = ~big & (k > 0)
+    ks, xs, fs = k[small], x[small], fx[small]
+    z = -ks * xs
+    poly = np.zeros(ks.shape)
+    for n in range(_SERIES_TERMS + 1, 1, -1):
+        e = (2.0 * (ks + 1.0) ** n - 2.0 - ks * 2.0**n) / (factorial(n) * ks ** (n - 2))
+        poly = poly * z + e
+    ratio = np.where(xs > 0, xs / np.where(fs > 0, fs, 1.0), 1.0)
+    out[small] = ratio * ratio * poly
+    return s2 * out
+
+
+class _GaussMarkov(Term):
+    @property
+    def variance_name(self):
+        return self.parameters[0]
+
+    @property
+    def time_constant_name(self):
+        return self.parameters[1]
+
+    def avar(self, mf, params, dt):
+        return gm_avar(mf, params[self.variance_name], params[self.time_constant_name], dt)
+
+    def structure(self, k, params, dt):
+        return gm_structure(k, params[self.variance_name], dt / params[self.time_constant_name])
+
+    def gm_components(self, params, dt):
+        return [(float(params[self.variance_name]), dt / float(params[self.time_constant_name]))]
+
+    def simulate(self, params, n, dt, rng):
+        from scipy.signal import lfilter
+
+        t = params[self.time_constant_name]
+        phi = np.exp(-dt / t)
+        s = np.sqrt(params[self.variance_name])
+        w = s * np.sqrt(-np.expm1(-2.0 * dt / t)) * rng.standard_normal(n)
+        b0 = s * rng.standard_normal()
+        return lfilter([1.0], [1.0, -phi], w, zi=[phi * b0])[0]
+
+    def time_constant_box(self, scale):
+        if self.role == "short_term":
+            return (np.log(HF_T_SAMPLES[0] * scale.dt), np.log(HF_T_SAMPLES[1] * scale.dt))
+        return (np.log(BIAS_T_MIN_SAMPLES * scale.dt), np.log(BIAS_T_MAX_RECORD * scale.record_s))
+
+    def bounds(self, scale):
+        return [scale.amplitude(-np.log(GM_PEAK), 1.0), self.time_constant_box(scale)]
+
+    def white_equivalent(self, params, dt):
+        """Per-sample variance of the white noise this term looks like at ``tau >> T``: ``s^2 (1+phi)/(1-phi)``."""
+        x = dt / np.asarray(params[self.time_constant_name], float)
+        return np.asarray(params[self.variance_name], float) * (2.0 + np.expm1(-x)) / -np.expm1(-x)
+
+    def drift_variance(self, order, k, params, dt, *, bias_start="zero", n_cal=None):
+        s2 = np.asarray(params[self.variance_name], float)[..., None]
+        x = dt / np.asarray(params[self.time_constant_name], float)[..., None]
+        a = -np.expm1(-x)
+        kk, aa = np.broadcast_arrays(k, a)
+        out = a * (2.0 - a) * gm_sum(order, kk, aa)
+        if bias_start == "zero":
+            return s2 * dt ** (2 * order) * out
+        c = gm_coefficient(order, kk, aa)
+        out = out + c * c
+        if bias_start == "calibrated":
+            n = np.broadcast_to(np.asarray(n_cal, float), np.shape(k))
+            weight = k if order == 1 else k * (k - 1.0) / 2.0
+            s_n = (1.0 - a) * -np.expm1(-n * x) / a  # sum_{j=1}^N phi^j
+            out = out + weight**2 * gm_structure(n, 1.0, x) / n**2 - 2.0 * weight * c * s_n / n
+            out = np.maximum(out, 0.0)
+        return s2 * dt ** (2 * order) * np.where(k >= order, out, 0.0)  # exactly 0 before the first full step
+
+
+HF_CORRELATED = _GaussMarkov("hf_correlated", ("correlated_variance", "correlated_time_constant"),
+                             {"correlated_variance": "({u})^2", "correlated_time_constant": "s"},
+                             "high-frequency correlated noise (bandwidth)", "short_term")
+GAUSS_MARKOV = _GaussMarkov("gauss_markov", ("bias_variance", "time_constant"),
+                            {"bias_variance": "({u})^2", "time_constant": "s"}, "correlated (Gauss-Markov) bias",
+                            "bias")
+GAUSS_MARKOV_2 = _GaussMarkov("gauss_markov_2", ("bias_variance_2", "time_constant_2"),
+                              {"bias_variance_2": "({u})^2", "time_constant_2": "s"},
+                              "second, slower Gauss-Markov bias", "bias")

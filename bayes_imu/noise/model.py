@@ -1,0 +1,125 @@
+"""A noise model: a sum of terms from :mod:`bayes_imu.noise` at one sample period."""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from .bias_instability import BIAS_INSTABILITY
+from .filtered_white import FILTERED_WHITE
+from .gauss_markov import GAUSS_MARKOV, GAUSS_MARKOV_2, HF_CORRELATED
+from .quantization import QUANTIZATION
+from .ramp import RAMP
+from .random_walk import RANDOM_WALK
+from .white import WHITE
+
+__all__ = ["REGISTRY", "TERMS", "TERM_PARAMETERS", "PARAMETER_UNITS", "NoiseModel", "m_array"]
+
+#: every term, in canonical order (Gauss-Markov kinds from fastest to slowest)
+REGISTRY = {t.name: t for t in (WHITE, QUANTIZATION, FILTERED_WHITE, HF_CORRELATED, BIAS_INSTABILITY, GAUSS_MARKOV, GAUSS_MARKOV_2,
+                                RANDOM_WALK, RAMP)}
+TERMS = tuple(REGISTRY)
+TERM_PARAMETERS = {name: t.parameters for name, t in REGISTRY.items()}
+#: unit of each parameter, given the unit ``u`` of the rate samples
+PARAMETER_UNITS = {p: u for t in REGISTRY.values() for p, u in t.units.items()}
+PARAMETER_UNITS["noise_density"] = "{u}/sqrt(Hz)"
+PARAMETER_UNITS["white_noise_density"] = "{u}/sqrt(Hz)"
+
+
+def m_array(m):
+    """Validated cluster sizes as floats."""
+    m = np.asarray(m)
+    if m.ndim != 1 or m.size == 0 or not np.all(m >= 1) or not np.all(m == np.round(m)):
+        raise InputError(f"cluster sizes m: expected a non-empty 1-D array of integers >= 1, got {m!r}")
+    return m.astype(float)
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """A sum of noise terms for rate samples at period ``dt``.
+
+    Attributes
+    ----------
+    terms : tuple of str
+        Term names, a subset of :data:`TERMS` (kept in canonical order).
+    dt : float
+        Sample period [s].
+    """
+
+    terms: tuple
+    dt: float
+
+    def __post_init__(self):
+        unknown = [t for t in self.terms if t not in REGISTRY]
+        if unknown or not self.terms or len(set(self.terms)) != len(self.terms):
+            raise InputError(f"model terms {self.terms!r}: expected distinct names from {', '.join(TERMS)}")
+        if not (np.isfinite(self.dt) and self.dt > 0):
+            raise InputError(f"dt={self.dt!r}: expected a positive sample period in seconds")
+        if "gauss_markov_2" in self.terms and "gauss_markov" not in self.terms:
+            raise InputError("model terms: gauss_markov_2 (the slower of two biases) needs gauss_markov")
+        object.__setattr__(self, "terms", tuple(t for t in TERMS if t in self.terms))
+
+    @property
+    def components(self):
+        """The :class:`~bayes_imu.noise.Term` objects, in order."""
+        return tuple(REGISTRY[t] for t in self.terms)
+
+    @property
+    def parameter_names(self):
+        """Parameter names in sampling order."""
+        return tuple(p for t in self.components for p in t.parameters)
+
+    @property
+    def ordered(self):
+        """Indices of the Gauss-Markov time constants, fastest first (they must increase)."""
+        names = self.parameter_names
+        return tuple(names.index(t.parameters[1]) for t in self.components if hasattr(t, "time_constant_name"))
+
+    def unpack(self, theta):
+        """Split an array ``(..., n_par)`` (extra trailing columns ignored) into a dict name -> ``(...)``."""
+        theta = np.asarray(theta, float)
+        return {name: theta[..., i] for i, name in enumerate(self.parameter_names)}
+
+    def term_avar(self, term, m, params):
+        """Allan variance of one term, ``(..., n_tau)``."""
+        params = params if isinstance(params, dict) else self.unpack(params)
+        return REGISTRY[term].avar(m_array(m), {k: np.asarray(v, float) for k, v in params.items()}, self.dt)
+
+    def avar(self, m, params):
+        """Model Allan variance ``(..., n_tau)`` for parameters given as a dict or ``(..., n_par)``."""
+        return self.avar_evaluator(m)(params)
+
+    def avar_evaluator(self, m):
+        """A function ``params -> (..., n_tau)`` for fixed cluster sizes ``m`` (validated once)."""
+        mf = m_array(m)
+        dt = self.dt
+        components = self.components
+
+        def evaluate(params):
+            if not isinstance(params, dict):
+                params = self.unpack(params)
+            params = {k: np.asarray(v, float) for k, v in params.items()}
+            out = components[0].avar(mf, params, dt)
+            for term in components[1:]:
+                out = out + term.avar(mf, params, dt)
+            return out
+
+        return evaluate
+
+    def structure_function(self, k, params):
+        """Phase structure function of the sum (scalar parameters), see :mod:`bayes_imu.noise`."""
+        return sum(t.structure(k, params, self.dt) for t in self.components)
+
+    def short_term_variance(self, params):
+        """Per-sample variance of the white noise the short-term terms amount to at ``tau >> T_hf``.
+
+        White noise plus the white equivalent of the filtered-white and high-frequency
+        correlated terms: the
+        ``noise_density`` users compare with a datasheet's ARW / VRW or ADEV(1 s).
+        """
+        params = params if isinstance(params, dict) else self.unpack(params)
+        total = np.asarray(params.get("noise_variance", 0.0), float)
+        for term in self.components:
+            if term.role == "short_term" and hasattr(term, "white_equivalent"):
+                total = total + term.white_equivalent(params, self.dt)
+        return total

@@ -1,0 +1,41 @@
+"""Quantization noise: white angle (velocity) noise of standard deviation ``Q`` [u s].
+
+``y_k = (e_{k+1} - e_k) / dt`` with ``e`` i.i.d. of variance ``Q^2``. AVAR ``3 Q^2 / tau^2``
+(exact: second differences of white angle noise have variance ``6 Q^2``);
+``D(k) = 2 (Q/dt)^2`` for ``k > 0``.
+Drift: the integrated error is ``e_k - e_0``: ``2 Q^2`` (single integral) and
+``Q^2 dt^2 (k - 1) k`` (double integral: ``dt (sum_{j=1}^{k-1} e_j - (k-1) e_0)``),
+whatever the start; calibrated start from the contrast of :mod:`._base`.
+"""
+
+import numpy as np
+
+from ._base import Term
+
+__all__ = ["QUANTIZATION"]
+
+
+class _Quantization(Term):
+    def avar(self, mf, params, dt):
+        return 3.0 * np.asarray(params["quantization"], float)[..., None] ** 2 / (mf * dt) ** 2
+
+    def structure(self, k, params, dt):
+        return 2.0 * (params["quantization"] / dt) ** 2 * (np.asarray(k, float) != 0)
+
+    def simulate(self, params, n, dt, rng):
+        return np.diff(params["quantization"] * rng.standard_normal(n + 1)) / dt
+
+    def bounds(self, scale):
+        return [scale.amplitude(np.log(scale.tau_min**2 / 3.0), 0.5)]
+
+    def amplitude2(self, params):
+        return np.asarray(params["quantization"], float) ** 2
+
+    def unit_drift(self, order, k, dt, bias_start, n_cal):
+        if bias_start == "calibrated":
+            return super().unit_drift(order, k, dt, bias_start, n_cal)
+        return 2.0 * (k > 0) if order == 1 else dt**2 * np.where(k > 0, (k - 1.0) * k, 0.0)
+
+
+QUANTIZATION = _Quantization("quantization", ("quantization",), {"quantization": "{u} s"}, "quantization noise",
+                             "short_term")

@@ -1,0 +1,43 @@
+"""Rate random walk: ``y_k`` increments by ``N(0, K^2 dt)`` each sample (IEEE Std 952 ``K``).
+
+AVAR ``K^2 dt (2 m^2 + 1) / (6 m)`` (exact; ``K^2 tau / 3`` for large ``m``);
+``D(k) = K^2 dt (k - k^3) / 6`` (a generalised covariance of order 2).
+Drift: from a zero start (the walk is at 0 when the outage starts; ``"stationary"`` is the
+same, a walk has no stationary state) ``K^2 dt^(2r+1) V_r(k, 0)`` (:mod:`bayes_imu._euler`);
+calibrated start from the contrast of :mod:`._base`.
+"""
+
+import numpy as np
+
+from .._euler import gm_sum
+from ._base import Term
+
+__all__ = ["RANDOM_WALK"]
+
+
+class _RandomWalk(Term):
+    def avar(self, mf, params, dt):
+        q = np.asarray(params["rate_random_walk"], float)[..., None] ** 2 * dt
+        return q * (2.0 * mf * mf + 1.0) / (6.0 * mf)
+
+    def structure(self, k, params, dt):
+        k = np.asarray(k, float)
+        return params["rate_random_walk"] ** 2 * dt * (k - k**3) / 6.0
+
+    def simulate(self, params, n, dt, rng):
+        return np.cumsum(params["rate_random_walk"] * np.sqrt(dt) * rng.standard_normal(n))
+
+    def bounds(self, scale):
+        return [scale.amplitude(np.log(3.0 / scale.tau_max), 0.5)]
+
+    def amplitude2(self, params):
+        return np.asarray(params["rate_random_walk"], float) ** 2
+
+    def unit_drift(self, order, k, dt, bias_start, n_cal):
+        if bias_start == "calibrated":
+            return super().unit_drift(order, k, dt, bias_start, n_cal)
+        return dt ** (2 * order + 1) * gm_sum(order, k, np.zeros_like(k))
+
+
+RANDOM_WALK = _RandomWalk("random_walk", ("rate_random_walk",), {"rate_random_walk": "{u}/sqrt(s)"},
+                          "rate random walk", "slow")

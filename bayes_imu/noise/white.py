@@ -1,0 +1,39 @@
+"""White rate noise (angle / velocity random walk, IEEE Std 952).
+
+``y_k`` i.i.d. with variance ``noise_variance`` ``q`` [u^2]; density ``N = sqrt(q dt)``.
+AVAR ``q / m`` (SP1065 Table 3; ``N^2 / tau``), exact; ``D(k) = q k``.
+Drift: ``q dt^2 k`` (paper eq 5) and ``q dt^4 (k-1) k (2k-1) / 6`` (eq 11 corrected) from a
+zero or stationary start; calibrated start from the contrast of :mod:`._base`.
+"""
+
+import numpy as np
+
+from ._base import Term, calibrated_contrast
+
+__all__ = ["WHITE"]
+
+
+class _White(Term):
+    def avar(self, mf, params, dt):
+        return np.asarray(params["noise_variance"], float)[..., None] / mf
+
+    def structure(self, k, params, dt):
+        return params["noise_variance"] * np.asarray(k, float)
+
+    def simulate(self, params, n, dt, rng):
+        return np.sqrt(params["noise_variance"]) * rng.standard_normal(n)
+
+    def bounds(self, scale):
+        return [scale.amplitude(np.log(scale.m_min), 1.0)]
+
+    def amplitude2(self, params):
+        return params["noise_variance"]
+
+    def unit_drift(self, order, k, dt, bias_start, n_cal):
+        if bias_start == "calibrated":
+            return dt ** (2 * order) * calibrated_contrast(lambda lag: np.asarray(lag, float), order, k, n_cal)
+        shape = k if order == 1 else (k - 1.0) * k * (2.0 * k - 1.0) / 6.0
+        return dt ** (2 * order) * np.where(k > 0, shape, 0.0)
+
+
+WHITE = _White("white", ("noise_variance",), {"noise_variance": "({u})^2"}, "angle/velocity random walk", "short_term")
