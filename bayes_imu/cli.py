@@ -283,6 +283,8 @@ def _cmd_kalibr(args):
     values = kalibr_values(args.gyro, args.accel, credibility=args.credibility)
     with staged_file(args.out, force=args.force) as tmp:
         write_kalibr_yaml(values, tmp)
+    if not values["_adequate"]:
+        _warn("Kalibr values from fits that failed the goodness-of-fit check: " + ", ".join(values["_inadequate"]))
     print(f"wrote {args.out} ({values['_mode']})")
     return 0
 
@@ -298,7 +300,7 @@ def _fit_options(parser):
     parser.add_argument("--bias-start", choices=BIAS_STARTS, default="calibrated",
                         help="bias at the start of the outage: calibrated (default: the mean of the --calibration "
                              "seconds before it is removed), zero (the paper) or stationary (never estimated)")
-    parser.add_argument("--calibration", type=_positive_float, default=DEFAULT_CALIBRATION_S, metavar="S",
+    parser.add_argument("--calibration", type=_positive_seconds, default=DEFAULT_CALIBRATION_S, metavar="S",
                         help=f"calibration window of --bias-start calibrated (s), default {DEFAULT_CALIBRATION_S:g}")
     parser.add_argument("--models", choices=MODEL_CHOICES, default="averaged",
                         help="drift from every candidate model weighted by its posterior probability (averaged, "
@@ -410,7 +412,7 @@ def _cmd_drift(args):
 
 # ---------------------------------------------------------------------------- entry point
 
-def _positive_float(text):
+def _positive_seconds(text):
     try:
         value = float(text)
     except ValueError:

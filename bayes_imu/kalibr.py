@@ -3,12 +3,16 @@
 Kalibr (and most VIO / VINS packages) take four continuous-time noise densities, in SI:
 
 * ``gyroscope_noise_density`` [rad/s/sqrt(Hz)] and ``accelerometer_noise_density``
-  [m/s^2/sqrt(Hz)]: the white term, ``sqrt(noise_variance * dt)``;
+  [m/s^2/sqrt(Hz)]: the short-term noise as white noise, ``sqrt(q_eff dt)`` with ``q_eff``
+  the white variance plus the white equivalents of filtered white noise (``4 c``) and of a
+  high-frequency correlated term (``s^2 (1 + phi)/(1 - phi)``): what a filter running at
+  ``update_rate`` sees beyond a few samples;
 * ``gyroscope_random_walk`` [rad/s^2/sqrt(Hz)] and ``accelerometer_random_walk``
   [m/s^3/sqrt(Hz)]: the density of the bias random walk. Our terms map to it as
   ``rate_random_walk`` K directly; a Gauss-Markov bias as its driving-noise density
   ``sqrt(2 sigma_b^2 / T)`` (the random walk it behaves like for t << T, an upper bound on
-  its drift); bias instability B as the random walk with the same Allan variance at the
+  its drift; both Gauss-Markov biases, never the fast correlated term, which is short-term
+  noise); bias instability B as the random walk with the same Allan variance at the
   longest averaging time of the log, ``B sqrt(6 ln2 / (pi tau_max))``. Present terms add in
   quadrature, per posterior draw.
 
@@ -17,7 +21,8 @@ Units: the fit folder's ``summary.json`` records the unit of the fitted values (
 converted to SI here). A folder of a several-column fit stands for all its axes.
 ``update_rate`` is the log's rate [Hz]. Nominal values are posterior medians; with
 ``credibility`` the upper posterior quantile (conservative). Several axes of one sensor
-combine to the worst axis (largest value).
+combine to the worst axis (largest value). A fit that failed its adequacy check is flagged
+in the file (``# WARNING`` line) and in the returned ``_adequate``.
 """
 
 import json
@@ -73,15 +78,23 @@ def _load(folder, summary):
 
 def axis_densities(summary, draws, factor):
     """Per-draw SI noise density and random-walk density of one fitted axis."""
+    from .noise import REGISTRY
+
     dt = 1.0 / summary["rate_hz"]
     if "noise_variance" not in draws:
         raise InputError("fit has no white term: Kalibr needs a noise density")
-    density = np.sqrt(draws["noise_variance"] * dt) * factor
+    q_eff = np.array(draws["noise_variance"], dtype=float)
+    if "filtered_variance" in draws:
+        q_eff = q_eff + REGISTRY["filtered_white"].white_equivalent(draws, dt)
+    if "correlated_variance" in draws:
+        q_eff = q_eff + REGISTRY["hf_correlated"].white_equivalent(draws, dt)
+    density = np.sqrt(q_eff * dt) * factor
     rw2 = np.zeros_like(density)
     if "rate_random_walk" in draws:
         rw2 += draws["rate_random_walk"] ** 2
-    if "bias_variance" in draws:
-        rw2 += 2.0 * draws["bias_variance"] / draws["time_constant"]
+    for variance, time_constant in (("bias_variance", "time_constant"), ("bias_variance_2", "time_constant_2")):
+        if variance in draws:
+            rw2 += 2.0 * draws[variance] / draws[time_constant]
     if "bias_instability" in draws:
         tau_max = 2.0 ** math.floor(math.log2(summary["n_samples"] / 4.0)) * dt
         rw2 += draws["bias_instability"] ** 2 * 6.0 * math.log(2.0) / (math.pi * tau_max)
@@ -93,7 +106,7 @@ def kalibr_values(gyro_dirs, accel_dirs, *, credibility=None):
     if credibility is not None and not 0.5 <= credibility < 1:
         raise InputError(f"--credibility={credibility!r}: expected a number in [0.5, 1)")
     q = 0.5 if credibility is None else credibility
-    out, rates = {}, set()
+    out, rates, inadequate = {}, set(), []
     for kind, dirs, want in (("gyroscope", gyro_dirs, "gyro"), ("accelerometer", accel_dirs, "accel")):
         dens, walk = [], []
         for folder, summary in _axis_folders(dirs):
@@ -101,6 +114,8 @@ def kalibr_values(gyro_dirs, accel_dirs, *, credibility=None):
             if unit_kind != want:
                 raise InputError(f"{folder}: unit {summary['unit']!r} is not a {want} unit")
             d, w = axis_densities(summary, draws, factor)
+            if not (summary.get("adequacy") or {}).get("adequate", True):
+                inadequate.append(str(folder))
             dens.append(float(np.quantile(d, q)))
             walk.append(float(np.quantile(w, q)))
             rates.add(float(summary["rate_hz"]))
@@ -110,12 +125,17 @@ def kalibr_values(gyro_dirs, accel_dirs, *, credibility=None):
         raise InputError(f"fit folders have different rates {sorted(rates)} Hz: expected one IMU rate")
     out["update_rate"] = rates.pop()
     out["_mode"] = "posterior medians" if credibility is None else f"upper {credibility:.0%} posterior quantiles"
+    out["_adequate"] = not inadequate
+    out["_inadequate"] = inadequate
     return out
 
 
 def write_kalibr_yaml(values, path):
     """Write the Kalibr ``imu.yaml`` (no YAML library needed: flat keys)."""
     lines = [f"# bayes_imu Kalibr IMU noise model: {values['_mode']}, worst axis, SI units"]
+    if not values.get("_adequate", True):
+        lines.append("# WARNING: the noise model failed its goodness-of-fit check for "
+                     + ", ".join(values["_inadequate"]) + " (intervals widened; values less certain than stated)")
     for key in ("accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density",
                 "gyroscope_random_walk"):
         lines.append(f"{key}: {values[key]:.6e}")

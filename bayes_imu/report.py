@@ -22,7 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from .allan import allan_variance
-from .bands import SENSOR_QUANTITIES, drift_bands, drift_draws
+from .bands import DEFAULT_CALIBRATION_S, SENSOR_QUANTITIES, drift_bands, drift_draws
+from .noise import BIAS_STARTS
 from .errors import InputError
 from .fit import fit_allan
 from .io import UNITS, read_log, read_text, to_si
@@ -52,8 +53,9 @@ class Scene:
     credibility: float
     sensors: tuple
     requirement: dict | None = None
-    bias_start: str = "zero"
+    bias_start: str = "calibrated"
     path: str = ""
+    calibration_s: float = DEFAULT_CALIBRATION_S
 
 
 @dataclass(frozen=True)
@@ -83,10 +85,13 @@ class Report:
                 "name": s.spec.name, "kind": s.spec.kind, "log": str(s.spec.log), "column": s.spec.column,
                 "input_units": s.spec.units, "model": summary["model"], "parameters": summary["parameters"],
                 "diagnostics": summary["diagnostics"], "candidates": summary["candidates"],
+                "adequacy": summary["adequacy"], "model_averaging": summary["model_averaging"],
                 "bounds": list(s.bounds), "max_outage_s": s.max_outage_s,
             })
         return {"scene": self.scene.name, "credibility": self.scene.credibility, "outages_s": list(self.scene.outages_s),
-                "requirement": self.scene.requirement, "bias_start": self.scene.bias_start, "sensors": out,
+                "requirement": self.scene.requirement, "bias_start": self.scene.bias_start,
+                "calibration_s": self.scene.calibration_s if self.scene.bias_start == "calibrated" else None,
+                "models": "averaged over the candidate models by posterior probability", "sensors": out,
                 "ranking": list(self.ranking), "ranking_reason": self.reason, "bayes_imu_version": __version__}
 
 
@@ -126,9 +131,13 @@ def read_scene(path):
     cred = scene.get("credibility", 0.95)
     if isinstance(cred, bool) or not isinstance(cred, (int, float)) or not 0.5 <= cred < 1:
         raise InputError(f"{path}: [scene] credibility={cred!r}: expected a number in [0.5, 1)")
-    bias_start = scene.get("bias_start", "zero")
-    if bias_start not in ("zero", "stationary"):
-        raise InputError(f"{path}: [scene] bias_start={bias_start!r}: expected 'zero' or 'stationary'")
+    bias_start = scene.get("bias_start", "calibrated")
+    if bias_start not in BIAS_STARTS:
+        raise InputError(f"{path}: [scene] bias_start={bias_start!r}: expected one of {', '.join(BIAS_STARTS)}")
+    calibration = scene.get("calibration_s", DEFAULT_CALIBRATION_S)
+    if isinstance(calibration, bool) or not isinstance(calibration, (int, float)) or not (
+            np.isfinite(calibration) and calibration > 0):
+        raise InputError(f"{path}: [scene] calibration_s={calibration!r}: expected a positive number of seconds")
     requirement = doc.get("requirement")
     if requirement is not None:
         where = f"{path}: [requirement]"
@@ -157,29 +166,35 @@ def read_scene(path):
     if len(set(names)) != len(names):
         raise InputError(f"{path}: sensor names must be unique, got {names}")
     return Scene(str(scene.get("name", path.stem)), tuple(float(v) for v in outages), float(cred), tuple(specs),
-                 requirement, bias_start, str(path))
+                 requirement, bias_start, str(path), float(calibration))
 
 
-def _bound(fit, t, quantity, credibility, bias_start):
-    d = drift_draws(fit, np.atleast_1d(t), quantity=quantity, bias_start=bias_start)["total"]
+def _bound(fit, t, quantity, credibility, bias_start, calibration_s=DEFAULT_CALIBRATION_S):
+    d = drift_draws(fit, np.atleast_1d(t), quantity=quantity, bias_start=bias_start, calibration_s=calibration_s)["total"]
     return np.quantile(d, credibility, axis=0), np.median(d, axis=0)
 
 
-def max_outage(fit, quantity, max_error, credibility, bias_start="zero"):
+def max_outage(fit, quantity, max_error, credibility, bias_start="calibrated", calibration_s=DEFAULT_CALIBRATION_S):
     """Longest time (s) whose ``credibility`` bound on ``quantity`` stays within ``max_error``.
+
+    The bound is model-averaged, with the given bias semantics (default: the bias calibrated
+    over ``calibration_s`` seconds before the outage).
 
     Bisection on log time between one sample and :data:`MAX_SEARCH_S` (relative precision 1e-4);
     ``0.0`` if even two samples exceed it, :data:`MAX_SEARCH_S` if the search limit does not.
     """
     dt = fit.model.dt
     lo, hi = 2.0 * dt, MAX_SEARCH_S  # position needs two samples to be non-zero
-    if _bound(fit, lo, quantity, credibility, bias_start)[0][0] > max_error:
+    def bound(t):
+        return _bound(fit, t, quantity, credibility, bias_start, calibration_s)[0][0]
+
+    if bound(lo) > max_error:
         return 0.0
-    if _bound(fit, hi, quantity, credibility, bias_start)[0][0] <= max_error:
+    if bound(hi) <= max_error:
         return float(MAX_SEARCH_S)
     while hi / lo > 1.0 + 1e-4:
         mid = np.sqrt(lo * hi)
-        if _bound(fit, mid, quantity, credibility, bias_start)[0][0] <= max_error:
+        if bound(mid) <= max_error:
             lo = mid
         else:
             hi = mid
@@ -195,17 +210,20 @@ def build_report(scene, *, rng=None):
         fit = fit_allan(allan_variance(values, rate_hz=spec.rate_hz), rng=rng)
         bounds, bands = [], []
         for quantity in SENSOR_QUANTITIES[spec.kind]:
-            bound, median = _bound(fit, np.array(scene.outages_s), quantity, scene.credibility, scene.bias_start)
+            bound, median = _bound(fit, np.array(scene.outages_s), quantity, scene.credibility, scene.bias_start,
+                                   scene.calibration_s)
             bounds += [{"outage_s": t, "quantity": quantity, "bound": float(b), "median": float(m),
                         "unit": OUTPUT_UNITS[quantity], "extrapolated": bool(t > fit.allan.duration_s)}
                        for t, b, m in zip(scene.outages_s, bound, median)]
             horizon = max(scene.outages_s) * 2.0
             bands.append(drift_bands(fit, quantity=quantity, bias_start=scene.bias_start, horizon_s=horizon,
+                                     calibration_s=scene.calibration_s,
                                      quantiles=(1.0 - scene.credibility, 0.5, scene.credibility)))
         req = scene.requirement
         longest = None
         if req is not None and req["quantity"] in SENSOR_QUANTITIES[spec.kind]:
-            longest = max_outage(fit, req["quantity"], req["max_error"], scene.credibility, scene.bias_start)
+            longest = max_outage(fit, req["quantity"], req["max_error"], scene.credibility, scene.bias_start,
+                                 scene.calibration_s)
         reports.append(SensorReport(spec, fit, tuple(bounds), longest, tuple(bands)))
     ranking, reason = _rank(scene, reports)
     return Report(scene, tuple(reports), ranking, reason)

@@ -24,11 +24,13 @@ ASSUMPTIONS = (
     "Each bound is the {cred:.0%} posterior quantile of the 1-sigma drift sigma(t) of the integrated sensor noise: "
     "given the static log, the sensor's true 1-sigma drift is below it with {cred:.0%} probability. It is a bound on "
     "a standard deviation, not on the error itself; a 3-sigma error budget multiplies it by three.",
-    "Noise terms modelled: white noise, Gauss-Markov bias, rate random walk, bias instability (flicker) and "
-    "quantization, each only when the data support it (Bayesian evidence). Bias instability, which has no stationary "
-    "drift variance, is bounded as a constant residual bias equal to its Allan-deviation plateau (conservative).",
-    "Bias at the start of the outage: {start} ('zero' is the paper's convention: the bias is known when GPS drops; "
-    "'stationary' draws it from its stationary distribution, the conservative choice).",
+    "Noise terms modelled: white and filtered white noise, quantization, a fast correlated term, bias instability "
+    "(flicker), up to two Gauss-Markov biases, rate random walk and rate ramp, each only when the data support it "
+    "(Bayesian evidence). Bounds average over the candidate models, weighted by their posterior probabilities. A fit "
+    "that fails its goodness-of-fit check is flagged and its intervals are widened by a fitted model discrepancy.",
+    "Bias at the start of the outage: {start} ('calibrated', the default: the bias is estimated as the mean of the "
+    "samples over the calibration window just before GPS drops, and its estimation error is included; 'zero' is "
+    "the paper's convention, the bias known exactly; 'stationary' draws it from its stationary distribution).",
     "Not modelled: temperature dependence, scale-factor and misalignment errors, vibration and g-sensitivity, "
     "turn-on bias repeatability, and the navigation filter itself (no gravity, Schuler or attitude coupling). "
     "The log must be static and representative of the operating conditions.",
@@ -98,11 +100,16 @@ def _sensor_section(s, cred):
     units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
     drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=s.spec.name))
     conv = "converged" if d["converged"] else "NOT CONVERGED: treat with caution"
+    a = fit.adequacy
+    fit_check = ("adequate" if a.adequate else "INADEQUATE: the model does not describe this log"
+                 + ("; intervals widened by a fitted model discrepancy" if fit.widened else "")
+                 + (f"; at a prior bound: {', '.join(a.at_prior_bound)}" if a.at_prior_bound else ""))
     return f"""
 <section class="sensor" id="sensor-{html.escape(s.spec.name)}">
 <h3>{html.escape(s.spec.name)} ({s.spec.kind}, log {html.escape(s.spec.log.name)}, column {html.escape(s.spec.column)},
 input {html.escape(s.spec.units)}, {s.spec.rate_hz:g} Hz)</h3>
 <p class="model">Model needed: <b>{html.escape(' + '.join(fit.model.terms))}</b> ({why}).</p>
+<p class="adequacy">Goodness of fit: p = {a.p_value:.2g}, worst at tau = {a.worst_tau_s:g} s: {html.escape(fit_check)}.</p>
 <p class="diagnostics">Sampler: {conv}; R-hat max {d['rhat_max']:.4f}, bulk ESS min {d['ess_bulk_min']:.0f},
 tail ESS min {d['ess_tail_min']:.0f}, {d['n_steps']} steps x {d['n_walkers']} walkers.</p>
 <table><tr><th>parameter (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>
@@ -131,7 +138,8 @@ def report_html(report, comparison_png=None):
         + "</li>"
         for name in report.ranking for s in report.sensors if s.spec.name == name
     )
-    assumptions = "".join(f"<li>{html.escape(a.format(cred=cred, start=scene.bias_start))}</li>" for a in ASSUMPTIONS)
+    start = (f"calibrated over {scene.calibration_s:g} s" if scene.bias_start == "calibrated" else scene.bias_start)
+    assumptions = "".join(f"<li>{html.escape(a.format(cred=cred, start=start))}</li>" for a in ASSUMPTIONS)
     sections = "".join(_sensor_section(s, cred) for s in report.sensors)
     from ._version import __version__
 

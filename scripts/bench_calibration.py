@@ -38,7 +38,7 @@ def one_log(job):
     if tau_max_record is not None:  # prior study: the upper edge of the time-constant prior
         import bayes_imu.likelihood
 
-        bayes_imu.likelihood.TIME_CONSTANT_MAX_RECORD = tau_max_record
+        bayes_imu.noise.gauss_markov.BIAS_T_MAX_RECORD = tau_max_record
     from bayes_imu.allan import allan_variance
     from bayes_imu.errors import ConvergenceWarning
     from bayes_imu.fit import fit_allan
@@ -85,8 +85,10 @@ def one_log(job):
         for cand in candidate_terms():
             cm = NoiseModel(cand, 1.0 / RATE)
             post = LogPosterior.from_covariance(cm, allan, cov, ref_avar, default_bounds(cm, allan), kind=kinds[0])
-            u, phi, _ = posterior_mode(post, _starts(cm, allan, ref))
-            lz, se, ess, _, _ = log_evidence(post, u, rng=rng)
+            mode = posterior_mode(post, _starts(cm, allan, ref))
+            u, phi = mode.u, mode.phi
+            ev = log_evidence(post, u, rng=rng)
+            lz, se, ess = ev.log_z, ev.se, ev.ess
             scores.append(CandidateScore(cm.terms, lz, se, ess, phi))
         out["selected"] = scores[choose(scores)].terms
         out["true_terms"] = model.terms

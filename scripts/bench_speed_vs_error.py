@@ -123,7 +123,7 @@ def map_laplace(allan, rng):
     pilot = _pilot(model, allan)
     post = LogPosterior.from_covariance(model, allan, _covariance(model, pilot, allan), model.avar(allan.m, pilot),
                                         default_bounds(model, allan), kind="copula")
-    _, phi, _ = posterior_mode(post, [np.log([pilot[k] for k in NAMES]), *_starts(allan)])
+    phi = posterior_mode(post, [np.log([pilot[k] for k in NAMES]), *_starts(allan)]).phi
     hessian = negative_hessian(post.log_likelihood, phi)  # the prior is flat in log parameters
     w, v = np.linalg.eigh(hessian)
     log_cov = (v / np.clip(w, 1e-6, None)) @ v.T

@@ -33,6 +33,7 @@ def main(argv=None):
     parser.add_argument("--seed", type=int, default=7)
     args = parser.parse_args(argv)
     import bayes_imu.likelihood as likelihood
+    from bayes_imu.noise import gauss_markov
     from bayes_imu import NoiseModel, allan_variance, drift_sigma, fit_allan, simulate_log
     from bayes_imu.bands import drift_draws
     from bayes_imu.errors import ConvergenceWarning
@@ -40,7 +41,7 @@ def main(argv=None):
     if args.prior_decades_below is not None:
         likelihood.PRIOR_DECADES_BELOW = args.prior_decades_below
     if args.tau_max_record is not None:
-        likelihood.TIME_CONSTANT_MAX_RECORD = args.tau_max_record
+        gauss_markov.BIAS_T_MAX_RECORD = args.tau_max_record
     base = {"noise_variance": 1e-2, "bias_variance": args.bias_variance, "time_constant": 10.0}
     model = NoiseModel(("white", "gauss_markov"), 0.01)
     rng = np.random.default_rng(args.seed)
@@ -59,7 +60,7 @@ def main(argv=None):
     ranks = np.array(ranks)
     cover = np.mean((ranks > 0.05) & (ranks < 0.95), axis=0)
     print(f"{args.n_logs} logs, sigma_b^2 = {args.bias_variance:g}, likelihood {args.likelihood}, "
-          f"prior decades below {likelihood.PRIOR_DECADES_BELOW:g}, tau max {likelihood.TIME_CONSTANT_MAX_RECORD:g} record")
+          f"prior decades below {likelihood.PRIOR_DECADES_BELOW:g}, tau max {gauss_markov.BIAS_T_MAX_RECORD:g} record")
     print(f"90% coverage: sigma_b^2 T {cover[0]:.3f}; attitude band at {TIMES.tolist()} s: "
           + " / ".join(f"{c:.3f}" for c in cover[1:]))
     print("rank histogram of sigma_b^2 T (10 bins):", np.histogram(ranks[:, 0], bins=10, range=(0, 1))[0].tolist())

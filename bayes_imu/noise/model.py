@@ -94,11 +94,12 @@ class NoiseModel:
         mf = m_array(m)
         dt = self.dt
         components = self.components
+        names = self.parameter_names
 
         def evaluate(params):
             if not isinstance(params, dict):
                 params = self.unpack(params)
-            params = {k: np.asarray(v, float) for k, v in params.items()}
+            params = {k: np.asarray(params[k], float) for k in names}
             out = components[0].avar(mf, params, dt)
             for term in components[1:]:
                 out = out + term.avar(mf, params, dt)
