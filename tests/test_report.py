@@ -19,6 +19,7 @@ SCENE = """
 name = "test scene"
 outages_s = [10, 60, 300]
 credibility = 0.95
+bias_start = "zero"
 [requirement]
 quantity = "attitude"
 max_error = 0.0175
@@ -63,10 +64,39 @@ def test_better_sensor_ranks_first_and_bounds_are_quantiles(report):
     fit = rep.sensors[0].fit
     from bayes_imu.drift import drift_sigma
 
-    p = fit.model.unpack(fit.samples)
-    sig = drift_sigma(300.0, quantity="attitude", dt=0.01, noise_variance=p["noise_variance"],
-                      bias_variance=p["bias_variance"], time_constant=p["time_constant"]).total
-    assert budget["bounds"][2]["bound"] == pytest.approx(np.quantile(sig, 0.95), rel=1e-10)
+    from bayes_imu.noise import NoiseModel
+
+    sig = []
+    for component in fit.mixture:  # model-averaged: every candidate's draws, by probability
+        assert set(component.terms) <= {"white", "gauss_markov", "random_walk", "bias_instability",
+                                        "quantization", "filtered_white", "hf_correlated",
+                                        "gauss_markov_2", "ramp"}, component.terms
+        p = NoiseModel(component.terms, 0.01).unpack(component.samples)
+        var = drift_sigma(300.0, quantity="attitude", dt=0.01, noise_variance=p["noise_variance"],
+                          bias_variance=p.get("bias_variance", 0.0), time_constant=p.get("time_constant", np.inf),
+                          random_walk=p.get("rate_random_walk", 0.0)).total ** 2
+        # flicker, no calibration: two adjacent 300 s means differ by sqrt(2) ADEV (AVAR definition)
+        var = var + 2.0 * (2.0 * np.log(2.0) / np.pi) * p.get("bias_instability", 0.0) ** 2 * 300.0**2
+        var = var + 2.0 * p.get("quantization", 0.0) ** 2  # white angle noise: e_k - e_0
+        k = 300.0 / 0.01
+        var = var + p.get("filtered_variance", 0.0) * 0.01**2 * (4.0 * k - 2.0)  # Var(sum of k MA(1) samples)
+        if "bias_variance_2" in p:
+            var = var + drift_sigma(300.0, quantity="attitude", dt=0.01, bias_variance=p["bias_variance_2"],
+                                    time_constant=p["time_constant_2"]).total ** 2
+        var = var + (p.get("rate_ramp", 0.0) * 0.01**2 * k * (k - 1) / 2) ** 2  # deterministic ramp from zero
+        if "correlated_variance" in p:  # Var(sum of k stationary AR(1) samples)
+            phi = np.exp(-0.01 / p["correlated_time_constant"])
+            var = var + p["correlated_variance"] * 0.01**2 * (k * (1 - phi**2) - 2 * phi * (1 - phi**k)) / (1 - phi) ** 2
+        sig.append(np.sqrt(var))
+    assert budget["bounds"][2]["bound"] == pytest.approx(np.quantile(np.concatenate(sig), 0.95), rel=1e-10)
+
+
+def test_scene_defaults_to_the_calibrated_bias(tmp_path):
+    """A scene without bias_start gets the conservative, actionable semantics: calibrated over 60 s."""
+    path = tmp_path / "scene.toml"
+    path.write_text(SCENE.format(data=DATA).replace('bias_start = "zero"\n', ""))
+    scene = read_scene(path)
+    assert scene.bias_start == "calibrated" and scene.calibration_s == 60.0
 
 
 def test_max_outage_meets_requirement_at_the_boundary(report):
