@@ -28,7 +28,7 @@ from math import factorial
 
 import numpy as np
 
-__all__ = ["gm_sum", "gm_coefficient", "SWITCH", "SERIES_TERMS"]
+__all__ = ["gm_sum", "gm_sum_broadcast", "gm_terms_broadcast", "gm_coefficient", "SWITCH", "SERIES_TERMS"]
 
 #: ``a * k`` at and above which the closed form of order r is used (measured, see tests)
 SWITCH = {1: 0.5, 2: 1.0}
@@ -370,3 +370,38 @@ def _compile_drift():
 
 _coefficient_scalar = None
 _powers_scalar = None
+
+
+def gm_sum_broadcast(order, k, a):
+    """``gm_sum`` broadcast over ``k`` and ``a``; the (draws, 1) x (times,) layout of posterior
+    bands goes to the compiled grid kernel (same branches, tested equal), anything else to numpy."""
+    if _grid_layout(order, k, a):
+        return gm_sum_grid(order, k, a[:, 0])
+    return gm_sum(order, *np.broadcast_arrays(k, a))
+
+
+def _grid_layout(order, k, a):
+    """The (draws, 1) x (times,) layout of posterior bands, large enough for the compiled kernel."""
+    return order > 0 and k.ndim == 1 and a.ndim == 2 and a.shape[1] == 1 and a.size * k.size >= 100_000
+
+
+def gm_terms_broadcast(order, k, a, *, stationary, coefficient=False):
+    """``a (2 - a) V_r(k, a) + stationary c_r(k, a)**2`` (and ``c_r(k, a)`` if ``coefficient``), broadcast.
+
+    The exact-sampling Gauss-Markov drift in units of ``s^2 dt^(2r)`` (``0 < a < 1``, where
+    ``c_r >= 0``); the posterior-band layout goes through the compiled kernel of
+    :func:`drift_grid` (same branches, tested equal), anything else through numpy.
+    """
+    if _grid_layout(order, k, a):
+        a1 = a[:, 0]
+        none_a, none_k = np.zeros((1, a1.size)), np.zeros((1, k.size))
+        _, root = drift_grid(order, k, a1, a1 * (2.0 - a1), np.full_like(a1, float(stationary)), none_a, none_k,
+                             none_a, none_k)
+        if not coefficient:
+            return root**2
+        _, c = drift_grid(order, k, a1, np.zeros_like(a1), np.ones_like(a1), none_a, none_k, none_a, none_k)
+        return root**2, c
+    kk, aa = np.broadcast_arrays(k, a)
+    c = gm_coefficient(order, kk, aa)
+    out = aa * (2.0 - aa) * gm_sum(order, kk, aa) + (c * c if stationary else 0.0)
+    return (out, c) if coefficient else out

@@ -21,7 +21,7 @@ import numpy as np
 
 from .drift import QUANTITY_ORDER
 from .errors import InputError
-from .noise import BIAS_STARTS, REGISTRY, TERMS, NoiseModel
+from .noise import BIAS_STARTS, TERMS, NoiseModel
 
 __all__ = ["SENSOR_QUANTITIES", "MODEL_CHOICES", "DEFAULT_CALIBRATION_S", "DriftBands", "drift_bands", "drift_draws",
            "default_times", "integrated_unit", "model_draws"]
@@ -124,15 +124,16 @@ def _check_times(t):
 
 
 def drift_draws(fit, t, *, quantity, bias_start="zero", calibration_s=DEFAULT_CALIBRATION_S, models="averaged",
-                max_draws=None, rng=None):
+                max_draws=None, rng=None, component_draws=slice(None)):
     """Per-draw 1-sigma drift of ``quantity`` at times ``t`` [s].
 
     Returns
     -------
     dict
-        ``t_s`` (whole samples), ``total``, ``white`` (short-term part), ``bias`` (the rest),
-        each ``(n_draws, n_t)`` [unit x s^order], and ``terms``: name -> 1-sigma
-        contribution ``(n_draws, n_t)`` (zero for draws of models without that term).
+        ``t_s`` (whole samples) and ``total`` ``(n_draws, n_t)`` [unit x s^order]; for the draws
+        selected by ``component_draws`` (default all): ``white`` (short-term part), ``bias``
+        (the rest) and ``terms``, name -> 1-sigma contribution (zero for draws of models
+        without that term).
     """
     if quantity not in QUANTITY_ORDER:
         raise InputError(f"quantity={quantity!r}: expected one of {', '.join(QUANTITY_ORDER)}")
@@ -152,24 +153,29 @@ def drift_draws(fit, t, *, quantity, bias_start="zero", calibration_s=DEFAULT_CA
         keep = np.sort(rng.choice(n_all, size=max_draws, replace=False))
         bounds = np.cumsum([0] + [p[1].shape[0] for p in parts])
         parts = [(m, s[keep[(keep >= lo) & (keep < hi)] - lo]) for (m, s), lo, hi in zip(parts, bounds[:-1], bounds[1:])]
+        n_all = max_draws
     names = _term_order(parts)
-    blocks = {n: [] for n in names}
+    short, rest = np.zeros((n_all, k.size)), np.zeros((n_all, k.size))
+    variances = {n: np.zeros((n_all, k.size))[component_draws] for n in names}
+    rows = np.arange(n_all)[component_draws]  # draws whose components are kept
+    start = 0
     for model, samples in parts:
-        if samples.shape[0] == 0:
-            continue
+        stop = start + samples.shape[0]
         params = model.unpack(samples)
-        for name in names:
-            term = next((c for c in model.components if c.name == name), None)
-            if term is None:
-                blocks[name].append(np.zeros((samples.shape[0], k.size)))
-            else:
-                blocks[name].append(term.drift_variance(order, k, params, dt, bias_start=bias_start, n_cal=n_cal))
-    variances = {n: np.concatenate(v) for n, v in blocks.items()}
-    zero = np.zeros((sum(s.shape[0] for _, s in parts), k.size))
-    short = sum((v for n, v in variances.items() if REGISTRY[n].role == "short_term"), zero)
-    rest = sum((v for n, v in variances.items() if REGISTRY[n].role != "short_term"), zero)
-    return {"t_s": k * dt, "total": np.sqrt(short + rest), "white": np.sqrt(short), "bias": np.sqrt(rest),
-            "terms": {n: np.sqrt(v) for n, v in variances.items()}}
+        mine = (rows >= start) & (rows < stop)
+        for term in model.components:
+            v = term.drift_variance(order, k, params, dt, bias_start=bias_start, n_cal=n_cal)
+            (short if term.role == "short_term" else rest)[start:stop] += v
+            variances[term.name][mine] = v[rows[mine] - start]
+        start = stop
+    total = np.sqrt(short + rest)
+    return {"t_s": k * dt, "total": total, "white": np.sqrt(short[component_draws]),
+            "bias": np.sqrt(rest[component_draws]), "terms": {n: np.sqrt(v) for n, v in variances.items()}}
+
+
+def _component_subset(n, limit=1000):
+    """Every draw up to ``limit``, else an evenly spaced subset (component medians are display aids)."""
+    return slice(None) if n <= limit else slice(None, None, int(np.ceil(n / limit)))
 
 
 def _term_order(parts):
@@ -202,8 +208,10 @@ def drift_bands(fit, t=None, *, quantity, bias_start="zero", calibration_s=DEFAU
         Units: the log's unit times s (attitude, velocity) or s^2 (position).
     """
     t = default_times(fit.model.dt, horizon_s) if t is None else t
+    n = sum(s.shape[0] for _, s in model_draws(fit, models))
+    sub = _component_subset(n if max_draws is None else min(n, max_draws))
     draws = drift_draws(fit, t, quantity=quantity, bias_start=bias_start, calibration_s=calibration_s, models=models,
-                        max_draws=max_draws, rng=rng)
+                        max_draws=max_draws, rng=rng, component_draws=sub)
     q = np.asarray(quantiles, dtype=float)
     white = np.median(draws["white"], axis=0)
     bias = np.median(draws["bias"], axis=0)

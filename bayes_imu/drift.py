@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._euler import gm_coefficient, gm_sum, gm_sum_grid
+from ._euler import gm_coefficient, gm_sum, gm_sum_broadcast
 from .errors import InputError, ModelError
 
 __all__ = [
@@ -146,14 +146,6 @@ def noise_variance_to_density(noise_variance, dt):
     return np.sqrt(np.asarray(noise_variance, dtype=float) * np.asarray(dt, dtype=float))
 
 
-def _gm_sum_broadcast(order, k, a):
-    """``gm_sum`` broadcast over ``k`` and ``a``; the (draws, 1) x (times,) layout of posterior
-    bands goes to the compiled grid kernel (same branches, tested equal), anything else to numpy."""
-    if order > 0 and k.ndim == 1 and a.ndim == 2 and a.shape[1] == 1 and a.size * k.size >= 100_000:
-        return gm_sum_grid(order, k, a[:, 0])
-    return gm_sum(order, *np.broadcast_arrays(k, a))
-
-
 def _step_ratio(dt, tau, discretization):
     """``a = 1 - A`` of the discrete bias recursion."""
     ratio = dt / tau
@@ -266,7 +258,7 @@ def drift_sigma(
     tau = _positive("time_constant", time_constant, allow_inf=True)
     a = _step_ratio(dt, tau, discretization)
     # q dt**2 = sigma_b**2 a (2 - a): the variance in units of dt**(2 order)
-    bias = sigma_b2 * a * (2.0 - a) * dt ** (2 * order) * _gm_sum_broadcast(order, k, a)
+    bias = sigma_b2 * a * (2.0 - a) * dt ** (2 * order) * gm_sum_broadcast(order, k, a)
     if bias_start == "stationary":
         bias = bias + sigma_b2 * (dt**order * gm_coefficient(order, *np.broadcast_arrays(k, a))) ** 2
 

@@ -324,12 +324,11 @@ def _search(make_post, allan, reference, candidates, stepwise, threshold, n_evid
     scored = {}
 
     def run(terms):
-        key = NoiseModel(terms, dt).terms
-        if key not in scored:
-            model = NoiseModel(key, dt)
-            scored[key] = _score(model, make_post(model), allan, reference, n_evidence, rng)
+        model = NoiseModel(terms, dt)  # canonical term order: the key of a candidate
+        if model.terms not in scored:
+            scored[model.terms] = _score(model, make_post(model), allan, reference, n_evidence, rng)
             bar.update()
-        return scored[key]
+        return scored[model.terms]
 
     for cand in candidates:
         run(cand)

@@ -78,17 +78,12 @@ def _load(folder, summary):
 
 def axis_densities(summary, draws, factor):
     """Per-draw SI noise density and random-walk density of one fitted axis."""
-    from .noise import REGISTRY
+    from .noise import NoiseModel
 
     dt = 1.0 / summary["rate_hz"]
     if "noise_variance" not in draws:
         raise InputError("fit has no white term: Kalibr needs a noise density")
-    q_eff = np.array(draws["noise_variance"], dtype=float)
-    if "filtered_variance" in draws:
-        q_eff = q_eff + REGISTRY["filtered_white"].white_equivalent(draws, dt)
-    if "correlated_variance" in draws:
-        q_eff = q_eff + REGISTRY["hf_correlated"].white_equivalent(draws, dt)
-    density = np.sqrt(q_eff * dt) * factor
+    density = np.sqrt(NoiseModel(tuple(summary["model"]), dt).short_term_variance(draws) * dt) * factor
     rw2 = np.zeros_like(density)
     if "rate_random_walk" in draws:
         rw2 += draws["rate_random_walk"] ** 2

@@ -50,20 +50,16 @@ def prior_scale(allan):
     )
 
 
-def default_bounds(model, allan, *, discrepancy=False):
+def default_bounds(model, allan):
     """Box of the log-parameters, shape ``(n_par, 2)`` (natural log of the parameter units).
 
     Each amplitude is bounded so that its term's largest Allan variance over the fitted
     grid lies between ``10**-4`` times the smallest and ``10**1`` times the largest
-    observed value; time constants as each term states (:mod:`bayes_imu.noise`). With
-    ``discrepancy``, a last row bounds the log of the model-discrepancy standard deviation
-    (relative error on the Allan variance) to ``[1e-3, 3]``.
+    observed value; time constants as each term states (:mod:`bayes_imu.noise`). The
+    model-discrepancy row, when used, is :data:`DISCREPANCY_BOUNDS` (:meth:`LogPosterior.with_discrepancy`).
     """
     scale = prior_scale(allan)
-    rows = [row for t in model.components for row in t.bounds(scale)]
-    if discrepancy:
-        rows.append(DISCREPANCY_BOUNDS)
-    return np.array(rows, dtype=float)
+    return np.array([row for t in model.components for row in t.bounds(scale)], dtype=float)
 
 
 def ordered_log_mass(bounds, order):
@@ -154,8 +150,8 @@ class LogPosterior:
             raise InputError(f"likelihood={self.kind!r}: the model-discrepancy term needs 'correlated'")
         if self.discrepancy:
             return self
-        log_cov = np.linalg.inv(self.whiten.T @ self.whiten)
-        values, vectors = np.linalg.eigh(0.5 * (log_cov + log_cov.T))
+        chol = np.linalg.inv(self.whiten)  # whiten = chol^-1 (lower triangular)
+        values, vectors = np.linalg.eigh(chol @ chol.T)
         bounds = np.vstack([self.bounds, DISCREPANCY_BOUNDS])
         return LogPosterior(self.model, bounds, self.m, self.log_avar, self.kind, self.whiten, self.offset, self.shape,
                             self.norm, self.evaluate, True, np.clip(values, 0.0, None), vectors, self.order,

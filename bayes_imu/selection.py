@@ -200,10 +200,6 @@ def adequacy(post, log_theta, tau, log_samples=None):
 
 def to_phi(u, bounds):
     """Log-parameters from unbounded coordinates ``u`` (logistic map onto the prior box)."""
-    return _to_phi(u, bounds)
-
-
-def _to_phi(u, bounds):
     return bounds[:, 0] + (bounds[:, 1] - bounds[:, 0]) * special.expit(u)
 
 
@@ -216,7 +212,7 @@ def _log_density_u(post, u):
     """Log posterior density in ``u`` (likelihood x logistic prior), vectorised."""
     u = np.atleast_2d(u)
     log_jac = -np.sum(np.logaddexp(0.0, u) + np.logaddexp(0.0, -u), axis=-1)  # log sigma(u)(1-sigma(u))
-    return post.log_likelihood(_to_phi(u, post.bounds)) + log_jac
+    return post.log_likelihood(to_phi(u, post.bounds)) + log_jac
 
 
 def posterior_mode(post, starts):
@@ -234,7 +230,7 @@ def posterior_mode(post, starts):
         from .errors import ConvergenceError
 
         raise ConvergenceError(f"model {post.model.terms}: no starting point has a finite posterior density")
-    return ModeResult(best.x, _to_phi(best.x, post.bounds), float(best.fun))
+    return ModeResult(best.x, to_phi(best.x, post.bounds), float(best.fun))
 
 
 def _neg_log_density(u, post):
@@ -324,7 +320,7 @@ def log_evidence(post, u_mode, *, n_draws=4000, rng=None, target_se=0.05, max_ro
     top = out.u[np.argsort(out.log_w)[-5:]]
     density = _log_density_u(post, top)
     if np.max(density) > _log_density_u(post, u_mode)[0] + 1e-6:
-        u_mode = posterior_mode(post, np.vstack([_to_phi(top, post.bounds), _to_phi(u_mode, post.bounds)])).u
+        u_mode = posterior_mode(post, np.vstack([to_phi(top, post.bounds), to_phi(u_mode, post.bounds)])).u
         cov = _INFLATE**2 * _hessian_cov(post, u_mode)
         out = _importance(post, u_mode, cov, n_draws, rng)
     for _ in range(max_rounds):

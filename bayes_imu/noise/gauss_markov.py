@@ -46,7 +46,7 @@ from math import factorial
 
 import numpy as np
 
-from .._euler import gm_coefficient, gm_sum
+from .._euler import gm_terms_broadcast
 from ._base import Term
 
 __all__ = ["HF_CORRELATED", "GAUSS_MARKOV", "GAUSS_MARKOV_2", "gm_avar", "gm_structure"]
@@ -159,18 +159,15 @@ class _GaussMarkov(Term):
         s2 = np.asarray(params[self.variance_name], float)[..., None]
         x = dt / np.asarray(params[self.time_constant_name], float)[..., None]
         a = -np.expm1(-x)
-        kk, aa = np.broadcast_arrays(k, a)
-        out = a * (2.0 - a) * gm_sum(order, kk, aa)
-        if bias_start == "zero":
-            return s2 * dt ** (2 * order) * out
-        c = gm_coefficient(order, kk, aa)
-        out = out + c * c
-        if bias_start == "calibrated":
+        k = np.asarray(k, dtype=float)
+        calibrated = bias_start == "calibrated"
+        out = gm_terms_broadcast(order, k, a, stationary=bias_start != "zero", coefficient=calibrated)
+        if calibrated:
+            out, c = out
             n = np.broadcast_to(np.asarray(n_cal, float), np.shape(k))
             weight = k if order == 1 else k * (k - 1.0) / 2.0
             s_n = (1.0 - a) * -np.expm1(-n * x) / a  # sum_{j=1}^N phi^j
-            out = out + weight**2 * gm_structure(n, 1.0, x) / n**2 - 2.0 * weight * c * s_n / n
-            out = np.maximum(out, 0.0)
+            out = np.maximum(out + weight**2 * gm_structure(n, 1.0, x) / n**2 - 2.0 * weight * c * s_n / n, 0.0)
         return s2 * dt ** (2 * order) * np.where(k >= order, out, 0.0)  # exactly 0 before the first full step
 
 
