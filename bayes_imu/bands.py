@@ -52,7 +52,8 @@ class DriftBands:
         Duration of the fitted log (s); bands beyond it extrapolate the model (terms slower
         than the record, a long time constant or a random walk, are not identified there).
     terms : dict
-        Term name -> ``(n_t,)`` posterior median of its 1-sigma contribution.
+        Term name -> ``(n_t,)`` posterior median of its 1-sigma contribution, over the draws
+        of the models that have it.
     calibration_s : float
         Calibration window of ``bias_start="calibrated"`` (s), else ``nan``.
     models : str
@@ -132,7 +133,7 @@ def drift_draws(fit, t, *, quantity, bias_start="zero", calibration_s=DEFAULT_CA
     dict
         ``t_s`` (whole samples) and ``total`` ``(n_draws, n_t)`` [unit x s^order]; for the draws
         selected by ``component_draws`` (default all): ``white`` (short-term part), ``bias``
-        (the rest) and ``terms``, name -> 1-sigma contribution (zero for draws of models
+        (the rest) and ``terms``, name -> 1-sigma contribution (``nan`` for draws of models
         without that term).
     """
     if quantity not in QUANTITY_ORDER:
@@ -156,7 +157,7 @@ def drift_draws(fit, t, *, quantity, bias_start="zero", calibration_s=DEFAULT_CA
         n_all = max_draws
     names = _term_order(parts)
     short, rest = np.zeros((n_all, k.size)), np.zeros((n_all, k.size))
-    variances = {n: np.zeros((n_all, k.size))[component_draws] for n in names}
+    variances = {n: np.full((n_all, k.size), np.nan)[component_draws] for n in names}
     rows = np.arange(n_all)[component_draws]  # draws whose components are kept
     start = 0
     for model, samples in parts:
@@ -218,7 +219,10 @@ def drift_bands(fit, t=None, *, quantity, bias_start="zero", calibration_s=DEFAU
     above = np.flatnonzero(bias > white)
     crossover = float(draws["t_s"][above[0]]) if above.size else float("nan")
     record = fit.allan.duration_s if fit.allan is not None else float("nan")
-    terms = {n: np.median(v, axis=0) for n, v in draws["terms"].items()}
+    # each term's median over the draws whose model has it (a model-averaged median with zeros
+    # for the other models would understate a term that few, but heavy, models carry)
+    terms = {n: np.median(v[np.isfinite(v[:, 0])], axis=0) for n, v in draws["terms"].items()
+             if np.isfinite(v[:, 0]).any()}
     cal = float(calibration_s) if bias_start == "calibrated" else float("nan")
     return DriftBands(draws["t_s"], quantity, q, np.quantile(draws["total"], q, axis=0), white, bias, crossover,
                       bias_start, record, terms, cal, models)

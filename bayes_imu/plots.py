@@ -155,11 +155,12 @@ def plot_drift(bands_list, path, *, units, title=""):
         ax.fill_between(t, lo, hi, color="C0", alpha=0.3,
                         label=f"total, {bands.quantiles[0]:.0%}-{bands.quantiles[-1]:.0%} credible band")
         ax.plot(t, bands.total[len(bands.quantiles) // 2][keep], color="C0", lw=1.5, label="total, median")
+        where = " where modelled" if bands.models == "averaged" else ""
         for i, (name, part) in enumerate(bands.terms.items()):
             positive = part[keep] > 0
             if np.any(positive):
                 ax.plot(t[positive], part[keep][positive], "--", lw=1, color=f"C{i + 1}",
-                        label=f"{_TERM_LABEL.get(name, name)} (median)")
+                        label=f"{_TERM_LABEL.get(name, name)} (median{where})")
         if np.isfinite(bands.crossover_s):
             ax.axvline(bands.crossover_s, color="gray", lw=1, ls=":")
             ax.annotate(f"biases and slow terms\nexceed short-term noise\nafter {bands.crossover_s:.3g} s",
