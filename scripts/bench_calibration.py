@@ -12,7 +12,15 @@ posterior draws (10 bins). A second table gives how often the 90% drift band (at
 zero bias start) contains the true 1-sigma drift at 1, 10, 100 and 1000 s; a third how
 often evidence-based selection (``terms="auto"``, evidence only) returns the true model.
 
+With ``--auto``, every log is also fitted as a user would (``terms="auto"``: selection,
+stepwise search, adequacy, model averaging), and a fourth table gives the coverage of the
+model-averaged 90% drift band and of the selected-model band (``models="selected"``, the
+behaviour before model averaging), with how often the true model was selected. The
+scenarios include two ambiguous ones: a Gauss-Markov bias whose time constant overlaps a
+rate random walk (``white+gm+rw``) and a random walk near the detection limit (``weak-rw``).
+
     python scripts/bench_calibration.py --n-logs 100      # ~10 min on 2 cores
+    python scripts/bench_calibration.py --n-logs 100 --likelihoods correlated --no-selection --auto --processes 16
 """
 
 import argparse
@@ -28,15 +36,17 @@ SCENARIOS = {
     "white+gm": {"noise_variance": 1e-2, "bias_variance": 1e-5, "time_constant": 20.0},
     "white": {"noise_variance": 1e-2},
     "white+rw": {"noise_variance": 1e-2, "rate_random_walk": 1e-3},
+    "white+gm+rw": {"noise_variance": 1e-2, "bias_variance": 1e-5, "time_constant": 200.0, "rate_random_walk": 3e-4},
+    "weak-rw": {"noise_variance": 1e-2, "rate_random_walk": 3e-5},
 }
 TERMS = {"noise_variance": "white", "bias_variance": "gauss_markov", "time_constant": "gauss_markov",
          "rate_random_walk": "random_walk"}
 
 
 def one_log(job):
-    scenario, index, seed, n_samples, select, kinds, tau_max_record = job
+    scenario, index, seed, n_samples, select, kinds, tau_max_record, auto = job
     if tau_max_record is not None:  # prior study: the upper edge of the time-constant prior
-        import bayes_imu.likelihood
+        import bayes_imu.noise.gauss_markov
 
         bayes_imu.noise.gauss_markov.BIAS_T_MAX_RECORD = tau_max_record
     from bayes_imu.allan import allan_variance
@@ -76,6 +86,21 @@ def one_log(job):
                                bias_variance=truth.get("bias_variance", 0.0), time_constant=truth.get("time_constant", np.inf),
                                random_walk=truth.get("rate_random_walk", 0.0)).total
             out[kind + "_band"] = (bands.quantile(0.05) <= true) & (true <= bands.quantile(0.95))
+    if auto:  # as a user would: selection, stepwise search, adequacy, model averaging
+        from bayes_imu.bands import drift_bands
+        from bayes_imu.drift import drift_sigma
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            res = fit_allan(allan, rng=rng)
+        true = drift_sigma(BAND_TIMES, quantity="attitude", dt=1.0 / RATE, noise_variance=truth["noise_variance"],
+                           bias_variance=truth.get("bias_variance", 0.0), time_constant=truth.get("time_constant", np.inf),
+                           random_walk=truth.get("rate_random_walk", 0.0)).total
+        for models in ("averaged", "selected"):
+            bands = drift_bands(res, BAND_TIMES, quantity="attitude", models=models)
+            out["auto_" + models] = (bands.quantile(0.05) <= true) & (true <= bands.quantile(0.95))
+        out["auto_selected_true"] = res.model.terms == model.terms
+        out["auto_adequate"] = res.adequacy.adequate
     if select:
         full = NoiseModel(("white", "quantization", "bias_instability", "gauss_markov", "random_walk"), 1.0 / RATE)
         ref = _pilot(full, allan)
@@ -104,19 +129,22 @@ def main(argv=None):
     parser.add_argument("--no-selection", action="store_true")
     parser.add_argument("--tau-max-record", type=float, default=None,
                         help="upper edge of the time-constant prior, in records (default: the package's)")
+    parser.add_argument("--auto", action="store_true", help="also fit with terms='auto' (model-averaged bands)")
+    parser.add_argument("--scenarios", default=",".join(SCENARIOS), help="comma list of scenarios")
     parser.add_argument("--likelihoods", default="copula,correlated,independent",
                         help="comma list; the first is used for the model-selection table")
     args = parser.parse_args(argv)
     kinds = tuple(args.likelihoods.split(","))
-    jobs = [(s, i, args.seed, args.n_samples, not args.no_selection, kinds, args.tau_max_record)
-            for s in SCENARIOS for i in range(args.n_logs)]
+    scenarios = args.scenarios.split(",")
+    jobs = [(s, i, args.seed, args.n_samples, not args.no_selection, kinds, args.tau_max_record, args.auto)
+            for s in scenarios for i in range(args.n_logs)]
     start = time.perf_counter()
     with ProcessPoolExecutor(args.processes) as pool:
         results = list(pool.map(one_log, jobs, chunksize=1))
     elapsed = time.perf_counter() - start
     print(f"{len(results)} logs of {args.n_samples} samples at {RATE:g} Hz, {elapsed:.0f} s\n")
     print(f"{'scenario':10s} {'likelihood':12s} {'parameter':17s} {'coverage90':>10s} {'+-se':>6s} {'rank_p':>7s} {'converged':>9s}")
-    for scenario in SCENARIOS:
+    for scenario in scenarios:
         rows = [r for r in results if r["scenario"] == scenario]
         for kind in kinds:
             conv = np.mean([r[kind + "_converged"] for r in rows])
@@ -131,15 +159,25 @@ def main(argv=None):
                 print(f"{scenario:10s} {kind:12s} {name:17s} {cover:10.3f} {se:6.3f} {p:7.3f} {conv:9.2f}")
     print(f"\n{'scenario':10s} {'likelihood':12s} 90% attitude-drift band covers the true 1-sigma drift at t = "
           f"{BAND_TIMES.tolist()} s")
-    for scenario in SCENARIOS:
+    for scenario in scenarios:
         rows = [r for r in results if r["scenario"] == scenario]
         for kind in kinds:
             if kind + "_band" in rows[0]:
                 cover = np.mean([r[kind + "_band"] for r in rows], axis=0)
                 print(f"{scenario:10s} {kind:12s} " + " ".join(f"{c:6.3f}" for c in cover))
+    if args.auto:
+        print(f"\n{'scenario':12s} {'bands':9s} terms='auto': 90% band covers the true drift at t = {BAND_TIMES.tolist()} s"
+              f"   true model selected / adequate")
+        for scenario in scenarios:
+            rows = [r for r in results if r["scenario"] == scenario]
+            for models in ("averaged", "selected"):
+                cover = np.mean([r["auto_" + models] for r in rows], axis=0)
+                extra = (f"   {np.mean([r['auto_selected_true'] for r in rows]):.2f} / "
+                         f"{np.mean([r['auto_adequate'] for r in rows]):.2f}") if models == "averaged" else ""
+                print(f"{scenario:12s} {models:9s} " + " ".join(f"{c:6.3f}" for c in cover) + extra)
     if not args.no_selection:
         print(f"\n{'scenario':10s} {'true model':28s} {'selected true':>13s}  most frequent wrong choice")
-        for scenario in SCENARIOS:
+        for scenario in scenarios:
             rows = [r for r in results if r["scenario"] == scenario]
             ok = np.mean([r["selected"] == r["true_terms"] for r in rows])
             wrong = [r["selected"] for r in rows if r["selected"] != r["true_terms"]]
