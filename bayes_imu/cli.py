@@ -15,9 +15,13 @@ Exit status: 0 success, 2 a user error (one line on stderr, no traceback unless
 """
 
 import argparse
+import contextlib
 import json
 import logging
+import os
+import signal
 import sys
+import threading
 import time
 import warnings
 from pathlib import Path
@@ -35,7 +39,7 @@ from .io import UNITS, read_text
 from .fit import DISCREPANCY_MODES
 from .likelihood import LIKELIHOODS
 from .noise import BIAS_STARTS
-from .timebase import GAP_POLICIES
+from .timebase import GAP_POLICIES, RATE_RANGE
 
 __all__ = ["main"]
 
@@ -52,7 +56,8 @@ class _UsageError(Exception):
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):
-        raise _UsageError(f"{self.prog}: {message} (see {self.prog} --help)")
+        command = self.prog.removeprefix("bayes-imu").strip()
+        raise _UsageError(f"{command + ': ' if command else ''}{message} (see {self.prog} --help)")
 
 
 #: options of ``fit`` that ``fit-batch`` forwards to every log: (dest, flag)
@@ -74,7 +79,8 @@ def _input_options(batch=False):
     common.add_argument("--topic", help="ROS bag: the sensor_msgs/Imu topic (columns gyro_x ... accel_z)")
     common.add_argument("--stream", action="store_true",
                         help="read a text log out of core, in chunks (automatic for .npy and raw binary logs)")
-    common.add_argument("--rate", type=float, help="sample rate (Hz); optional with --time-column")
+    common.add_argument("--rate", type=_rate_type,
+                        help=f"sample rate (Hz, {RATE_RANGE[0]:g} to {RATE_RANGE[1]:g}); optional with --time-column")
     common.add_argument("--time-column", help="time stamps (s): the rate is derived from them and checked")
     common.add_argument("--gaps", choices=GAP_POLICIES, default="error",
                         help="irregular time steps: error (default) or fit the longest regular segment")
@@ -105,14 +111,14 @@ def _build_parser():
                            help="fit many logs in parallel (Dask), one output folder per log")
     _fit_options(batch)
     batch.add_argument("--scheduler", help="address of a running Dask scheduler (default: a LocalCluster)")
-    batch.add_argument("--workers", type=int, help="LocalCluster worker processes (default: one per core)")
+    batch.add_argument("--workers", type=_workers_type, help="LocalCluster worker processes (default: one per core)")
     batch.add_argument("--serial", action="store_true", help="no Dask: one log after another in this process")
     batch.set_defaults(handler=_cmd_fit_batch)
 
     report = sub.add_parser("report", help="conservative drift bounds for several IMUs (scene TOML)")
     report.add_argument("scene", type=Path, help="scene TOML file (see README)")
     report.add_argument("--out", type=Path, required=True, help="output folder (must be new or empty)")
-    report.add_argument("--seed", type=int, default=0, help="random seed, default 0")
+    report.add_argument("--seed", type=_seed_type, default=0, help="random seed (0 to 2**32 - 1), default 0")
     report.add_argument("--force", action="store_true", help="replace a non-empty output folder")
     report.add_argument("--quiet", action="store_true", help="no progress messages")
     report.set_defaults(handler=_cmd_report)
@@ -129,7 +135,7 @@ def _build_parser():
     drift = sub.add_parser("drift", help="drift curves from known noise parameters (JSON)")
     drift.add_argument("sensor", type=Path, help="JSON file: rate_hz, kind, noise_density, bias_variance, time_constant")
     drift.add_argument("--out", type=Path, required=True, help="output folder (must be new or empty)")
-    drift.add_argument("--horizon", type=float, default=3600.0, help="longest time (s), default 3600")
+    drift.add_argument("--horizon", type=_positive_seconds, default=3600.0, help="longest time (s), default 3600")
     drift.add_argument("--bias-start", choices=("zero", "stationary"), default="zero")
     drift.add_argument("--force", action="store_true", help="replace a non-empty output folder")
     drift.set_defaults(handler=_cmd_drift)
@@ -281,7 +287,8 @@ def _cmd_kalibr(args):
     from .kalibr import kalibr_values, write_kalibr_yaml
 
     values = kalibr_values(args.gyro, args.accel, credibility=args.credibility)
-    with staged_file(args.out, force=args.force) as tmp:
+    inputs = [p for folder in args.gyro + args.accel for p in Path(folder).rglob("*")]
+    with staged_file(args.out, force=args.force, inputs=inputs) as tmp:
         write_kalibr_yaml(values, tmp)
     if not values["_adequate"]:
         _warn("Kalibr values from fits that failed the goodness-of-fit check: " + ", ".join(values["_inadequate"]))
@@ -290,13 +297,15 @@ def _cmd_kalibr(args):
 
 
 def _fit_options(parser):
-    parser.add_argument("--seed", type=int, default=0, help="random seed (recorded in the outputs), default 0")
+    parser.add_argument("--seed", type=_seed_type, default=0,
+                        help="random seed, 0 to 2**32 - 1 (recorded in the outputs), default 0")
     parser.add_argument("--terms", default="auto",
                         help="'auto' (model selection) or a comma-separated list of terms, e.g. white,gauss_markov")
     parser.add_argument("--likelihood", choices=LIKELIHOODS, default=LIKELIHOODS[0])
     parser.add_argument("--sensor", choices=("gyro", "accel"),
                         help="also write drift.csv / drift.png: attitude (gyro) or velocity and position (accel)")
-    parser.add_argument("--horizon", type=float, default=3600.0, help="longest drift time (s), default 3600")
+    parser.add_argument("--horizon", type=_positive_seconds, default=3600.0,
+                        help="longest drift time (s), default 3600")
     parser.add_argument("--bias-start", choices=BIAS_STARTS, default="calibrated",
                         help="bias at the start of the outage: calibrated (default: the mean of the --calibration "
                              "seconds before it is removed), zero (the paper) or stationary (never estimated)")
@@ -330,10 +339,16 @@ def _cmd_fit_batch(args):
             elif value not in (None, False):
                 argv += [flag, str(value)]
         jobs.append(BatchJob(names[-1], tuple(argv)))
+    made = not args.out.exists()
     args.out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     scheduler = "serial" if args.serial else args.scheduler
-    results = run_batch(jobs, scheduler=scheduler, n_workers=args.workers, progress=args.progress)
+    try:
+        results = run_batch(jobs, scheduler=scheduler, n_workers=args.workers, progress=args.progress)
+    except BaseException:
+        if made and not any(args.out.iterdir()):
+            args.out.rmdir()  # nothing was written: leave no folder behind
+        raise
     seconds = time.perf_counter() - start
     samples = 0
     for r in results:
@@ -361,16 +376,28 @@ def _read_sensor_json(path):
         raise InputError(f"{path}: line {exc.lineno} column {exc.colno}: invalid JSON ({exc.msg})") from None
     if not isinstance(spec, dict):
         raise InputError(f"{path}: expected a JSON object of sensor parameters")
+    unknown = sorted(set(spec) - set(_SENSOR_JSON_KEYS))
+    if unknown:
+        raise InputError(f"{path}: unknown key {unknown[0]!r}; expected keys: {', '.join(_SENSOR_JSON_KEYS)}")
     for key in ("rate_hz", "kind", "noise_density"):
         if key not in spec:
             raise InputError(f"{path}: missing key {key!r}")
     if spec["kind"] not in SENSOR_QUANTITIES:
         raise InputError(f"{path}: kind={spec['kind']!r}: expected 'gyro' or 'accel'")
+    si = "rad/s" if spec["kind"] == "gyro" else "m/s^2"
+    if spec.get("units", si) != si:
+        raise InputError(f"{path}: units={spec['units']!r}: the drift command takes SI values; expected {si!r}")
     return spec
+
+
+_SENSOR_JSON_KEYS = ("name", "kind", "units", "rate_hz", "noise_density", "bias_variance", "time_constant",
+                     "random_walk")
 
 
 def _positive_float(path, spec, key, default=None):
     value = spec.get(key, default)
+    if isinstance(value, bool) or (key in spec and not isinstance(value, (int, float))):
+        raise InputError(f"{path}: {key}={value!r}: expected a number")
     try:
         value = float(value)
     except (TypeError, ValueError):
@@ -411,6 +438,37 @@ def _cmd_drift(args):
 
 
 # ---------------------------------------------------------------------------- entry point
+
+def _seed_type(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if not 0 <= value < 2**32:
+        raise argparse.ArgumentTypeError(f"expected a whole number from 0 to 2**32 - 1, got {text!r}")
+    return value
+
+
+def _workers_type(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number of worker processes, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected at least 1 worker process, got {text!r}")
+    return value
+
+
+def _rate_type(text):
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a sample rate in Hz, got {text!r}") from None
+    if not (np.isfinite(value) and RATE_RANGE[0] <= value <= RATE_RANGE[1]):
+        raise argparse.ArgumentTypeError(f"expected a sample rate from {RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz, "
+                                         f"got {text!r}")
+    return value
+
 
 def _positive_seconds(text):
     try:
@@ -456,22 +514,50 @@ def main(argv=None):
     args.progress = show_progress(getattr(args, "quiet", False))
     logging.basicConfig(level=logging.WARNING, format="%(message)s")  # third-party loggers stay quiet
     log.setLevel(logging.INFO)
-    with warnings.catch_warnings():  # the command shows warnings its own way, whatever the caller's filters
+    with warnings.catch_warnings(), _sigterm_as_interrupt():  # warnings shown the command's way
         warnings.simplefilter("default")
         warnings.showwarning = _one_line_warning
         return _run(args)
 
 
+class _Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that staged outputs are cleaned up as on Ctrl-C."""
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt():
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        raise _Terminated()
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def _run(args):
     try:
         return args.handler(args)
+    except KeyboardInterrupt:
+        print("bayes-imu: interrupted (Ctrl-C): nothing was kept from this run; earlier results are unchanged",
+              file=sys.stderr)
+        return 130
+    except _Terminated:
+        print("bayes-imu: terminated (SIGTERM): nothing was kept from this run; earlier results are unchanged",
+              file=sys.stderr)
+        return 143
     except BayesIMUError as exc:
-        if args.debug:
+        if args.debug or os.environ.get("BAYES_IMU_DEBUG") == "1":
             raise
         print(f"bayes-imu: error: {exc}", file=sys.stderr)
         return 2
     except Exception as exc:  # an internal error: one line, the traceback with --debug
-        if args.debug:
+        if args.debug or os.environ.get("BAYES_IMU_DEBUG") == "1":
             raise
         text = str(exc).strip().splitlines()
         print(f"bayes-imu: internal error: {type(exc).__name__}: {text[0] if text else ''} "

@@ -14,6 +14,7 @@ the numbers happens here: later modules can trust finite 1-D float64 arrays.
 """
 
 import gzip
+import re
 import io
 import zlib
 from dataclasses import dataclass
@@ -143,8 +144,7 @@ def read_columns(path, *, columns, time_column=None, progress=False):
         constant or absurdly large signal.
     """
     path = Path(path)
-    head = _head(path)
-    fmt = _sniff(path, head)
+    fmt = sniff_file(path)
     wanted = [_resolve(path, fmt, c) for c in columns]
     if time_column is not None:
         wanted.append(_resolve(path, fmt, time_column))
@@ -216,16 +216,18 @@ def _open_binary(path):
     return (gzip.GzipFile(fileobj=raw), raw) if magic == b"\x1f\x8b" else (raw, raw)
 
 
-def _head(path):
-    """The first bytes of the (decompressed) file, with one-line errors for what is not a file."""
+def _head(path, size=_SNIFF_BYTES):
+    """The first ``size`` bytes of the (decompressed) file, with one-line errors for what is not a file."""
     if not path.exists():
         raise InputError(f"{path}: no such file")
     if path.is_dir():
         raise InputError(f"{path}: is a directory; expected a CSV file")
+    if not path.is_file():
+        raise InputError(f"{path}: not a regular file (a pipe or device); save the log to a file first")
     try:
         stream, raw = _open_binary(path)
         with raw:
-            head = stream.read(_SNIFF_BYTES)
+            head = stream.read(size)
     except (OSError, EOFError, zlib.error) as exc:
         raise InputError(f"{path}: cannot read ({_first_line(exc)})") from None
     return head
@@ -236,31 +238,56 @@ def _first_line(exc):
     return text[0] if text else type(exc).__name__
 
 
-def _sniff(path, head):
-    """Delimiter, header and column names from the first bytes."""
+def sniff_file(path):
+    """Delimiter, header and column names of a text log (:func:`_sniff` on a window that grows
+    until it holds data rows, so a long comment preamble or a very long line is read whole)."""
+    size = _SNIFF_BYTES
+    while True:
+        head = _head(path, size)
+        complete = len(head) < size
+        fmt = _sniff(path, head, complete=complete)
+        if fmt is not None:
+            return fmt
+        if complete:
+            raise InputError(f"{path}: no data rows (only blank or comment lines); expected a header row and samples")
+        size *= 4
+
+
+def _sniff(path, head, *, complete=None):
+    """Delimiter, header and column names from the first bytes (``None``: no data row in them yet)."""
+    complete = len(head) < _SNIFF_BYTES if complete is None else complete
     if not head:
         raise InputError(f"{path}: empty file; expected a header row and samples")
     nul = head.find(b"\x00")
     if nul >= 0:
         raise InputError(f"{path}: binary data (NUL byte at offset {nul}); expected a delimited text log")
     try:  # a multi-byte character may be cut at the end of the sample
-        text = head.decode("utf-8") if len(head) < _SNIFF_BYTES else head[:-4].decode("utf-8")
+        text = head.decode("utf-8") if complete else head[:-4].decode("utf-8")
     except UnicodeDecodeError as exc:
         raise InputError(f"{path}: not UTF-8 text (byte 0x{head[exc.start]:02x} at offset {exc.start}); "
                          "expected a delimited text log") from None
     text = text.removeprefix("\ufeff")
     rows = []  # (line number, content) of the first non-blank, non-comment lines
-    for number, line in enumerate(text.splitlines()[:-1] if len(head) == _SNIFF_BYTES else text.splitlines(), 1):
+    for number, line in enumerate(text.splitlines() if complete else text.splitlines()[:-1], 1):
         content = line.split("#", 1)[0].strip()
         if content:
             rows.append((number, content))
         if len(rows) == 20:
             break
     if not rows:
-        raise InputError(f"{path}: no data rows (only blank or comment lines); expected a header row and samples")
+        return None
+    if len(rows) == 1 and not complete:  # a header alone in the window: look further for its rows
+        return None
+    _refuse_decimal_commas(path, rows)
     delimiter = _delimiter(rows)
     first = _split(rows[0][1], delimiter)
-    header = not all(_is_number(f) for f in first)
+    header = not all(_is_number(_unquote(f)) for f in first)
+    if header and len(rows) > 1:
+        counts = {len(_split(r, delimiter)) for _, r in rows[1:]}
+        if len(counts) == 1 and (n := counts.pop()) != len(first):
+            raise InputError(f"{path}: line {rows[0][0]}: the header has {len(first)} fields but line {rows[1][0]} has "
+                             f"{n}; expected one name per column (a missing or extra header field would shift "
+                             "every column)")
     names = [f.strip().strip('"').strip("'") for f in first] if header else [str(i) for i in range(len(first))]
     if header and len(rows) == 1:
         raise InputError(f"{path}: a header row but no samples; expected samples below the header")
@@ -283,6 +310,23 @@ def _delimiter(rows):
 
 def _split(content, delimiter):
     return content.split() if delimiter is None else content.split(delimiter)
+
+
+_DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+([eE][+-]?\d+)?$")
+
+
+def _refuse_decimal_commas(path, rows):
+    """Fields like ``1,25`` between semicolons or tabs: decimal commas, which would be cut at the comma."""
+    for number, content in rows:
+        for sep in (";", "\t"):
+            fields = [_unquote(f.strip()) for f in content.split(sep)]
+            if len(fields) > 1 and any(_DECIMAL_COMMA.match(f) for f in fields):
+                raise InputError(f"{path}: line {number}: {content[:40]!r} uses decimal commas; expected decimal "
+                                 "points (export the log with '.' as the decimal separator)")
+
+
+def _unquote(field):
+    return field.strip().strip('"').strip("'")
 
 
 def _is_number(field):

@@ -23,6 +23,8 @@ import os
 import tempfile
 from pathlib import Path
 
+import zlib
+
 import numpy as np
 
 from ._kernels import phase_chunk, second_difference_sum
@@ -97,15 +99,17 @@ class _Source:
             raise InputError(f"{path}: no such file")
         if path.is_dir():
             raise InputError(f"{path}: is a directory; expected a log file")
+        if not path.is_file():
+            raise InputError(f"{path}: not a regular file (a pipe or device); save the log to a file first")
         self.path, self.chunk = path, chunk
         suffix = path.suffix.lower()
         if suffix in _TEXT or (suffix not in BINARY_SUFFIXES and column is not None):
             if column is None:
                 raise InputError(f"{path}: a text log needs a column (name or 0-based index)")
-            from .io import _head, _resolve, _sniff
+            from .io import _resolve, sniff_file
 
             self.kind = "text"
-            self.fmt = _sniff(path, _head(path))
+            self.fmt = sniff_file(path)
             self.index = _resolve(path, self.fmt, column)
         elif suffix == ".npy":
             self.kind = "npy"
@@ -115,6 +119,7 @@ class _Source:
             self.dtype = np.dtype("<f4" if suffix == ".f32" and dtype == "<f8" else dtype)
             if self.dtype.kind != "f":
                 raise InputError(f"dtype={dtype!r}: expected a floating-point type such as '<f8' or '<f4'")
+            _refuse_text(path)
             size = path.stat().st_size
             if size % self.dtype.itemsize:
                 raise InputError(f"{path}: {size} bytes is not a whole number of {self.dtype} samples")
@@ -143,8 +148,8 @@ class _Source:
         stream, raw = _open_binary(self.path)
         done = 0
         with raw:
-            reader = pd.read_csv(stream, chunksize=self.chunk, **csv_options(self.fmt, [self.index]))
             try:
+                reader = pd.read_csv(stream, chunksize=self.chunk, **csv_options(self.fmt, [self.index]))
                 for frame in reader:
                     values = frame[self.index].to_numpy(dtype=np.float64)
                     if not np.all(np.isfinite(values)):
@@ -153,6 +158,9 @@ class _Source:
                     done += values.size
             except (ValueError, pd.errors.ParserError):
                 _diagnose(self.path, self.fmt, [self.index])
+            except (OSError, EOFError, zlib.error) as exc:  # a corrupt or truncated gzip member
+                text = str(exc).strip().splitlines()
+                raise InputError(f"{self.path}: cannot read ({text[0] if text else type(exc).__name__})") from None
 
 
 def _npy_layout(path):
@@ -236,3 +244,14 @@ def _available_disk(folder=None):
     """Free bytes where the temporary phase file would go."""
     stat = os.statvfs(folder or tempfile.gettempdir())
     return stat.f_bavail * stat.f_frsize
+
+
+def _refuse_text(path, n_bytes=4096):
+    """A raw binary log whose first bytes are all printable text is a text log under a binary name."""
+    with open(path, "rb") as handle:
+        head = handle.read(n_bytes)
+    printable = set(range(32, 127)) | {9, 10, 13}
+    if head and all(b in printable for b in head):
+        first = head.split(b"\n", 1)[0][:40].decode("ascii")
+        raise InputError(f"{path}: starts like text ({first!r}), not raw float samples; rename a text log to .csv, "
+                         "or give --column to read it as text")

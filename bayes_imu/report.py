@@ -114,6 +114,13 @@ def _get(table, key, kind, where, default=None, required=True):
     return value
 
 
+def _known(table, keys, where):
+    """Reject the first key of ``table`` not in ``keys``, by name."""
+    unknown = [k for k in table if k not in keys]
+    if unknown:
+        raise InputError(f"{where}: unknown key {unknown[0]!r}; expected keys: {', '.join(keys)}")
+
+
 def read_scene(path):
     """Parse and validate a scene TOML file; paths are relative to the file."""
     path = Path(path)
@@ -121,9 +128,11 @@ def read_scene(path):
         doc = tomllib.loads(read_text(path))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: invalid TOML ({exc})") from None
+    _known(doc, ("scene", "requirement", "sensor"), f"{path}: top level")
     scene = doc.get("scene")
     if not isinstance(scene, dict):
         raise InputError(f"{path}: missing [scene] table")
+    _known(scene, ("name", "outages_s", "credibility", "bias_start", "calibration_s"), f"{path}: [scene]")
     outages = scene.get("outages_s")
     if not isinstance(outages, list) or not outages or not all(
             isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) and v > 0 for v in outages):
@@ -141,6 +150,9 @@ def read_scene(path):
     requirement = doc.get("requirement")
     if requirement is not None:
         where = f"{path}: [requirement]"
+        if not isinstance(requirement, dict):
+            raise InputError(f"{where}: expected a table")
+        _known(requirement, ("quantity", "max_error"), where)
         quantity = _get(requirement, "quantity", str, where)
         if quantity not in OUTPUT_UNITS:
             raise InputError(f"{where} quantity={quantity!r}: expected one of {', '.join(OUTPUT_UNITS)}")
@@ -152,6 +164,9 @@ def read_scene(path):
     specs = []
     for i, entry in enumerate(sensors, start=1):
         where = f"{path}: [[sensor]] #{i}"
+        if not isinstance(entry, dict):
+            raise InputError(f"{where}: expected a table")
+        _known(entry, ("name", "log", "column", "rate_hz", "kind", "units"), where)
         kind = _get(entry, "kind", str, where)
         if kind not in SENSOR_QUANTITIES:
             raise InputError(f"{where}: kind={kind!r}: expected 'gyro' or 'accel'")

@@ -21,13 +21,33 @@ import numpy as np
 from .errors import InputError
 from .io import positive_number
 
-__all__ = ["TimeBase", "check_time", "GAP_POLICIES", "STEP_TOLERANCE", "RATE_TOLERANCE"]
+__all__ = ["TimeBase", "check_time", "check_rate", "GAP_POLICIES", "STEP_TOLERANCE", "RATE_TOLERANCE", "RATE_RANGE"]
 
 GAP_POLICIES = ("error", "longest")
 #: accepted relative deviation of one step from the median step
 STEP_TOLERANCE = 0.5
 #: accepted relative difference between the rate of the time column and ``--rate``
 RATE_TOLERANCE = 0.01
+#: plausible sample rates of an inertial sensor log (Hz)
+RATE_RANGE = (0.01, 1e6)
+
+
+def check_rate(rate_hz, source="--rate", where=None):
+    """``rate_hz`` if it lies in :data:`RATE_RANGE`, else an :class:`InputError` saying why."""
+    lo, hi = RATE_RANGE
+    if lo <= rate_hz <= hi:
+        return rate_hz
+    prefix = f"{where}: " if where else ""
+    raise InputError(f"{prefix}{source} gives a sample rate of {rate_hz:.6g} Hz; expected {lo:g} Hz to {hi:g} Hz")
+
+
+def _stamp_hint(step):
+    """Why a time column gives an implausible rate: stamps in other units than seconds."""
+    for scale, unit in ((1e9, "nanoseconds"), (1e6, "microseconds"), (1e3, "milliseconds")):
+        if RATE_RANGE[0] <= scale / step <= RATE_RANGE[1]:
+            return (f"; if the stamps are in {unit} (step {step:.6g}) the rate is {scale / step:.6g} Hz: give the "
+                    f"time column in seconds (divide by {scale:g}) or drop --time-column and give --rate")
+    return ""
 
 
 @dataclass(frozen=True)
@@ -96,7 +116,7 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
     if gaps not in GAP_POLICIES:
         raise InputError(f"gaps={gaps!r}: expected one of {', '.join(GAP_POLICIES)}")
     if rate_hz is not None:
-        rate_hz = positive_number("--rate", rate_hz, what="sample rate in Hz")
+        rate_hz = check_rate(positive_number("--rate", rate_hz, what="sample rate in Hz"), where=where)
     if time_s is None:
         if rate_hz is None:
             raise InputError(f"{where}: no sample rate: give --rate HZ or a --time-column")
@@ -125,6 +145,9 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
         raise InputError(f"{where}: no regular segment of at least 3 time stamps; expected steps of {step:.6g} s")
     # least-noise rate: every stamp of the segment counts (clock jitter averages out)
     rate = (stop - start - 1) / float(t[stop - 1] - t[start])
+    if not RATE_RANGE[0] <= rate <= RATE_RANGE[1]:
+        raise InputError(f"{where}: the time column gives {rate:.6g} Hz (median step {step:.6g}); expected "
+                         f"{RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz with stamps in seconds" + _stamp_hint(step))
     if rate_hz is not None and abs(rate / rate_hz - 1.0) > RATE_TOLERANCE:
         raise InputError(f"{where}: the time column gives {rate:.6g} Hz (step {1 / rate:.6g} s) but --rate is "
                          f"{rate_hz:g} Hz; expected them to agree within {RATE_TOLERANCE:.0%} (or give only one)")

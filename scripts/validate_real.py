@@ -13,6 +13,10 @@ For every real channel (six ADIS16405 logs x 6 axes, the Xsens MTi-G gyro) from
    of an RMS over that many windows: posterior draws of sigma times sqrt(chi2_n / n)
    (the RMS's own sampling error; windows taken as independent).
 
+The check assumes the two halves are alike. Each row also prints the ratio of the halves'
+Allan deviations at 82 s and 328 s (first / second): values far from 1 mean the sensor
+itself changed (warm-up), which no model fitted to one half can predict for the other.
+
 Prints a table and the fraction of consistent (channel, horizon) points; ``--models selected``
 repeats it with the selected model alone. Run: ``python scripts/validate_real.py``
 (about 10 minutes on 2 cores); ``--quick`` takes two channels.
@@ -72,13 +76,17 @@ def main(argv=None):
     dt = 1.0 / RATE
     n_cal = int(round(args.calibration * RATE))
     rows = []
-    print(f"{'channel':22s} {'model':44s} {'adequate':>8s} " + " ".join(f"{h:>22g}s" for h in HORIZONS))
+    print(f"{'channel':22s} {'model':44s} {'adequate':>8s} " + " ".join(f"{h:>22g}s" for h in HORIZONS)
+          + "  adev 1st/2nd half at 82 s, 328 s")
     for j, (name, kind, y) in enumerate(channels()):
         if args.quick and j >= 2:
             break
         start = time.perf_counter()
         half = y.size // 2
-        fit = fit_allan(allan_variance(y[:half], rate_hz=RATE), rng=0)
+        first, second = allan_variance(y[:half], rate_hz=RATE), allan_variance(y[half:], rate_hz=RATE)
+        ratio = [float(first.adev[np.argmin(abs(first.tau - t))] / second.adev[np.argmin(abs(second.tau - t))])
+                 for t in (82.0, 328.0)]
+        fit = fit_allan(first, rng=0)
         sigma = drift_draws(fit, np.array(HORIZONS), quantity="attitude", bias_start="calibrated",
                             calibration_s=args.calibration, models=args.models)["total"]
         cells = []
@@ -90,10 +98,11 @@ def main(argv=None):
             ok = bool(lo <= obs <= hi)
             rows.append({"channel": name, "sensor": kind, "horizon_s": h, "observed_rms": obs, "windows": n_win,
                          "q05": lo, "q95": hi, "consistent": ok, "model": "+".join(fit.model.terms),
-                         "adequate": fit.adequacy.adequate, "p_value": fit.adequacy.p_value, "widened": fit.widened})
+                         "adequate": fit.adequacy.adequate, "p_value": fit.adequacy.p_value, "widened": fit.widened,
+                         "adev_ratio_82s": ratio[0], "adev_ratio_328s": ratio[1]})
             cells.append(f"{obs:9.3g} [{lo:8.3g},{hi:8.3g}]{'' if ok else '*'}")
         print(f"{name:22s} {'+'.join(fit.model.terms):44s} {str(fit.adequacy.adequate):>8s} " + " ".join(cells)
-              + f"  ({time.perf_counter() - start:.0f} s)", flush=True)
+              + f"  {ratio[0]:.2f} {ratio[1]:.2f} ({time.perf_counter() - start:.0f} s)", flush=True)
     ok = np.array([r["consistent"] for r in rows])
     print(f"\nconsistent with the 90% band: {ok.sum()} of {ok.size} (channel, horizon) points = {ok.mean():.1%}")
     for h in HORIZONS:
@@ -103,6 +112,9 @@ def main(argv=None):
         sel = np.array([r["sensor"] == kind for r in rows])
         if sel.any():
             print(f"  {kind}: {ok[sel].mean():.1%}")
+    steady = np.array([max(r["adev_ratio_82s"], 1 / r["adev_ratio_82s"]) < 1.25 for r in rows])
+    print(f"  channels whose halves agree within 25% at 82 s: {ok[steady].mean():.1%} of {steady.sum()} points; "
+          f"the others: {ok[~steady].mean():.1%} of {(~steady).sum()}")
     adequate = np.array([r["adequate"] for r in rows[:: len(HORIZONS)]])
     print(f"adequate fits (first halves): {adequate.sum()} of {adequate.size}; the others widened and flagged")
     if args.csv:

@@ -52,10 +52,10 @@ CASES = [  # (id, file bytes or None, extra arguments, message fragment)
      ["fit", "{log}", "--column", "gx", "--rate", "100"], "binary data"),
     ("corrupt_gzip", gzip.compress(GOOD.encode())[:40], ["fit", "{log}", "--column", "gx", "--rate", "100"],
      "cannot read"),
-    ("zero_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "0"], "--rate=0.0: expected a positive"),
-    ("negative_rate", GOOD.encode(), ["allan", "{log}", "--column", "gx", "--rate", "-100"], "--rate=-100.0"),
-    ("text_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "fast"], "invalid float value: 'fast'"),
-    ("nan_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "nan"], "--rate=nan"),
+    ("zero_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "0"], "--rate: expected a sample rate from 0.01 Hz"),
+    ("negative_rate", GOOD.encode(), ["allan", "{log}", "--column", "gx", "--rate", "-100"], "--rate: expected a sample rate from 0.01 Hz to 1e+06 Hz, got '-100'"),
+    ("text_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "fast"], "--rate: expected a sample rate in Hz, got 'fast'"),
+    ("nan_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "nan"], "--rate: expected a sample rate from 0.01 Hz to 1e+06 Hz, got 'nan'"),
     ("no_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx"], "give --rate HZ or a --time-column"),
     ("overflow", _time_rows(_set(3, "0.03,1e200,1")), ["fit", "{log}", "--column", "gx", "--rate", "100"],
      "expected |value| <= 1e+100"),
@@ -78,6 +78,26 @@ CASES = [  # (id, file bytes or None, extra arguments, message fragment)
      "allan takes one column"),
     ("unknown_command", None, ["fitt", "{log}"], "invalid choice: 'fitt'"),
     ("bad_terms", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "100", "--terms", "white,pink"], "pink"),
+    # issue 13: inputs that used to turn into plausible nonsense with exit 0, and option values checked first
+    ("header_shorter_than_rows", ("gx,gy\n" + "".join(f"{i},{np.sin(i):.5f},{np.cos(i):.5f}\n" for i in range(99))).encode(),
+     ["fit", "{log}", "--column", "gy", "--rate", "100"], "the header has 2 fields but line 2 has 3"),
+    ("decimal_commas", "".join(f"{np.sin(i):.5f};{np.cos(i):.5f}\n".replace(".", ",") for i in range(99)).encode(),
+     ["allan", "{log}", "--column", "0", "--rate", "100"], "uses decimal commas"),
+    ("nanosecond_stamps", ("t,gx\n" + "".join(f"{1403636579758555392 + i * 10_000_000},{np.sin(i):.5f}\n"
+                                               for i in range(99))).encode(),
+     ["fit", "{log}", "--column", "gx", "--time-column", "t"], "if the stamps are in nanoseconds"),
+    ("implausible_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "1e-300"],
+     "--rate: expected a sample rate from 0.01 Hz"),
+    ("negative_seed", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "100", "--seed", "-1"],
+     "--seed: expected a whole number from 0 to 2**32 - 1"),
+    ("zero_workers", GOOD.encode(), ["fit-batch", "{log}", "--column", "gx", "--rate", "100", "--workers", "0"],
+     "--workers: expected at least 1 worker process"),
+    ("negative_horizon", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "100", "--horizon", "-5"],
+     "--horizon: expected a positive number"),
+    ("json_boolean_rate", b'{"kind": "gyro", "rate_hz": true, "noise_density": 1e-3}', ["drift", "{log}"],
+     "rate_hz=True: expected a number"),
+    ("json_unknown_key", b'{"kind": "gyro", "rate_hz": 100, "noise_density": 1e-3, "bias_strat": 1}', ["drift", "{log}"],
+     "unknown key 'bias_strat'"),
 ]
 
 
@@ -112,17 +132,84 @@ def log(tmp_path):
     return path
 
 
-def test_existing_output_refused_then_replaced_with_force(tmp_path, log, capsys):
+def test_existing_output_refused_and_force_replaces_only_a_previous_result(tmp_path, log, capsys):
+    """A folder with a user's file: refused, with or without --force, naming the file, which stays.
+    A previous bayes_imu result (marker file): refused without --force, replaced with it."""
     out = tmp_path / "out"
     out.mkdir()
     (out / "old.txt").write_text("keep me")
     args = ["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(out), "--quiet"]
     assert main(args) == 2
-    assert "folder exists and is not empty; use --force" in capsys.readouterr().err
-    assert (out / "old.txt").read_text() == "keep me"
+    assert "folder exists and is not empty ('old.txt')" in capsys.readouterr().err
+    assert main(args + ["--force"]) == 2
+    assert "--force replaces only a previous bayes_imu result" in capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == ["old.txt"] and (out / "old.txt").read_text() == "keep me"
+    result = tmp_path / "result"
+    args = ["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(result), "--quiet"]
+    assert main(args) == 0
+    first = _snapshot(result)
+    assert main(args) == 2 and _snapshot(result) == first
     assert main(args + ["--force"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["allan.csv", "allan.png"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["in", "out"]  # no partial or old folder left
+    assert sorted(p.name for p in result.iterdir()) == [".bayes_imu.json", "allan.csv", "allan.png"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in", "out", "result"]  # no partial or old folder left
+
+
+def test_force_leaves_files_the_run_did_not_create(tmp_path, log, capsys):
+    """A user's notes saved into a result folder: --force refuses and names them (nothing deleted)."""
+    out = tmp_path / "out"
+    args = ["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(out), "--quiet"]
+    assert main(args) == 0
+    (out / "notes.txt").write_text("mine")
+    assert main(args + ["--force"]) == 2
+    assert "would leave 'notes.txt'" in capsys.readouterr().err
+    assert (out / "notes.txt").read_text() == "mine"
+
+
+def test_output_claimed_by_another_run_is_refused_at_once(tmp_path, log, capsys):
+    """Two runs into one --out: the claim file of the first stops the second before any work."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / ".bayes_imu.claim").write_text("")
+    assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(out), "--quiet"]) == 2
+    assert "another bayes-imu run is writing there" in capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == [".bayes_imu.claim"]
+
+
+def test_files_saved_into_out_during_the_run_are_kept(tmp_path, log, monkeypatch):
+    """The run claims a new --out at the start; a file the user saves there meanwhile is kept,
+    on success and on failure (the folder then stays, holding only the user's file)."""
+    import bayes_imu.plots
+
+    out = tmp_path / "out"
+    real = bayes_imu.plots.plot_allan
+
+    def user_saves_notes(*args, **kwargs):
+        assert out.is_dir()  # claimed before the work
+        (out / "notes.txt").write_text("mine")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(bayes_imu.plots, "plot_allan", user_saves_notes)
+    args = ["allan", str(log), "--column", "gx", "--rate", "100", "--quiet"]
+    assert main(args + ["--out", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == [".bayes_imu.json", "allan.csv", "allan.png", "notes.txt"]
+
+    def fails_after_notes(*args, **kwargs):
+        (tmp_path / "out2" / "notes.txt").write_text("mine")
+        raise ValueError("boom")
+
+    monkeypatch.setattr(bayes_imu.plots, "plot_allan", fails_after_notes)
+    assert main(args + ["--out", str(tmp_path / "out2")]) == 1
+    assert sorted(p.name for p in (tmp_path / "out2").iterdir()) == ["notes.txt"]
+
+
+def test_kalibr_never_overwrites_its_input(tmp_path, capsys):
+    """kalibr --out pointing at a fit folder's summary.json: refused (an output may not be an input)."""
+    fit = tmp_path / "fit"
+    fit.mkdir()
+    (fit / "summary.json").write_text("{}")
+    assert main(["kalibr", "--gyro", str(fit), "--accel", str(fit), "--out", str(fit / "summary.json"),
+                 "--force"]) == 2
+    assert (fit / "summary.json").read_text() == "{}"
 
 
 def test_output_is_a_file_or_holds_the_input(tmp_path, log, capsys):
@@ -132,7 +219,7 @@ def test_output_is_a_file_or_holds_the_input(tmp_path, log, capsys):
     assert "exists and is not a folder" in capsys.readouterr().err
     # --force on the folder holding the log would delete the log: always refused
     assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(log.parent), "--force"]) == 2
-    assert "contains the input" in capsys.readouterr().err and log.read_text() == GOOD
+    assert "is or contains the input" in capsys.readouterr().err and log.read_text() == GOOD
 
 
 def test_failure_while_writing_leaves_nothing_and_keeps_old_output(tmp_path, log, capsys, monkeypatch):
@@ -149,10 +236,12 @@ def test_failure_while_writing_leaves_nothing_and_keeps_old_output(tmp_path, log
     assert "internal error: OSError: disk full" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in"]  # created parents removed too
     old = tmp_path / "old"
-    old.mkdir()
-    (old / "allan.csv").write_text("previous")
+    monkeypatch.undo()
+    assert main(args + ["--out", str(old)]) == 0  # a previous result
+    before = _snapshot(old)
+    monkeypatch.setattr(bayes_imu.plots, "plot_allan", broken)
     assert main(args + ["--out", str(old), "--force"]) == 1
-    assert (old / "allan.csv").read_text() == "previous"
+    assert _snapshot(old) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in", "old"]
 
 
@@ -163,8 +252,83 @@ def test_interrupt_leaves_nothing(tmp_path, log, monkeypatch):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(bayes_imu.plots, "plot_allan", interrupted)
-    with pytest.raises(KeyboardInterrupt):
-        main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "out")])
+    assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "out")]) == 130
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in"]
+
+
+def test_text_saved_with_a_binary_suffix_is_refused(tmp_path, capsys):
+    """A text log named .bin would be read as floats (ADEV 1e20): refused in one line."""
+    path = tmp_path / "log.bin"
+    path.write_text(GOOD)
+    assert main(["allan", str(path), "--rate", "100", "--out", str(tmp_path / "out")]) == 2
+    assert "starts like text" in capsys.readouterr().err and not (tmp_path / "out").exists()
+
+
+def test_fifo_is_refused_not_waited_on(tmp_path, capsys):
+    """A named pipe with no writer used to hang the read: now one line, exit 2."""
+    import os
+
+    fifo = tmp_path / "pipe.csv"
+    os.mkfifo(fifo)
+    assert main(["allan", str(fifo), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "out")]) == 2
+    assert "not a regular file" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("kind", ["preamble", "long_line"])
+def test_long_preamble_and_long_lines_are_read(tmp_path, kind):
+    """A 90 KB comment preamble, or a header line longer than the sniffing window, used to read as
+    'no data rows': the values now equal those of the clean file."""
+    from bayes_imu.io import read_columns
+
+    clean = tmp_path / "clean.csv"
+    clean.write_text(GOOD)
+    odd = tmp_path / "odd.csv"
+    if kind == "preamble":
+        odd.write_text("".join(f"# note {i:06d} {'x' * 80}\n" for i in range(1000)) + GOOD)
+    else:
+        odd.write_text("time,gx,gy," + ",".join(f"extra{i}" for i in range(20000)) + "\n"
+                       + "\n".join(row + ",0" * 20000 for row in GOOD.splitlines()[1:]) + "\n")
+    ref = read_columns(clean, columns=["gx"]).values
+    np.testing.assert_array_equal(read_columns(odd, columns=["gx"]).values, ref)
+
+
+def test_headerless_quoted_numbers_keep_every_sample(tmp_path):
+    """'"1.5","2.5"' rows: quoted numbers are numbers, not a header (the first sample used to be lost)."""
+    from bayes_imu.io import read_columns
+
+    path = tmp_path / "q.csv"
+    rows = [(np.sin(i), np.cos(i)) for i in range(50)]
+    path.write_text("".join(f'"{a:.6f}","{b:.6f}"\n' for a, b in rows))
+    np.testing.assert_allclose(read_columns(path, columns=["1"]).values[:, 0], [round(b, 6) for _, b in rows])
+
+
+def test_sigterm_is_handled_like_ctrl_c(tmp_path, log, capsys, monkeypatch):
+    """SIGTERM during the work: one line, exit 143, the claimed folder and created parents removed."""
+    import os
+    import signal
+
+    import bayes_imu.plots
+
+    def terminated(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    monkeypatch.setattr(bayes_imu.plots, "plot_allan", terminated)
+    out = tmp_path / "new" / "out"
+    assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(out)]) == 143
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "terminated (SIGTERM)" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in"]
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL or callable(signal.getsignal(signal.SIGTERM))
+
+
+def test_low_disk_space_refused_before_any_work(tmp_path, log, capsys, monkeypatch):
+    """Too little free space on the target's file system: one line, exit 2, nothing created."""
+    import shutil
+
+    usage = shutil.disk_usage(tmp_path)
+    monkeypatch.setattr(shutil, "disk_usage", lambda path: usage._replace(free=10 * 2**20))
+    assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "out")]) == 2
+    assert "MiB free" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in"]
 
 
