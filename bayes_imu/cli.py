@@ -439,45 +439,25 @@ def _cmd_drift(args):
 
 # ---------------------------------------------------------------------------- entry point
 
-def _seed_type(text):
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if not 0 <= value < 2**32:
-        raise argparse.ArgumentTypeError(f"expected a whole number from 0 to 2**32 - 1, got {text!r}")
-    return value
+def _checked(convert, ok, expected):
+    """An argparse type: ``convert(text)``, refused unless ``ok(value)``, with ``expected`` in the message."""
+    def check(text):
+        try:
+            value = convert(text)
+        except ValueError:
+            value = None
+        if value is None or not ok(value):
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}")
+        return value
+
+    return check
 
 
-def _workers_type(text):
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number of worker processes, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected at least 1 worker process, got {text!r}")
-    return value
-
-
-def _rate_type(text):
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a sample rate in Hz, got {text!r}") from None
-    if not (np.isfinite(value) and RATE_RANGE[0] <= value <= RATE_RANGE[1]):
-        raise argparse.ArgumentTypeError(f"expected a sample rate from {RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz, "
-                                         f"got {text!r}")
-    return value
-
-
-def _positive_seconds(text):
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (np.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
+_seed_type = _checked(int, lambda v: 0 <= v < 2**32, "a whole number from 0 to 2**32 - 1")
+_workers_type = _checked(int, lambda v: v >= 1, "at least 1 worker process")
+_rate_type = _checked(float, lambda v: np.isfinite(v) and RATE_RANGE[0] <= v <= RATE_RANGE[1],
+                      f"a sample rate from {RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz")
+_positive_seconds = _checked(float, lambda v: np.isfinite(v) and v > 0, "a positive number")
 
 
 def _times(text):

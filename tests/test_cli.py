@@ -71,6 +71,9 @@ def test_fit_command_writes_all_outputs(tmp_path, capsys):
     assert summary["input"]["input_units"] == "deg/s" and summary["unit"] == "rad/s"
     assert set(summary["diagnostics"]) >= {"rhat_max", "ess_bulk_min", "converged"}
     assert summary["seed"] == 3 and summary["bayes_imu_version"]
+    assert set(summary["adequacy"]) >= {"adequate", "p_value", "worst_tau_s", "at_prior_bound", "widened"}
+    assert isinstance(summary["diagnostics"]["n_steps"], int) and isinstance(summary["diagnostics"]["n_walkers"], int)
+    assert abs(sum(c["probability"] for c in summary["candidates"]) - 1.0) < 1e-9
     for name in ("posterior.nc", "allan_fit.png", "corner.png"):
         assert (tmp_path / "a" / name).stat().st_size > 0
     from bayes_imu.fit import _arviz
@@ -80,6 +83,28 @@ def test_fit_command_writes_all_outputs(tmp_path, capsys):
     assert main(["fit", *args, "--out", str(tmp_path / "b")]) == 0
     # determinism: the same input and seed give a byte-identical summary.json
     assert (tmp_path / "b" / "summary.json").read_bytes() == (tmp_path / "a" / "summary.json").read_bytes()
+
+
+def test_drift_rows_at_exactly_the_requested_times(tmp_path, capsys, rng):
+    """--times writes drift.csv at those times; a white-noise fit under the calibrated start gives
+    sigma^2 = q dt^2 (k + k^2 / N) (the sum of k samples, plus k times the error of a mean of N),
+    checked at the posterior median of q; the summary line is printed for the quantity."""
+    from bayes_imu.models import NoiseModel
+    from bayes_imu.simulate import simulate_log
+
+    y = simulate_log(NoiseModel(("white",), 0.01), {"noise_variance": 4e-4}, 2**15, rng=rng)
+    log = tmp_path / "g.csv"
+    log.write_text("g\n" + "\n".join(f"{v:.9f}" for v in y) + "\n")
+    out = tmp_path / "o"
+    assert main(["fit", str(log), "--column", "g", "--rate", "100", "--terms", "white", "--sensor", "gyro",
+                 "--times", "0.1,1,10", "--calibration", "5", "--out", str(out)]) == 0
+    assert "attitude: 1-sigma drift after 10 s" in capsys.readouterr().out
+    rows = (out / "drift.csv").read_text().splitlines()[1:]
+    t = np.array([float(r.split(",")[0]) for r in rows])
+    np.testing.assert_array_equal(t, [0.1, 1.0, 10.0])
+    q = json.loads((out / "summary.json").read_text())["parameters"]["noise_variance"]["median"]
+    k, n = t / 0.01, 5 / 0.01
+    np.testing.assert_allclose([float(r.split(",")[3]) for r in rows], np.sqrt(q * 0.01**2 * (k + k * k / n)), rtol=2e-3)
 
 
 def test_fit_command_bad_terms_exit_2(tmp_path, capsys):

@@ -54,7 +54,7 @@ CASES = [  # (id, file bytes or None, extra arguments, message fragment)
      "cannot read"),
     ("zero_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "0"], "--rate: expected a sample rate from 0.01 Hz"),
     ("negative_rate", GOOD.encode(), ["allan", "{log}", "--column", "gx", "--rate", "-100"], "--rate: expected a sample rate from 0.01 Hz to 1e+06 Hz, got '-100'"),
-    ("text_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "fast"], "--rate: expected a sample rate in Hz, got 'fast'"),
+    ("text_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "fast"], "--rate: expected a sample rate from 0.01 Hz to 1e+06 Hz, got 'fast'"),
     ("nan_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "nan"], "--rate: expected a sample rate from 0.01 Hz to 1e+06 Hz, got 'nan'"),
     ("no_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx"], "give --rate HZ or a --time-column"),
     ("overflow", _time_rows(_set(3, "0.03,1e200,1")), ["fit", "{log}", "--column", "gx", "--rate", "100"],
