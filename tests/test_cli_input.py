@@ -203,13 +203,19 @@ def test_files_saved_into_out_during_the_run_are_kept(tmp_path, log, monkeypatch
 
 
 def test_kalibr_never_overwrites_its_input(tmp_path, capsys):
-    """kalibr --out pointing at a fit folder's summary.json: refused (an output may not be an input)."""
-    fit = tmp_path / "fit"
-    fit.mkdir()
-    (fit / "summary.json").write_text("{}")
-    assert main(["kalibr", "--gyro", str(fit), "--accel", str(fit), "--out", str(fit / "summary.json"),
-                 "--force"]) == 2
-    assert (fit / "summary.json").read_text() == "{}"
+    """kalibr --out pointing at a fit folder's own summary.json, even with --force: refused, the
+    fit folder byte-identical (an output may never be an input)."""
+    rows = np.random.default_rng(5).standard_normal((2**12, 2))
+    log = tmp_path / "imu.csv"
+    log.write_text("g,a\n" + "".join(f"{g:.6f},{a:.6f}\n" for g, a in rows))
+    for column, units in (("g", "deg/s"), ("a", "g")):
+        assert main(["fit", str(log), "--column", column, "--rate", "100", "--units", units, "--terms", "white",
+                     "--out", str(tmp_path / column), "--quiet"]) == 0
+    before = _snapshot(tmp_path / "g")
+    assert main(["kalibr", "--gyro", str(tmp_path / "g"), "--accel", str(tmp_path / "a"),
+                 "--out", str(tmp_path / "g" / "summary.json"), "--force"]) == 2
+    assert "is or contains the input" in capsys.readouterr().err
+    assert _snapshot(tmp_path / "g") == before
 
 
 def test_output_is_a_file_or_holds_the_input(tmp_path, log, capsys):
