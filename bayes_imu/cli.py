@@ -19,8 +19,11 @@ import contextlib
 import json
 import logging
 import os
+import shutil
 import signal
+import stat
 import sys
+import tempfile
 import threading
 import time
 import warnings
@@ -144,10 +147,66 @@ def _build_parser():
 
 # ---------------------------------------------------------------------------- reading
 
+@contextlib.contextmanager
+def _readable_log(args):
+    """``-`` (standard input) or a named pipe: copied as it streams in to a temporary file of
+    the same name, read like any log (line numbers unchanged), removed afterwards. A pipe with
+    no writer is an error at once, not a wait."""
+    path = args.log
+    fifo = str(path) != "-" and path.exists() and stat.S_ISFIFO(path.stat().st_mode)
+    if str(path) != "-" and not fifo:
+        yield
+        return
+    folder = Path(tempfile.mkdtemp(prefix="bayes-imu-input-"))
+    spooled = folder / ("stdin.csv" if str(path) == "-" else path.name)
+    try:
+        with open(spooled, "wb") as target:
+            if fifo:
+                _copy_pipe(path, target)
+            else:
+                shutil.copyfileobj(sys.stdin.buffer, target, 1 << 20)
+        if spooled.stat().st_size == 0:
+            raise InputError(f"{path}: nothing was read from {'standard input' if not fifo else 'the pipe'}; "
+                             "expected a log")
+        args.log, args.log_label = spooled, str(path)
+        yield
+    finally:
+        args.log, args.log_label = path, None
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _copy_pipe(path, target):
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # opening never blocks; a first read tells if a writer exists
+    try:
+        try:
+            first = os.read(fd, 1 << 16)
+        except BlockingIOError:  # a writer, nothing written yet: wait for it
+            first = None
+        if first == b"":
+            raise InputError(f"{path}: a named pipe with no writer; start the program that writes the log first")
+        os.set_blocking(fd, True)
+        if first:
+            target.write(first)
+        while chunk := os.read(fd, 1 << 20):
+            target.write(chunk)
+    finally:
+        os.close(fd)
+
+
+def _log_label(args):
+    return getattr(args, "log_label", None) or str(args.log)
+
+
 # ---------------------------------------------------------------------------- commands
 
 def _cmd_allan(args):
+    with _readable_log(args):
+        return _allan(args)
+
+
+def _allan(args):
     columns, results, unit, info = allan_results(args, "allan", args.grid)
+    info["log"] = _log_label(args)
     result = results[0]
     from .plots import plot_allan
 
@@ -158,14 +217,20 @@ def _cmd_allan(args):
             for t, m, a, lo, hi, e in zip(result.tau, result.m, result.adev, result.adev_low, result.adev_high, result.edf)
         ]
         (tmp / "allan.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
-        plot_allan(result, tmp / "allan.png", label=f"{args.log.name}: {columns[0]} [{unit}]")
+        plot_allan(result, tmp / "allan.png", label=f"{Path(_log_label(args)).name}: {columns[0]} [{unit}]")
     _say(args, f"{result.tau.size} cluster sizes from {result.n_samples} samples ({info['action']}); "
                f"wrote {args.out / 'allan.csv'} and allan.png")
     return 0
 
 
 def _cmd_fit(args):
+    with _readable_log(args):
+        return _fit(args)
+
+
+def _fit(args):
     columns, results, unit, info = allan_results(args, "fit")
+    info["log"] = _log_label(args)
     terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
     with staged_folder(args.out, force=args.force, inputs=[args.log]) as tmp:
         if len(columns) == 1:
@@ -198,7 +263,7 @@ def _fit_axis(args, allan, unit, info, terms, column, out):
     result = fit_allan(allan, terms=terms, likelihood=args.likelihood, rng=args.seed, discrepancy=args.discrepancy,
                        progress=args.progress)
     summary = result.summary(unit=unit)
-    summary.update(log=str(args.log), column=column, unit=unit, input=info)
+    summary.update(log=_log_label(args), column=column, unit=unit, input=info)
     _say(args, f"model: {' + '.join(result.model.terms)}  (converged: {result.diagnostics['converged']})")
     for name, p in summary["parameters"].items():
         _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
@@ -210,7 +275,7 @@ def _fit_axis(args, allan, unit, info, terms, column, out):
         widened = ("intervals widened by a fitted model discrepancy" if result.widened
                    else "intervals NOT widened: treat them as too narrow")
         _warn(f"{column}: the noise model does not describe this log ({'; '.join(what)}); {widened}")
-    label = f"{args.log.name}: {column}"
+    label = f"{Path(_log_label(args)).name}: {column}"
     if args.sensor:
         summary["drift"] = _write_drift(result, args, unit, out)
     _write_json(out / "summary.json", summary)

@@ -9,6 +9,8 @@ import gzip
 import hashlib
 import json
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -270,14 +272,41 @@ def test_text_saved_with_a_binary_suffix_is_refused(tmp_path, capsys):
     assert "starts like text" in capsys.readouterr().err and not (tmp_path / "out").exists()
 
 
-def test_fifo_is_refused_not_waited_on(tmp_path, capsys):
-    """A named pipe with no writer used to hang the read: now one line, exit 2."""
+def test_pipe_without_writer_is_refused_not_waited_on(tmp_path, capsys):
+    """A named pipe with no writer used to hang the read: now one line, exit 2, nothing written."""
     import os
 
     fifo = tmp_path / "pipe.csv"
     os.mkfifo(fifo)
     assert main(["allan", str(fifo), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "out")]) == 2
-    assert "not a regular file" in capsys.readouterr().err
+    assert "a named pipe with no writer" in capsys.readouterr().err and not (tmp_path / "out").exists()
+
+
+def test_stdin_and_pipes_are_read_as_streams(tmp_path, monkeypatch):
+    """'-' reads standard input and a named pipe is read as its writer streams: the same allan.csv
+    as the file itself; the summary names the source; no temporary copy is left behind."""
+    import io
+    import os
+    import sys
+    import tempfile
+    import threading
+
+    log = tmp_path / "log.csv"
+    log.write_text(GOOD)
+    args = ["allan", "--column", "gx", "--rate", "100", "--quiet", "--out"]
+    assert main([args[0], str(log), *args[1:], str(tmp_path / "file")]) == 0
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(GOOD.encode())))
+    assert main([args[0], "-", *args[1:], str(tmp_path / "stdin")]) == 0
+    fifo = tmp_path / "pipe.csv"
+    os.mkfifo(fifo)
+    writer = threading.Thread(target=lambda: fifo.write_text(GOOD))
+    writer.start()
+    assert main([args[0], str(fifo), *args[1:], str(tmp_path / "pipe")]) == 0
+    writer.join()
+    reference = (tmp_path / "file" / "allan.csv").read_text()
+    assert (tmp_path / "stdin" / "allan.csv").read_text() == reference
+    assert (tmp_path / "pipe" / "allan.csv").read_text() == reference
+    assert not list(Path(tempfile.gettempdir()).glob("bayes-imu-input-*"))
 
 
 @pytest.mark.parametrize("kind", ["preamble", "long_line"])
