@@ -356,6 +356,28 @@ def test_sigterm_is_handled_like_ctrl_c(tmp_path, log, capsys, monkeypatch):
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL or callable(signal.getsignal(signal.SIGTERM))
 
 
+def test_disk_full_while_writing_keeps_the_previous_result(tmp_path, log, capsys, monkeypatch):
+    """ENOSPC while the outputs are written: one line naming the folder, exit 2, the previous
+    result byte-identical, no staging folder left."""
+    import errno
+
+    import bayes_imu.plots
+
+    out = tmp_path / "out"
+    args = ["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(out), "--quiet"]
+    assert main(args) == 0
+    before = _snapshot(tmp_path)
+
+    def full(*a, **k):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(bayes_imu.plots, "plot_allan", full)
+    assert main(args + ["--force"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"--out {out}: the disk is full" in err
+    assert _snapshot(tmp_path) == before
+
+
 def test_low_disk_space_refused_before_any_work(tmp_path, log, capsys, monkeypatch):
     """Too little free space on the target's file system: one line, exit 2, nothing created."""
     import shutil
