@@ -11,7 +11,7 @@ import dataclasses
 from .allan import allan_variance
 from .bags import is_bag, read_imu_bag
 from .errors import InputError
-from .io import UNITS, read_columns
+from .io import UNITS, read_columns, sniff_file
 from .outofcore import BINARY_SUFFIXES
 from .timebase import check_time
 
@@ -24,7 +24,12 @@ _MIN_SAMPLES = {"allan": 4, "fit": 32}
 
 def _columns(args, command):
     if args.column is None:
-        raise InputError(f"{args.log}: a text log needs --column (a header name or 0-based index)")
+        try:
+            names = sniff_file(args.log)["names"]
+            shown = "; its columns: " + ", ".join(repr(n) for n in names[:12]) + (", ..." if len(names) > 12 else "")
+        except InputError:
+            shown = ""
+        raise InputError(f"{args.log}: a text log needs --column (a header name or 0-based index){shown}")
     columns = [c.strip() for c in args.column.split(",")]
     if any(not c for c in columns):
         raise InputError(f"--column {args.column!r}: expected column names or indices separated by commas")

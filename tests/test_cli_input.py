@@ -79,6 +79,8 @@ CASES = [  # (id, file bytes or None, extra arguments, message fragment)
     ("allan_two_columns", GOOD.encode(), ["allan", "{log}", "--column", "gx,gy", "--rate", "100"],
      "allan takes one column"),
     ("unknown_command", None, ["fitt", "{log}"], "invalid choice: 'fitt'"),
+    ("no_column_lists_them", GOOD.encode(), ["fit", "{log}", "--rate", "100"],
+     "needs --column (a header name or 0-based index); its columns: 'time', 'gx', 'gy'"),
     ("bad_terms", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "100", "--terms", "white,pink"], "pink"),
     # issue 13: inputs that used to turn into plausible nonsense with exit 0, and option values checked first
     ("header_shorter_than_rows", ("gx,gy\n" + "".join(f"{i},{np.sin(i):.5f},{np.cos(i):.5f}\n" for i in range(99))).encode(),
