@@ -68,7 +68,7 @@ _FORWARDED = (("column", "--column"), ("topic", "--topic"), ("stream", "--stream
               ("time_column", "--time-column"), ("gaps", "--gaps"), ("units", "--units"), ("seed", "--seed"),
               ("terms", "--terms"), ("likelihood", "--likelihood"), ("sensor", "--sensor"), ("horizon", "--horizon"),
               ("bias_start", "--bias-start"), ("calibration", "--calibration"), ("models", "--models"),
-              ("times", "--times"), ("discrepancy", "--discrepancy"), ("force", "--force"))
+              ("times", "--times"), ("discrepancy", "--discrepancy"))
 
 
 def _input_options(batch=False):
@@ -387,46 +387,39 @@ def _fit_options(parser):
 
 
 def _cmd_fit_batch(args):
+    """Every log's own fit into a staged copy of --out (claimed, moved in whole: the rules of any output)."""
     from .fleet import BatchJob, job_name, run_batch
 
-    if args.out.exists() and (not args.out.is_dir() or (any(args.out.iterdir()) and not args.force)):
-        raise InputError(f"--out {args.out}: exists and is not an empty folder; use --force to replace its logs")
-    names, jobs = [], []
-    for log in args.logs:
-        names.append(job_name(log, names))
-        argv = ["fit", str(log), "--out", str(args.out / names[-1]), "--quiet"]
-        for dest, flag in _FORWARDED:
-            value = getattr(args, dest)
-            if value is True:
-                argv.append(flag)
-            elif isinstance(value, tuple):
-                argv += [flag, ",".join(repr(v) for v in value)]
-            elif value not in (None, False):
-                argv += [flag, str(value)]
-        jobs.append(BatchJob(names[-1], tuple(argv)))
-    made = not args.out.exists()
-    args.out.mkdir(parents=True, exist_ok=True)
-    start = time.perf_counter()
-    scheduler = "serial" if args.serial else args.scheduler
-    try:
+    with staged_folder(args.out, force=args.force, inputs=args.logs) as staging:
+        names, jobs = [], []
+        for log in args.logs:
+            names.append(job_name(log, names))
+            argv = ["fit", str(log), "--out", str(staging / names[-1]), "--quiet"]
+            for dest, flag in _FORWARDED:
+                value = getattr(args, dest)
+                if value is True:
+                    argv.append(flag)
+                elif isinstance(value, tuple):
+                    argv += [flag, ",".join(repr(v) for v in value)]
+                elif value not in (None, False):
+                    argv += [flag, str(value)]
+            jobs.append(BatchJob(names[-1], tuple(argv)))
+        start = time.perf_counter()
+        scheduler = "serial" if args.serial else args.scheduler
         results = run_batch(jobs, scheduler=scheduler, n_workers=args.workers, progress=args.progress)
-    except BaseException:
-        if made and not any(args.out.iterdir()):
-            args.out.rmdir()  # nothing was written: leave no folder behind
-        raise
-    seconds = time.perf_counter() - start
-    samples = 0
-    for r in results:
-        if r.status == 0:
-            summary = json.loads((args.out / r.name / "summary.json").read_text())
-            samples += sum(a["n_samples"] for a in summary["axes"].values()) if "axes" in summary else summary["n_samples"]
-    failed = [r for r in results if r.status]
-    doc = {"logs": [dict(r.to_json(), log=str(log)) for r, log in zip(results, args.logs)],
-           "n_logs": len(results), "n_failed": len(failed), "seconds": seconds, "logs_per_minute": 60 * len(results) / seconds,
-           "samples_per_second": samples / seconds, "scheduler": scheduler or "LocalCluster", "seed": args.seed,
-           "bayes_imu_version": __version__}
-    with staged_file(args.out / "batch.json", force=True) as tmp:
-        _write_json(tmp, doc)
+        seconds = time.perf_counter() - start
+        samples = 0
+        for r in results:
+            if r.status == 0:
+                summary = json.loads((staging / r.name / "summary.json").read_text())
+                samples += (sum(a["n_samples"] for a in summary["axes"].values()) if "axes" in summary
+                            else summary["n_samples"])
+        failed = [r for r in results if r.status]
+        doc = {"logs": [dict(r.to_json(), log=str(log)) for r, log in zip(results, args.logs)],
+               "n_logs": len(results), "n_failed": len(failed), "seconds": seconds,
+               "logs_per_minute": 60 * len(results) / seconds, "samples_per_second": samples / seconds,
+               "scheduler": scheduler or "LocalCluster", "seed": args.seed, "bayes_imu_version": __version__}
+        _write_json(staging / "batch.json", doc)
     for r in failed:
         print(f"bayes-imu: error: {r.name}: {r.error.removeprefix('bayes-imu: error: ')}", file=sys.stderr)
     _say(args, f"{len(results) - len(failed)} of {len(results)} logs fitted in {seconds:.1f} s "

@@ -74,7 +74,11 @@ def test_batch_refuses_busy_output_and_bad_scheduler(tmp_path, logs, capsys):
     busy.mkdir()
     (busy / "x").write_text("x")
     assert main(["fit-batch", str(paths[0]), *OPTIONS, "--serial", "--out", str(busy)]) == 2
-    assert "use --force" in capsys.readouterr().err
+    assert "folder exists and is not empty ('x')" in capsys.readouterr().err
+    assert main(["fit-batch", str(paths[0]), *OPTIONS, "--serial", "--out", str(busy), "--force"]) == 2
+    assert "--force replaces only a previous bayes_imu result" in capsys.readouterr().err
+    assert sorted(p.name for p in busy.iterdir()) == ["x"]
     assert main(["fit-batch", str(paths[0]), *OPTIONS, "--scheduler", "tcp://127.0.0.1:1",
                  "--out", str(tmp_path / "o")]) == 2
     assert "cannot connect" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()  # the claimed folder is removed with the failed run
