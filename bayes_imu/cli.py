@@ -89,8 +89,8 @@ def _input_options(batch=False):
                         help="irregular time steps: error (default) or fit the longest regular segment")
     common.add_argument("--units", "--unit", dest="units", choices=tuple(UNITS),
                         help="units of the column(s), converted to SI (rad/s, m/s^2); default: left as they are")
-    common.add_argument("--out", type=Path, required=True, help="output folder (must be new or empty)")
-    common.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    common.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
+    common.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
     common.add_argument("--quiet", action="store_true", help="no progress bars or messages")
     return common
 
@@ -120,9 +120,9 @@ def _build_parser():
 
     report = sub.add_parser("report", help="conservative drift bounds for several IMUs (scene TOML)")
     report.add_argument("scene", type=Path, help="scene TOML file (see README)")
-    report.add_argument("--out", type=Path, required=True, help="output folder (must be new or empty)")
+    report.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
     report.add_argument("--seed", type=_seed_type, default=0, help="random seed (0 to 2**32 - 1), default 0")
-    report.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    report.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
     report.add_argument("--quiet", action="store_true", help="no progress messages")
     report.set_defaults(handler=_cmd_report)
 
@@ -132,15 +132,15 @@ def _build_parser():
     kalibr.add_argument("--out", type=Path, required=True, help="YAML file to write")
     kalibr.add_argument("--credibility", type=float, default=None,
                         help="upper posterior quantile for conservative values (e.g. 0.95); default: medians")
-    kalibr.add_argument("--force", action="store_true", help="replace an existing file")
+    kalibr.add_argument("--force", action="store_true", help="replace a file bayes_imu wrote earlier (never other files)")
     kalibr.set_defaults(handler=_cmd_kalibr)
 
     drift = sub.add_parser("drift", help="drift curves from known noise parameters (JSON)")
     drift.add_argument("sensor", type=Path, help="JSON file: rate_hz, kind, noise_density, bias_variance, time_constant")
-    drift.add_argument("--out", type=Path, required=True, help="output folder (must be new or empty)")
+    drift.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
     drift.add_argument("--horizon", type=_positive_seconds, default=3600.0, help="longest time (s), default 3600")
     drift.add_argument("--bias-start", choices=("zero", "stationary"), default="zero")
-    drift.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    drift.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
     drift.set_defaults(handler=_cmd_drift)
     return parser
 
