@@ -218,7 +218,7 @@ def drift_bands(fit, t=None, *, quantity, bias_start="zero", calibration_s=DEFAU
     bias = np.median(draws["bias"], axis=0)
     above = np.flatnonzero(bias > white)
     crossover = float(draws["t_s"][above[0]]) if above.size else float("nan")
-    record = fit.allan.duration_s if fit.allan is not None else float("nan")
+    record = fit.record_s
     # each term's median over the draws whose model has it (a model-averaged median with zeros
     # for the other models would understate a term that few, but heavy, models carry)
     terms = {n: np.median(v[np.isfinite(v[:, 0])], axis=0) for n, v in draws["terms"].items()

@@ -41,7 +41,7 @@ from .errors import BayesIMUError, InputError
 from .io import UNITS, read_text
 from .fit import DISCREPANCY_MODES
 from .likelihood import LIKELIHOODS
-from .noise import BIAS_STARTS
+from .noise import BIAS_STARTS, TERMS
 from .timebase import GAP_POLICIES, RATE_RANGE
 
 __all__ = ["main"]
@@ -118,6 +118,27 @@ def _build_parser():
     batch.add_argument("--serial", action="store_true", help="no Dask: one log after another in this process")
     batch.set_defaults(handler=_cmd_fit_batch)
 
+    population = sub.add_parser(
+        "fit-population", parents=[_input_options(batch=True)],
+        help="joint (hierarchical) fit of several units of one IMU model: what a new unit will do",
+        description="Fit the logs of several units of one IMU model (or long sessions of one unit) jointly: "
+                    "a hierarchical model on the log-parameters gives each unit's posterior, the population's "
+                    "spread, and the posterior predictive for a NEW unit (parameters, Allan deviation band, "
+                    "drift bands). Writes summary.json, population.png, and with --sensor (or gyro / accel "
+                    "--units) drift.csv and drift.png for the new unit.",
+        epilog="example: bayes-imu fit-population imu1.csv imu2.csv imu3.csv --column gyro_x --rate 100 "
+               "--units deg/s --out pop_gx")
+    population.add_argument("--seed", type=_seed_type, default=0,
+                            help="random seed, 0 to 2**32 - 1 (recorded in the outputs), default 0")
+    population.add_argument("--terms", default="auto",
+                            help="'auto' (the common structure chosen by the units' summed evidence) or a "
+                                 "comma-separated list of terms: " + ", ".join(TERMS))
+    population.add_argument("--spread-scale", type=_positive_number, default=1.0, metavar="S",
+                            help="scale of the half-normal prior on the unit-to-unit spread of each "
+                                 "ln-parameter (default 1: a factor e, weakly informative)")
+    _drift_options(population)
+    population.set_defaults(handler=_cmd_fit_population, models="selected")
+
     report = sub.add_parser("report", help="conservative drift bounds for several IMUs (scene TOML)")
     report.add_argument("scene", type=Path, help="scene TOML file (see README)")
     report.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
@@ -138,7 +159,7 @@ def _build_parser():
     drift = sub.add_parser("drift", help="drift curves from known noise parameters (JSON)")
     drift.add_argument("sensor", type=Path, help="JSON file: rate_hz, kind, noise_density, bias_variance, time_constant")
     drift.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
-    drift.add_argument("--horizon", type=_positive_seconds, default=3600.0, help="longest time (s), default 3600")
+    drift.add_argument("--horizon", type=_positive_number, default=3600.0, help="longest time (s), default 3600")
     drift.add_argument("--bias-start", choices=("zero", "stationary"), default="zero")
     drift.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
     drift.set_defaults(handler=_cmd_drift)
@@ -367,23 +388,80 @@ def _fit_options(parser):
     parser.add_argument("--terms", default="auto",
                         help="'auto' (model selection) or a comma-separated list of terms, e.g. white,gauss_markov")
     parser.add_argument("--likelihood", choices=LIKELIHOODS, default=LIKELIHOODS[0])
+    _drift_options(parser)
+    parser.add_argument("--models", choices=MODEL_CHOICES, default="averaged",
+                        help="drift from every candidate model weighted by its posterior probability (averaged, "
+                             "default) or from the selected model alone (selected)")
+    parser.add_argument("--discrepancy", choices=DISCREPANCY_MODES, default="auto",
+                        help="model-discrepancy term that widens the intervals of an inadequate fit: auto (added "
+                             "when the best model fails the goodness-of-fit check), never, always")
+
+
+def _drift_options(parser):
     parser.add_argument("--sensor", choices=("gyro", "accel"),
                         help="also write drift.csv / drift.png: attitude (gyro) or velocity and position (accel)")
-    parser.add_argument("--horizon", type=_positive_seconds, default=3600.0,
+    parser.add_argument("--horizon", type=_positive_number, default=3600.0,
                         help="longest drift time (s), default 3600")
     parser.add_argument("--bias-start", choices=BIAS_STARTS, default="calibrated",
                         help="bias at the start of the outage: calibrated (default: the mean of the --calibration "
                              "seconds before it is removed), zero (the paper) or stationary (never estimated)")
-    parser.add_argument("--calibration", type=_positive_seconds, default=DEFAULT_CALIBRATION_S, metavar="S",
+    parser.add_argument("--calibration", type=_positive_number, default=DEFAULT_CALIBRATION_S, metavar="S",
                         help=f"calibration window of --bias-start calibrated (s), default {DEFAULT_CALIBRATION_S:g}")
-    parser.add_argument("--models", choices=MODEL_CHOICES, default="averaged",
-                        help="drift from every candidate model weighted by its posterior probability (averaged, "
-                             "default) or from the selected model alone (selected)")
     parser.add_argument("--times", type=_times, metavar="T1,T2,...",
                         help="write drift.csv rows at exactly these times (s) instead of a log grid up to --horizon")
-    parser.add_argument("--discrepancy", choices=DISCREPANCY_MODES, default="auto",
-                        help="model-discrepancy term that widens the intervals of an inadequate fit: auto (added "
-                             "when the best model fails the goodness-of-fit check), never, always")
+
+
+def _cmd_fit_population(args):
+    """Several logs (units) of one column: the hierarchical fit and the new-unit predictive."""
+    from .bands import drift_bands
+    from .fleet import job_name
+    from .plots import plot_population
+    from .population import fit_population
+
+    if args.column is not None and "," in args.column:
+        raise InputError(f"--column {args.column!r}: fit-population takes one column (one axis of every unit)")
+    if len(args.logs) < 2:
+        raise InputError(f"fit-population: {len(args.logs)} log given; expected the logs of at least 2 units")
+    if args.units is not None and args.sensor is None:
+        args.sensor = UNITS[args.units][0]
+    allans, labels, infos, unit = [], [], [], None
+    for path in args.logs:
+        one = argparse.Namespace(**{**vars(args), "log": path})
+        with _readable_log(one):
+            columns, results, unit, info = allan_results(one, "fit")
+        info["log"] = _log_label(one)
+        allans.append(results[0])
+        infos.append(info)
+        labels.append(job_name(Path(info["log"]), labels))
+    terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
+    with staged_folder(args.out, force=args.force, inputs=args.logs) as tmp:
+        pop = fit_population(allans, labels=labels, terms=terms, rng=args.seed, spread_scale=args.spread_scale,
+                             progress=args.progress)
+        summary = pop.summary(unit=unit)
+        summary.update(column=columns[0], unit=unit, logs=[i["log"] for i in infos], input=infos)
+        _say(args, f"common model: {' + '.join(pop.model.terms)} ({len(labels)} units; population sampler "
+                   f"converged: {pop.diagnostics['converged']})")
+        _say(args, "a new unit of this model (unit-to-unit spread included):")
+        for name, p in summary["new_unit"].items():
+            _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
+        for name, p in summary["population"].items():
+            s = p["spread_ln"]
+            _say(args, f"  unit-to-unit spread of {name}: {s['median']:.2g} (90% [{s['q05']:.2g}, {s['q95']:.2g}]) "
+                       "in ln units (0.1 = 10%)")
+        bands = unit_bands = None
+        if args.sensor:
+            summary["drift"] = _write_drift(pop.new_unit, args, unit, tmp)
+            t = np.array(args.times) if args.times is not None else None
+            quantity = SENSOR_QUANTITIES[args.sensor][0]
+            bands = drift_bands(pop.new_unit, t, quantity=quantity, bias_start=args.bias_start,
+                                calibration_s=args.calibration, horizon_s=args.horizon, rng=args.seed)
+            unit_bands = [drift_bands(f, bands.t_s, quantity=quantity, bias_start=args.bias_start,
+                                      calibration_s=args.calibration, rng=args.seed) for f in pop.unit_fits]
+        plot_population(pop, tmp / "population.png", unit=unit, bands=bands, unit_bands=unit_bands or (),
+                        rng=args.seed)
+        _write_json(tmp / "summary.json", summary)
+    _say(args, f"wrote {args.out}")
+    return 0
 
 
 def _cmd_fit_batch(args):
@@ -515,7 +593,7 @@ _seed_type = _checked(int, lambda v: 0 <= v < 2**32, "a whole number from 0 to 2
 _workers_type = _checked(int, lambda v: v >= 1, "at least 1 worker process")
 _rate_type = _checked(float, lambda v: np.isfinite(v) and RATE_RANGE[0] <= v <= RATE_RANGE[1],
                       f"a sample rate from {RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz")
-_positive_seconds = _checked(float, lambda v: np.isfinite(v) and v > 0, "a positive number")
+_positive_number = _checked(float, lambda v: np.isfinite(v) and v > 0, "a positive number")
 
 
 def _times(text):

@@ -43,7 +43,7 @@ from .selection import (
     to_phi,
 )
 
-__all__ = ["FitResult", "MixtureComponent", "fit", "fit_allan", "DISCREPANCY_MODES"]
+__all__ = ["FitResult", "MixtureComponent", "fit", "fit_allan", "score_models", "DISCREPANCY_MODES"]
 
 DISCREPANCY_MODES = ("auto", "never", "always")
 AUTOCORR_MULTIPLE = 50
@@ -126,6 +126,11 @@ class FitResult:
     @property
     def parameter_names(self):
         return self.model.parameter_names + (("model_discrepancy",) if self.widened else ())
+
+    @property
+    def record_s(self):
+        """Duration of the fitted log (s)."""
+        return self.allan.duration_s if self.allan is not None else float("nan")
 
     def draws(self, name):
         """Posterior draws of one parameter, or of a derived one: ``noise_density`` (white plus
@@ -306,6 +311,43 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
     mixture = _mixture(scored, chosen, probabilities, np.exp(log_samples), rng)
     return FitResult(model, np.exp(log_samples), log_prob, allan, scores, chosen, diagnostics, likelihood, cov, seed,
                      idata, check, probabilities, mixture, widen)
+
+
+def score_models(allan, models, *, widened=False, likelihood="correlated", n_evidence=4000, rng=None):
+    """Evidence of each model in ``models`` for ``allan``, as :func:`fit_allan` scores its candidates.
+
+    The covariance comes from the same pilot (the full base model), so the evidences are
+    comparable with a fit's own ``candidates`` and across calls on one Allan result.
+
+    Parameters
+    ----------
+    allan : AllanResult
+    models : sequence of sequences of str
+        Term names of each model.
+    widened : bool
+        Add the model-discrepancy term to every model (as a widened fit does).
+    likelihood : {"correlated", "copula", "independent"}
+    n_evidence : int
+    rng : None, int or numpy.random.Generator
+
+    Returns
+    -------
+    tuple of CandidateScore
+        In the order of ``models`` (terms in canonical order).
+    """
+    if likelihood not in LIKELIHOODS:
+        raise InputError(f"likelihood={likelihood!r}: expected one of {', '.join(LIKELIHOODS)}")
+    rng = np.random.default_rng(rng)
+    dt = 1.0 / allan.rate_hz
+    pilot_model = NoiseModel(BASE_TERMS, dt)
+    reference = _pilot(pilot_model, allan)
+    shared = _posterior_factory(pilot_model, reference, allan, likelihood)
+    out = []
+    for terms in models:
+        model = NoiseModel(tuple(terms), dt)
+        post = shared(model).with_discrepancy() if widened else shared(model)
+        out.append(_score(model, post, allan, reference, n_evidence, rng).score)
+    return tuple(out)
 
 
 def _score(model, post, allan, reference, n_evidence, rng):

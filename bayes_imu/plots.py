@@ -2,7 +2,7 @@
 
 import numpy as np
 
-__all__ = ["plot_allan", "plot_allan_fit", "plot_corner", "plot_drift"]
+__all__ = ["plot_allan", "plot_allan_fit", "plot_corner", "plot_drift", "plot_population"]
 
 
 def _pyplot():
@@ -180,6 +180,67 @@ def plot_drift(bands_list, path, *, units, title=""):
         ax.legend(fontsize=8, loc="upper left")
     if title:
         fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None):
+    """Population fit: every unit's Allan deviation with the new-unit 90% band; optionally the
+    new-unit drift band against each unit's own (single-unit) drift median.
+
+    Parameters
+    ----------
+    pop : PopulationResult
+    unit : str
+        Unit of the rate samples.
+    bands : DriftBands, optional
+        New-unit drift bands (one quantity); adds the right-hand panel.
+    unit_bands : sequence of DriftBands
+        Each unit's single-unit bands of the same quantity (medians drawn).
+    """
+    plt = _pyplot()
+    panels = 2 if bands is not None else 1
+    fig, axes = plt.subplots(1, panels, figsize=(6.5 * panels, 4.8), squeeze=False)
+    ax = axes[0][0]
+    first = pop.unit_fits[0].allan
+    tau_lo = min(f.allan.tau[0] for f in pop.unit_fits)
+    tau_hi = max(f.allan.tau[-1] for f in pop.unit_fits)
+    m_f = np.unique(np.maximum(1, np.round(np.geomspace(tau_lo, tau_hi, 80) * first.rate_hz)).astype(np.int64))
+    tau_f = m_f / first.rate_hz
+    pred = np.sqrt(pop.new_unit.predictive_avar(m_f, rng=rng))
+    lo, med, hi = np.quantile(pred, [0.05, 0.5, 0.95], axis=0)
+    ax.fill_between(tau_f, lo, hi, color="0.6", alpha=0.45, label="new unit, 90% predictive band")
+    ax.plot(tau_f, med, color="k", lw=1.5, label="new unit, median")
+    for i, (label, f) in enumerate(zip(pop.labels, pop.unit_fits)):
+        ax.plot(f.allan.tau, f.allan.adev, "o-", ms=3, lw=0.8, color=f"C{i % 10}", label=label)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("averaging time tau (s)")
+    ax.set_ylabel(f"Allan deviation ({unit})")
+    ax.set_title(f"{len(pop.labels)} units, model {' + '.join(pop.model.terms)}", fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    if bands is not None:
+        ax = axes[0][1]
+        keep = bands.total[0] > 0
+        t = bands.t_s[keep]
+        ax.fill_between(t, bands.total[0][keep], bands.total[-1][keep], color="0.6", alpha=0.45,
+                        label=f"new unit, {bands.quantiles[0]:.0%}-{bands.quantiles[-1]:.0%} band")
+        ax.plot(t, bands.total[len(bands.quantiles) // 2][keep], color="k", lw=1.5, label="new unit, median")
+        for i, (label, b) in enumerate(zip(pop.labels, unit_bands)):
+            ax.plot(t, b.total[len(b.quantiles) // 2][keep], lw=0.9, color=f"C{i % 10}", label=f"{label} alone, median")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("time since GPS loss (s)")
+        from .bands import integrated_unit
+
+        ax.set_ylabel(f"1-sigma {_QUANTITY_LABEL[bands.quantity]} ({integrated_unit(unit, bands.quantity)})")
+        start = (f"bias calibrated over {bands.calibration_s:g} s" if bands.bias_start == "calibrated"
+                 else f"bias start: {bands.bias_start}")
+        ax.set_title(f"{bands.quantity} drift of a new unit, {start}", fontsize=10)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7, loc="upper left")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

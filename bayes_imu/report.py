@@ -228,7 +228,7 @@ def build_report(scene, *, rng=None):
             bound, median = _bound(fit, np.array(scene.outages_s), quantity, scene.credibility, scene.bias_start,
                                    scene.calibration_s)
             bounds += [{"outage_s": t, "quantity": quantity, "bound": float(b), "median": float(m),
-                        "unit": OUTPUT_UNITS[quantity], "extrapolated": bool(t > fit.allan.duration_s)}
+                        "unit": OUTPUT_UNITS[quantity], "extrapolated": bool(t > fit.record_s)}
                        for t, b, m in zip(scene.outages_s, bound, median)]
             horizon = max(scene.outages_s) * 2.0
             bands.append(drift_bands(fit, quantity=quantity, bias_start=scene.bias_start, horizon_s=horizon,
