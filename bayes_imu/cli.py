@@ -277,6 +277,7 @@ def _folder_names(columns):
 
 
 def _fit_axis(args, allan, unit, info, terms, column, out):
+    from .archive import ARCHIVE_NAME, save_fit
     from .fit import fit_allan
     from .plots import plot_allan_fit, plot_corner
 
@@ -301,6 +302,7 @@ def _fit_axis(args, allan, unit, info, terms, column, out):
         summary["drift"] = _write_drift(result, args, unit, out)
     _write_json(out / "summary.json", summary)
     result.inference_data.to_netcdf(str(out / "posterior.nc"))
+    save_fit(result, out / ARCHIVE_NAME)
     plot_allan_fit(result, out / "allan_fit.png", label=label, unit=unit, rng=args.seed)
     plot_corner(result, out / "corner.png")
     return summary
@@ -360,7 +362,7 @@ def _cmd_report(args):
     from .report_html import write_report
 
     scene = read_scene(args.scene)
-    inputs = [args.scene] + [s.log for s in scene.sensors]
+    inputs = [args.scene] + [p for s in scene.sensors for p in s.paths]
     with staged_folder(args.out, force=args.force, inputs=inputs) as tmp:
         report = build_report(scene, rng=args.seed)
         write_report(report, tmp)

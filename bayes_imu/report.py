@@ -36,12 +36,39 @@ MAX_SEARCH_S = 1e6
 
 @dataclass(frozen=True)
 class SensorSpec:
+    """One ``[[sensor]]`` of a scene.
+
+    Attributes
+    ----------
+    name, kind, units : str
+    paths : tuple of Path
+        The log (``log``), the logs of several units (``logs``), or fit folders (``fit`` / ``fits``).
+    columns : tuple of str
+        Axes to bound (the worst one counts); empty for fit folders (their axes are used).
+    rate_hz : float or None
+    source : {"log", "logs", "fit", "fits"}
+    """
+
     name: str
-    log: Path
-    column: str
+    paths: tuple
+    columns: tuple
     rate_hz: float
     kind: str
     units: str
+    source: str = "log"
+
+    @property
+    def log(self):
+        return self.paths[0]
+
+    @property
+    def column(self):
+        return ",".join(self.columns) if self.columns else "(from the fit)"
+
+    @property
+    def population(self):
+        """Several units: bounds are for a new unit of the model."""
+        return len(self.paths) > 1
 
 
 @dataclass(frozen=True)
@@ -59,12 +86,50 @@ class Scene:
 
 
 @dataclass(frozen=True)
+class AxisResult:
+    """One axis of a sensor: the posterior its bounds come from.
+
+    Attributes
+    ----------
+    axis : str
+    posterior : FitResult or UnitPosterior
+        What the bounds use (a population's new-unit predictive for several units).
+    fit : FitResult or None
+        The single-unit fit (one log or fit folder).
+    population : PopulationResult or None
+    """
+
+    axis: str
+    posterior: object
+    fit: object = None
+    population: object = None
+
+
+@dataclass(frozen=True)
 class SensorReport:
+    """Bounds of one sensor: the worst axis at each outage and quantity (``bounds[i]["axis"]``).
+
+    ``fit`` is the single-unit fit of the worst axis, or ``None`` for a population.
+    """
+
     spec: SensorSpec
-    fit: object
+    axes: tuple
     bounds: tuple
     max_outage_s: float | None
     bands: tuple
+    worst: int = 0
+
+    @property
+    def fit(self):
+        return self.axes[self.worst].fit
+
+    @property
+    def posterior(self):
+        return self.axes[self.worst].posterior
+
+    @property
+    def record_s(self):
+        return self.posterior.record_s
 
 
 @dataclass(frozen=True)
@@ -80,14 +145,25 @@ class Report:
 
         out = []
         for s in self.sensors:
-            summary = s.fit.summary(unit=_si_unit(s.spec.kind))
-            out.append({
-                "name": s.spec.name, "kind": s.spec.kind, "log": str(s.spec.log), "column": s.spec.column,
-                "input_units": s.spec.units, "model": summary["model"], "parameters": summary["parameters"],
-                "diagnostics": summary["diagnostics"], "candidates": summary["candidates"],
-                "adequacy": summary["adequacy"], "model_averaging": summary["model_averaging"],
-                "bounds": list(s.bounds), "max_outage_s": s.max_outage_s,
-            })
+            unit = _si_unit(s.spec.kind)
+            entry = {"name": s.spec.name, "kind": s.spec.kind, "source": s.spec.source,
+                     "log": str(s.spec.log), "paths": [str(p) for p in s.spec.paths], "column": s.spec.column,
+                     "input_units": s.spec.units, "axes": [a.axis for a in s.axes], "worst_axis": s.axes[s.worst].axis}
+            if s.fit is not None:
+                summary = s.fit.summary(unit=unit)
+                entry.update({k: summary[k] for k in ("model", "parameters", "diagnostics", "candidates", "adequacy",
+                                                       "model_averaging")})
+                entry["unit_to_unit"] = (f"NOT included: the bounds are for the tested unit ({s.spec.log.name}); "
+                                         "another unit of this model may be worse (give several logs to include it)")
+            else:
+                summary = s.axes[s.worst].population.summary(unit=unit)
+                entry.update(model=summary["model"], parameters=summary["new_unit"], population=summary["population"],
+                             units=summary["units"], structures=summary["structures"],
+                             diagnostics=summary["diagnostics"])
+                entry["unit_to_unit"] = (f"included: the bounds are for a NEW unit of this model (posterior "
+                                         f"predictive of a hierarchical fit of {len(s.spec.paths)} units)")
+            entry.update(bounds=list(s.bounds), max_outage_s=s.max_outage_s)
+            out.append(entry)
         return {"scene": self.scene.name, "credibility": self.scene.credibility, "outages_s": list(self.scene.outages_s),
                 "requirement": self.scene.requirement, "bias_start": self.scene.bias_start,
                 "calibration_s": self.scene.calibration_s if self.scene.bias_start == "calibrated" else None,
@@ -95,8 +171,11 @@ class Report:
                 "ranking": list(self.ranking), "ranking_reason": self.reason, "bayes_imu_version": __version__}
 
 
+_SI_UNITS = {"gyro": "rad/s", "accel": "m/s^2"}
+
+
 def _si_unit(kind):
-    return "rad/s" if kind == "gyro" else "m/s^2"
+    return _SI_UNITS[kind]
 
 
 def _get(table, key, kind, where, default=None, required=True):
@@ -166,22 +245,54 @@ def read_scene(path):
         where = f"{path}: [[sensor]] #{i}"
         if not isinstance(entry, dict):
             raise InputError(f"{where}: expected a table")
-        _known(entry, ("name", "log", "column", "rate_hz", "kind", "units"), where)
+        _known(entry, ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units"), where)
         kind = _get(entry, "kind", str, where)
         if kind not in SENSOR_QUANTITIES:
             raise InputError(f"{where}: kind={kind!r}: expected 'gyro' or 'accel'")
+        sources = [k for k in ("log", "logs", "fit", "fits") if k in entry]
+        if len(sources) != 1:
+            raise InputError(f"{where}: expected exactly one of log, logs (several units), fit or fits (fit folders); "
+                             f"got {', '.join(sources) or 'none'}")
+        source = sources[0]
+        paths = tuple(path.parent / p for p in _paths(entry, source, where))
+        name = _get(entry, "name", str, where)
+        if source in ("fit", "fits"):
+            for key in ("column", "rate_hz", "units"):
+                if key in entry:
+                    raise InputError(f"{where}: {key} is taken from the fit folder; leave it out with {source}")
+            specs.append(SensorSpec(name, paths, (), None, kind, _SI_UNITS[kind], source))
+            continue
         units = _get(entry, "units", str, where)
         if units not in UNITS or UNITS[units][0] != kind:
             allowed = [u for u, (k, _) in UNITS.items() if k == kind]
             raise InputError(f"{where}: units={units!r}: expected one of {', '.join(allowed)} for a {kind}")
-        spec = SensorSpec(_get(entry, "name", str, where), path.parent / _get(entry, "log", str, where),
-                          _get(entry, "column", str, where), _get(entry, "rate_hz", float, where), kind, units)
-        specs.append(spec)
+        specs.append(SensorSpec(name, paths, _columns(entry, where), _get(entry, "rate_hz", float, where), kind, units,
+                                source))
     names = [s.name for s in specs]
     if len(set(names)) != len(names):
         raise InputError(f"{path}: sensor names must be unique, got {names}")
     return Scene(str(scene.get("name", path.stem)), tuple(float(v) for v in outages), float(cred), tuple(specs),
                  requirement, bias_start, str(path), float(calibration))
+
+
+def _paths(entry, key, where):
+    value = entry[key]
+    many = key in ("logs", "fits")
+    if many and (not isinstance(value, list) or len(value) < 2 or not all(isinstance(v, str) and v for v in value)):
+        raise InputError(f"{where}: {key}={value!r}: expected a list of at least 2 paths (one per unit)")
+    if not many and (not isinstance(value, str) or not value):
+        raise InputError(f"{where}: {key}={value!r}: expected a path")
+    return value if many else [value]
+
+
+def _columns(entry, where):
+    value = entry.get("column")
+    if isinstance(value, str) and value:
+        return (value,)
+    if isinstance(value, list) and value and all(isinstance(v, str) and v for v in value):
+        return tuple(value)
+    raise InputError(f"{where}: column={value!r}: expected a column name or a list of names (several axes: "
+                     "the worst one is bounded)")
 
 
 def _bound(fit, t, quantity, credibility, bias_start, calibration_s=DEFAULT_CALIBRATION_S):
@@ -217,31 +328,105 @@ def max_outage(fit, quantity, max_error, credibility, bias_start="calibrated", c
 
 
 def build_report(scene, *, rng=None):
-    """Fit every sensor of ``scene`` and compute its bounds (module docstring)."""
+    """Fit (or read) every sensor of ``scene`` and compute its bounds (module docstring).
+
+    A sensor with several logs or fit folders is a population of units: its bounds are for a
+    new unit of the model (:func:`bayes_imu.population.fit_population`). Several axes: each
+    outage's bound is the worst axis's.
+    """
     rng = np.random.default_rng(rng)
     reports = []
     for spec in scene.sensors:
-        values = to_si(read_log(spec.log, column=spec.column).values, spec.units, where=f"sensor {spec.name!r}: ")
-        fit = fit_allan(allan_variance(values, rate_hz=spec.rate_hz), rng=rng)
-        bounds, bands = [], []
-        for quantity in SENSOR_QUANTITIES[spec.kind]:
-            bound, median = _bound(fit, np.array(scene.outages_s), quantity, scene.credibility, scene.bias_start,
-                                   scene.calibration_s)
-            bounds += [{"outage_s": t, "quantity": quantity, "bound": float(b), "median": float(m),
-                        "unit": OUTPUT_UNITS[quantity], "extrapolated": bool(t > fit.record_s)}
-                       for t, b, m in zip(scene.outages_s, bound, median)]
-            horizon = max(scene.outages_s) * 2.0
-            bands.append(drift_bands(fit, quantity=quantity, bias_start=scene.bias_start, horizon_s=horizon,
-                                     calibration_s=scene.calibration_s,
-                                     quantiles=(1.0 - scene.credibility, 0.5, scene.credibility)))
+        axes = _axes(spec, rng)
+        per_axis = []
+        for a in axes:
+            rows = []
+            for quantity in SENSOR_QUANTITIES[spec.kind]:
+                bound, median = _bound(a.posterior, np.array(scene.outages_s), quantity, scene.credibility,
+                                       scene.bias_start, scene.calibration_s)
+                rows += [{"outage_s": t, "quantity": quantity, "bound": float(b), "median": float(m),
+                          "unit": OUTPUT_UNITS[quantity], "extrapolated": bool(t > a.posterior.record_s),
+                          "axis": a.axis} for t, b, m in zip(scene.outages_s, bound, median)]
+            per_axis.append(rows)
+        bounds = tuple(max((rows[i] for rows in per_axis), key=lambda r: r["bound"]) for i in range(len(per_axis[0])))
+        last = [i for i, b in enumerate(bounds) if b["outage_s"] == max(scene.outages_s)][-1]
+        worst = next(i for i, a in enumerate(axes) if a.axis == bounds[last]["axis"])
+        bands = tuple(drift_bands(axes[worst].posterior, quantity=quantity, bias_start=scene.bias_start,
+                                  horizon_s=max(scene.outages_s) * 2.0, calibration_s=scene.calibration_s,
+                                  quantiles=(1.0 - scene.credibility, 0.5, scene.credibility))
+                      for quantity in SENSOR_QUANTITIES[spec.kind])
         req = scene.requirement
         longest = None
         if req is not None and req["quantity"] in SENSOR_QUANTITIES[spec.kind]:
-            longest = max_outage(fit, req["quantity"], req["max_error"], scene.credibility, scene.bias_start,
-                                 scene.calibration_s)
-        reports.append(SensorReport(spec, fit, tuple(bounds), longest, tuple(bands)))
+            longest = min(max_outage(a.posterior, req["quantity"], req["max_error"], scene.credibility,
+                                     scene.bias_start, scene.calibration_s) for a in axes)
+        reports.append(SensorReport(spec, tuple(axes), bounds, longest, bands, worst))
     ranking, reason = _rank(scene, reports)
     return Report(scene, tuple(reports), ranking, reason)
+
+
+def _axes(spec, rng):
+    """The :class:`AxisResult` of each axis of a sensor (fitting its logs or reading its fit folders)."""
+    from .population import fit_population
+
+    where = f"sensor {spec.name!r}: "
+    if spec.source in ("fit", "fits"):
+        per_unit = [_saved_axes(p, spec, where) for p in spec.paths]
+        names = [n for n, _ in per_unit[0]]
+        if any([n for n, _ in u] != names for u in per_unit[1:]):
+            raise InputError(f"{where}the fit folders have different axes: "
+                             + "; ".join(f"{p}: {', '.join(n for n, _ in u)}" for p, u in zip(spec.paths, per_unit)))
+        fits = {n: [dict(u)[n] for u in per_unit] for n in names}
+        allans = {n: [f.allan for f in fs] for n, fs in fits.items()}
+    else:
+        fits, allans = {}, {}
+        for column in spec.columns:
+            allans[column] = [allan_variance(to_si(read_log(p, column=column).values, spec.units, where=where),
+                                             rate_hz=spec.rate_hz) for p in spec.paths]
+            fits[column] = [fit_allan(a, rng=rng) for a in allans[column]]
+    out = []
+    for axis in fits:
+        if len(fits[axis]) == 1:
+            out.append(AxisResult(axis, fits[axis][0], fits[axis][0]))
+        else:
+            labels = [_label(p, i) for i, p in enumerate(spec.paths)]
+            pop = fit_population(allans[axis], labels=labels, unit_fits=fits[axis], rng=rng)
+            out.append(AxisResult(axis, pop.new_unit, None, pop))
+    return out
+
+
+def _label(path, i):
+    return f"{i + 1}: {path.name}"
+
+
+def _saved_axes(folder, spec, where):
+    """``[(axis, FitResult)]`` of a fit folder (one axis, or one sub-folder per axis), in SI."""
+    import json
+
+    from .archive import ARCHIVE_NAME, load_fit
+
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError(f"{where}{folder}: not a folder; expected a folder written by bayes-imu fit")
+    if (folder / ARCHIVE_NAME).is_file():
+        places = [(None, folder)]
+    else:
+        places = sorted((p.name, p) for p in folder.iterdir() if (p / ARCHIVE_NAME).is_file())
+        if not places:
+            raise InputError(f"{where}{folder}: no {ARCHIVE_NAME} in it or its axis folders; expected a folder "
+                             "written by bayes-imu fit (run it again if it predates fit.npz)")
+    out = []
+    for name, place in places:
+        try:
+            summary = json.loads(read_text(place / "summary.json"))
+        except (ValueError, InputError):
+            raise InputError(f"{where}{place}: missing or unreadable summary.json") from None
+        unit = summary.get("unit")
+        if unit != spec.units:
+            raise InputError(f"{where}{place}: fitted in {unit!r}; a {spec.kind} report needs a fit in {spec.units} "
+                             f"(run bayes-imu fit with --units)")
+        out.append((name or str(summary.get("column", "axis")), load_fit(place)))
+    return out
 
 
 def _rank(scene, reports):

@@ -18,6 +18,8 @@ import numpy as np
 from .bands import SENSOR_QUANTITIES
 from .report import MAX_SEARCH_S, OUTPUT_UNITS
 
+UNITS_SI = {"gyro": "rad/s", "accel": "m/s^2"}
+
 __all__ = ["write_report", "report_html"]
 
 ASSUMPTIONS = (
@@ -34,6 +36,8 @@ ASSUMPTIONS = (
     "Not modelled: temperature dependence, scale-factor and misalignment errors, vibration and g-sensitivity, "
     "turn-on bias repeatability, and the navigation filter itself (no gravity, Schuler or attitude coupling). "
     "The log must be static and representative of the operating conditions.",
+    "Unit-to-unit spread: a sensor given by one log (or fit folder) is bounded for that unit only; a sensor given by "
+    "several units' logs is bounded for a new unit of the model (hierarchical fit, each section says which).",
     "A bound at an outage longer than the sensor's log extrapolates its fitted model: noise slower than the record "
     "(a long bias time constant, a random walk) is not identified there, so such bounds (marked * in the table) can be "
     "optimistic; record logs several times longer than the longest outage.",
@@ -81,7 +85,20 @@ def _comparison_figure(report, target):
     plt.close(fig)
 
 
+def _source_text(s):
+    spec = s.spec
+    if spec.source in ("fit", "fits"):
+        where = "fit folder" + ("s " if spec.population else " ") + ", ".join(p.name for p in spec.paths)
+    else:
+        where = ("logs " if spec.population else "log ") + ", ".join(p.name for p in spec.paths)
+        where += f", column {spec.column}, input {spec.units}, {spec.rate_hz:g} Hz"
+    axes = f"; worst of axes {', '.join(a.axis for a in s.axes)}: {s.axes[s.worst].axis}" if len(s.axes) > 1 else ""
+    return f"{spec.kind}, {where}{axes}"
+
+
 def _sensor_section(s, cred):
+    if s.fit is None:
+        return _population_section(s)
     from .plots import plot_allan_fit, plot_drift
 
     fit = s.fit
@@ -96,7 +113,7 @@ def _sensor_section(s, cred):
         f"<tr><td>{html.escape(n)}</td><td>{q[0]:.4g}</td><td>{q[1]:.4g}</td><td>{q[2]:.4g}</td></tr>"
         for n, q in fit.quantiles().items()
     )
-    allan_png = _png(lambda target: plot_allan_fit(fit, target, label=s.spec.name, rng=0))
+    allan_png = _png(lambda target: plot_allan_fit(fit, target, label=s.spec.name, unit=UNITS_SI[s.spec.kind], rng=0))
     units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
     drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=s.spec.name))
     conv = "converged" if d["converged"] else "NOT CONVERGED: treat with caution"
@@ -104,16 +121,48 @@ def _sensor_section(s, cred):
     fit_check = ("adequate" if a.adequate else "INADEQUATE: the model does not describe this log"
                  + ("; intervals widened by a fitted model discrepancy" if fit.widened else "")
                  + (f"; at a prior bound: {', '.join(a.at_prior_bound)}" if a.at_prior_bound else ""))
+    rhat = (f"R-hat max {d['rhat_max']:.4f}, bulk ESS min {d['ess_bulk_min']:.0f}, tail ESS min "
+            f"{d['ess_tail_min']:.0f}, " if "rhat_max" in d else "")
     return f"""
 <section class="sensor" id="sensor-{html.escape(s.spec.name)}">
-<h3>{html.escape(s.spec.name)} ({s.spec.kind}, log {html.escape(s.spec.log.name)}, column {html.escape(s.spec.column)},
-input {html.escape(s.spec.units)}, {s.spec.rate_hz:g} Hz)</h3>
+<h3>{html.escape(s.spec.name)} ({html.escape(_source_text(s))})</h3>
+<p class="spread">Unit-to-unit spread: NOT included. These bounds are for the tested unit; another unit of the same
+model may be worse (list several units' logs to bound a new unit).</p>
 <p class="model">Model needed: <b>{html.escape(' + '.join(fit.model.terms))}</b> ({why}).</p>
 <p class="adequacy">Goodness of fit: p = {a.p_value:.2g}, worst at tau = {a.worst_tau_s:g} s: {html.escape(fit_check)}.</p>
-<p class="diagnostics">Sampler: {conv}; R-hat max {d['rhat_max']:.4f}, bulk ESS min {d['ess_bulk_min']:.0f},
-tail ESS min {d['ess_tail_min']:.0f}, {d['n_steps']} steps x {d['n_walkers']} walkers.</p>
+<p class="diagnostics">Sampler: {conv}; {rhat}{d['n_steps']} steps x {d['n_walkers']} walkers.</p>
 <table><tr><th>parameter (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>
 <img alt="Allan fit of {html.escape(s.spec.name)}" src="{allan_png}">
+<img alt="drift bands of {html.escape(s.spec.name)}" src="{drift_png}">
+</section>"""
+
+
+def _population_section(s):
+    from .plots import plot_drift, plot_population
+
+    pop = s.axes[s.worst].population
+    rows = "".join(
+        f"<tr><td>{html.escape(n)}</td><td>{q[0]:.4g}</td><td>{q[1]:.4g}</td><td>{q[2]:.4g}</td></tr>"
+        for n, q in pop.new_unit.quantiles().items())
+    spread = "".join(
+        f"<tr><td>{html.escape(n)}</td><td>{q[0]:.3g}</td><td>{q[1]:.3g}</td><td>{q[2]:.3g}</td></tr>"
+        for n, q in pop.spread_quantiles().items())
+    inadequate = [label for label, f in zip(pop.labels, pop.unit_fits) if not f.adequacy.adequate]
+    check = ("every unit's fit adequate" if not inadequate else
+             "INADEQUATE fits (intervals widened where a discrepancy was fitted): " + ", ".join(inadequate))
+    pop_png = _png(lambda target: plot_population(pop, target, unit=UNITS_SI[s.spec.kind], rng=0))
+    units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
+    drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=f"{s.spec.name}: a new unit"))
+    return f"""
+<section class="sensor" id="sensor-{html.escape(s.spec.name)}">
+<h3>{html.escape(s.spec.name)} ({html.escape(_source_text(s))})</h3>
+<p class="spread">Unit-to-unit spread: included. These bounds are for a NEW unit of this model: the posterior
+predictive of a hierarchical fit of {len(pop.labels)} units.</p>
+<p class="model">Common model: <b>{html.escape(' + '.join(pop.model.terms))}</b> (summed evidence over the units);
+{html.escape(check)}; population sampler {'converged' if pop.diagnostics['converged'] else 'NOT CONVERGED'}.</p>
+<table><tr><th>new unit (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>
+<table><tr><th>unit-to-unit spread (ln units)</th><th>5%</th><th>median</th><th>95%</th></tr>{spread}</table>
+<img alt="population of {html.escape(s.spec.name)}" src="{pop_png}">
 <img alt="drift bands of {html.escape(s.spec.name)}" src="{drift_png}">
 </section>"""
 
@@ -163,7 +212,7 @@ requirement: {html.escape(req_text)}; bias start: {scene.bias_start}; sensors: {
 
 
 def _beyond_log(sensor):
-    record = sensor.fit.allan.duration_s
+    record = sensor.record_s
     return f" (beyond its {_fmt_time(record)} log: extrapolated)" if sensor.max_outage_s > record else ""
 
 
