@@ -289,6 +289,7 @@ def _fit_axis(args, allan, unit, info, terms, column, out):
     _say(args, f"model: {' + '.join(result.model.terms)}  (converged: {result.diagnostics['converged']})")
     for name, p in summary["parameters"].items():
         _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
+    _say_datasheet(args, summary["datasheet"])
     adequacy = result.adequacy
     if not adequacy.adequate:
         what = [f"goodness of fit p = {adequacy.p_value:.2g} (worst at tau = {adequacy.worst_tau_s:g} s)"]
@@ -306,6 +307,13 @@ def _fit_axis(args, allan, unit, info, terms, column, out):
     plot_allan_fit(result, out / "allan_fit.png", label=label, unit=unit, rng=args.seed)
     plot_corner(result, out / "corner.png")
     return summary
+
+
+def _say_datasheet(args, block):
+    if block:
+        _say(args, "  datasheet units:")
+        for name, p in block.items():
+            _say(args, f"    {name:30s} median {p['median']:.4g}  90% [{p['q05']:.4g}, {p['q95']:.4g}] {p['unit']}")
 
 
 def _worst_axis(axes):
@@ -446,6 +454,7 @@ def _cmd_fit_population(args):
         _say(args, "a new unit of this model (unit-to-unit spread included):")
         for name, p in summary["new_unit"].items():
             _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
+        _say_datasheet(args, summary["new_unit_datasheet"])
         for name, p in summary["population"].items():
             s = p["spread_ln"]
             _say(args, f"  unit-to-unit spread of {name}: {s['median']:.2g} (90% [{s['q05']:.2g}, {s['q95']:.2g}]) "

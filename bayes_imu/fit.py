@@ -181,9 +181,12 @@ class FitResult:
         adequacy = self.adequacy.to_dict() if self.adequacy is not None else None
         if adequacy is not None:
             adequacy["widened"] = bool(self.widened)
+        from .datasheet import KIND_OF_UNIT, datasheet
+
         return {
             "model": list(self.model.terms),
             "parameters": parameters,
+            "datasheet": datasheet(self, KIND_OF_UNIT[unit]) if unit in KIND_OF_UNIT else None,
             "adequacy": adequacy,
             "diagnostics": {k: (bool(v) if k == "converged" else int(v) if k in ("n_steps", "n_walkers") else float(v))
                             for k, v in self.diagnostics.items()},

@@ -70,7 +70,7 @@ def allan(unit, axis):
 
 
 def _key(unit, axis, terms):
-    return f"imu{unit}_{axis}_{'auto' if terms == 'auto' else '+'.join(terms)}.npz"
+    return f"imu{unit}_{axis}_{'auto' if terms == 'auto' else '-'.join(terms)}.npz"
 
 
 def unit_fit(task):
@@ -156,6 +156,7 @@ def main(argv=None):
     parser.add_argument("--cache", type=Path, default=Path("validate_population_cache"), help="fit cache folder")
     parser.add_argument("--workers", type=int, default=1, help="processes for the fits")
     parser.add_argument("--quick", action="store_true", help="gyro_x of units 1-3 only")
+    parser.add_argument("--axes", default=",".join(AXES), help="comma-separated axes, default all six")
     parser.add_argument("--csv", type=Path, help="also write the rows here")
     parser.add_argument("--data", type=Path, default=DATA, help=f"folder of the ADIS16405 logs (default {DATA})")
     args = parser.parse_args(argv)
@@ -169,54 +170,44 @@ def main(argv=None):
 
     args.cache.mkdir(parents=True, exist_ok=True)
     units = (1, 2, 3) if args.quick else (1, 2, 3, 4, 5, 6)
-    axes = ("gyro_x",) if args.quick else AXES
+    axes = ("gyro_x",) if args.quick else tuple(args.axes.split(","))
     cache = str(args.cache)
     pool = ProcessPoolExecutor(args.workers) if args.workers > 1 else None
     run = pool.map if pool else map
     start = time.perf_counter()
-    print("1. single-unit fits (terms=auto)", flush=True)
-    autos = dict(zip([(u, a) for a in axes for u in units],
-                     run(unit_fit, [(cache, u, a, "auto") for a in axes for u in units])))
-    print("2. evidence of every structure with mass in some unit, on every unit", flush=True)
-    structures = {}
-    for a in axes:
-        seen = []
+    results, rows = [], []
+    for a in axes:  # one axis at a time: a partial run gives whole axes
+        print(f"[{a}] single-unit fits, evidences, common structures, {len(units)} folds", flush=True)
+        autos = dict(zip(units, run(unit_fit, [(cache, u, a, "auto") for u in units])))
+        structures = []
         for u in units:
-            f = autos[(u, a)]
-            for t in [f.model.terms] + [c.terms for c in f.mixture]:
-                if tuple(t) not in seen:
-                    seen.append(tuple(t))
-        structures[a] = seen
-    evid = dict(zip([(u, a) for a in axes for u in units],
-                    run(scores, [(cache, u, a, structures[a]) for a in axes for u in units])))
-    print("3. common structure per fold; fits with it where a unit selected another", flush=True)
-    folds = []
-    for a in axes:
+            for t in [autos[u].model.terms] + [c.terms for c in autos[u].mixture]:
+                if tuple(t) not in structures:
+                    structures.append(tuple(t))
+        evid = dict(zip(units, run(scores, [(cache, u, a, structures) for u in units])))
+        folds = []
         for h in units:
-            summed = [CandidateScore(s, sum(evid[(u, a)][s][0] for u in units if u != h),
-                                     float(np.sqrt(sum(evid[(u, a)][s][1] ** 2 for u in units if u != h))), np.nan,
-                                     np.empty(0)) for s in structures[a]]
-            folds.append((cache, units, a, h, structures[a][select(summed)], args.calibration))
-    needed = sorted({(cache, u, f[2], f[4]) for f in folds for u in units
-                     if u != f[3] and autos[(u, f[2])].model.terms != f[4]})
-    list(run(unit_fit, needed))
-    print(f"4. {len(folds)} leave-one-unit-out population fits", flush=True)
-    results = list(run(fold, folds))
+            others = [u for u in units if u != h]
+            summed = [CandidateScore(s, sum(evid[u][s][0] for u in others),
+                                     float(np.sqrt(sum(evid[u][s][1] ** 2 for u in others))), np.nan, np.empty(0))
+                      for s in structures]
+            folds.append((cache, units, a, h, structures[select(summed)], args.calibration))
+        needed = sorted({(cache, u, a, f[4]) for f in folds for u in units
+                         if u != f[3] and autos[u].model.terms != f[4]})
+        list(run(unit_fit, needed))
+        for r in run(fold, folds):
+            results.append(r)
+            cells = [f"{o:9.3g} [{lo:8.3g},{hi:8.3g}]{'' if ok else '*'}" for o, lo, hi, ok in r["drift"]]
+            print(f"{r['axis']:8s} {r['held_out']:4d} {r['structure']:40s} " + " ".join(cells)
+                  + f"  adev {r['adev_consistent']:4.0%} of {r['adev_points']}  single-unit "
+                  + " ".join(f"{v:.0%}" for v in r["single_consistent"]), flush=True)
+            for (o, lo, hi, ok), h, single in zip(r["drift"], HORIZONS, r["single_consistent"]):
+                rows.append({"axis": r["axis"], "held_out": r["held_out"], "horizon_s": h, "observed_rms": o,
+                             "q05": lo, "q95": hi, "consistent": ok, "single_unit_consistent": single,
+                             "adev_consistent": r["adev_consistent"], "structure": r["structure"],
+                             "spread": json.dumps(r["spread"]), "converged": r["converged"]})
     if pool:
         pool.shutdown()
-    rows = []
-    print(f"\n{'axis':8s} {'held':>4s} {'structure':40s} " + " ".join(f"{h:>26g}s" for h in HORIZONS)
-          + "  adev in band   single-unit drift consistent")
-    for r in results:
-        cells = [f"{o:9.3g} [{lo:8.3g},{hi:8.3g}]{'' if ok else '*'}" for o, lo, hi, ok in r["drift"]]
-        print(f"{r['axis']:8s} {r['held_out']:4d} {r['structure']:40s} " + " ".join(cells)
-              + f"  {r['adev_consistent']:6.0%} of {r['adev_points']}   "
-              + " ".join(f"{v:.0%}" for v in r["single_consistent"]))
-        for (o, lo, hi, ok), h, single in zip(r["drift"], HORIZONS, r["single_consistent"]):
-            rows.append({"axis": r["axis"], "held_out": r["held_out"], "horizon_s": h, "observed_rms": o, "q05": lo,
-                         "q95": hi, "consistent": ok, "single_unit_consistent": single,
-                         "adev_consistent": r["adev_consistent"], "structure": r["structure"],
-                         "spread": json.dumps(r["spread"]), "converged": r["converged"]})
     ok = np.array([r["consistent"] for r in rows])
     single = np.array([r["single_unit_consistent"] for r in rows])
     adev = np.array([r["adev_consistent"] for r in results])

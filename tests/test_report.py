@@ -140,10 +140,15 @@ def test_html_is_self_contained_with_all_sections(report):
 
 def test_html_renders_in_headless_chromium(report):
     """A real browser: every embedded picture decodes and the key elements are visible."""
+    import os
+
+    from playwright import sync_api as playwright  # a test dependency ([test] extra)
+
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
-    playwright = pytest.importorskip("playwright.sync_api", reason="playwright not installed (see README)")
-    if chromium is None:
-        pytest.skip("no chromium binary (apt install chromium)")
+    if chromium is None and os.environ.get("BAYES_IMU_NO_BROWSER") == "1":
+        pytest.skip("BAYES_IMU_NO_BROWSER=1: no chromium on this machine (.ci/run installs it)")
+    assert chromium is not None, ("no chromium binary: apt install chromium (.ci/run does), or set "
+                                  "BAYES_IMU_NO_BROWSER=1 to skip this check on a machine without one")
     _, out = report
     with playwright.sync_playwright() as p:
         browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
