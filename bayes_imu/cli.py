@@ -147,9 +147,16 @@ def _build_parser():
     report.add_argument("--quiet", action="store_true", help="no progress messages")
     report.set_defaults(handler=_cmd_report)
 
-    kalibr = sub.add_parser("kalibr", help="Kalibr IMU noise YAML from fit folders")
-    kalibr.add_argument("--gyro", type=Path, nargs="+", required=True, help="fit folder(s) of gyro axes")
-    kalibr.add_argument("--accel", type=Path, nargs="+", required=True, help="fit folder(s) of accelerometer axes")
+    kalibr = sub.add_parser(
+        "kalibr", help="Kalibr IMU noise YAML from fit folders",
+        description="Write a Kalibr / VIO imu.yaml (noise densities and bias random walks, SI) from bayes-imu fit "
+                    "folders fitted with --units. Either sensor may be given alone; several axes (folders, or a "
+                    "several-column fit) give the worst axis, each axis's value listed in comments.",
+        epilog="example: bayes-imu kalibr --gyro fit_gyro --accel fit_accel --credibility 0.95 --topic /imu0 "
+               "--out imu.yaml")
+    kalibr.add_argument("--gyro", type=Path, nargs="+", help="fit folder(s) of gyro axes")
+    kalibr.add_argument("--accel", type=Path, nargs="+", help="fit folder(s) of accelerometer axes")
+    kalibr.add_argument("--topic", default="/imu0", help="rostopic written into the file, default /imu0")
     kalibr.add_argument("--out", type=Path, required=True, help="YAML file to write")
     kalibr.add_argument("--credibility", type=float, default=None,
                         help="upper posterior quantile for conservative values (e.g. 0.95); default: medians")
@@ -380,15 +387,18 @@ def _cmd_report(args):
 
 
 def _cmd_kalibr(args):
-    from .kalibr import kalibr_values, write_kalibr_yaml
+    from .kalibr import kalibr_values_from_folders, write_kalibr_yaml
 
-    values = kalibr_values(args.gyro, args.accel, credibility=args.credibility)
-    inputs = [p for folder in args.gyro + args.accel for p in Path(folder).rglob("*")]
+    if not args.gyro and not args.accel:
+        raise InputError("kalibr: give --gyro FIT_FOLDER..., --accel FIT_FOLDER..., or both")
+    result = kalibr_values_from_folders(args.gyro or (), args.accel or (), credibility=args.credibility)
+    inputs = [p for folder in (args.gyro or []) + (args.accel or []) for p in Path(folder).rglob("*")]
     with staged_file(args.out, force=args.force, inputs=inputs) as tmp:
-        write_kalibr_yaml(values, tmp)
-    if not values["_adequate"]:
-        _warn("Kalibr values from fits that failed the goodness-of-fit check: " + ", ".join(values["_inadequate"]))
-    print(f"wrote {args.out} ({values['_mode']})")
+        write_kalibr_yaml(result, tmp, topic=args.topic)
+    if not result.adequate:
+        _warn("Kalibr values from fits that failed the goodness-of-fit check: " + ", ".join(result.inadequate))
+    several = any(len(rows) > 1 for rows in result.per_axis.values())
+    print(f"wrote {args.out} ({result.mode}{', worst axis' if several else ''})")
     return 0
 
 
