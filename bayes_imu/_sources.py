@@ -11,7 +11,7 @@ import dataclasses
 from .allan import allan_variance
 from .bags import is_bag, read_imu_bag
 from .errors import InputError
-from .io import UNITS, read_columns, sniff_file
+from .io import INCREMENT_UNITS, UNITS, read_columns, sniff_file
 from .outofcore import BINARY_SUFFIXES
 from .timebase import check_time
 
@@ -44,12 +44,22 @@ def allan_results(args, command, grid="octave"):
     Binary logs (.npy, raw) and ``--stream`` are read out of core (:mod:`bayes_imu.outofcore`),
     everything else in memory with the full checks of :mod:`bayes_imu.io` and the time column.
     """
-    if args.units is not None and getattr(args, "sensor", None) and args.sensor != UNITS[args.units][0]:
-        raise InputError(f"--units {args.units} is a {UNITS[args.units][0]} unit but --sensor is {args.sensor}")
+    increments = getattr(args, "input", "rate") == "increments"
+    table = UNITS if not increments else INCREMENT_UNITS
+    if args.units is not None and args.units not in table:
+        what = ("an increment unit: add --input increments" if not increments
+                else f"a rate unit; increments (--input increments) take {', '.join(INCREMENT_UNITS)}")
+        raise InputError(f"--units {args.units} is {what}")
+    if args.units is not None and getattr(args, "sensor", None) and args.sensor != table[args.units][0]:
+        raise InputError(f"--units {args.units} is a {table[args.units][0]} unit but --sensor is {args.sensor}")
+    if getattr(args, "allan_table", None) is not None:
+        return _table(args)
     bag = is_bag(args.log)
     if args.rate is None and args.time_column is None and not bag:
         raise InputError(f"{args.log}: no sample rate: give --rate HZ or a --time-column")
-    factor, unit = (1.0, "u") if args.units is None else (UNITS[args.units][1], _SI[UNITS[args.units][0]])
+    factor, unit = (1.0, "u") if args.units is None else (table[args.units][1], _SI[table[args.units][0]])
+    if increments and bag:
+        raise InputError(f"{args.log}: a ROS bag's sensor_msgs/Imu holds rates, not increments; leave out --input")
     if bag and args.units is None:  # sensor_msgs/Imu is SI by definition
         kinds = {c.strip().split("_")[0] for c in (args.column or "").split(",")}
         unit = {"gyro": "rad/s", "accel": "m/s^2"}.get(kinds.pop()) if len(kinds) == 1 else None
@@ -61,8 +71,28 @@ def allan_results(args, command, grid="octave"):
         columns, values, rate, info = _read(args, command)
         results = [allan_variance(values[:, j], rate_hz=rate, m=grid, progress=args.progress)
                    for j in range(values.shape[1])]
+    if increments:  # increment / dt = mean rate over the sample: every Allan variance times (factor * rate)^2
+        factor *= results[0].rate_hz
+        unit = unit if args.units is not None else "u/s"
+        info["input"] = "increments (divided by the sample period)"
     info.update(input_units=args.units or (unit if bag else "unspecified (u)"), unit=unit)
     return columns, [_scaled(r, factor) for r in results], unit, info
+
+
+def _table(args):
+    """An Allan deviation table (``fit --allan-table``) as the one Allan result to fit."""
+    from .allan_table import read_allan_table
+
+    if args.rate is None:
+        raise InputError(f"{args.allan_table}: --allan-table needs --rate HZ (the rate of the log the table came from)")
+    if getattr(args, "input", "rate") == "increments":
+        raise InputError("--input increments does not apply to an Allan table (give it in rate units)")
+    result, assumption = read_allan_table(args.allan_table, rate_hz=args.rate, n_samples=args.samples)
+    factor, unit = (1.0, "u") if args.units is None else (UNITS[args.units][1], _SI[UNITS[args.units][0]])
+    info = {"allan_table": str(args.allan_table), "rate_hz": result.rate_hz, "rate_source": "--rate",
+            "samples_used": result.n_samples, "intervals": assumption, "action": "Allan deviation table fitted",
+            "input_units": args.units or "unspecified (u)", "unit": unit}
+    return ["adev"], [_scaled(result, factor)], unit, info
 
 
 def _scaled(result, factor):

@@ -38,7 +38,7 @@ from ._sources import allan_results
 from .bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, SENSOR_QUANTITIES
 from .drift import QUANTITY_ORDER, drift_sigma
 from .errors import BayesIMUError, InputError
-from .io import UNITS, read_text
+from .io import INCREMENT_UNITS, UNITS, read_text
 from .fit import DISCREPANCY_MODES
 from .likelihood import LIKELIHOODS
 from .noise import BIAS_STARTS, TERMS
@@ -68,16 +68,18 @@ _FORWARDED = (("column", "--column"), ("topic", "--topic"), ("stream", "--stream
               ("time_column", "--time-column"), ("gaps", "--gaps"), ("units", "--units"), ("seed", "--seed"),
               ("terms", "--terms"), ("likelihood", "--likelihood"), ("sensor", "--sensor"), ("horizon", "--horizon"),
               ("bias_start", "--bias-start"), ("calibration", "--calibration"), ("models", "--models"),
-              ("times", "--times"), ("discrepancy", "--discrepancy"))
+              ("times", "--times"), ("discrepancy", "--discrepancy"), ("input", "--input"))
 
 
-def _input_options(batch=False):
+def _input_options(batch=False, optional_log=False):
     """Options shared by the commands that read logs (``batch``: several logs)."""
     common = _Parser(add_help=False)
     if batch:
         common.add_argument("logs", type=Path, nargs="+", help="logs, all with the same columns and options")
     else:
-        common.add_argument("log", type=Path, help="log: delimited text (.gz accepted), .npy / raw binary, ROS bag")
+        common.add_argument("log", type=Path, nargs="?" if optional_log else None,
+                            help="log: delimited text (.gz accepted), .npy / raw binary, ROS bag"
+                                 + (" (or --allan-table)" if optional_log else ""))
     common.add_argument("--column", help="column name or 0-based index (text logs); fit takes a comma list")
     common.add_argument("--topic", help="ROS bag: the sensor_msgs/Imu topic (columns gyro_x ... accel_z)")
     common.add_argument("--stream", action="store_true",
@@ -87,8 +89,12 @@ def _input_options(batch=False):
     common.add_argument("--time-column", help="time stamps (s): the rate is derived from them and checked")
     common.add_argument("--gaps", choices=GAP_POLICIES, default="error",
                         help="irregular time steps: error (default) or fit the longest regular segment")
-    common.add_argument("--units", "--unit", dest="units", choices=tuple(UNITS),
-                        help="units of the column(s), converted to SI (rad/s, m/s^2); default: left as they are")
+    common.add_argument("--input", choices=("rate", "increments"), default="rate",
+                        help="rate samples (default), or delta-angle / delta-velocity increments per sample "
+                             "(divided by the sample period into rates)")
+    common.add_argument("--units", "--unit", dest="units", choices=tuple(UNITS) + tuple(INCREMENT_UNITS),
+                        help="units of the column(s), converted to SI (rad/s, m/s^2): rates " + ", ".join(UNITS)
+                             + "; increments " + ", ".join(INCREMENT_UNITS) + "; default: left as they are")
     common.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
     common.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
     common.add_argument("--quiet", action="store_true", help="no progress bars or messages")
@@ -106,8 +112,15 @@ def _build_parser():
     allan.add_argument("--grid", default="octave", choices=("octave", "decade", "all"), help="cluster sizes")
     allan.set_defaults(handler=_cmd_allan)
 
-    fit = sub.add_parser("fit", parents=[common], help="Bayesian noise-model fit of columns of a log")
+    fit = sub.add_parser("fit", parents=[_input_options(optional_log=True)],
+                         help="Bayesian noise-model fit of columns of a log")
     _fit_options(fit)
+    fit.add_argument("--allan-table", type=Path, metavar="FILE",
+                     help="fit a published or external Allan deviation table instead of a log: a header with "
+                          "tau (s) and adev (or avar), optionally edf; --rate is the rate of the log it came from")
+    fit.add_argument("--samples", type=_positive_int, metavar="N",
+                     help="with --allan-table: samples in the log it came from (sets the intervals; unknown: "
+                          "the shortest record the table allows is assumed, the widest intervals)")
     fit.set_defaults(handler=_cmd_fit)
 
     batch = sub.add_parser("fit-batch", parents=[_input_options(batch=True)],
@@ -222,7 +235,7 @@ def _copy_pipe(path, target):
 
 
 def _log_label(args):
-    return getattr(args, "log_label", None) or str(args.log)
+    return getattr(args, "log_label", None) or str(args.log or args.allan_table)
 
 
 # ---------------------------------------------------------------------------- commands
@@ -252,6 +265,14 @@ def _allan(args):
 
 
 def _cmd_fit(args):
+    if args.allan_table is not None:
+        if args.log is not None:
+            raise InputError(f"fit: give a log or --allan-table, not both (got {args.log} and {args.allan_table})")
+        return _fit(args)
+    if args.log is None:
+        raise InputError("fit: give a log to fit (or --allan-table FILE); see bayes-imu fit --help")
+    if args.samples is not None:
+        raise InputError("--samples goes with --allan-table (a log's sample count is read from the log)")
     with _readable_log(args):
         return _fit(args)
 
@@ -260,7 +281,7 @@ def _fit(args):
     columns, results, unit, info = allan_results(args, "fit")
     info["log"] = _log_label(args)
     terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
-    with staged_folder(args.out, force=args.force, inputs=[args.log]) as tmp:
+    with staged_folder(args.out, force=args.force, inputs=[args.log or args.allan_table]) as tmp:
         if len(columns) == 1:
             _fit_axis(args, results[0], unit, info, terms, columns[0], tmp)
         else:
@@ -610,6 +631,7 @@ def _checked(convert, ok, expected):
     return check
 
 
+_positive_int = _checked(int, lambda v: v > 0, "a positive whole number")
 _seed_type = _checked(int, lambda v: 0 <= v < 2**32, "a whole number from 0 to 2**32 - 1")
 _workers_type = _checked(int, lambda v: v >= 1, "at least 1 worker process")
 _rate_type = _checked(float, lambda v: np.isfinite(v) and RATE_RANGE[0] <= v <= RATE_RANGE[1],

@@ -37,6 +37,12 @@ UNITS = {
     "g": ("accel", 9.80665),
     "mg": ("accel", 9.80665e-3),
 }
+#: units of delta-angle / delta-velocity increments: sensor kind and factor to SI (rad, m/s)
+INCREMENT_UNITS = {
+    "rad": ("gyro", 1.0),
+    "deg": ("gyro", np.pi / 180.0),
+    "m/s": ("accel", 1.0),
+}
 #: largest accepted |sample| and smallest accepted spread: beyond them squares in the
 #: Allan variance overflow (1e100**2 * 1e9 samples < 1e308) or underflow to zero
 MAX_MAGNITUDE = 1e100
