@@ -78,6 +78,13 @@ class DriftBands:
         """``(n_t,)`` bool: times beyond the fitted log's duration."""
         return self.t_s > self.record_s
 
+    def scaled(self, factor):
+        """The same bands in another unit (every drift value times ``factor``)."""
+        from dataclasses import replace
+
+        return replace(self, total=self.total * factor, white=self.white * factor, bias=self.bias * factor,
+                       terms={n: v * factor for n, v in self.terms.items()})
+
     def quantile(self, q):
         """Band at probability ``q`` (one of :attr:`quantiles`)."""
         idx = np.flatnonzero(np.isclose(self.quantiles, q))

@@ -24,6 +24,7 @@ import signal
 import stat
 import sys
 import tempfile
+import textwrap
 import threading
 import time
 import warnings
@@ -36,6 +37,7 @@ from ._output import safe_folder_name, staged_file, staged_folder
 from ._progress import show_progress
 from ._sources import allan_results
 from .bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, SENSOR_QUANTITIES
+from .display import DISPLAY_CHOICES, display_unit
 from .drift import QUANTITY_ORDER, drift_sigma
 from .errors import BayesIMUError, InputError
 from .io import INCREMENT_UNITS, UNITS, read_text
@@ -63,12 +65,48 @@ class _Parser(argparse.ArgumentParser):
         raise _UsageError(f"{command + ': ' if command else ''}{message} (see {self.prog} --help)")
 
 
+_SCENE_HELP = """scene format (TOML; paths relative to the scene file):
+
+  [scene]
+  name = "UAV outage study"
+  outages_s = [10, 60, 300]        # GPS outages to bound (s)
+  credibility = 0.95               # the bound is this posterior quantile of the 1-sigma drift
+  bias_start = "calibrated"        # or "zero" (the paper), "stationary"
+  calibration_s = 60               # bias = mean of the last 60 s before the outage
+
+  [requirement]                    # optional: longest acceptable outage and ranking
+  quantity = "attitude"            # attitude (gyro), velocity or position (accelerometer)
+  max_error = "0.5 deg"            # with a unit (deg, rad, mrad, arcmin; m/s, cm/s; m, cm, km, ft)
+
+  [[sensor]]                       # one log of one unit: bounds for that unit
+  name = "budget MEMS"
+  kind = "gyro"                    # gyro or accel
+  log = "budget.csv"
+  column = "gyro_x"                # or a list ["gyro_x", "gyro_y", "gyro_z"]: the worst axis counts
+  rate_hz = 100
+  units = "deg/s"
+
+  [[sensor]]                       # several units' logs: bounds for a NEW unit (population fit)
+  name = "ADIS16405"
+  kind = "gyro"
+  logs = ["unit1.csv", "unit2.csv", "unit3.csv"]
+  column = "gyro_x"
+  rate_hz = 100
+  units = "deg/s"
+
+  [[sensor]]                       # a bayes-imu fit folder (fitted with --units): no refit
+  name = "tactical"
+  kind = "gyro"
+  fit = "fit_tactical"             # or fits = [...] for several units
+"""
+
 #: options of ``fit`` that ``fit-batch`` forwards to every log: (dest, flag)
 _FORWARDED = (("column", "--column"), ("topic", "--topic"), ("stream", "--stream"), ("rate", "--rate"),
               ("time_column", "--time-column"), ("gaps", "--gaps"), ("units", "--units"), ("seed", "--seed"),
               ("terms", "--terms"), ("likelihood", "--likelihood"), ("sensor", "--sensor"), ("horizon", "--horizon"),
               ("bias_start", "--bias-start"), ("calibration", "--calibration"), ("models", "--models"),
-              ("times", "--times"), ("discrepancy", "--discrepancy"), ("input", "--input"))
+              ("times", "--times"), ("discrepancy", "--discrepancy"), ("input", "--input"),
+              ("display_units", "--display-units"))
 
 
 def _input_options(batch=False, optional_log=False):
@@ -108,12 +146,31 @@ def _build_parser():
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     common = _input_options()
 
-    allan = sub.add_parser("allan", parents=[common], help="overlapping Allan deviation of one column of a log")
+    allan = sub.add_parser(
+        "allan", parents=[common], help="overlapping Allan deviation of one column of a log",
+        description=textwrap.fill("Overlapping Allan deviation with chi-squared confidence intervals (Greenhall EDF). Writes "
+                    "allan.csv (tau, m, adev, interval, edf, unit) and allan.png.", 96),
+        epilog="examples:\n  bayes-imu allan imu.csv --column gyro_x --rate 100 --units deg/s --out allan_gx\n"
+               "  bayes-imu allan big.npy --rate 400 --out allan_big   (binary logs are read out of core)",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     allan.add_argument("--grid", default="octave", choices=("octave", "decade", "all"), help="cluster sizes")
     allan.set_defaults(handler=_cmd_allan)
 
-    fit = sub.add_parser("fit", parents=[_input_options(optional_log=True)],
-                         help="Bayesian noise-model fit of columns of a log")
+    fit = sub.add_parser(
+        "fit", parents=[_input_options(optional_log=True)], help="Bayesian noise-model fit of columns of a log",
+        description=textwrap.fill("Select the noise terms the log needs (Bayesian evidence), sample their posterior (emcee), "
+                    "check the fit's adequacy. Writes summary.json (posteriors in SI and datasheet units, "
+                    "adequacy, every candidate's probability), posterior.nc (ArviZ), fit.npz (for report and "
+                    "kalibr), allan_fit.png and corner.png; with --sensor also drift.csv and drift.png (the drift "
+                    "credible bands of a GPS outage). Several columns: one sub-folder each.", 96),
+        epilog="examples:\n"
+               "  bayes-imu fit imu.csv --column gyro_x --rate 100 --units deg/s --sensor gyro --out fit_gx\n"
+               "  bayes-imu fit imu.csv --column accel_x,accel_y,accel_z --rate 100 --units g --sensor accel "
+               "--out fit_acc\n"
+               "  bayes-imu fit --allan-table adev.csv --rate 200 --samples 1440000 --units deg/h --out fit_table\n"
+               "  bayes-imu fit dtheta.csv --column dx --rate 400 --input increments --units rad --out fit_inc\n"
+               "terms: " + ", ".join(TERMS),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     _fit_options(fit)
     fit.add_argument("--allan-table", type=Path, metavar="FILE",
                      help="fit a published or external Allan deviation table instead of a log: a header with "
@@ -152,8 +209,12 @@ def _build_parser():
     _drift_options(population)
     population.set_defaults(handler=_cmd_fit_population, models="selected")
 
-    report = sub.add_parser("report", help="conservative drift bounds for several IMUs (scene TOML)")
-    report.add_argument("scene", type=Path, help="scene TOML file (see README)")
+    report = sub.add_parser(
+        "report", help="conservative drift bounds for several IMUs (scene TOML)",
+        description=textwrap.fill("Fit (or read) every sensor of a scene and rank them by their conservative drift bounds: "
+                    "report.json, report.html (self-contained) and comparison.png.", 96),
+        epilog=_SCENE_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    report.add_argument("scene", type=Path, help="scene TOML file (format below)")
     report.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
     report.add_argument("--seed", type=_seed_type, default=0, help="random seed (0 to 2**32 - 1), default 0")
     report.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
@@ -177,10 +238,16 @@ def _build_parser():
     kalibr.set_defaults(handler=_cmd_kalibr)
 
     drift = sub.add_parser("drift", help="drift curves from known noise parameters (JSON)")
-    drift.add_argument("sensor", type=Path, help="JSON file: rate_hz, kind, noise_density, bias_variance, time_constant")
+    drift.add_argument("sensor", type=Path,
+                       help="JSON file: kind (gyro / accel), rate_hz, noise_density, optional bias_variance, "
+                            "time_constant, random_walk, and units (of the values: rad/s default, deg/s, deg/h; "
+                            "m/s^2 default, g, mg)")
     drift.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
     drift.add_argument("--horizon", type=_positive_number, default=3600.0, help="longest time (s), default 3600")
-    drift.add_argument("--bias-start", choices=("zero", "stationary"), default="zero")
+    drift.add_argument("--bias-start", choices=("zero", "stationary"), default="zero",
+                       help="bias at the start: zero (the paper, default) or stationary")
+    drift.add_argument("--display-units", choices=DISPLAY_CHOICES, default="si",
+                       help="units of drift.csv and the printout: si (rad, m/s, m; default) or deg (attitude in degrees)")
     drift.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
     drift.set_defaults(handler=_cmd_drift)
     return parser
@@ -333,7 +400,7 @@ def _fit_axis(args, allan, unit, info, terms, column, out):
     result.inference_data.to_netcdf(str(out / "posterior.nc"))
     save_fit(result, out / ARCHIVE_NAME)
     plot_allan_fit(result, out / "allan_fit.png", label=label, unit=unit, rng=args.seed)
-    plot_corner(result, out / "corner.png")
+    plot_corner(result, out / "corner.png", unit=unit)
     return summary
 
 
@@ -368,10 +435,13 @@ def _write_drift(result, args, unit, out):
     t = np.array(args.times) if args.times is not None else default_times(result.model.dt, args.horizon)
     bands = [drift_bands(result, t, quantity=q, bias_start=args.bias_start, calibration_s=args.calibration,
                          models=args.models) for q in SENSOR_QUANTITIES[args.sensor]]
+    shown = [display_unit(integrated_unit(unit, b.quantity), args.display_units) for b in bands]
+    if args.display_units == "deg" and unit != "rad/s" and args.sensor == "gyro":
+        raise InputError(f"--display-units deg needs a gyro fitted in SI (give --units); this fit is in {unit!r}")
+    bands = [b.scaled(factor) for b, (_, factor) in zip(bands, shown)]
     lines = ["t_s,quantity,q05,q50,q95,unit,extrapolated"]
     at_horizon = {}
-    for b in bands:
-        u = integrated_unit(unit, b.quantity)
+    for b, (u, _) in zip(bands, shown):
         lines += [f"{ti:.6g},{b.quantity},{lo:.9g},{med:.9g},{hi:.9g},{u},{str(x).lower()}"
                   for ti, lo, med, hi, x in zip(b.t_s, *b.total, b.extrapolated)]
         at_horizon[b.quantity] = {"t_s": float(b.t_s[-1]), "q05": float(b.total[0][-1]), "q50": float(b.total[1][-1]),
@@ -385,7 +455,7 @@ def _write_drift(result, args, unit, out):
         _warn(f"the drift horizon ({bands[0].t_s[-1]:g} s) is longer than the log ({bands[0].record_s:g} s): beyond "
               "the log the bands extrapolate the fitted model (drift.csv column 'extrapolated')")
     (out / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    plot_drift(bands, out / "drift.png", units=[integrated_unit(unit, b.quantity) for b in bands])
+    plot_drift(bands, out / "drift.png", units=[u for u, _ in shown])
     return at_horizon
 
 
@@ -427,8 +497,12 @@ def _fit_options(parser):
     parser.add_argument("--seed", type=_seed_type, default=0,
                         help="random seed, 0 to 2**32 - 1 (recorded in the outputs), default 0")
     parser.add_argument("--terms", default="auto",
-                        help="'auto' (model selection) or a comma-separated list of terms, e.g. white,gauss_markov")
-    parser.add_argument("--likelihood", choices=LIKELIHOODS, default=LIKELIHOODS[0])
+                        help="'auto' (model selection, default) or a comma-separated list of terms: "
+                             + ", ".join(TERMS))
+    parser.add_argument("--likelihood", choices=LIKELIHOODS, default=LIKELIHOODS[0],
+                        help="Allan-variance likelihood: correlated (default: multivariate normal on log AVAR with "
+                             "the exact covariance of the estimates), copula (gamma margins, same correlation), "
+                             "independent (gamma per cluster size, ignores correlation: faster, overconfident)")
     _drift_options(parser)
     parser.add_argument("--models", choices=MODEL_CHOICES, default="averaged",
                         help="drift from every candidate model weighted by its posterior probability (averaged, "
@@ -450,6 +524,8 @@ def _drift_options(parser):
                         help=f"calibration window of --bias-start calibrated (s), default {DEFAULT_CALIBRATION_S:g}")
     parser.add_argument("--times", type=_times, metavar="T1,T2,...",
                         help="write drift.csv rows at exactly these times (s) instead of a log grid up to --horizon")
+    parser.add_argument("--display-units", choices=DISPLAY_CHOICES, default="si",
+                        help="units of drift.csv / drift.png: si (rad, m/s, m; default) or deg (attitude in degrees)")
 
 
 def _cmd_fit_population(args):
@@ -563,8 +639,10 @@ def _read_sensor_json(path):
     if spec["kind"] not in SENSOR_QUANTITIES:
         raise InputError(f"{path}: kind={spec['kind']!r}: expected 'gyro' or 'accel'")
     si = "rad/s" if spec["kind"] == "gyro" else "m/s^2"
-    if spec.get("units", si) != si:
-        raise InputError(f"{path}: units={spec['units']!r}: the drift command takes SI values; expected {si!r}")
+    units = spec.get("units", si)
+    if units not in UNITS or UNITS[units][0] != spec["kind"]:
+        allowed = [u for u, (k, _) in UNITS.items() if k == spec["kind"]]
+        raise InputError(f"{path}: units={units!r}: expected one of {', '.join(allowed)} for a {spec['kind']}")
     return spec
 
 
@@ -591,26 +669,29 @@ def _cmd_drift(args):
     if not args.horizon > dt:
         raise InputError(f"--horizon={args.horizon!r}: expected a time (s) longer than one sample ({dt} s)")
     t = np.unique(np.round(np.geomspace(dt, args.horizon, 200) / dt)) * dt
-    rows = []
+    rows, shown = [], {}
+    k = UNITS[spec.get("units", "rad/s" if spec["kind"] == "gyro" else "m/s^2")][1]  # the values' unit in SI
     for quantity in SENSOR_QUANTITIES[spec["kind"]]:
         result = drift_sigma(
             t, quantity=quantity, dt=dt,
-            noise_density=_positive_float(args.sensor, spec, "noise_density"),
-            bias_variance=_positive_float(args.sensor, spec, "bias_variance", 0.0),
+            noise_density=k * _positive_float(args.sensor, spec, "noise_density"),
+            bias_variance=k * k * _positive_float(args.sensor, spec, "bias_variance", 0.0),
             time_constant=_positive_float(args.sensor, spec, "time_constant", np.inf),
-            random_walk=_positive_float(args.sensor, spec, "random_walk", 0.0),
+            random_walk=k * _positive_float(args.sensor, spec, "random_walk", 0.0),
             bias_start=args.bias_start,
         )
-        rows += [(ti, quantity, w, b, r, tot) for ti, w, b, r, tot in
+        unit, f = shown[quantity] = display_unit({"attitude": "rad", "velocity": "m/s", "position": "m"}[quantity],
+                                                 args.display_units)
+        rows += [(ti, quantity, w * f, b * f, r * f, tot * f, unit) for ti, w, b, r, tot in
                  zip(result.t_s, result.white, result.bias, result.random_walk, result.total)]
-    lines = ["t_s,quantity,white,bias,random_walk,total"]
-    lines += [f"{ti:.6g},{q},{w:.9g},{b:.9g},{r:.9g},{tot:.9g}" for ti, q, w, b, r, tot in rows]
+    lines = ["t_s,quantity,white,bias,random_walk,total,unit"]
+    lines += [f"{ti:.6g},{q},{w:.9g},{b:.9g},{r:.9g},{tot:.9g},{u}" for ti, q, w, b, r, tot, u in rows]
     with staged_folder(args.out, force=args.force, inputs=[args.sensor]) as tmp:
         (tmp / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
     for quantity in SENSOR_QUANTITIES[spec["kind"]]:
         last = [row for row in rows if row[1] == quantity][-1]
-        unit = {"attitude": "rad", "velocity": "m/s", "position": "m"}[quantity]
-        print(f"{quantity}: 1-sigma drift after {last[0]:g} s = {last[5]:.4g} {unit} (order {QUANTITY_ORDER[quantity]})")
+        print(f"{quantity}: 1-sigma drift after {last[0]:g} s = {last[5]:.4g} {last[6]} "
+              f"(order {QUANTITY_ORDER[quantity]})")
     print(f"wrote {args.out / 'drift.csv'}")
     return 0
 

@@ -111,20 +111,45 @@ def _residual_panel(ax, fit):
     ax.grid(True, which="both", alpha=0.3)
 
 
-def plot_corner(fit, path):
-    """Corner plot of the log10 parameters (corner.py)."""
+def plot_corner(fit, path, *, unit="u"):
+    """Corner plot of the physical parameters with their units, on log axes (corner.py).
+
+    Each panel's title gives the median and the 5% / 95% quantiles; tick labels are plain
+    numbers (no offset notation), so a tightly pinned parameter still reads correctly.
+    """
     plt = _pyplot()
     import corner
+    from matplotlib.ticker import LogFormatterSciNotation
 
-    data = np.log10(fit.samples)
-    labels = [f"log10 {n}" for n in fit.parameter_names]
+    from .models import PARAMETER_UNITS
+
+    names = fit.parameter_names
+    labels = [f"{n}\n[{PARAMETER_UNITS.get(n, '1').format(u=unit)}]" for n in names]
+    data = fit.samples
     if data.shape[1] == 1:
-        fig, ax = plt.subplots(figsize=(4, 3))
-        ax.hist(data[:, 0], bins=40, color="C0")
-        ax.set_xlabel(labels[0])
+        fig, ax = plt.subplots(figsize=(4.5, 3.2))
+        ax.hist(data[:, 0], bins=np.geomspace(data[:, 0].min(), data[:, 0].max() * (1 + 1e-12), 41), color="C0")
+        ax.set_xscale("log")
+        ax.set_xlabel(labels[0].replace("\n", " "))
+        q = np.quantile(data[:, 0], [0.05, 0.5, 0.95])
+        ax.set_title(f"median {q[1]:.4g}, 90% [{q[0]:.4g}, {q[2]:.4g}]", fontsize=8)
+        fig.tight_layout()
     else:
-        fig = corner.corner(data, labels=labels, quantiles=[0.05, 0.5, 0.95], show_titles=True, title_fmt=".3f",
-                            label_kwargs={"fontsize": 8}, title_kwargs={"fontsize": 7})
+        fig = corner.corner(data, labels=labels, axes_scale="log", quantiles=[0.05, 0.5, 0.95],
+                            label_kwargs={"fontsize": 8}, labelpad=0.15, max_n_ticks=3)
+        k = len(names)
+        axes = np.array(fig.axes).reshape(k, k)
+        for i in range(k):
+            q = np.quantile(data[:, i], [0.05, 0.5, 0.95])
+            axes[i, i].set_title(f"{q[1]:.4g}\n[{q[0]:.3g}, {q[2]:.3g}]", fontsize=7)
+        # plain scientific tick labels (no offset) where corner shows labels: bottom row, left column
+        edges = [(axes[-1, j].xaxis) for j in range(k)] + [(axes[i, 0].yaxis) for i in range(1, k)]
+        for axis in edges:
+            axis.set_major_formatter(LogFormatterSciNotation(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
+            axis.set_minor_formatter(LogFormatterSciNotation(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
+        for ax in fig.axes:
+            ax.tick_params(which="both", labelsize=6)
+        fig.subplots_adjust(left=0.13, bottom=0.13)
     fig.savefig(path, dpi=90)
     plt.close(fig)
 

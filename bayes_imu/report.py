@@ -24,6 +24,7 @@ import numpy as np
 from .allan import allan_variance
 from .bands import DEFAULT_CALIBRATION_S, SENSOR_QUANTITIES, drift_bands, drift_draws
 from .noise import BIAS_STARTS
+from .display import parse_amount
 from .errors import InputError
 from .fit import fit_allan
 from .io import UNITS, read_log, read_text, to_si
@@ -235,8 +236,11 @@ def read_scene(path):
         quantity = _get(requirement, "quantity", str, where)
         if quantity not in OUTPUT_UNITS:
             raise InputError(f"{where} quantity={quantity!r}: expected one of {', '.join(OUTPUT_UNITS)}")
-        requirement = {"quantity": quantity, "max_error": _get(requirement, "max_error", float, where),
-                       "unit": OUTPUT_UNITS[quantity]}
+        if "max_error" not in requirement:
+            raise InputError(f"{where}: missing key 'max_error'")
+        given = requirement["max_error"]
+        requirement = {"quantity": quantity, "max_error": parse_amount(given, quantity, f"{where} max_error"),
+                       "unit": OUTPUT_UNITS[quantity], "given": given if isinstance(given, str) else None}
     sensors = doc.get("sensor")
     if not isinstance(sensors, list) or not sensors:
         raise InputError(f"{path}: no [[sensor]] entries")

@@ -70,9 +70,18 @@ def _comparison_figure(report, target):
             ax.plot(band.t_s[keep], band.total[1][keep], color=f"C{i}", ls=":", lw=1)
         for t in report.scene.outages_s:
             ax.axvline(t, color="gray", lw=0.8, ls="--")
+            ax.annotate(f"outage {t:g} s", (t, 0.02), xycoords=("data", "axes fraction"), rotation=90, fontsize=7,
+                        color="dimgray", ha="right", va="bottom")
         req = report.scene.requirement
         if req and req["quantity"] == quantity:
-            ax.axhline(req["max_error"], color="red", lw=1, label=f"requirement {req['max_error']:g} {req['unit']}")
+            given = f" ({req['given']})" if req.get("given") else ""
+            ax.axhline(req["max_error"], color="red", lw=1,
+                       label=f"requirement {req['max_error']:.4g} {req['unit']}{given}")
+            for i, s in enumerate(report.sensors):
+                t_max = s.max_outage_s
+                if t_max is not None and 0 < t_max < MAX_SEARCH_S:
+                    ax.plot([t_max], [req["max_error"]], marker="v", ms=8, color=f"C{i}", ls="none",
+                            label=f"{s.spec.name}: longest acceptable outage {t_max:.3g} s")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("outage duration (s)")
@@ -172,7 +181,8 @@ def report_html(report, comparison_png=None):
     scene = report.scene
     cred = scene.credibility
     req = scene.requirement
-    req_text = (f"{req['quantity']} error (1-sigma) at most {req['max_error']:g} {req['unit']}" if req else "none")
+    req_text = (f"{req['quantity']} error (1-sigma) at most {req['max_error']:.4g} {req['unit']}"
+                + (f" (given as {req['given']})" if req.get("given") else "") if req else "none")
     comparison = _png(_comparison_figure, report) if comparison_png is None else _data_uri(comparison_png)
     bound_rows = []
     for s in report.sensors:
