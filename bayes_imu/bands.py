@@ -58,6 +58,9 @@ class DriftBands:
         Calibration window of ``bias_start="calibrated"`` (s), else ``nan``.
     models : str
         ``"averaged"`` or ``"selected"``.
+    term_probability : dict
+        Term name -> posterior probability that the sensor has it (share of the draws whose
+        model has it; 1 for every term of a selected model).
     """
 
     t_s: np.ndarray
@@ -72,6 +75,7 @@ class DriftBands:
     terms: dict = field(default_factory=dict)
     calibration_s: float = float("nan")
     models: str = "selected"
+    term_probability: dict = field(default_factory=dict)
 
     @property
     def extrapolated(self):
@@ -230,6 +234,7 @@ def drift_bands(fit, t=None, *, quantity, bias_start="zero", calibration_s=DEFAU
     # for the other models would understate a term that few, but heavy, models carry)
     terms = {n: np.median(v[np.isfinite(v[:, 0])], axis=0) for n, v in draws["terms"].items()
              if np.isfinite(v[:, 0]).any()}
+    probability = {n: float(np.mean(np.isfinite(v[:, 0]))) for n, v in draws["terms"].items() if n in terms}
     cal = float(calibration_s) if bias_start == "calibrated" else float("nan")
     return DriftBands(draws["t_s"], quantity, q, np.quantile(draws["total"], q, axis=0), white, bias, crossover,
-                      bias_start, record, terms, cal, models)
+                      bias_start, record, terms, cal, models, probability)

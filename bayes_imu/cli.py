@@ -530,7 +530,7 @@ def _drift_options(parser):
 
 def _cmd_fit_population(args):
     """Several logs (units) of one column: the hierarchical fit and the new-unit predictive."""
-    from .bands import drift_bands
+    from .bands import drift_bands, integrated_unit
     from .fleet import job_name
     from .plots import plot_population
     from .population import fit_population
@@ -575,8 +575,10 @@ def _cmd_fit_population(args):
                                 calibration_s=args.calibration, horizon_s=args.horizon, rng=args.seed)
             unit_bands = [drift_bands(f, bands.t_s, quantity=quantity, bias_start=args.bias_start,
                                       calibration_s=args.calibration, rng=args.seed) for f in pop.unit_fits]
+            drift_unit, factor = display_unit(integrated_unit(unit, quantity), args.display_units)
+            bands, unit_bands = bands.scaled(factor), [b.scaled(factor) for b in unit_bands]
         plot_population(pop, tmp / "population.png", unit=unit, bands=bands, unit_bands=unit_bands or (),
-                        rng=args.seed)
+                        rng=args.seed, drift_unit=drift_unit if args.sensor else None)
         _write_json(tmp / "summary.json", summary)
     _say(args, f"wrote {args.out}")
     return 0

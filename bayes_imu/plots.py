@@ -161,7 +161,7 @@ _TERM_LABEL = {"white": "white noise", "quantization": "quantization", "filtered
 _QUANTITY_LABEL = {"attitude": "attitude error", "velocity": "velocity error", "position": "position error"}
 
 
-def plot_drift(bands_list, path, *, units, title=""):
+def plot_drift(bands_list, path, *, units, title="", min_probability=0.1):
     """Drift credible bands (log-log), white and bias parts separately, crossover marked (paper Figs 8, 11).
 
     Parameters
@@ -170,9 +170,11 @@ def plot_drift(bands_list, path, *, units, title=""):
         One panel per quantity.
     units : sequence of str
         Unit of each panel's quantity (e.g. "deg", "m/s", "m").
+    min_probability : float
+        Terms whose posterior probability (model averaging) is lower are not drawn (listed).
     """
     plt = _pyplot()
-    fig, axes = plt.subplots(1, len(bands_list), figsize=(6.5 * len(bands_list), 4.8), squeeze=False)
+    fig, axes = plt.subplots(1, len(bands_list), figsize=(6.5 * len(bands_list), 6.6), squeeze=False)
     for ax, bands, unit in zip(axes[0], bands_list, units):
         keep = bands.total[0] > 0  # the double integral is exactly 0 after one sample
         t = bands.t_s[keep]
@@ -180,17 +182,27 @@ def plot_drift(bands_list, path, *, units, title=""):
         ax.fill_between(t, lo, hi, color="C0", alpha=0.3,
                         label=f"total, {bands.quantiles[0]:.0%}-{bands.quantiles[-1]:.0%} credible band")
         ax.plot(t, bands.total[len(bands.quantiles) // 2][keep], color="C0", lw=1.5, label="total, median")
-        where = " where modelled" if bands.models == "averaged" else ""
+        hidden = []
         for i, (name, part) in enumerate(bands.terms.items()):
             positive = part[keep] > 0
+            p = bands.term_probability.get(name, 1.0)
+            if p < min_probability:
+                hidden.append(_TERM_LABEL.get(name, name))
+                continue
             if np.any(positive):
+                where = f", median where modelled, P = {p:.2f}" if p < 0.995 else ", median"
                 ax.plot(t[positive], part[keep][positive], "--", lw=1, color=f"C{i + 1}",
-                        label=f"{_TERM_LABEL.get(name, name)} (median{where})")
+                        label=f"{_TERM_LABEL.get(name, name)}{where}")
+        if hidden:
+            import textwrap
+
+            ax.plot([], [], " ", label=textwrap.fill(f"not drawn (P < {min_probability:g}): " + ", ".join(hidden), 60))
         if np.isfinite(bands.crossover_s):
             ax.axvline(bands.crossover_s, color="gray", lw=1, ls=":")
             ax.annotate(f"biases and slow terms\nexceed short-term noise\nafter {bands.crossover_s:.3g} s",
-                        (bands.crossover_s, lo[0]), textcoords="offset points", xytext=(4, 4), fontsize=7,
-                        color="dimgray", ha="left" if bands.crossover_s < np.sqrt(t[0] * t[-1]) else "right")
+                        (bands.crossover_s, 0.02), xycoords=("data", "axes fraction"), textcoords="offset points",
+                        xytext=(4, 4), fontsize=7, color="dimgray", va="bottom",
+                        ha="left" if bands.crossover_s < np.sqrt(t[0] * t[-1]) else "right")
         if bands.record_s < t[-1]:
             ax.axvspan(bands.record_s, t[-1], color="gray", alpha=0.12,
                        label=f"beyond the log ({bands.record_s:.4g} s): extrapolation")
@@ -202,7 +214,7 @@ def plot_drift(bands_list, path, *, units, title=""):
                  else f"bias start: {bands.bias_start}")
         ax.set_title(f"{bands.quantity} drift, {start}, {bands.models} models", fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8, loc="upper left")
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=1, frameon=False)
     if title:
         fig.suptitle(title)
     fig.tight_layout()
@@ -210,7 +222,7 @@ def plot_drift(bands_list, path, *, units, title=""):
     plt.close(fig)
 
 
-def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None):
+def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None, drift_unit=None):
     """Population fit: every unit's Allan deviation with the new-unit 90% band; optionally the
     new-unit drift band against each unit's own (single-unit) drift median.
 
@@ -223,6 +235,8 @@ def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None)
         New-unit drift bands (one quantity); adds the right-hand panel.
     unit_bands : sequence of DriftBands
         Each unit's single-unit bands of the same quantity (medians drawn).
+    drift_unit : str, optional
+        Unit of the drift values shown (default: the integrated unit of ``unit``).
     """
     plt = _pyplot()
     panels = 2 if bands is not None else 1
@@ -260,7 +274,8 @@ def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None)
         ax.set_xlabel("time since GPS loss (s)")
         from .bands import integrated_unit
 
-        ax.set_ylabel(f"1-sigma {_QUANTITY_LABEL[bands.quantity]} ({integrated_unit(unit, bands.quantity)})")
+        shown = drift_unit or integrated_unit(unit, bands.quantity)
+        ax.set_ylabel(f"1-sigma {_QUANTITY_LABEL[bands.quantity]} ({shown})")
         start = (f"bias calibrated over {bands.calibration_s:g} s" if bands.bias_start == "calibrated"
                  else f"bias start: {bands.bias_start}")
         ax.set_title(f"{bands.quantity} drift of a new unit, {start}", fontsize=10)

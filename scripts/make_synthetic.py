@@ -5,7 +5,10 @@ as a gzipped CSV with a header row (``time_s`` plus one rate column, 9 significa
 ``data_synthetic/truth.json`` records every log's model, parameters (bayes_imu names and
 units), rate, length, column, unit and seed. Run from the project root:
 
-    python scripts/make_synthetic.py
+    python scripts/make_synthetic.py [--only NAME,...]
+
+The three ``population_unit*`` logs are units of one gyro model (parameters drawn around the
+``POPULATION`` medians, recorded per unit) for ``bayes-imu fit-population``.
 """
 
 import gzip
@@ -32,14 +35,40 @@ LOGS = {
     # gyro with white noise and rate random walk 2e-4 deg/s/sqrt(s)
     "gyro_rrw": ("gyro_x_dps", "deg/s", 100.0, 360_000, 0.0, {"noise_variance": 0.01**2 * 100.0, "rate_random_walk": 2e-4}),
 }
+#: three units of one gyro model for the population fit: each unit's ln parameters drawn around
+#: the medians below with a 15% spread (seeded), 20 minutes at 100 Hz each
+POPULATION = {"median": {"noise_variance": 0.05**2 * 100.0, "bias_variance": 0.01**2, "time_constant": 100.0},
+              "spread_ln": 0.15, "units": 3, "n_samples": 120_000, "seed": 20261123}
 TERMS = {"noise_variance": "white", "bias_variance": "gauss_markov", "time_constant": "gauss_markov",
          "rate_random_walk": "random_walk"}
 
 
-def main():
+def population_logs():
+    """LOGS-style entries of the population units (parameters drawn from the population, seeded)."""
+    rng = np.random.default_rng(POPULATION["seed"])
+    names = list(POPULATION["median"])
+    out = {}
+    for i in range(1, POPULATION["units"] + 1):
+        ln = np.log([POPULATION["median"][n] for n in names]) + POPULATION["spread_ln"] * rng.standard_normal(len(names))
+        out[f"population_unit{i}"] = ("gyro_x_dps", "deg/s", 100.0, POPULATION["n_samples"], 0.0,
+                                      dict(zip(names, np.exp(ln).round(12).tolist())))
+    return out
+
+
+def main(argv=None):
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", help="comma-separated log names to (re)write; truth.json keeps the others")
+    args = parser.parse_args(argv)
     OUT.mkdir(exist_ok=True)
-    truth = {}
-    for seed, (name, (column, unit, rate, n, offset, params)) in enumerate(sorted(LOGS.items()), start=1):
+    truth_path = OUT / "truth.json"
+    truth = json.loads(truth_path.read_text()) if args.only and truth_path.exists() else {}
+    logs = {**LOGS, **population_logs()}
+    only = set(args.only.split(",")) if args.only else set(logs)
+    for seed, (name, (column, unit, rate, n, offset, params)) in enumerate(sorted(logs.items()), start=1):
+        if name not in only:
+            continue
         terms = tuple(dict.fromkeys(TERMS[p] for p in params))
         model = NoiseModel(terms, 1.0 / rate)
         y = simulate_log(model, params, n, rng=seed, offset=offset)
@@ -51,7 +80,8 @@ def main():
         truth[name] = {"file": path.name, "column": column, "unit": unit, "rate_hz": rate, "n_samples": n,
                        "offset": offset, "model": list(model.terms), "parameters": params, "seed": seed}
         print(f"wrote {path.name}: {n} samples, {model.terms}")
-    (OUT / "truth.json").write_text(json.dumps(truth, indent=2) + "\n", encoding="utf-8")
+    truth["population"] = {**POPULATION, "logs": sorted(n for n in logs if n.startswith("population_"))}
+    truth_path.write_text(json.dumps(truth, indent=2) + "\n", encoding="utf-8")
 
 
 if __name__ == "__main__":
