@@ -1,6 +1,6 @@
 """bayes_imu: Bayesian characterization of inertial sensors.
 
-Data flow: ``io -> allan -> models -> fit -> drift -> report -> cli``.
+Data flow: ``io -> allan -> noise -> fit / population -> drift / bands -> report -> cli``.
 """
 
 from ._version import __version__
@@ -20,6 +20,7 @@ from .fit import FitResult, fit, fit_allan
 from .models import TERMS, NoiseModel
 from .simulate import simulate_log
 from .bands import DriftBands, drift_bands, drift_draws
+from .population import PopulationResult, UnitPosterior, fit_population
 from .report import build_report, read_scene
 
 __all__ = [
@@ -42,6 +43,9 @@ __all__ = [
     "DriftBands",
     "drift_bands",
     "drift_draws",
+    "fit_population",
+    "PopulationResult",
+    "UnitPosterior",
     "read_scene",
     "build_report",
     "QUANTITY_ORDER",

@@ -77,7 +77,7 @@ def plot_allan_fit(fit, path, *, label="", unit="input units", rng=None):
     ax.plot(tau_f, med, color="C0", lw=1.5, label=f"model: {' + '.join(fit.model.terms)}")
     for i, term in enumerate(fit.model.terms):
         part = np.median(np.sqrt(fit.predictive_avar(m_f, rng=rng, term=term)), axis=0)
-        ax.plot(tau_f, part, "--", color=f"C{i + 1}", lw=1, label=term)
+        ax.plot(tau_f, part, "--", color=f"C{i + 1}", lw=1, label=_TERM_LABEL.get(term, term))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_ylim(allan.adev.min() / 5, allan.adev.max() * 2)
