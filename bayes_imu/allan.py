@@ -173,7 +173,7 @@ def assemble_result(ms, sums, alpha, n_samples, rate_hz, confidence, interval):
     avar = sums / (2.0 * n_terms * ms.astype(float) ** 2)
     alphas = _alpha_array(alpha, ms.size)
     edf = greenhall_edf(alphas, ms, n_samples + 1)
-    low, high = _chi2_interval(avar, edf, confidence, interval)
+    low, high = chi2_interval(avar, edf, confidence, interval)
     return AllanResult(
         tau=ms / rate_hz, m=ms, avar=avar, adev=np.sqrt(avar), n_terms=n_terms, edf=edf, alpha=alphas,
         avar_low=low, avar_high=high, confidence=float(confidence), rate_hz=rate_hz, n_samples=n_samples,
@@ -197,7 +197,7 @@ def _alpha_array(alpha, n):
     return values.astype(np.int64).copy()
 
 
-def _chi2_interval(avar, edf, confidence, interval="exact"):
+def chi2_interval(avar, edf, confidence, interval="exact"):
     """Chi-squared interval on ``avar`` (SP1065 eq 45): ``edf avar / chi2`` at both tails."""
     tail = (1.0 - confidence) / 2.0
     upper, lower = stats.chi2.isf(tail, edf), stats.chi2.ppf(tail, edf)

@@ -20,7 +20,7 @@ precision tables are printed with).
 
 import numpy as np
 
-from .allan import AllanResult, _chi2_interval, check_options, greenhall_edf
+from .allan import AllanResult, chi2_interval, check_options, greenhall_edf
 from .errors import InputError
 from .io import read_columns, sniff_file
 
@@ -87,7 +87,7 @@ def allan_from_table(tau, adev, *, rate_hz, edf=None, n_samples=None, confidence
             raise InputError(f"Allan table: {n} samples cannot give tau = {tau[-1]:g} s ({m[-1]} samples); "
                              "expected at least twice the longest cluster size")
         edf = greenhall_edf(alpha, m, n + 1)
-    low, high = _chi2_interval(avar, edf, confidence)
+    low, high = chi2_interval(avar, edf, confidence)
     result = AllanResult(tau=m / rate_hz, m=m, avar=avar, adev=adev, n_terms=n + 1 - 2 * m, edf=edf, alpha=alpha,
                          avar_low=low, avar_high=high, confidence=float(confidence), rate_hz=rate_hz, n_samples=n)
     return result, assumption

@@ -325,7 +325,7 @@ def _allan(args):
             for t, m, a, lo, hi, e in zip(result.tau, result.m, result.adev, result.adev_low, result.adev_high, result.edf)
         ]
         (tmp / "allan.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
-        plot_allan(result, tmp / "allan.png", label=f"{Path(_log_label(args)).name}: {columns[0]} [{unit}]")
+        plot_allan(result, tmp / "allan.png", label=f"{Path(_log_label(args)).name}: {columns[0]} [{unit}]", unit=unit)
     _say(args, f"{result.tau.size} cluster sizes from {result.n_samples} samples ({info['action']}); "
                f"wrote {args.out / 'allan.csv'} and allan.png")
     return 0
@@ -604,7 +604,7 @@ def _cmd_fit_batch(args):
             jobs.append(BatchJob(names[-1], tuple(argv)))
         start = time.perf_counter()
         scheduler = "serial" if args.serial else args.scheduler
-        results = run_batch(jobs, scheduler=scheduler, n_workers=args.workers, progress=args.progress)
+        results = run_batch(jobs, _fleet_fit, scheduler=scheduler, n_workers=args.workers, progress=args.progress)
         seconds = time.perf_counter() - start
         samples = 0
         for r in results:
@@ -623,6 +623,19 @@ def _cmd_fit_batch(args):
     _say(args, f"{len(results) - len(failed)} of {len(results)} logs fitted in {seconds:.1f} s "
                f"({doc['logs_per_minute']:.1f} logs/min); wrote {args.out / 'batch.json'}")
     return 2 if failed else 0
+
+
+def _fleet_fit(job):
+    """One log of ``fit-batch`` (the fleet's task): exactly ``bayes-imu fit`` with the job's arguments."""
+    try:
+        args = _build_parser().parse_args(list(job.argv))
+    except _UsageError as exc:
+        raise InputError(str(exc)) from None
+    args.progress = False
+    with warnings.catch_warnings():
+        warnings.simplefilter("default")
+        warnings.showwarning = _one_line_warning
+        return _cmd_fit(args)
 
 
 def _read_sensor_json(path):

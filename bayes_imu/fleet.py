@@ -1,9 +1,13 @@
-"""Fleets of sensors: many ``bayes-imu fit`` runs in parallel on Dask distributed.
+"""Fleets of sensors: many jobs in parallel on Dask distributed, each failure isolated.
 
-Each log is one task that runs exactly the ``bayes-imu fit`` command it would run alone
-(same options, same seed), in a worker process, into ``OUT/<log name>/``; so the results
-are identical to serial runs. A failed log is reported with its exit status and its
-one-line error and does not stop the others. :func:`run_batch` uses a ``LocalCluster``
+A job is a frozen spec (:class:`BatchJob`: a name and the arguments of the work) and a task
+function runs it: ``task(job)`` returns normally on success and raises on failure
+(:class:`~bayes_imu.errors.BayesIMUError` is a user error, status 2; anything else an internal
+error, status 1). The task must be a module-level function (Dask pickles it by reference);
+``bayes-imu fit-batch`` passes its own fit, so each log runs exactly what ``bayes-imu fit``
+would run alone (same options, same seed), into ``OUT/<log name>/``, and the results are
+identical to serial runs. A failed job is reported with its status and its one-line error
+and does not stop the others. :func:`run_batch` uses a ``LocalCluster``
 (one single-threaded worker process per core) unless given the address of a running
 Dask scheduler (``tcp://host:8786``), or runs serially in-process with ``scheduler="serial"``.
 Dask is an optional dependency (``pip install 'bayes_imu[fleet]'``), imported only here.
@@ -22,7 +26,8 @@ __all__ = ["BatchJob", "JobResult", "run_batch", "job_name"]
 
 @dataclass(frozen=True)
 class BatchJob:
-    """One log of a batch: its name (the output sub-folder) and its ``bayes-imu fit`` arguments."""
+    """One job of a batch: its name (the output sub-folder) and the arguments of its work
+    (for ``bayes-imu fit-batch``: the ``bayes-imu fit`` arguments)."""
 
     name: str
     argv: tuple
@@ -50,30 +55,33 @@ def job_name(path, taken):
     return safe_folder_name(stem, taken)
 
 
-def run_job(job):
-    """Run one ``bayes-imu fit`` in this process; never raises (a failure is a result)."""
+def run_job(task, job):
+    """Run ``task(job)`` in this process; never raises (a failure is a :class:`JobResult`)."""
     import os
     import socket
 
-    from .cli import main
+    from .errors import BayesIMUError
 
-    err = io.StringIO()
     start = time.perf_counter()
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+    status, error = 0, ""
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
         try:
-            status = main(list(job.argv))
+            task(job)
+        except BayesIMUError as exc:
+            status, error = 2, f"bayes-imu: error: {exc}"
         except BaseException as exc:  # noqa: BLE001 - a worker must report, not die
-            status, err = 1, io.StringIO(f"bayes-imu: internal error: {type(exc).__name__}: {exc}")
-    lines = [line for line in err.getvalue().splitlines() if "error" in line]
-    return JobResult(job.name, int(status), lines[-1] if (status and lines) else "", time.perf_counter() - start,
-                     f"{socket.gethostname()}:{os.getpid()}")
+            text = str(exc).strip().splitlines()
+            status, error = 1, f"bayes-imu: internal error: {type(exc).__name__}: {text[0] if text else ''}"
+    return JobResult(job.name, status, error, time.perf_counter() - start, f"{socket.gethostname()}:{os.getpid()}")
 
 
-def run_batch(jobs, *, scheduler=None, n_workers=None, progress=False):
-    """Run ``jobs`` (sequence of :class:`BatchJob`) and return their :class:`JobResult` in job order.
+def run_batch(jobs, task, *, scheduler=None, n_workers=None, progress=False):
+    """Run ``task`` on every job of ``jobs`` (sequence of :class:`BatchJob`); their :class:`JobResult` in job order.
 
     Parameters
     ----------
+    task : callable
+        Module-level function ``task(job)``: returns on success, raises on failure.
     scheduler : None, "serial" or str
         ``None``: a new ``LocalCluster``; ``"serial"``: one after another in this process;
         otherwise the address of a running Dask scheduler.
@@ -89,7 +97,7 @@ def run_batch(jobs, *, scheduler=None, n_workers=None, progress=False):
         with progress_bar(total=len(jobs), desc="logs", unit="log", enabled=progress) as bar:
             out = []
             for job in jobs:
-                out.append(run_job(job))
+                out.append(run_job(task, job))
                 bar.update()
             return out
     try:
@@ -110,7 +118,8 @@ def run_batch(jobs, *, scheduler=None, n_workers=None, progress=False):
                 client = stack.enter_context(Client(scheduler, timeout="10s"))
             except (OSError, TimeoutError) as exc:
                 raise InputError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
-        futures = client.map(run_job, jobs, pure=False, key=[f"bayes-imu-fit-{j.name}" for j in jobs])
+        futures = client.map(run_job, [task] * len(jobs), jobs, pure=False,
+                             key=[f"bayes-imu-job-{j.name}" for j in jobs])
         results = {}
         with progress_bar(total=len(jobs), desc="logs", unit="log", enabled=progress) as bar:
             for future in as_completed(futures):

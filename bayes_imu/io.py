@@ -151,9 +151,9 @@ def read_columns(path, *, columns, time_column=None, progress=False):
     """
     path = Path(path)
     fmt = sniff_file(path)
-    wanted = [_resolve(path, fmt, c) for c in columns]
+    wanted = [resolve_column(path, fmt, c) for c in columns]
     if time_column is not None:
-        wanted.append(_resolve(path, fmt, time_column))
+        wanted.append(resolve_column(path, fmt, time_column))
     if len(set(wanted)) != len(wanted):
         raise InputError(f"{path}: the same column is asked for twice ({', '.join(fmt['names'][i] for i in wanted)})")
     table = _parse(path, fmt, sorted(set(wanted)), progress)
@@ -214,7 +214,7 @@ class SignalExtent:
                              "(smaller values underflow the Allan variance: rescale the column)")
 
 
-def _open_binary(path):
+def open_binary(path):
     """File object of the (decompressed) bytes; gzip detected by its magic number."""
     raw = open(path, "rb")
     magic = raw.read(2)
@@ -231,7 +231,7 @@ def _head(path, size=_SNIFF_BYTES):
     if not path.is_file():
         raise InputError(f"{path}: not a regular file (a pipe or device); save the log to a file first")
     try:
-        stream, raw = _open_binary(path)
+        stream, raw = open_binary(path)
         with raw:
             head = stream.read(size)
     except (OSError, EOFError, zlib.error) as exc:
@@ -343,7 +343,7 @@ def _is_number(field):
     return True
 
 
-def _resolve(path, fmt, column):
+def resolve_column(path, fmt, column):
     """0-based index of a column given by name or index."""
     names = fmt["names"]
     key = str(column).strip()
@@ -365,24 +365,24 @@ def _resolve(path, fmt, column):
 
 
 def _parse(path, fmt, usecols, progress):
-    """Fast path: pandas' C reader on the selected columns; anything odd goes to :func:`_diagnose`."""
+    """Fast path: pandas' C reader on the selected columns; anything odd goes to :func:`diagnose_text`."""
     import pandas as pd
 
     with progress_bar(total=path.stat().st_size, desc=f"reading {path.name}", unit="B", enabled=progress) as bar:
-        stream, raw = _open_binary(path)
+        stream, raw = open_binary(path)
         try:
             with raw:
                 frame = pd.read_csv(io.BufferedReader(_Counting(stream, raw, bar), buffer_size=1 << 20),
                                     low_memory=False, **csv_options(fmt, usecols))
         except (ValueError, pd.errors.ParserError, UnicodeDecodeError):
-            _diagnose(path, fmt, usecols)
+            diagnose_text(path, fmt, usecols)
         except (OSError, EOFError, zlib.error) as exc:
             raise InputError(f"{path}: cannot read ({_first_line(exc)})") from None
     table = np.column_stack([frame[i].to_numpy(dtype=np.float64) for i in usecols])
     if table.shape[0] == 0:
         raise InputError(f"{path}: a header row but no samples; expected samples below the header")
     if not np.all(np.isfinite(table)):  # NaN: also a too-short row that leaves a wanted field empty
-        _diagnose(path, fmt, usecols)
+        diagnose_text(path, fmt, usecols)
     return table
 
 
@@ -418,7 +418,7 @@ class _Counting(io.RawIOBase):
 
 def _data_lines(path, fmt):
     """Yield ``(line number, fields)`` of every data row (after the header), in file order."""
-    stream, raw = _open_binary(path)
+    stream, raw = open_binary(path)
     with raw, io.TextIOWrapper(stream, encoding="utf-8-sig", newline=None) as text:
         header_pending = fmt["header"]
         for number, line in enumerate(text, 1):
@@ -431,7 +431,7 @@ def _data_lines(path, fmt):
             yield number, _split(content, fmt["delimiter"])
 
 
-def _diagnose(path, fmt, usecols):
+def diagnose_text(path, fmt, usecols):
     """Slow path: find the first bad line and raise its one-line :class:`InputError`."""
     try:
         _find_bad_line(path, fmt, usecols)

@@ -106,11 +106,11 @@ class _Source:
         if suffix in _TEXT or (suffix not in BINARY_SUFFIXES and column is not None):
             if column is None:
                 raise InputError(f"{path}: a text log needs a column (name or 0-based index)")
-            from .io import _resolve, sniff_file
+            from .io import resolve_column, sniff_file
 
             self.kind = "text"
             self.fmt = sniff_file(path)
-            self.index = _resolve(path, self.fmt, column)
+            self.index = resolve_column(path, self.fmt, column)
         elif suffix == ".npy":
             self.kind = "npy"
             self.dtype, self.offset, self.count = _npy_layout(path)
@@ -143,9 +143,9 @@ class _Source:
     def _text_chunks(self):
         import pandas as pd
 
-        from .io import _diagnose, _open_binary, csv_options
+        from .io import diagnose_text, open_binary, csv_options
 
-        stream, raw = _open_binary(self.path)
+        stream, raw = open_binary(self.path)
         done = 0
         with raw:
             try:
@@ -153,11 +153,11 @@ class _Source:
                 for frame in reader:
                     values = frame[self.index].to_numpy(dtype=np.float64)
                     if not np.all(np.isfinite(values)):
-                        _diagnose(self.path, self.fmt, [self.index])
+                        diagnose_text(self.path, self.fmt, [self.index])
                     yield done, values
                     done += values.size
             except (ValueError, pd.errors.ParserError):
-                _diagnose(self.path, self.fmt, [self.index])
+                diagnose_text(self.path, self.fmt, [self.index])
             except (OSError, EOFError, zlib.error) as exc:  # a corrupt or truncated gzip member
                 text = str(exc).strip().splitlines()
                 raise InputError(f"{self.path}: cannot read ({text[0] if text else type(exc).__name__})") from None

@@ -5,7 +5,7 @@ import numpy as np
 __all__ = ["plot_allan", "plot_allan_fit", "plot_corner", "plot_drift", "plot_population"]
 
 
-def _pyplot():
+def pyplot():
     import matplotlib
 
     matplotlib.use("Agg")
@@ -14,14 +14,14 @@ def _pyplot():
     return plt
 
 
-def plot_allan(result, path, *, label=""):
+def plot_allan(result, path, *, label="", unit="u"):
     """Log-log Allan deviation with its interval bars and the -1/2, 0, +1/2 slope guides.
 
     The guides pass through the curve's first point (-1/2: angle / velocity random
     walk), its minimum (0: bias instability) and its last point (+1/2: rate random walk);
     they are reading aids, not fits.
     """
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 5))
     tau, adev = result.tau, result.adev
     err = np.vstack([adev - result.adev_low, result.adev_high - adev])
@@ -42,7 +42,7 @@ def plot_allan(result, path, *, label=""):
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("averaging time tau (s)")
-    ax.set_ylabel("Allan deviation (input units)")
+    ax.set_ylabel(f"Allan deviation ({unit})")
     ax.set_title(f"Overlapping Allan deviation, {result.confidence:.1%} intervals")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
@@ -51,7 +51,7 @@ def plot_allan(result, path, *, label=""):
     plt.close(fig)
 
 
-def plot_allan_fit(fit, path, *, label="", unit="input units", rng=None):
+def plot_allan_fit(fit, path, *, label="", unit="u", rng=None):
     """Observed Allan deviation with intervals, the 90% posterior predictive band, each term,
     and a panel of the whitened residuals of the goodness-of-fit check.
 
@@ -63,7 +63,7 @@ def plot_allan_fit(fit, path, *, label="", unit="input units", rng=None):
         Unit of the rate samples (after any conversion).
     rng : seed for the posterior draws shown.
     """
-    plt = _pyplot()
+    plt = pyplot()
     allan = fit.allan
     tau_f = np.geomspace(allan.tau[0], allan.tau[-1], 80)
     m_f = np.unique(np.maximum(1, np.round(tau_f * allan.rate_hz)).astype(np.int64))
@@ -117,7 +117,7 @@ def plot_corner(fit, path, *, unit="u"):
     Each panel's title gives the median and the 5% / 95% quantiles; tick labels are plain
     numbers (no offset notation), so a tightly pinned parameter still reads correctly.
     """
-    plt = _pyplot()
+    plt = pyplot()
     import corner
     from matplotlib.ticker import LogFormatterSciNotation
 
@@ -173,7 +173,7 @@ def plot_drift(bands_list, path, *, units, title="", min_probability=0.1):
     min_probability : float
         Terms whose posterior probability (model averaging) is lower are not drawn (listed).
     """
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(1, len(bands_list), figsize=(6.5 * len(bands_list), 6.6), squeeze=False)
     for ax, bands, unit in zip(axes[0], bands_list, units):
         keep = bands.total[0] > 0  # the double integral is exactly 0 after one sample
@@ -238,7 +238,7 @@ def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None,
     drift_unit : str, optional
         Unit of the drift values shown (default: the integrated unit of ``unit``).
     """
-    plt = _pyplot()
+    plt = pyplot()
     panels = 2 if bands is not None else 1
     fig, axes = plt.subplots(1, panels, figsize=(6.5 * panels, 4.8), squeeze=False)
     ax = axes[0][0]

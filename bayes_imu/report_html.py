@@ -55,9 +55,9 @@ def _data_uri(png):
 
 
 def _comparison_figure(report, target):
-    from .plots import _pyplot
+    from .plots import pyplot
 
-    plt = _pyplot()
+    plt = pyplot()
     quantities = [q for q in OUTPUT_UNITS if any(q in SENSOR_QUANTITIES[s.spec.kind] for s in report.sensors)]
     fig, axes = plt.subplots(1, len(quantities), figsize=(6 * len(quantities), 4.3), squeeze=False)
     for ax, quantity in zip(axes[0], quantities):

@@ -64,7 +64,8 @@ class TimeBase:
     start, stop : int
         The samples used are ``[start, stop)`` (0-based).
     first_line, last_line : int or None
-        File lines of the first and last sample used (with a time column).
+        File lines (or bag messages) of the first and last sample used; ``None`` where the
+        reader does not count lines (binary logs).
     irregular : int
         Number of irregular steps found.
     dropped : int
@@ -120,7 +121,8 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
     if time_s is None:
         if rate_hz is None:
             raise InputError(f"{where}: no sample rate: give --rate HZ or a --time-column")
-        return TimeBase(rate_hz, "--rate", 0, int(n_samples))
+        first, last = (int(lines[0]), int(lines[-1])) if lines is not None and len(lines) else (None, None)
+        return TimeBase(rate_hz, "--rate", 0, int(n_samples), first, last)
     t = np.asarray(time_s, dtype=np.float64)
     lines = np.arange(2, t.size + 2) if lines is None else np.asarray(lines)
     if t.size < 3:

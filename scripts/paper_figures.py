@@ -95,7 +95,7 @@ def fig1(out, rng, quick):
     model = NoiseModel(("gauss_markov",), 1.0 / rate)
     y = simulate_log(model, {"bias_variance": SIGMA2_FIG1, "time_constant": TAU_FIG1}, n, rng=rng)
     res = autocorrelation_fit(y, rate_hz=rate, max_lag_s=5 * TAU_FIG1)
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     ax.plot(res.lag_s, res.acf, lw=1, label="numerical autocorrelation (simulated data)")
     ax.plot(res.lag_s, SIGMA2_FIG1 * np.exp(-res.lag_s / TAU_FIG1), "k--", label=r"eq 4, $\sigma^2=4$, $\tau=300$ s")
@@ -116,7 +116,7 @@ def fig2_3(out, rng, quick):
     high = NoiseModel(("white",), DT)
     p_low = {"noise_variance": 0.25, "bias_variance": 1e-3, "time_constant": 30.0}
     p_high = {"noise_variance": 4e-4}
-    plt = _pyplot()
+    plt = pyplot()
     curves = {}
     for name, model, p in (("low grade", low, p_low), ("high grade", high, p_high)):
         res = allan_variance(simulate_log(model, p, n, rng=rng), rate_hz=1 / DT)
@@ -157,7 +157,7 @@ def monte_carlo_figures(out, rng, n_paths, n_steps):
         (9, "markov2", "double integrated Markov process", "eq 29 corrected"),
         (10, "sensor2", "double integrated sensor measurement", "eq 30 (with eqs 11, 29 corrected)"),
     ]
-    plt = _pyplot()
+    plt = pyplot()
     worst = {}
     for number, key, title, eq in specs:
         fig, ax = plt.subplots(figsize=(6.4, 4.2))
@@ -192,7 +192,7 @@ def monte_carlo_figures(out, rng, n_paths, n_steps):
     return worst
 
 
-def _pyplot():
+def pyplot():
     import matplotlib
 
     matplotlib.use("Agg")

@@ -15,7 +15,7 @@ def test_drift_command_writes_csv_matching_api(tmp_path, capsys):
     path.write_text(json.dumps(sensor))
     assert main(["drift", str(path), "--out", str(tmp_path / "o"), "--horizon", "60"]) == 0
     rows = (tmp_path / "o" / "drift.csv").read_text().splitlines()
-    assert rows[0] == "t_s,quantity,white,bias,random_walk,total"
+    assert rows[0] == "t_s,quantity,white,bias,random_walk,total,unit"
     last_position = [r.split(",") for r in rows[1:] if r.split(",")[1] == "position"][-1]
     expected = drift_sigma(60.0, quantity="position", dt=1 / 200, noise_density=2e-3, bias_variance=1e-6, time_constant=300)
     assert float(last_position[0]) == 60.0

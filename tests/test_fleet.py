@@ -45,7 +45,11 @@ def test_local_cluster_matches_serial_and_isolates_failures(tmp_path, logs, caps
     batch = json.loads((out / "batch.json").read_text())
     assert [r["status"] for r in batch["logs"]] == [0, 0, 0, 2] and batch["n_failed"] == 1
     assert batch["scheduler"] == "LocalCluster" and batch["logs_per_minute"] > 0
-    assert len({r["worker"] for r in batch["logs"]}) >= 1 and not (out / "unit_bad").exists()
+    import os
+
+    # every log ran in a worker process, not in this one
+    assert all(r["worker"].rsplit(":", 1)[1] != str(os.getpid()) for r in batch["logs"])
+    assert not (out / "unit_bad").exists()
     serial = _serial_summaries(tmp_path, paths)
     for path in paths:  # the same seed gives the same bytes, whichever process ran it
         assert (out / path.stem / "summary.json").read_bytes().replace(str(out / path.stem).encode(), b"") == \
@@ -82,3 +86,25 @@ def test_batch_refuses_busy_output_and_bad_scheduler(tmp_path, logs, capsys):
                  "--out", str(tmp_path / "o")]) == 2
     assert "cannot connect" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()  # the claimed folder is removed with the failed run
+
+
+def _task(job):
+    """A library task: succeed, fail as a user error, or fail internally, by the job's argument."""
+    from bayes_imu.errors import InputError
+
+    if job.argv == ("user",):
+        raise InputError("bad input in job")
+    if job.argv == ("bug",):
+        raise ZeroDivisionError("division by zero")
+
+
+def test_run_batch_maps_failures_to_statuses():
+    """The library runs any task (it never calls the command line): 0 success, 2 user error, 1 internal."""
+    from bayes_imu.fleet import BatchJob, run_batch
+
+    jobs = [BatchJob("ok", ("ok",)), BatchJob("user", ("user",)), BatchJob("bug", ("bug",))]
+    results = run_batch(jobs, _task, scheduler="serial")
+    assert [r.status for r in results] == [0, 2, 1]
+    assert results[1].error == "bayes-imu: error: bad input in job"
+    assert results[2].error == "bayes-imu: internal error: ZeroDivisionError: division by zero"
+    assert [r.name for r in results] == ["ok", "user", "bug"]

@@ -1,0 +1,115 @@
+"""Every figure: it decodes as a PNG of the expected size, and carries its labels, units and legend entries."""
+
+import numpy as np
+import pytest
+
+from bayes_imu import NoiseModel, allan_variance, fit_allan, simulate_log
+from bayes_imu import plots
+from bayes_imu.bands import drift_bands
+
+
+@pytest.fixture
+def figures(monkeypatch):
+    """The figures the plot functions close, kept for inspection."""
+    import matplotlib.pyplot as real
+
+    kept = []
+
+    class Shim:
+        def __getattr__(self, name):
+            return getattr(real, name)
+
+        @staticmethod
+        def close(fig):
+            kept.append(fig)
+
+    monkeypatch.setattr(plots, "pyplot", lambda: Shim())
+    yield kept
+    for fig in kept:
+        real.close(fig)
+
+
+@pytest.fixture(scope="module")
+def fit():
+    model = NoiseModel(("white", "gauss_markov"), 0.01)
+    y = simulate_log(model, {"noise_variance": 1e-4, "bias_variance": 1e-7, "time_constant": 20.0}, 60_000, rng=3)
+    return fit_allan(allan_variance(y, rate_hz=100.0), terms=("white", "gauss_markov"), rng=0)
+
+
+def _texts(fig):
+    out = []
+    for ax in fig.axes:
+        out += [ax.get_xlabel(), ax.get_ylabel(), ax.get_title()]
+        legend = ax.get_legend()
+        if legend is not None:
+            out += [t.get_text() for t in legend.get_texts()]
+        out += [t.get_text() for t in ax.texts]
+    return " | ".join(out)
+
+
+def _png(path, min_size=(300, 200)):
+    import matplotlib.image
+
+    image = matplotlib.image.imread(path)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert image.shape[1] >= min_size[0] and image.shape[0] >= min_size[1]
+    assert image[..., :3].std() > 0.05  # not blank
+    return image
+
+
+def test_allan_plot_labels_its_unit(tmp_path, figures, fit):
+    plots.plot_allan(fit.allan, tmp_path / "a.png", label="log: gx", unit="rad/s")
+    _png(tmp_path / "a.png")
+    text = _texts(figures[-1])
+    assert "Allan deviation (rad/s)" in text and "averaging time tau (s)" in text and "log: gx" in text
+
+
+def test_allan_fit_has_band_terms_and_residuals(tmp_path, figures, fit):
+    plots.plot_allan_fit(fit, tmp_path / "f.png", unit="rad/s", rng=0)
+    _png(tmp_path / "f.png")
+    text = _texts(figures[-1])
+    for word in ("posterior 90% band", "white noise", "Gauss-Markov bias", "whitened", "goodness of fit", "(rad/s)"):
+        assert word in text, word
+
+
+def test_corner_has_units_and_no_offset_ticks(tmp_path, figures, fit):
+    plots.plot_corner(fit, tmp_path / "c.png", unit="rad/s")
+    _png(tmp_path / "c.png")
+    fig = figures[-1]
+    text = _texts(fig)
+    assert "noise_variance\n[(rad/s)^2]" in text and "time_constant\n[s]" in text
+    fig.canvas.draw()
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            assert axis.get_offset_text().get_text() == ""
+
+
+def test_drift_plot_labels_terms_with_probability(tmp_path, figures, fit):
+    bands = drift_bands(fit, quantity="attitude", bias_start="calibrated", horizon_s=1000.0)
+    plots.plot_drift([bands.scaled(180 / np.pi)], tmp_path / "d.png", units=["deg"])
+    _png(tmp_path / "d.png")
+    text = _texts(figures[-1])
+    assert "1-sigma attitude error (deg)" in text and "time since GPS loss (s)" in text
+    assert "white noise" in text and "credible band" in text
+    assert "bias calibrated over 60 s" in text
+    for name, p in bands.term_probability.items():
+        label = plots._TERM_LABEL[name]
+        assert (label in text) == (p >= 0.1), name
+
+
+def test_population_plot(tmp_path, figures):
+    from bayes_imu.population import fit_population
+
+    rng = np.random.default_rng(5)
+    model = NoiseModel(("white",), 0.01)
+    allans = [allan_variance(simulate_log(model, {"noise_variance": v}, 5000, rng=rng), rate_hz=100.0)
+              for v in (1e-4, 1.2e-4, 0.9e-4)]
+    pop = fit_population(allans, labels=["a", "b", "c"], terms=("white",), rng=0)
+    bands = drift_bands(pop.new_unit, quantity="attitude", bias_start="zero", horizon_s=10.0)
+    plots.plot_population(pop, tmp_path / "p.png", unit="rad/s", bands=bands, unit_bands=[bands] * 3,
+                          drift_unit="rad")
+    _png(tmp_path / "p.png")
+    text = _texts(figures[-1])
+    for word in ("new unit, 90% predictive band", "a", "b", "c", "Allan deviation (rad/s)",
+                 "1-sigma attitude error (rad)", "a alone, median"):
+        assert word in text, word
