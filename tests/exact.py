@@ -65,3 +65,21 @@ def mpmath_variance(order, k, a, *, prec=400):
             base = compose(base, base)
             kk >>= 1
         return result[1][order, order]
+
+
+def fraction_variance_dt(order, k, *, dt, tau, q=1):
+    """Gauss-Markov variance of state ``order`` after ``k`` steps with an explicit time step, exactly.
+
+    The paper's recursion with dt written out (no scaling argument): ``b_k = (1 - dt/tau) b_{k-1}
+    + dt w_{k-1}`` with ``var(w) = q``, ``v_k = v_{k-1} + dt b_{k-1}``, ``p_k = p_{k-1} + dt v_{k-1}``;
+    ``dt``, ``tau`` and ``q`` are converted to fractions without rounding.
+    """
+    dt, q = Fraction(dt), Fraction(q)
+    A = 1 - dt / Fraction(tau)
+    F = [[A, 0, 0], [dt, 1, 0], [0, dt, 1]]
+    P = [[Fraction(0)] * 3 for _ in range(3)]
+    for _ in range(k):
+        FP = [[sum(F[i][m] * P[m][j] for m in range(3)) for j in range(3)] for i in range(3)]
+        P = [[sum(FP[i][m] * F[j][m] for m in range(3)) for j in range(3)] for i in range(3)]
+        P[0][0] += dt * dt * q
+    return P[order][order]

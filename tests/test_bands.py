@@ -56,8 +56,10 @@ def test_bias_instability_without_calibration_is_sqrt2_plateau():
     form is in test_noise_drift."""
     fit = fake_fit(("bias_instability",), [[0.01]])
     t = np.array([1.0, 10.0, 100.0])
-    adev = 0.01 * np.sqrt(2 * np.log(2) / np.pi)
-    np.testing.assert_allclose(drift_draws(fit, t, quantity="attitude")["total"][0], np.sqrt(2) * adev * t, rtol=1e-9)
+    # by the Allan variance's definition, AVAR(m) = E[(mean_2 - mean_1)^2] / 2 over adjacent m-sample means:
+    # the attitude error t (mean_2 - mean_1) has variance 2 AVAR(m) t^2 (the model's sampled-data AVAR)
+    avar = fit.model.avar(np.round(t / 0.01), {"bias_instability": np.array(0.01)})
+    np.testing.assert_allclose(drift_draws(fit, t, quantity="attitude")["total"][0], np.sqrt(2 * avar) * t, rtol=1e-9)
 
 
 def test_default_times_and_units():

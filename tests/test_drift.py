@@ -74,9 +74,12 @@ def test_random_walk_limit_tau_infinite(order):
 
 
 def test_dt_scaling_of_gauss_markov():
+    """Against the recursion with dt written out (exact fractions; no dt**6 scaling assumed)."""
+    from exact import fraction_variance_dt
+
     dt, tau, q = 0.01, 3.0, 2.5
-    got = euler_variance("gauss_markov", 2, 500, dt=dt, noise_variance=q, time_constant=tau)
-    assert _rel(got, q * dt**6 * mpmath_variance(2, 500, dt / tau)) < REL
+    got = euler_variance("gauss_markov", 2, 300, dt=dt, noise_variance=q, time_constant=tau)
+    assert _rel(got, float(fraction_variance_dt(2, 300, dt=dt, tau=tau, q=q))) < REL
 
 
 @pytest.mark.parametrize("ratio", [2.0, 2.5, 10.0])
@@ -248,11 +251,16 @@ def test_stationary_start_adds_initial_bias_term():
     zero = drift_sigma(t, quantity="position", dt=dt, bias_variance=sigma_b2, time_constant=tau)
     stat = drift_sigma(t, quantity="position", dt=dt, bias_variance=sigma_b2, time_constant=tau, bias_start="stationary")
     assert np.all(stat.bias >= zero.bias)
-    # a stationary bias integrated twice: for t << tau it is a constant bias, p = b t(t - dt)/2
-    a = -np.expm1(-dt / tau)
-    k = np.round(t / dt)
-    extra = sigma_b2 * (dt**2 * gm_coefficient(2, k, np.full_like(k, a))) ** 2
-    np.testing.assert_allclose(stat.bias**2 - zero.bias**2, extra, rtol=1e-12)
+    # the initial bias b_0 ~ N(0, sigma_b^2) carried by the exact AR(1) recursion with dt written out:
+    # p_k = p_{k-1} + dt v_{k-1}, v_k = v_{k-1} + dt b_{k-1}, b_k = A b_{k-1}
+    A = np.exp(-dt / tau)
+    extra = []
+    for k in np.round(t / dt).astype(int):
+        b, v, p = 1.0, 0.0, 0.0
+        for _ in range(k):
+            b, v, p = A * b, v + dt * b, p + dt * v
+        extra.append(sigma_b2 * p * p)
+    np.testing.assert_allclose(stat.bias**2 - zero.bias**2, extra, rtol=1e-10, atol=1e-30)
 
 
 def test_random_walk_drift():

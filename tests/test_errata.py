@@ -89,11 +89,17 @@ def test_eq29_printed_is_wrong_and_corrected_is_exact(k, A):
 
 
 def test_eq28_time_step_power_is_six():
-    """Eq 28/29 print dt**3; the triple sum of eq 24 carries dt**3 in x_k, so dt**6 in its variance."""
-    dt = 0.5
-    one = euler_variance("gauss_markov", 2, 9, dt=1.0, noise_variance=1.0, time_constant=4.0)
-    half = euler_variance("gauss_markov", 2, 9, dt=dt, noise_variance=1.0, time_constant=4.0 * dt)
-    assert half == pytest.approx(dt**6 * one, rel=1e-14)
+    """Eq 28/29 print dt**3: against the recursion propagated with dt written out (exact fractions,
+    no scaling argument), the time step enters as dt**6; the printed dt**3 is off by dt**3."""
+    from exact import fraction_variance_dt
+
+    for dt in (0.5, 0.125):
+        got = euler_variance("gauss_markov", 2, 9, dt=dt, noise_variance=1.0, time_constant=4.0 * dt)
+        exact = fraction_variance_dt(2, 9, dt=dt, tau=4.0 * dt)
+        assert got == pytest.approx(float(exact), rel=1e-14)
+        unit = float(fraction_variance_dt(2, 9, dt=1.0, tau=4.0))  # the same sum at dt = 1
+        assert float(exact) / unit == pytest.approx(dt**6, rel=1e-14)
+        assert abs(float(exact) / unit - dt**3) > 0.5 * dt**3  # the printed power
 
 
 @pytest.mark.parametrize("k, A", CASES)
