@@ -116,3 +116,40 @@ def test_model_validation():
     with pytest.raises(InputError, match="cluster sizes"):
         NoiseModel(("white",), 0.01).avar(np.array([0, 1]), {"noise_variance": 1.0})
     assert NoiseModel(("gauss_markov", "white"), 1.0).terms == ("white", "gauss_markov")
+
+
+def _avar_brute(cov, m):
+    """AVAR(m) from its definition: half the variance of the difference of adjacent m-sample means, a' S a / 2."""
+    a = np.concatenate([-np.ones(m), np.ones(m)]) / m
+    return 0.5 * a @ cov @ a
+
+
+@pytest.mark.parametrize("m", [1, 3, 10])
+def test_per_term_avar_functions_against_definitions(m):
+    """white, quantization, rate random walk and ramp against covariance matrices built from each
+    process's definition (dt = 0.25)."""
+    from bayes_imu.models import quantization_avar, ramp_avar, white_avar
+
+    dt, n = 0.25, 2 * m
+    # white: y_k iid, variance q
+    assert white_avar(np.array([m]), 2.0)[0] == pytest.approx(_avar_brute(2.0 * np.eye(n), m), rel=1e-12)
+    # quantization: phase noise e_k iid (variance Q^2), y_k = (e_{k+1} - e_k) / dt
+    d = (np.eye(n + 1)[1:] - np.eye(n + 1)[:-1]) / dt
+    cov = 0.3**2 * d @ d.T
+    assert quantization_avar(np.array([m]), 0.3, dt=dt)[0] == pytest.approx(_avar_brute(cov, m), rel=1e-12)
+    # rate random walk: y_k = sum_{i<=k} w_i, var(w) = K^2 dt (constant offsets cancel in the contrast)
+    i = np.arange(1, n + 1)
+    cov = 0.1**2 * dt * np.minimum.outer(i, i)
+    assert random_walk_avar(np.array([m]), 0.1, dt=dt)[0] == pytest.approx(_avar_brute(cov, m), rel=1e-12)
+    # ramp: y_k = R k dt, deterministic: AVAR = (difference of the means)^2 / 2
+    y = 0.7 * np.arange(n) * dt
+    assert ramp_avar(np.array([m]), 0.7, dt=dt)[0] == pytest.approx(0.5 * (y[m:].mean() - y[:m].mean()) ** 2,
+                                                                    rel=1e-12)
+
+
+def test_bias_instability_avar_is_flat_at_its_definition():
+    """Flicker: AVAR = 2 ln2 B^2 / pi at every m (IEEE Std 952's definition of B)."""
+    from bayes_imu.models import bias_instability_avar
+
+    m = np.array([1, 2, 10, 1000])
+    np.testing.assert_allclose(bias_instability_avar(m, 0.5), 2 * np.log(2) * 0.25 / np.pi, rtol=1e-12)

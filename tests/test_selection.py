@@ -1,0 +1,70 @@
+"""Model selection: the candidate set, the selection rule, probabilities, stepwise moves; max_outage."""
+
+import numpy as np
+import pytest
+
+from bayes_imu import NoiseModel
+from bayes_imu.population import UnitPosterior
+from bayes_imu.report import max_outage
+from bayes_imu.selection import CandidateScore, candidate_terms, extensions, model_probabilities, reductions, select
+
+
+def _score(terms, log_z, se=0.0):
+    return CandidateScore(tuple(terms), float(log_z), float(se), 1000.0, np.zeros(len(terms)))
+
+
+def test_candidate_terms_are_white_plus_every_subset():
+    cands = candidate_terms()
+    assert len(cands) == 16 and len(set(cands)) == 16
+    assert all(c[0] == "white" for c in cands)
+    assert [len(c) for c in cands] == sorted(len(c) for c in cands)  # simplest first
+    assert set(candidate_terms(("gauss_markov",))) == {("white",), ("white", "gauss_markov")}
+
+
+def test_select_takes_the_simplest_within_threshold():
+    scores = [_score(["white"], 8.0), _score(["white", "gauss_markov"], 9.5),
+              _score(["white", "gauss_markov", "random_walk"], 10.0)]
+    assert select(scores) == 1  # 0.5 nat below the best, fewer terms; the one-term model is 2 nats below
+    assert select(scores, threshold=0.1) == 2
+    assert select(scores, threshold=2.5) == 0
+    # the Monte Carlo error widens the margin: 1 + 2 * hypot(0.6, 0) = 2.2 nats
+    noisy = [_score(["white"], 8.0, 0.6)] + scores[1:]
+    assert select(noisy) == 0
+
+
+def test_select_breaks_ties_in_size_by_evidence():
+    scores = [_score(["white", "quantization"], 9.2), _score(["white", "gauss_markov"], 9.9),
+              _score(["white", "gauss_markov", "random_walk"], 10.0)]
+    assert select(scores) == 1
+
+
+def test_model_probabilities_are_normalised_evidences():
+    log_z = np.array([-1000.0, -1001.0, -1003.5])
+    p = model_probabilities([_score(["white"] * 1, z) for z in log_z])
+    w = np.exp(log_z - log_z.max())
+    np.testing.assert_allclose(p, w / w.sum(), rtol=1e-12)
+    assert p.sum() == pytest.approx(1.0)
+
+
+def test_stepwise_moves():
+    ext = extensions(("white",))
+    assert ("white", "gauss_markov_2") not in ext and ("white", "gauss_markov") in ext
+    assert ("white", "gauss_markov", "gauss_markov_2") in extensions(("white", "gauss_markov"))
+    red = reductions(("white", "gauss_markov", "gauss_markov_2", "ramp"))
+    assert ("gauss_markov", "gauss_markov_2", "ramp") not in red  # white stays
+    assert ("white", "gauss_markov_2", "ramp") not in red  # gauss_markov goes only with its second
+    assert ("white", "gauss_markov", "ramp") in red and ("white", "gauss_markov", "gauss_markov_2") in red
+
+
+@pytest.mark.parametrize("bias_start", ["zero", "calibrated"])
+def test_max_outage_white_noise(bias_start):
+    """White noise q per sample, zero bias start: sigma(t)^2 = q dt t exactly, so the longest outage within E
+    is E^2 / (q dt) (to one sample); a calibrated start only adds error, so it is shorter."""
+    dt, q, limit = 0.01, 4e-4, 0.01
+    post = UnitPosterior(NoiseModel(("white",), dt), np.array([[q]]), 1e4)
+    t = max_outage(post, "attitude", limit, 0.95, bias_start=bias_start, calibration_s=10.0)
+    exact = limit**2 / (q * dt)
+    if bias_start == "zero":
+        assert abs(t - exact) <= dt
+    else:  # the mean of 10 s removed adds q dt t^2 / 10 s: solve q dt t (1 + t / 10) = E^2
+        assert t == pytest.approx((-1 + np.sqrt(1 + 4 * exact / 10.0)) / (2 / 10.0), abs=2 * dt)
