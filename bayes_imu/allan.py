@@ -13,7 +13,9 @@ Riley & Greenhall, "Power law noise identification using the lag 1 autocorrelati
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
+from ._lazy import LazyModule
+
+stats = LazyModule("scipy.stats")
 
 from ._kernels import phase_from_rate, second_difference_sums
 from ._progress import progress_bar

@@ -40,7 +40,9 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import special
+from ._lazy import LazyModule
+
+special = LazyModule("scipy.special")
 
 from ._version import __version__
 from .allan import AllanResult

@@ -35,7 +35,11 @@ from dataclasses import dataclass
 from itertools import combinations
 
 import numpy as np
-from scipy import optimize, special, stats
+from ._lazy import LazyModule
+
+optimize = LazyModule("scipy.optimize")
+special = LazyModule("scipy.special")
+stats = LazyModule("scipy.stats")
 
 __all__ = ["CandidateScore", "Adequacy", "ModeResult", "EvidenceResult", "candidate_terms", "extensions",
            "posterior_mode", "log_evidence", "select", "model_probabilities", "adequacy", "at_prior_bound",

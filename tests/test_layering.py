@@ -6,7 +6,7 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "bayes_imu"
 STAGES = {
-    0: {"errors", "_version", "_progress"},
+    0: {"errors", "_version", "_progress", "_lazy"},
     1: {"io", "timebase", "bags"},
     2: {"allan", "allan_table", "outofcore", "autocorr", "_kernels"},
     3: {"noise", "models", "simulate", "avar_covariance", "_euler", "datasheet"},

@@ -76,3 +76,11 @@ def test_copula_scores_at_truth_are_standard_normal_with_model_correlation(rng):
     empirical = np.corrcoef(scores.T)
     k = np.arange(m.size - 1)
     np.testing.assert_allclose(empirical[k, k + 1], rho[k, k + 1], atol=0.1)
+
+
+def test_max_score_is_the_normal_score_of_the_smallest_probability():
+    from scipy import special
+
+    from bayes_imu import likelihood
+
+    assert likelihood._MAX_SCORE == float(-special.ndtri(np.finfo(float).tiny))
