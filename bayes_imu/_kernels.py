@@ -15,6 +15,7 @@ __all__ = ["phase_from_rate", "phase_chunk", "second_difference_sum", "second_di
 
 _BLOCK = 1 << 14
 _compiled = {}
+_pair_sum = None  # the compiled pair sum, set by _compile
 
 
 def _compile():
@@ -22,6 +23,9 @@ def _compile():
         return _compiled
     import numba
 
+    # a module global, not a closure variable: numba's cache keys a closure's captured
+    # dispatcher by identity, so a kernel calling one recompiled in every process
+    global _pair_sum
     _pair_sum = numba.njit(cache=True)(_pair_sum_py)
 
     @numba.njit(parallel=True, cache=True)
