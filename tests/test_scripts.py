@@ -60,3 +60,26 @@ def test_scripts_offer_a_quick_run(script):
                           timeout=120)
     assert done.returncode == 0, done.stderr
     assert "--quick" in done.stdout
+
+
+@pytest.mark.slow
+def test_bench_population_quick(tmp_path):
+    """Two cells, one replicate each: the table has a row per cell with coverages in [0, 1]."""
+    out = _run("bench_population.py", "--quick", "--csv", str(tmp_path / "p.csv"))
+    rows = re.findall(r"^\s+(0\.\d)\s+(\d)\s+(\d+)\s+([\d.]+) \+-[\d.]+\s+([\d.]+) \+-[\d.]+\s+([\d.]+)\s+([\d.]+)$",
+                      out, re.M)
+    assert [(r[0], r[1]) for r in rows] == [("0.1", "3"), ("0.3", "3")]
+    for r in rows:
+        assert all(0.0 <= float(v) <= 1.0 for v in r[3:6]) and float(r[6]) > 0
+    with open(tmp_path / "p.csv") as f:
+        assert len(list(csv.DictReader(f))) == 2
+
+
+@pytest.mark.slow
+def test_validate_population_quick(tmp_path):
+    """gyro_x of three ADIS16405 units, each held out once (skips without ../shared)."""
+    out = _run("validate_population.py", "--quick", "--cache", str(tmp_path / "cache"), "--workers", "2")
+    if out.startswith("skipped"):
+        pytest.skip(out.strip())
+    share = float(re.search(r"drift: \d+ of \d+ \(unit, axis, horizon\) points = ([\d.]+)%", out).group(1))
+    assert share >= 75.0  # 12 points; the full run's table is in docs/validation/population.md
