@@ -11,13 +11,12 @@ import dataclasses
 from .allan import allan_variance
 from .bags import is_bag, read_imu_bag
 from .errors import InputError
-from .io import INCREMENT_UNITS, UNITS, read_columns, sniff_file
+from .io import INCREMENT_UNITS, SI_UNITS, UNITS, read_columns, sniff_file
 from .outofcore import BINARY_SUFFIXES
 from .timebase import check_time
 
 __all__ = ["allan_results"]
 
-_SI = {"gyro": "rad/s", "accel": "m/s^2"}
 #: fewest samples per command: 4 octave cluster sizes (1, 2, 4, 8 <= N/4) for a fit
 _MIN_SAMPLES = {"allan": 4, "fit": 32}
 
@@ -57,12 +56,12 @@ def allan_results(args, command, grid="octave"):
     bag = is_bag(args.log)
     if args.rate is None and args.time_column is None and not bag:
         raise InputError(f"{args.log}: no sample rate: give --rate HZ or a --time-column")
-    factor, unit = (1.0, "u") if args.units is None else (table[args.units][1], _SI[table[args.units][0]])
+    factor, unit = (1.0, "u") if args.units is None else (table[args.units][1], SI_UNITS[table[args.units][0]])
     if increments and bag:
         raise InputError(f"{args.log}: a ROS bag's sensor_msgs/Imu holds rates, not increments; leave out --input")
     if bag and args.units is None:  # sensor_msgs/Imu is SI by definition
         kinds = {c.strip().split("_")[0] for c in (args.column or "").split(",")}
-        unit = {"gyro": "rad/s", "accel": "m/s^2"}.get(kinds.pop()) if len(kinds) == 1 else None
+        unit = SI_UNITS.get(kinds.pop()) if len(kinds) == 1 else None
         if unit is None:
             raise InputError(f"--column {args.column!r}: fit gyro and accelerometer fields of a bag separately")
     if not bag and (args.stream or args.log.suffix.lower() in BINARY_SUFFIXES):
@@ -88,7 +87,7 @@ def _table(args):
     if getattr(args, "input", "rate") == "increments":
         raise InputError("--input increments does not apply to an Allan table (give it in rate units)")
     result, assumption = read_allan_table(args.allan_table, rate_hz=args.rate, n_samples=args.samples)
-    factor, unit = (1.0, "u") if args.units is None else (UNITS[args.units][1], _SI[UNITS[args.units][0]])
+    factor, unit = (1.0, "u") if args.units is None else (UNITS[args.units][1], SI_UNITS[UNITS[args.units][0]])
     info = {"allan_table": str(args.allan_table), "rate_hz": result.rate_hz, "rate_source": "--rate",
             "samples_used": result.n_samples, "intervals": assumption, "action": "Allan deviation table fitted",
             "input_units": args.units or "unspecified (u)", "unit": unit}

@@ -38,9 +38,9 @@ from ._progress import show_progress
 from ._sources import allan_results
 from .bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, SENSOR_QUANTITIES
 from .display import DISPLAY_CHOICES, display_unit
-from .drift import QUANTITY_ORDER, drift_sigma
+from .drift import DRIFT_BIAS_STARTS, QUANTITY_ORDER, SI_OUTPUT_UNITS, drift_sigma
 from .errors import BayesIMUError, InputError
-from .io import INCREMENT_UNITS, UNITS, read_text
+from .io import INCREMENT_UNITS, SI_UNITS, UNITS, read_text
 from .fit import DISCREPANCY_MODES
 from .likelihood import LIKELIHOODS
 from .noise import BIAS_STARTS, TERMS
@@ -244,7 +244,7 @@ def _build_parser():
                             "m/s^2 default, g, mg)")
     drift.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
     drift.add_argument("--horizon", type=_positive_number, default=3600.0, help="longest time (s), default 3600")
-    drift.add_argument("--bias-start", choices=("zero", "stationary"), default="zero",
+    drift.add_argument("--bias-start", choices=DRIFT_BIAS_STARTS, default="zero",
                        help="bias at the start: zero (the paper, default) or stationary")
     drift.add_argument("--display-units", choices=DISPLAY_CHOICES, default="si",
                        help="units of drift.csv and the printout: si (rad, m/s, m; default) or deg (attitude in degrees)")
@@ -653,7 +653,7 @@ def _read_sensor_json(path):
             raise InputError(f"{path}: missing key {key!r}")
     if spec["kind"] not in SENSOR_QUANTITIES:
         raise InputError(f"{path}: kind={spec['kind']!r}: expected 'gyro' or 'accel'")
-    si = "rad/s" if spec["kind"] == "gyro" else "m/s^2"
+    si = SI_UNITS[spec["kind"]]
     units = spec.get("units", si)
     if units not in UNITS or UNITS[units][0] != spec["kind"]:
         allowed = [u for u, (k, _) in UNITS.items() if k == spec["kind"]]
@@ -685,7 +685,7 @@ def _cmd_drift(args):
         raise InputError(f"--horizon={args.horizon!r}: expected a time (s) longer than one sample ({dt} s)")
     t = np.unique(np.round(np.geomspace(dt, args.horizon, 200) / dt)) * dt
     rows, shown = [], {}
-    k = UNITS[spec.get("units", "rad/s" if spec["kind"] == "gyro" else "m/s^2")][1]  # the values' unit in SI
+    k = UNITS[spec.get("units", SI_UNITS[spec["kind"]])][1]  # the values' unit in SI
     for quantity in SENSOR_QUANTITIES[spec["kind"]]:
         result = drift_sigma(
             t, quantity=quantity, dt=dt,
@@ -695,7 +695,7 @@ def _cmd_drift(args):
             random_walk=k * _positive_float(args.sensor, spec, "random_walk", 0.0),
             bias_start=args.bias_start,
         )
-        unit, f = shown[quantity] = display_unit({"attitude": "rad", "velocity": "m/s", "position": "m"}[quantity],
+        unit, f = shown[quantity] = display_unit(SI_OUTPUT_UNITS[quantity],
                                                  args.display_units)
         rows += [(ti, quantity, w * f, b * f, r * f, tot * f, unit) for ti, w, b, r, tot in
                  zip(result.t_s, result.white, result.bias, result.random_walk, result.total)]

@@ -15,12 +15,14 @@ use the white-equivalent short-term ``noise_density`` (what ADEV(1 s) reads).
 
 import numpy as np
 
+from .io import SI_UNITS
+
 __all__ = ["datasheet", "KIND_OF_UNIT", "G"]
 
 #: standard gravity (m/s^2)
 G = 9.80665
 #: kind of sensor of an SI rate unit
-KIND_OF_UNIT = {"rad/s": "gyro", "m/s^2": "accel"}
+KIND_OF_UNIT = {unit: kind for kind, unit in SI_UNITS.items()}
 _DEG = 180.0 / np.pi
 _UG = 1.0 / (G * 1e-6)
 

@@ -37,6 +37,10 @@ __all__ = [
 QUANTITY_ORDER = {"attitude": 1, "velocity": 1, "position": 2}
 _SOURCES = ("white", "gauss_markov")
 _BIAS_STARTS = ("zero", "stationary")
+#: bias starts of the closed forms (the noise terms add "calibrated")
+DRIFT_BIAS_STARTS = _BIAS_STARTS
+#: SI unit of each integrated quantity
+SI_OUTPUT_UNITS = {"attitude": "rad", "velocity": "m/s", "position": "m"}
 _DISCRETIZATIONS = ("exact", "euler")
 _MAX_STEPS = 2.0**53
 

@@ -37,6 +37,8 @@ UNITS = {
     "g": ("accel", 9.80665),
     "mg": ("accel", 9.80665e-3),
 }
+#: the SI unit of each sensor kind's rate samples
+SI_UNITS = {"gyro": "rad/s", "accel": "m/s^2"}
 #: units of delta-angle / delta-velocity increments: sensor kind and factor to SI (rad, m/s)
 INCREMENT_UNITS = {
     "rad": ("gyro", 1.0),

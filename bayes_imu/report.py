@@ -27,11 +27,12 @@ from .noise import BIAS_STARTS
 from .display import parse_amount
 from .errors import InputError
 from .fit import fit_allan
-from .io import UNITS, read_log, read_text, to_si
+from .drift import SI_OUTPUT_UNITS
+from .io import SI_UNITS, UNITS, read_log, read_text, to_si
 
 __all__ = ["Scene", "SensorSpec", "SensorReport", "Report", "read_scene", "build_report", "OUTPUT_UNITS"]
 
-OUTPUT_UNITS = {"attitude": "rad", "velocity": "m/s", "position": "m"}
+OUTPUT_UNITS = SI_OUTPUT_UNITS
 MAX_SEARCH_S = 1e6
 
 
@@ -172,11 +173,8 @@ class Report:
                 "ranking": list(self.ranking), "ranking_reason": self.reason, "bayes_imu_version": __version__}
 
 
-_SI_UNITS = {"gyro": "rad/s", "accel": "m/s^2"}
-
-
 def _si_unit(kind):
-    return _SI_UNITS[kind]
+    return SI_UNITS[kind]
 
 
 def _get(table, key, kind, where, default=None, required=True):
@@ -264,7 +262,7 @@ def read_scene(path):
             for key in ("column", "rate_hz", "units"):
                 if key in entry:
                     raise InputError(f"{where}: {key} is taken from the fit folder; leave it out with {source}")
-            specs.append(SensorSpec(name, paths, (), None, kind, _SI_UNITS[kind], source))
+            specs.append(SensorSpec(name, paths, (), None, kind, SI_UNITS[kind], source))
             continue
         units = _get(entry, "units", str, where)
         if units not in UNITS or UNITS[units][0] != kind:

@@ -16,9 +16,9 @@ import json
 import numpy as np
 
 from .bands import SENSOR_QUANTITIES
+from .io import SI_UNITS as UNITS_SI
 from .report import MAX_SEARCH_S, OUTPUT_UNITS
 
-UNITS_SI = {"gyro": "rad/s", "accel": "m/s^2"}
 
 __all__ = ["write_report", "report_html"]
 
