@@ -246,6 +246,14 @@ fit = "fit0"
     for f in pop.axes[0].population.unit_fits:
         own = np.sqrt(f.draws("noise_variance") * 0.01 * 10.0)
         assert ratio > np.quantile(own, 0.9) / np.median(own)
+    # fit folders of several units: a population without refitting any unit
+    assert main(["fit", str(paths[2]), "--column", "gx", "--rate", "100", "--units", "rad/s", "--out",
+                 str(tmp_path / "fit2"), "--quiet"]) == 0
+    folders = tmp_path / "folders.toml"
+    folders.write_text(scene.read_text().replace('fit = "fit0"', 'fits = ["fit0", "fit2"]'))
+    both_units = build_report(read_scene(folders), rng=0).sensors[1]
+    assert both_units.fit is None and both_units.axes[0].population.labels == ("1: fit0", "2: fit2")
+    np.testing.assert_array_equal(both_units.axes[0].population.unit_fits[0].samples, saved.samples)
     bad = tmp_path / "bad.toml"
     bad.write_text(scene.read_text().replace('fit = "fit0"', 'fit = "fit_u"'))
     with pytest.raises(InputError, match="fitted in 'u'"):
