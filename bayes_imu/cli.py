@@ -40,7 +40,7 @@ from .bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, SENSOR_QUANTITIES
 from .display import DISPLAY_CHOICES, display_unit
 from .drift import DRIFT_BIAS_STARTS, QUANTITY_ORDER, SI_OUTPUT_UNITS, drift_sigma
 from .errors import BayesIMUError, InputError
-from .io import INCREMENT_UNITS, SI_UNITS, UNITS, read_text
+from .io import INCREMENT_UNITS, SI_UNITS, UNITS, read_json_object
 from .fit import DISCREPANCY_MODES
 from .likelihood import LIKELIHOODS
 from .noise import BIAS_STARTS, TERMS
@@ -639,12 +639,7 @@ def _fleet_fit(job):
 
 
 def _read_sensor_json(path):
-    try:
-        spec = json.loads(read_text(path))
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: line {exc.lineno} column {exc.colno}: invalid JSON ({exc.msg})") from None
-    if not isinstance(spec, dict):
-        raise InputError(f"{path}: expected a JSON object of sensor parameters")
+    spec = read_json_object(path, "of sensor parameters")
     unknown = sorted(set(spec) - set(_SENSOR_JSON_KEYS))
     if unknown:
         raise InputError(f"{path}: unknown key {unknown[0]!r}; expected keys: {', '.join(_SENSOR_JSON_KEYS)}")

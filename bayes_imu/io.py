@@ -53,6 +53,19 @@ _SNIFF_BYTES = 1 << 16
 _DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab"}
 
 
+def read_json_object(path, what):
+    """A JSON file holding one object (``what`` names it in the errors): the dict, or one-line errors."""
+    import json
+
+    try:
+        doc = json.loads(read_text(path))
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{path}: line {exc.lineno} column {exc.colno}: invalid JSON ({exc.msg})") from None
+    if not isinstance(doc, dict):
+        raise InputError(f"{path}: expected a JSON object ({what})")
+    return doc
+
+
 def read_text(path):
     """A small UTF-8 text file (scene, sensor or summary file), with one-line errors."""
     try:

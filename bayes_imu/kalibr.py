@@ -28,14 +28,13 @@ failed its adequacy check is flagged in the file (``# WARNING`` line) and in ``a
 """
 
 from dataclasses import dataclass, field
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 
 from .errors import InputError
-from .io import UNITS, read_text
+from .io import UNITS, read_json_object
 
 __all__ = ["KalibrAxis", "KalibrValues", "kalibr_values", "kalibr_values_from_folders", "write_kalibr_yaml",
            "axis_densities", "fit_folders"]
@@ -152,13 +151,7 @@ def _summary(folder):
     summary_path = folder / "summary.json"
     if not summary_path.exists():
         raise InputError(f"{summary_path}: no such file; expected a bayes-imu fit output folder")
-    try:
-        summary = json.loads(read_text(summary_path))
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{summary_path}: invalid JSON ({exc})") from None
-    if not isinstance(summary, dict):
-        raise InputError(f"{summary_path}: expected a JSON object (a bayes-imu fit summary)")
-    return summary
+    return read_json_object(summary_path, "a bayes-imu fit summary")
 
 
 def write_kalibr_yaml(result, path, *, topic="/imu0"):

@@ -17,7 +17,6 @@ from hypothesis import strategies as st
 
 from bayes_imu import InputError
 from bayes_imu.allan import allan_variance, cluster_sizes, greenhall_edf, identify_noise
-from bayes_imu.allan import _stable32_chi2  # noqa: F401 (documented private helper)
 from bayes_imu._kernels import phase_from_rate
 
 
