@@ -38,6 +38,7 @@ truncation mass ignores the order (a small approximation where the two boxes ove
 
 import warnings
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from ._lazy import LazyModule
@@ -335,8 +336,9 @@ class _HyperPosterior:
     def n_par(self):
         return self.phis[0].shape[1]
 
-    @property
+    @cached_property
     def mean_box(self):
+        """Box of ``mu``: the union of the units' prior boxes (computed once; the posterior is called every step)."""
         lo = np.min([b[:, 0] for b in self.boxes], axis=0)
         hi = np.max([b[:, 1] for b in self.boxes], axis=0)
         return np.column_stack([lo, hi])
@@ -361,16 +363,24 @@ class _HyperPosterior:
         return out
 
 
+def log_truncated_normal(phi, box, mu, sigma):
+    """``log N_trunc(phi_n; mu_w, sigma_w)``, shape ``(W, n)``: each draw under each population row.
+
+    ``phi`` ``(n, p)``: one unit's ln-parameter draws; ``mu``, ``sigma`` ``(W, p)``; ``box`` ``(p, 2)``:
+    the truncation (that unit's prior box).
+    """
+    z = (phi[None, :, :] - mu[:, None, :]) / sigma[:, None, :]
+    norm = np.sum(np.log(sigma), axis=1) + 0.5 * phi.shape[1] * _LOG_2PI + log_box_mass(box, mu, sigma)
+    return -0.5 * np.einsum("wnp,wnp->wn", z, z) - norm[:, None]
+
+
 def unit_log_likelihood(phi, box, mu, sigma):
     """``log mean_n N_trunc(phi_n; mu, sigma)`` for each row of ``mu``, ``sigma`` ``(W, p)``.
 
     ``phi`` ``(n, p)``: one unit's single-fit posterior draws (ln parameters); ``box`` ``(p, 2)``:
     the truncation (that fit's prior box). Up to the constant ``-log pi_u``.
     """
-    z = (phi[None, :, :] - mu[:, None, :]) / sigma[:, None, :]
-    log_n = -0.5 * np.einsum("wnp,wnp->wn", z, z)
-    norm = np.sum(np.log(sigma), axis=1) + 0.5 * phi.shape[1] * _LOG_2PI + np.log(phi.shape[0])
-    return special.logsumexp(log_n, axis=1) - norm - log_box_mass(box, mu, sigma)
+    return special.logsumexp(log_truncated_normal(phi, box, mu, sigma), axis=1) - np.log(phi.shape[0])
 
 
 def log_box_mass(box, mu, sigma):
@@ -421,11 +431,7 @@ def _sample_hyper(target, rng, max_steps):
 def _pooled_draws(phi, box, mean, spread, rng, n_hyper=400):
     """One unit's draws reweighted by the population (mean over hyper draws); resampled, and the ESS."""
     pick = rng.choice(mean.shape[0], size=min(n_hyper, mean.shape[0]), replace=False)
-    mu, sigma = mean[pick], spread[pick]
-    z = (phi[None, :, :] - mu[:, None, :]) / sigma[:, None, :]
-    log_n = -0.5 * np.einsum("snp,snp->sn", z, z) - np.sum(np.log(sigma), axis=1)[:, None] \
-        - log_box_mass(box, mu, sigma)[:, None]
-    log_w = special.logsumexp(log_n, axis=0)
+    log_w = special.logsumexp(log_truncated_normal(phi, box, mean[pick], spread[pick]), axis=0)
     w = np.exp(log_w - log_w.max())
     w /= w.sum()
     ess = 1.0 / np.sum(w * w)
