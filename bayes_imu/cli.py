@@ -395,7 +395,7 @@ def _fit_axis(args, allan, unit, info, terms, column, out):
         _warn(f"{column}: the noise model does not describe this log ({'; '.join(what)}); {widened}")
     label = f"{Path(_log_label(args)).name}: {column}"
     if args.sensor:
-        summary["drift"] = _write_drift(result, args, unit, out)
+        summary["drift"] = _write_drift(result, args, unit, out)[0]
     _write_json(out / "summary.json", summary)
     result.inference_data.to_netcdf(str(out / "posterior.nc"))
     save_fit(result, out / ARCHIVE_NAME)
@@ -428,17 +428,18 @@ def _worst_axis(axes):
 
 
 def _write_drift(result, args, unit, out):
-    """drift.csv / drift.png; returns the q05/q50/q95 of sigma(t) at the horizon per quantity."""
+    """drift.csv / drift.png; returns the q05/q50/q95 of sigma(t) at the horizon per quantity, and the
+    bands written (in the display units) with their units."""
     from .bands import SENSOR_QUANTITIES, default_times, drift_bands, integrated_unit
     from .plots import plot_drift
 
-    t = np.array(args.times) if args.times is not None else default_times(result.model.dt, args.horizon)
-    bands = [drift_bands(result, t, quantity=q, bias_start=args.bias_start, calibration_s=args.calibration,
-                         models=args.models) for q in SENSOR_QUANTITIES[args.sensor]]
-    shown = [display_unit(integrated_unit(unit, b.quantity), args.display_units) for b in bands]
     if args.display_units == "deg" and unit != "rad/s" and args.sensor == "gyro":
         raise InputError(f"--display-units deg needs a gyro fitted in SI (give --units); this fit is in {unit!r}")
-    bands = [b.scaled(factor) for b, (_, factor) in zip(bands, shown)]
+    t = np.array(args.times) if args.times is not None else default_times(result.model.dt, args.horizon)
+    quantities = SENSOR_QUANTITIES[args.sensor]
+    shown = [display_unit(integrated_unit(unit, q), args.display_units) for q in quantities]
+    bands = [drift_bands(result, t, quantity=q, bias_start=args.bias_start, calibration_s=args.calibration,
+                         models=args.models).scaled(factor) for q, (_, factor) in zip(quantities, shown)]
     lines = ["t_s,quantity,q05,q50,q95,unit,extrapolated"]
     at_horizon = {}
     for b, (u, _) in zip(bands, shown):
@@ -456,7 +457,7 @@ def _write_drift(result, args, unit, out):
               "the log the bands extrapolate the fitted model (drift.csv column 'extrapolated')")
     (out / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
     plot_drift(bands, out / "drift.png", units=[u for u, _ in shown])
-    return at_horizon
+    return at_horizon, bands, [u for u, _ in shown]
 
 
 def _write_json(path, doc):
@@ -566,19 +567,16 @@ def _cmd_fit_population(args):
             s = p["spread_ln"]
             _say(args, f"  unit-to-unit spread of {name}: {s['median']:.2g} (90% [{s['q05']:.2g}, {s['q95']:.2g}]) "
                        "in ln units (0.1 = 10%)")
-        bands = unit_bands = None
-        if args.sensor:
-            summary["drift"] = _write_drift(pop.new_unit, args, unit, tmp)
-            t = np.array(args.times) if args.times is not None else None
-            quantity = SENSOR_QUANTITIES[args.sensor][0]
-            bands = drift_bands(pop.new_unit, t, quantity=quantity, bias_start=args.bias_start,
-                                calibration_s=args.calibration, horizon_s=args.horizon, rng=args.seed)
-            unit_bands = [drift_bands(f, bands.t_s, quantity=quantity, bias_start=args.bias_start,
-                                      calibration_s=args.calibration, rng=args.seed) for f in pop.unit_fits]
-            drift_unit, factor = display_unit(integrated_unit(unit, quantity), args.display_units)
-            bands, unit_bands = bands.scaled(factor), [b.scaled(factor) for b in unit_bands]
-        plot_population(pop, tmp / "population.png", unit=unit, bands=bands, unit_bands=unit_bands or (),
-                        rng=args.seed, drift_unit=drift_unit if args.sensor else None)
+        bands, unit_bands, drift_unit = None, (), None
+        if args.sensor:  # the new unit's first quantity, as written to drift.csv, against each unit's own
+            summary["drift"], written, shown = _write_drift(pop.new_unit, args, unit, tmp)
+            bands, drift_unit = written[0], shown[0]
+            factor = display_unit(integrated_unit(unit, bands.quantity), args.display_units)[1]
+            unit_bands = [drift_bands(f, bands.t_s, quantity=bands.quantity, bias_start=args.bias_start,
+                                      calibration_s=args.calibration, rng=args.seed).scaled(factor)
+                          for f in pop.unit_fits]
+        plot_population(pop, tmp / "population.png", unit=unit, bands=bands, unit_bands=unit_bands, rng=args.seed,
+                        drift_unit=drift_unit)
         _write_json(tmp / "summary.json", summary)
     _say(args, f"wrote {args.out}")
     return 0
