@@ -104,8 +104,8 @@ def read_allan_table(path, *, rate_hz, n_samples=None, confidence=0.683):
     value = "adev" if "adev" in lower else "avar"
     wanted = [lower["tau"], lower[value]] + ([lower["edf"]] if "edf" in lower else [])
     data = read_columns(path, columns=wanted).values
-    adev = data[:, 1] if value == "adev" else np.sqrt(np.abs(data[:, 1]))
     if value == "avar" and np.any(data[:, 1] <= 0):
         raise InputError(f"{path}: avar must be positive on every row")
+    adev = data[:, 1] if value == "adev" else np.sqrt(data[:, 1])
     return allan_from_table(data[:, 0], adev, rate_hz=rate_hz, edf=data[:, 2] if data.shape[1] > 2 else None,
                             n_samples=n_samples, confidence=confidence)

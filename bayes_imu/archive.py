@@ -14,10 +14,11 @@ import numpy as np
 from .allan import AllanResult
 from .errors import InputError
 from .fit import FitResult, MixtureComponent
+from .io import read_json_object
 from .models import NoiseModel
 from .selection import Adequacy, CandidateScore
 
-__all__ = ["save_fit", "load_fit", "ARCHIVE_NAME"]
+__all__ = ["save_fit", "load_fit", "fit_axes", "ARCHIVE_NAME"]
 
 ARCHIVE_NAME = "fit.npz"
 _FORMAT = 1
@@ -48,6 +49,18 @@ def save_fit(fit, path):
         arrays["residuals"] = np.asarray(q.residuals)
     with open(path, "wb") as f:
         np.savez_compressed(f, meta=np.array(json.dumps(meta)), **arrays)
+
+
+def fit_axes(folder):
+    """``[(axis, folder, summary)]`` of a ``bayes-imu fit`` folder: its one axis, or each axis of a
+    several-column fit (the sub-folders its ``summary.json`` lists under ``axes``)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError(f"{folder}: not a folder; expected a folder written by bayes-imu fit")
+    summary = read_json_object(folder / "summary.json", "a bayes-imu fit summary")
+    if "axes" not in summary:
+        return [(str(summary.get("column", folder.name)), folder, summary)]
+    return [(axis, folder / entry["folder"], entry) for axis, entry in summary["axes"].items()]
 
 
 def load_fit(path):

@@ -29,12 +29,11 @@ failed its adequacy check is flagged in the file (``# WARNING`` line) and in ``a
 
 from dataclasses import dataclass, field
 import math
-from pathlib import Path
 
 import numpy as np
 
 from .errors import InputError
-from .io import UNITS, read_json_object
+from .io import UNITS
 
 __all__ = ["KalibrAxis", "KalibrValues", "kalibr_values", "kalibr_values_from_folders", "write_kalibr_yaml",
            "axis_densities", "fit_folders"]
@@ -122,15 +121,11 @@ def kalibr_values(gyro=(), accel=(), *, credibility=None):
 
 def fit_folders(folders, kind):
     """:class:`KalibrAxis` of every axis in ``bayes-imu fit`` folders (several-column fits expand)."""
-    from .archive import load_fit
+    from .archive import fit_axes, load_fit
 
     out = []
     for folder in folders:
-        folder = Path(folder)
-        summary = _summary(folder)
-        places = ([(folder / a["folder"], _summary(folder / a["folder"])) for a in summary["axes"].values()]
-                  if "axes" in summary else [(folder, summary)])
-        for place, s in places:
+        for _, place, s in fit_axes(folder):
             unit = s.get("unit")
             if unit not in UNITS:
                 raise InputError(f"{place / 'summary.json'}: unit {unit!r}: expected one of {', '.join(UNITS)} "
@@ -145,13 +140,6 @@ def fit_folders(folders, kind):
 def kalibr_values_from_folders(gyro_dirs=(), accel_dirs=(), *, credibility=None):
     """:func:`kalibr_values` of fit folders."""
     return kalibr_values(fit_folders(gyro_dirs, "gyro"), fit_folders(accel_dirs, "accel"), credibility=credibility)
-
-
-def _summary(folder):
-    summary_path = folder / "summary.json"
-    if not summary_path.exists():
-        raise InputError(f"{summary_path}: no such file; expected a bayes-imu fit output folder")
-    return read_json_object(summary_path, "a bayes-imu fit summary")
 
 
 def write_kalibr_yaml(result, path, *, topic="/imu0"):

@@ -402,32 +402,19 @@ def _label(path, i):
 
 
 def _saved_axes(folder, spec, where):
-    """``[(axis, FitResult)]`` of a fit folder (one axis, or one sub-folder per axis), in SI."""
-    import json
+    """``[(axis, FitResult)]`` of a fit folder (one axis, or each axis of a several-column fit), in SI."""
+    from .archive import fit_axes, load_fit
 
-    from .archive import ARCHIVE_NAME, load_fit
-
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise InputError(f"{where}{folder}: not a folder; expected a folder written by bayes-imu fit")
-    if (folder / ARCHIVE_NAME).is_file():
-        places = [(None, folder)]
-    else:
-        places = sorted((p.name, p) for p in folder.iterdir() if (p / ARCHIVE_NAME).is_file())
-        if not places:
-            raise InputError(f"{where}{folder}: no {ARCHIVE_NAME} in it or its axis folders; expected a folder "
-                             "written by bayes-imu fit (run it again if it predates fit.npz)")
     out = []
-    for name, place in places:
-        try:
-            summary = json.loads(read_text(place / "summary.json"))
-        except (ValueError, InputError):
-            raise InputError(f"{where}{place}: missing or unreadable summary.json") from None
-        unit = summary.get("unit")
-        if unit != spec.units:
-            raise InputError(f"{where}{place}: fitted in {unit!r}; a {spec.kind} report needs a fit in {spec.units} "
-                             f"(run bayes-imu fit with --units)")
-        out.append((name or str(summary.get("column", "axis")), load_fit(place)))
+    try:
+        for axis, place, summary in fit_axes(folder):
+            unit = summary.get("unit")
+            if unit != spec.units:
+                raise InputError(f"{place}: fitted in {unit!r}; a {spec.kind} report needs a fit in {spec.units} "
+                                 f"(run bayes-imu fit with --units)")
+            out.append((axis, load_fit(place)))
+    except InputError as exc:
+        raise InputError(f"{where}{exc}") from None
     return out
 
 
