@@ -23,12 +23,15 @@ cores; hours on 2); ``--quick`` runs one replicate of two cells.
 """
 
 import argparse
-import csv
+from pathlib import Path
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from validate_real import write_rows  # noqa: E402
 
 TERMS = ("white", "gauss_markov")
 MEDIANS = {"noise_variance": 1e-5, "bias_variance": 4e-9, "time_constant": 30.0}
@@ -109,10 +112,7 @@ def main(argv=None):
         f"s={r['spread']:g} U={r['units']}: {r['new_unit_by_horizon']}" for r in rows))
     print(f"{len(tasks)} replicates in {time.perf_counter() - start:.0f} s")
     if args.csv:
-        with open(args.csv, "w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=list(results[0]))
-            writer.writeheader()
-            writer.writerows(results)
+        write_rows(args.csv, results)
     return 0
 
 

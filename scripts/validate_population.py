@@ -26,7 +26,6 @@ without a cache); ``--quick`` takes one axis and 3 units.
 """
 
 import argparse
-import csv
 import json
 import sys
 import time
@@ -37,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from validate_real import observed_rms  # noqa: E402  (one definition of the observed error)
+from validate_real import observed_rms, write_rows  # noqa: E402  (one definition of each)
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data_real" / "smac_imudata"
 HORIZONS = (0.1, 1.0, 10.0, 100.0)
@@ -225,10 +224,7 @@ def main(argv=None):
     print(f"population samplers converged: {sum(r['converged'] for r in results)} of {len(results)}; "
           f"{time.perf_counter() - start:.0f} s")
     if args.csv:
-        with open(args.csv, "w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
+        write_rows(args.csv, rows)
     return 0
 
 

@@ -59,6 +59,14 @@ def observed_rms(y, k, n_cal, dt):
     return float(np.sqrt(np.mean(err**2))), n_win
 
 
+def write_rows(path, rows):
+    """Rows (dicts with the same keys) as a CSV file with a header."""
+    with open(path, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--calibration", type=float, default=60.0, help="calibration window (s)")
@@ -118,10 +126,7 @@ def main(argv=None):
     adequate = np.array([r["adequate"] for r in rows[:: len(HORIZONS)]])
     print(f"adequate fits (first halves): {adequate.sum()} of {adequate.size}; the others widened and flagged")
     if args.csv:
-        with open(args.csv, "w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
+        write_rows(args.csv, rows)
     return 0
 
 
