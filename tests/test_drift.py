@@ -260,7 +260,7 @@ def test_stationary_start_adds_initial_bias_term():
         for _ in range(k):
             b, v, p = A * b, v + dt * b, p + dt * v
         extra.append(sigma_b2 * p * p)
-    np.testing.assert_allclose(stat.bias**2 - zero.bias**2, extra, rtol=1e-10, atol=1e-30)
+    np.testing.assert_allclose(stat.bias**2 - zero.bias**2, extra, rtol=1e-12, atol=1e-30)
 
 
 def test_random_walk_drift():
