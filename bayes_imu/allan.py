@@ -10,7 +10,7 @@ Riley & Greenhall, "Power law noise identification using the lag 1 autocorrelati
 18th EFTF (2004).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from ._lazy import LazyModule
@@ -22,12 +22,44 @@ from ._progress import progress_bar
 from .errors import InputError
 from .io import positive_number
 
-__all__ = ["AllanResult", "allan_variance", "cluster_sizes", "greenhall_edf", "identify_noise"]
+__all__ = ["AllanResult", "SegmentAllan", "allan_variance", "cluster_sizes", "greenhall_edf", "identify_noise",
+           "segment_allan", "DEFAULT_SEGMENTS"]
+
+#: consecutive equal segments whose Allan variances the stationarity check compares
+DEFAULT_SEGMENTS = 4
 
 _J_MAX = 100
 _MIN_ID_POINTS = 30
 _MAX_ID_POINTS = 2**18  # lag-1 ACF standard error ~ 1/sqrt(n) = 0.002: ample to pick an integer
 _ALPHAS = (-2, -1, 0, 1, 2)
+_MAX_SEGMENT_TAUS = 40
+
+
+@dataclass(frozen=True)
+class SegmentAllan:
+    """Allan variance of each of ``n_segments`` consecutive, equal, non-overlapping parts of a log.
+
+    The stationarity check (:mod:`bayes_imu.stationarity`) compares them: a sensor whose noise
+    changes during the record (warm-up, temperature) gives segments that differ by more than
+    their sampling error.
+
+    Attributes
+    ----------
+    m : ndarray of int, shape (n_tau,)
+        Cluster sizes (those of the whole log up to a quarter of a segment).
+    avar : ndarray, shape (n_segments, n_tau)
+        Overlapping Allan variance of each segment (units**2), SP1065 eq 14.
+    n_samples : int
+        Samples per segment (the last ``n mod n_segments`` samples of the log are left out).
+    """
+
+    m: np.ndarray
+    avar: np.ndarray
+    n_samples: int
+
+    @property
+    def n_segments(self):
+        return int(self.avar.shape[0])
 
 
 @dataclass(frozen=True)
@@ -57,6 +89,9 @@ class AllanResult:
         Sample rate of the input (Hz).
     n_samples : int
         Number of rate samples.
+    segments : SegmentAllan or None
+        The Allan variance of consecutive parts of the log (``None`` when not computed: Allan
+        tables, out-of-core runs, ``segments=0``, logs too short).
     """
 
     tau: np.ndarray
@@ -71,6 +106,7 @@ class AllanResult:
     confidence: float
     rate_hz: float
     n_samples: int
+    segments: SegmentAllan = None
 
     @property
     def duration_s(self):
@@ -119,7 +155,8 @@ def cluster_sizes(m, n_samples):
     return grid.astype(np.int64)
 
 
-def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, interval="exact", progress=False):
+def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, interval="exact", progress=False,
+                   segments=DEFAULT_SEGMENTS):
     """Fully overlapping Allan variance of uniformly sampled rate data (SP1065 eq 14).
 
     Parameters
@@ -140,6 +177,9 @@ def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, inte
         EDF > 100 (to reproduce its tables digit for digit; off by up to ~1e-3).
     progress : bool
         Show a progress bar over cluster sizes on standard error (same numbers).
+    segments : int
+        Also compute the Allan variance of this many consecutive parts of the log
+        (:class:`SegmentAllan`, for the stationarity check); 0 or 1 skips it.
 
     Returns
     -------
@@ -156,7 +196,30 @@ def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, inte
             sums[group] = second_difference_sums(x, ms[group])
             bar.update(group.size)
     alphas = identify_noise(x, ms) if alpha is None else alpha
-    return assemble_result(ms, sums, alphas, y.size, rate_hz, confidence, interval)
+    result = assemble_result(ms, sums, alphas, y.size, rate_hz, confidence, interval)
+    return replace(result, segments=segment_allan(y, ms, segments))
+
+
+def segment_allan(y, m, n_segments=DEFAULT_SEGMENTS):
+    """:class:`SegmentAllan` of ``n_segments`` consecutive parts of ``y`` at the sizes of ``m`` that fit
+    (at most a quarter of a segment, as the named grids); ``None`` if none does or ``n_segments < 2``."""
+    n_segments = int(n_segments)
+    if n_segments < 2:
+        return None
+    y = _as_samples(y)
+    length = y.size // n_segments
+    ms = np.asarray(m, dtype=np.int64)
+    ms = ms[ms <= length // 4]
+    if ms.size == 0:
+        return None
+    if ms.size > _MAX_SEGMENT_TAUS:  # a dense grid ("all"): log-spaced sizes suffice for the check
+        ms = np.unique(ms[np.round(np.geomspace(1, ms.size, _MAX_SEGMENT_TAUS)).astype(int) - 1])
+    avar = np.empty((n_segments, ms.size))
+    norm = 2.0 * (length + 1 - 2 * ms) * ms.astype(float) ** 2
+    for k in range(n_segments):
+        part = y[k * length:(k + 1) * length]
+        avar[k] = second_difference_sums(phase_from_rate(part, np.mean(part)), ms) / norm
+    return SegmentAllan(ms, avar, length)
 
 
 def check_options(rate_hz, confidence, interval):

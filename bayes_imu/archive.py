@@ -3,7 +3,7 @@
 ``fit.npz`` (NumPy archive, no pickles) holds everything a :class:`~bayes_imu.fit.FitResult`
 needs except the ArviZ ``InferenceData`` (``posterior.nc`` beside it): the Allan variance,
 the draws of the selected model and of every model-averaging component, the candidates'
-evidences, the adequacy check, the covariance and the diagnostics.
+evidences, the adequacy and stationarity checks, the covariance and the diagnostics.
 """
 
 import json
@@ -11,12 +11,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .allan import AllanResult
+from .allan import AllanResult, SegmentAllan
 from .errors import InputError
 from .fit import FitResult, MixtureComponent
 from .io import read_json_object
 from .models import NoiseModel
 from .selection import Adequacy, CandidateScore
+from .stationarity import Stationarity
 
 __all__ = ["save_fit", "load_fit", "fit_axes", "ARCHIVE_NAME"]
 
@@ -27,7 +28,7 @@ _ALLAN_ARRAYS = ("tau", "m", "avar", "adev", "n_terms", "edf", "alpha", "avar_lo
 
 def save_fit(fit, path):
     """Write ``fit`` to ``path`` (a ``.npz`` file)."""
-    a, q = fit.allan, fit.adequacy
+    a, q, st = fit.allan, fit.adequacy, getattr(fit, "stationarity", None)
     meta = {
         "format": _FORMAT, "terms": list(fit.model.terms), "dt": fit.model.dt, "likelihood": fit.likelihood,
         "selected": int(fit.selected), "widened": bool(fit.widened), "diagnostics": fit.diagnostics,
@@ -37,6 +38,9 @@ def save_fit(fit, path):
                         "ess": c.ess} for c in fit.candidates],
         "mixture": [{"terms": list(c.terms), "probability": c.probability} for c in fit.mixture],
         "adequacy": None if q is None else {**q.to_dict(), "residuals": None},
+        "segments": None if a.segments is None else {"n_samples": int(a.segments.n_samples)},
+        "stationarity": None if st is None else {"stationary": bool(st.stationary), "p_value": float(st.p_value),
+                                                 "worst_tau_s": float(st.worst_tau_s)},
     }
     arrays = {f"allan_{k}": getattr(a, k) for k in _ALLAN_ARRAYS}
     arrays.update(samples=fit.samples, log_prob=fit.log_prob, covariance=fit.covariance,
@@ -47,6 +51,10 @@ def save_fit(fit, path):
         arrays[f"mixture_{i}"] = c.samples
     if q is not None:
         arrays["residuals"] = np.asarray(q.residuals)
+    if a.segments is not None:
+        arrays.update(segments_m=a.segments.m, segments_avar=a.segments.avar)
+    if st is not None:
+        arrays.update(stationarity_tau=st.tau_s, stationarity_adev=st.segment_adev, stationarity_spread=st.spread)
     with open(path, "wb") as f:
         np.savez_compressed(f, meta=np.array(json.dumps(meta)), **arrays)
 
@@ -81,8 +89,14 @@ def load_fit(path):
         raise InputError(f"{file}: not a readable bayes_imu fit archive ({exc})") from None
     if meta.get("format") != _FORMAT:
         raise InputError(f"{file}: archive format {meta.get('format')!r}; this bayes_imu reads format {_FORMAT}")
+    seg = meta.get("segments")
+    segments = None if seg is None else SegmentAllan(data["segments_m"], data["segments_avar"], seg["n_samples"])
     allan = AllanResult(**{k: data[f"allan_{k}"] for k in _ALLAN_ARRAYS}, confidence=meta["allan"]["confidence"],
-                        rate_hz=meta["allan"]["rate_hz"], n_samples=meta["allan"]["n_samples"])
+                        rate_hz=meta["allan"]["rate_hz"], n_samples=meta["allan"]["n_samples"], segments=segments)
+    st = meta.get("stationarity")
+    steady = None if st is None else Stationarity(st["stationary"], st["p_value"], st["worst_tau_s"],
+                                                  data["stationarity_tau"], data["stationarity_adev"],
+                                                  data["stationarity_spread"])
     model = NoiseModel(tuple(meta["terms"]), meta["dt"])
     candidates = tuple(CandidateScore(tuple(c["terms"]), c["log_evidence"], c["se"], c["ess"], data[f"mode_{i}"])
                        for i, c in enumerate(meta["candidates"]))
@@ -94,4 +108,4 @@ def load_fit(path):
     probabilities = data["probabilities"] if data["probabilities"].size else None
     return FitResult(model, data["samples"], data["log_prob"], allan, candidates, meta["selected"], meta["diagnostics"],
                      meta["likelihood"], data["covariance"], meta["seed"], None, adequacy, probabilities, mixture,
-                     meta["widened"])
+                     meta["widened"], steady)

@@ -10,6 +10,11 @@ Model uncertainty: by default (``models="averaged"``) the draws come from every 
 model in proportion to its posterior probability (:attr:`bayes_imu.fit.FitResult.mixture`);
 ``models="selected"`` uses the selected model alone.
 
+Non-stationary logs: when the fit's between-segment check flags the record
+(:mod:`bayes_imu.stationarity`), each draw's drift is multiplied by ``exp(z s(t) / 2)``,
+``z ~ N(0, 1)`` one per draw, so that the bands allow a later outage to fall in a part of the
+sensor's life as different as the record's own parts are (``segment_spread=False`` leaves it out).
+
 Bias semantics (``bias_start``, :mod:`bayes_imu.noise._base`): ``"zero"`` (the paper),
 ``"stationary"`` and ``"calibrated"`` (the bias estimated as the mean of the
 ``calibration_s`` seconds before the outage; the conservative, actionable default of reports).
@@ -136,8 +141,11 @@ def _check_times(t):
 
 
 def drift_draws(fit, t, *, quantity, bias_start="zero", calibration_s=DEFAULT_CALIBRATION_S, models="averaged",
-                max_draws=None, rng=None, component_draws=slice(None)):
+                max_draws=None, rng=None, component_draws=slice(None), segment_spread=True):
     """Per-draw 1-sigma drift of ``quantity`` at times ``t`` [s].
+
+    ``segment_spread``: include the between-segment spread of a log flagged non-stationary
+    (module docstring) in ``total``; the components are the model's alone.
 
     Returns
     -------
@@ -181,6 +189,9 @@ def drift_draws(fit, t, *, quantity, bias_start="zero", calibration_s=DEFAULT_CA
             variances[term.name][mine] = v[rows[mine] - start]
         start = stop
     total = np.sqrt(short + rest)
+    steady = getattr(fit, "stationarity", None)
+    if segment_spread and steady is not None and not steady.stationary:
+        total = total * np.exp(rng.standard_normal((n_all, 1)) * steady.drift_log_sd(k * dt))
     return {"t_s": k * dt, "total": total, "white": np.sqrt(short[component_draws]),
             "bias": np.sqrt(rest[component_draws]), "terms": {n: np.sqrt(v) for n, v in variances.items()}}
 
@@ -196,7 +207,7 @@ def _term_order(parts):
 
 
 def drift_bands(fit, t=None, *, quantity, bias_start="zero", calibration_s=DEFAULT_CALIBRATION_S, models="averaged",
-                quantiles=(0.05, 0.5, 0.95), horizon_s=3600.0, max_draws=None, rng=None):
+                quantiles=(0.05, 0.5, 0.95), horizon_s=3600.0, max_draws=None, rng=None, segment_spread=True):
     """Posterior quantiles of the 1-sigma drift of ``quantity`` at times ``t`` (s).
 
     Parameters
@@ -213,6 +224,9 @@ def drift_bands(fit, t=None, *, quantity, bias_start="zero", calibration_s=DEFAU
     quantiles : sequence of float
     max_draws : int, optional
         Use at most this many posterior draws (random subset, ``rng``).
+    segment_spread : bool
+        Widen the bands of a log flagged non-stationary by the spread between its parts
+        (module docstring).
 
     Returns
     -------
@@ -223,7 +237,8 @@ def drift_bands(fit, t=None, *, quantity, bias_start="zero", calibration_s=DEFAU
     n = sum(s.shape[0] for _, s in model_draws(fit, models))
     sub = _component_subset(n if max_draws is None else min(n, max_draws))
     draws = drift_draws(fit, t, quantity=quantity, bias_start=bias_start, calibration_s=calibration_s, models=models,
-                        max_draws=max_draws, rng=rng, component_draws=sub)
+                        max_draws=max_draws, rng=rng, component_draws=sub,
+                        segment_spread=segment_spread)
     q = np.asarray(quantiles, dtype=float)
     white = np.median(draws["white"], axis=0)
     bias = np.median(draws["bias"], axis=0)

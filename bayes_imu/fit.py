@@ -28,6 +28,7 @@ from .allan import AllanResult, allan_variance
 from .errors import ConvergenceWarning, InputError
 from .likelihood import LIKELIHOODS, LogPosterior, default_bounds
 from .models import BASE_TERMS, PARAMETER_UNITS, NoiseModel
+from .stationarity import Stationarity, stationarity_check
 from .selection import (
     Adequacy,
     CandidateScore,
@@ -105,6 +106,9 @@ class FitResult:
         The model-averaged posterior that drift numbers use by default.
     widened : bool
         The model-discrepancy term was added (the best candidate was inadequate).
+    stationarity : Stationarity or None
+        Between-segment check of the log (:mod:`bayes_imu.stationarity`); drift bands of a log
+        flagged non-stationary include the spread between its parts.
     """
 
     model: NoiseModel
@@ -122,6 +126,7 @@ class FitResult:
     probabilities: np.ndarray = None
     mixture: tuple = ()
     widened: bool = False
+    stationarity: Stationarity = None
 
     @property
     def parameter_names(self):
@@ -181,6 +186,7 @@ class FitResult:
         adequacy = self.adequacy.to_dict() if self.adequacy is not None else None
         if adequacy is not None:
             adequacy["widened"] = bool(self.widened)
+            adequacy["stationarity"] = self.stationarity.to_dict() if self.stationarity is not None else None
         from .datasheet import KIND_OF_UNIT, datasheet
 
         return {
@@ -312,8 +318,9 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
     check = adequacy(post, best_draw, allan.tau, log_samples)
     probabilities = model_probabilities(scores)
     mixture = _mixture(scored, chosen, probabilities, np.exp(log_samples), rng)
+    steady = stationarity_check(allan, model, dict(zip(model.parameter_names, np.exp(best_draw[:n_model]))))
     return FitResult(model, np.exp(log_samples), log_prob, allan, scores, chosen, diagnostics, likelihood, cov, seed,
-                     idata, check, probabilities, mixture, widen)
+                     idata, check, probabilities, mixture, widen, steady)
 
 
 def score_models(allan, models, *, widened=False, likelihood="correlated", n_evidence=4000, rng=None):

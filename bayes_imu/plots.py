@@ -71,6 +71,12 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None):
     fig, (ax, ax_r) = plt.subplots(2, 1, figsize=(7, 6.4), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
     err = np.vstack([allan.adev - allan.adev_low, allan.adev_high - allan.adev])
     ax.errorbar(allan.tau, allan.adev, yerr=err, fmt="o", ms=3, capsize=2, color="k", label=label or "observed ADEV")
+    steady = getattr(fit, "stationarity", None)
+    if steady is not None and not steady.stationary:  # the parts of a log whose noise changes
+        for j, part in enumerate(steady.segment_adev):
+            ax.plot(steady.tau_s, part, "-", color="0.45", lw=0.8, alpha=0.8,
+                    label=(f"its {steady.n_segments} parts: noise changes (p = {steady.p_value:.2g})"
+                           if j == 0 else None))
     pred = np.sqrt(fit.predictive_avar(m_f, rng=rng))
     lo, med, hi = np.quantile(pred, [0.05, 0.5, 0.95], axis=0)
     ax.fill_between(tau_f, lo, hi, color="C0", alpha=0.3, label="posterior 90% band")

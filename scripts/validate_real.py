@@ -84,7 +84,7 @@ def main(argv=None):
     dt = 1.0 / RATE
     n_cal = int(round(args.calibration * RATE))
     rows = []
-    print(f"{'channel':22s} {'model':44s} {'adequate':>8s} " + " ".join(f"{h:>22g}s" for h in HORIZONS)
+    print(f"{'channel':22s} {'model':44s} {'adequate':>8s} {'stationary':>10s} " + " ".join(f"{h:>22g}s" for h in HORIZONS)
           + "  adev 1st/2nd half at 82 s, 328 s")
     for j, (name, kind, y) in enumerate(channels()):
         if args.quick and j >= 2:
@@ -107,9 +107,11 @@ def main(argv=None):
             rows.append({"channel": name, "sensor": kind, "horizon_s": h, "observed_rms": obs, "windows": n_win,
                          "q05": lo, "q95": hi, "consistent": ok, "model": "+".join(fit.model.terms),
                          "adequate": fit.adequacy.adequate, "p_value": fit.adequacy.p_value, "widened": fit.widened,
+                         "stationary": fit.stationarity.stationary, "stationarity_p": fit.stationarity.p_value,
                          "adev_ratio_82s": ratio[0], "adev_ratio_328s": ratio[1]})
             cells.append(f"{obs:9.3g} [{lo:8.3g},{hi:8.3g}]{'' if ok else '*'}")
-        print(f"{name:22s} {'+'.join(fit.model.terms):44s} {str(fit.adequacy.adequate):>8s} " + " ".join(cells)
+        print(f"{name:22s} {'+'.join(fit.model.terms):44s} {str(fit.adequacy.adequate):>8s} "
+              f"{str(fit.stationarity.stationary):>10s} " + " ".join(cells)
               + f"  {ratio[0]:.2f} {ratio[1]:.2f} ({time.perf_counter() - start:.0f} s)", flush=True)
     ok = np.array([r["consistent"] for r in rows])
     print(f"\nconsistent with the 90% band: {ok.sum()} of {ok.size} (channel, horizon) points = {ok.mean():.1%}")
@@ -125,6 +127,13 @@ def main(argv=None):
           f"the others: {ok[~steady].mean():.1%} of {(~steady).sum()}")
     adequate = np.array([r["adequate"] for r in rows[:: len(HORIZONS)]])
     print(f"adequate fits (first halves): {adequate.sum()} of {adequate.size}; the others widened and flagged")
+    stationary = np.array([r["stationary"] for r in rows[:: len(HORIZONS)]])
+    print(f"first halves flagged non-stationary (their bands include the spread between parts): "
+          f"{(~stationary).sum()} of {stationary.size}")
+    flagged = np.repeat(~stationary, len(HORIZONS))
+    if flagged.any() and (~flagged).any():
+        print(f"  consistent: {ok[flagged].mean():.1%} of {flagged.sum()} points of flagged channels, "
+              f"{ok[~flagged].mean():.1%} of {(~flagged).sum()} of the others")
     if args.csv:
         write_rows(args.csv, rows)
     return 0

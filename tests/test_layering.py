@@ -10,7 +10,7 @@ STAGES = {
     1: {"io", "timebase", "bags"},
     2: {"allan", "allan_table", "outofcore", "autocorr", "_kernels"},
     3: {"noise", "models", "simulate", "avar_covariance", "_euler", "datasheet"},
-    4: {"likelihood", "selection", "fit", "population", "archive"},
+    4: {"likelihood", "selection", "stationarity", "fit", "population", "archive"},
     5: {"drift", "bands", "display"},
     6: {"report", "report_html", "plots", "kalibr", "fleet", "_output"},
     7: {"cli", "_sources", "__init__"},
