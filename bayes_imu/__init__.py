@@ -4,9 +4,9 @@ Data flow: ``io -> allan -> noise -> fit / population -> drift / bands -> report
 """
 
 from ._version import __version__
-from .allan import AllanResult, allan_variance
-from .autocorr import AutocorrelationResult, autocorrelation_fit
-from .drift import (
+from .allan.estimator import AllanResult, allan_variance
+from .allan.autocorr import AutocorrelationResult, autocorrelation_fit
+from .drift.closed_forms import (
     QUANTITY_ORDER,
     DriftResult,
     drift_sigma,
@@ -16,12 +16,12 @@ from .drift import (
     noise_variance_to_density,
 )
 from .errors import BayesIMUError, ConvergenceError, ConvergenceWarning, InputError, ModelError
-from .fit import FitResult, fit, fit_allan
-from .models import TERMS, NoiseModel
-from .simulate import simulate_log
-from .bands import DriftBands, drift_bands, drift_draws
-from .population import PopulationResult, UnitPosterior, fit_population
-from .report import build_report, read_scene
+from .inference.fit import FitResult, fit, fit_allan
+from .noise.avar_forms import TERMS, NoiseModel
+from .noise.simulate import simulate_log
+from .drift.bands import DriftBands, drift_bands, drift_draws
+from .inference.population import PopulationResult, UnitPosterior, fit_population
+from .report.scene import build_report, read_scene
 
 __all__ = [
     "__version__",

@@ -42,11 +42,11 @@ def main(argv=None):
     parser.add_argument("--samples", type=int, default=1_000_000)
     parser.add_argument("--seed", type=int, default=7)
     args = parser.parse_args(argv)
-    from bayes_imu.allan import allan_variance
+    from bayes_imu.allan.estimator import allan_variance
     from bayes_imu.errors import ConvergenceWarning
-    from bayes_imu.fit import _starts, fit_allan
-    from bayes_imu.models import NoiseModel
-    from bayes_imu.simulate import simulate_log
+    from bayes_imu.inference.fit import _starts, fit_allan
+    from bayes_imu.noise.avar_forms import NoiseModel
+    from bayes_imu.noise.simulate import simulate_log
 
     model = NoiseModel(("white", "gauss_markov"), 0.01)
     rng = np.random.default_rng(args.seed)

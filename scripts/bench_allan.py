@@ -30,8 +30,8 @@ def main(argv=None):
     args = parser.parse_args(argv)
     import allantools
 
-    from bayes_imu.allan import allan_variance
-    from bayes_imu._kernels import phase_from_rate, second_difference_sums
+    from bayes_imu.allan.estimator import allan_variance
+    from bayes_imu.allan.kernels import phase_from_rate, second_difference_sums
 
     rng = np.random.default_rng(1)
     allan_variance(rng.standard_normal(1000), rate_hz=100.0)  # compile / load the numba cache

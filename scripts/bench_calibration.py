@@ -3,7 +3,7 @@
 For each scenario (white + Gauss-Markov, white only, white + rate random walk) the script
 draws ``--n-logs`` true parameter points log-uniformly within +-0.5 decade of a
 representative point (SBC-style: the truth varies from log to log), simulates a log
-(``bayes_imu.simulate``), and fits it with the true terms once per likelihood
+(``bayes_imu.noise.simulate``), and fits it with the true terms once per likelihood
 (``--likelihoods``: by default the Gaussian copula, the multivariate normal on log AVAR and
 the independent-gamma baseline), on the same log. It prints, per scenario, likelihood and
 parameter, the coverage of the central 90% interval with its binomial
@@ -49,21 +49,21 @@ def one_log(job):
         import bayes_imu.noise.gauss_markov
 
         bayes_imu.noise.gauss_markov.BIAS_T_MAX_RECORD = tau_max_record
-    from bayes_imu.allan import allan_variance
+    from bayes_imu.allan.estimator import allan_variance
     from bayes_imu.errors import ConvergenceWarning
-    from bayes_imu.fit import fit_allan
-    from bayes_imu.models import NoiseModel
-    from bayes_imu.selection import candidate_terms, log_evidence, posterior_mode, select as choose
-    from bayes_imu.selection import CandidateScore
-    from bayes_imu.likelihood import LogPosterior, default_bounds
-    from bayes_imu.fit import _pilot, _starts, _covariance
+    from bayes_imu.inference.fit import fit_allan
+    from bayes_imu.noise.avar_forms import NoiseModel
+    from bayes_imu.inference.selection import candidate_terms, log_evidence, posterior_mode, select as choose
+    from bayes_imu.inference.selection import CandidateScore
+    from bayes_imu.inference.likelihood import LogPosterior, default_bounds
+    from bayes_imu.inference.fit import _pilot, _starts, _covariance
 
     rng = np.random.default_rng([seed, list(SCENARIOS).index(scenario), index])  # independent streams
     base = SCENARIOS[scenario]
     truth = {k: v * 10 ** rng.uniform(-0.5, 0.5) for k, v in base.items()}
     terms = tuple(dict.fromkeys(TERMS[k] for k in truth))
     model = NoiseModel(terms, 1.0 / RATE)
-    from bayes_imu.simulate import simulate_log
+    from bayes_imu.noise.simulate import simulate_log
 
     y = simulate_log(model, truth, n_samples, rng=rng)
     allan = allan_variance(y, rate_hz=RATE)
@@ -78,8 +78,8 @@ def one_log(job):
         }
         out[kind + "_converged"] = bool(res.diagnostics["converged"]) and not caught
         if kind != "independent":  # drift bands (attitude, zero bias start) against the true drift
-            from bayes_imu.bands import drift_bands
-            from bayes_imu.drift import drift_sigma
+            from bayes_imu.drift.bands import drift_bands
+            from bayes_imu.drift.closed_forms import drift_sigma
 
             bands = drift_bands(res, BAND_TIMES, quantity="attitude")
             true = drift_sigma(BAND_TIMES, quantity="attitude", dt=1.0 / RATE, noise_variance=truth["noise_variance"],
@@ -87,8 +87,8 @@ def one_log(job):
                                random_walk=truth.get("rate_random_walk", 0.0)).total
             out[kind + "_band"] = (bands.quantile(0.05) <= true) & (true <= bands.quantile(0.95))
     if auto:  # as a user would: selection, stepwise search, adequacy, model averaging
-        from bayes_imu.bands import drift_bands
-        from bayes_imu.drift import drift_sigma
+        from bayes_imu.drift.bands import drift_bands
+        from bayes_imu.drift.closed_forms import drift_sigma
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)

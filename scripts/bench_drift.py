@@ -4,7 +4,7 @@ Prints a table: quantity, regime, seconds per 1e6 points (best of 5).
 Regimes: "mixed" (tau log-uniform 1..1e4 s, t log-spaced 0.01..3600 s at 100 Hz),
 "series" (tau 1e6..1e8 s, so dt/tau * k is small: every point in the series branch),
 "closed" (tau 0.1..1 s: every point in the closed-form branch).
-A last table times ``bayes_imu.bands.drift_bands`` (1e4 posterior draws x 1e3 times,
+A last table times ``bayes_imu.drift.bands.drift_bands`` (1e4 posterior draws x 1e3 times,
 white + Gauss-Markov + random walk, quantiles included).
 """
 
@@ -50,9 +50,9 @@ def main(argv=None):
 
 
 def bench_bands(rng, t, n_draws=10_000):
-    from bayes_imu.bands import drift_bands
-    from bayes_imu.fit import FitResult
-    from bayes_imu.models import NoiseModel
+    from bayes_imu.drift.bands import drift_bands
+    from bayes_imu.inference.fit import FitResult
+    from bayes_imu.noise.avar_forms import NoiseModel
 
     model = NoiseModel(("white", "gauss_markov", "random_walk"), 0.01)
     samples = np.column_stack([rng.uniform(0.5, 2, n_draws), rng.uniform(1e-4, 1e-3, n_draws),

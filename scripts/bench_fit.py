@@ -1,6 +1,6 @@
 """End-to-end speed of ``bayes-imu fit`` on a 1e6-sample single-column CSV.
 
-Writes a white + Gauss-Markov log (100 Hz, 1e6 samples, ``bayes_imu.simulate``) to a
+Writes a white + Gauss-Markov log (100 Hz, 1e6 samples, ``bayes_imu.noise.simulate``) to a
 temporary folder and times the command as a user runs it (a fresh process: imports,
 reading the CSV, Allan variance, model selection over 16 candidates, sampling, writing
 summary.json, posterior.nc and both figures). Prints one row per run and the stages of
@@ -24,8 +24,8 @@ def main(argv=None):
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--samples", type=int, default=1_000_000)
     args = parser.parse_args(argv)
-    from bayes_imu.models import NoiseModel
-    from bayes_imu.simulate import simulate_log
+    from bayes_imu.noise.avar_forms import NoiseModel
+    from bayes_imu.noise.simulate import simulate_log
 
     truth = {"noise_variance": 0.25, "bias_variance": 1e-4, "time_constant": 100.0}
     y = simulate_log(NoiseModel(("white", "gauss_markov"), 0.01), truth, args.samples, rng=1)
@@ -36,7 +36,7 @@ def main(argv=None):
         for run in range(args.runs):
             out = Path(tmp) / f"out{run}"
             start = time.perf_counter()
-            proc = subprocess.run([sys.executable, "-m", "bayes_imu.cli", "fit", str(log), "--column", "gyro_x_dps",
+            proc = subprocess.run([sys.executable, "-m", "bayes_imu.cli.main", "fit", str(log), "--column", "gyro_x_dps",
                                    "--rate", "100", "--out", str(out), "--seed", str(run)],
                                   capture_output=True, text=True, check=True)
             wall = time.perf_counter() - start
@@ -45,9 +45,9 @@ def main(argv=None):
 
 
 def stages(log):
-    from bayes_imu.allan import allan_variance
-    from bayes_imu.fit import fit_allan
-    from bayes_imu.io import read_log
+    from bayes_imu.allan.estimator import allan_variance
+    from bayes_imu.inference.fit import fit_allan
+    from bayes_imu.io.readers import read_log
 
     t0 = time.perf_counter()
     values = read_log(log, column="gyro_x_dps").values

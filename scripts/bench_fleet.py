@@ -25,7 +25,7 @@ def main(argv=None):
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args(argv)
     from bayes_imu import NoiseModel, simulate_log
-    from bayes_imu.cli import main as cli
+    from bayes_imu.cli.main import main as cli
 
     rng = np.random.default_rng(9)
     model = NoiseModel(("white", "gauss_markov"), 0.01)

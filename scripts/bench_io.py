@@ -1,4 +1,4 @@
-"""Reading speed of ``bayes_imu.io.read_columns`` on large logs (MB/s of text, samples/s).
+"""Reading speed of ``bayes_imu.io.readers.read_columns`` on large logs (MB/s of text, samples/s).
 
 Writes, in a temporary folder, an IMU-like log (a time column and six channels, 8
 significant digits, about 70 bytes per row) as plain CSV, gzip CSV and whitespace-separated
@@ -45,7 +45,7 @@ def main(argv=None):
     parser.add_argument("--rows", type=float, default=2e6)
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args(argv)
-    from bayes_imu.io import read_columns
+    from bayes_imu.io.readers import read_columns
 
     rows = int(args.rows)
     with tempfile.TemporaryDirectory() as tmp:

@@ -4,7 +4,7 @@ For each size, writes a raw little-endian float64 log (white noise plus a random
 written in chunks, never held whole) into ``--dir``, then runs, each in a fresh process
 so that peak memory (``ru_maxrss`` of the child) is its own:
 
-* ``bayes_imu.outofcore.allan_variance_file`` (octave grid, default 4M-sample chunks);
+* ``bayes_imu.allan.outofcore.allan_variance_file`` (octave grid, default 4M-sample chunks);
 * for sizes up to ``--in-memory-max``, the in-memory ``allan_variance`` on ``np.fromfile``
   of the same log, and the largest relative difference between the two results.
 
@@ -30,10 +30,10 @@ import numpy as np
 mode, path, rate = sys.argv[1], sys.argv[2], float(sys.argv[3])
 start = time.perf_counter()
 if mode == "outofcore":
-    from bayes_imu.outofcore import allan_variance_file
+    from bayes_imu.allan.outofcore import allan_variance_file
     result = allan_variance_file(path, rate_hz=rate)
 else:
-    from bayes_imu.allan import allan_variance
+    from bayes_imu.allan.estimator import allan_variance
     result = allan_variance(np.fromfile(path, dtype="<f8"), rate_hz=rate)
 seconds = time.perf_counter() - start
 np.save(path + "." + mode + ".avar.npy", result.avar)

@@ -41,8 +41,8 @@ RATE = 100.0
 
 def replicate(task):
     from bayes_imu import NoiseModel, allan_variance, fit_allan, simulate_log
-    from bayes_imu.bands import drift_draws
-    from bayes_imu.population import UnitPosterior, fit_population
+    from bayes_imu.drift.bands import drift_draws
+    from bayes_imu.inference.population import UnitPosterior, fit_population
 
     spread, n_units, rep, n_samples = task
     rng = np.random.default_rng([int(spread * 1000), n_units, rep])

@@ -10,7 +10,7 @@ noise variance q, the bias variance sigma_b^2 and the time constant T with:
   common navigation heuristic);
 * ``ls_log_adev``: unweighted least squares on log Allan deviation;
 * ``gmwm_wls``: GMWM-style weighted least squares on the Allan variance, weighted by the
-  inverse of its exact covariance (``bayes_imu.avar_covariance``) at the ``ls_log_adev``
+  inverse of its exact covariance (``bayes_imu.noise.avar_covariance``) at the ``ls_log_adev``
   estimate, with asymptotic (sandwich-free, ``(J' W J)^-1``) intervals in log parameters;
 * ``map_laplace``: posterior mode of the bayes_imu posterior (default likelihood) with a
   Laplace approximation in log parameters;
@@ -75,7 +75,7 @@ def _model():
 
 
 def _starts(allan):
-    from bayes_imu.fit import _starts as starts
+    from bayes_imu.inference.fit import _starts as starts
 
     return starts(_model(), allan, None)
 
@@ -96,7 +96,7 @@ def ls_log_adev(allan):
 def gmwm_wls(allan, rng):
     from scipy import optimize
 
-    from bayes_imu.avar_covariance import avar_covariance
+    from bayes_imu.noise.avar_covariance import avar_covariance
 
     model = _model()
     pilot, _ = ls_log_adev(allan)
@@ -115,9 +115,9 @@ def gmwm_wls(allan, rng):
 
 
 def map_laplace(allan, rng):
-    from bayes_imu.fit import _covariance, _pilot
-    from bayes_imu.likelihood import LogPosterior, default_bounds
-    from bayes_imu.selection import negative_hessian, posterior_mode
+    from bayes_imu.inference.fit import _covariance, _pilot
+    from bayes_imu.inference.likelihood import LogPosterior, default_bounds
+    from bayes_imu.inference.selection import negative_hessian, posterior_mode
 
     model = _model()
     pilot = _pilot(model, allan)

@@ -29,10 +29,10 @@ def main(argv=None):
     if not SHARED.exists():
         print(f"shared data not found at {SHARED}; nothing to do")
         return 0
-    from bayes_imu.allan import allan_variance
+    from bayes_imu.allan.estimator import allan_variance
     from bayes_imu.errors import ConvergenceWarning
-    from bayes_imu.fit import fit_allan
-    from bayes_imu.io import read_log
+    from bayes_imu.inference.fit import fit_allan
+    from bayes_imu.io.readers import read_log
 
     print(f"{'log':6s} {'axis':4s} {'model':42s} {'density q05':>11s} {'median':>9s} {'q95':>9s} {'conv':>5s}")
     intervals = {}

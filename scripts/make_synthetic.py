@@ -1,6 +1,6 @@
 """Generate the synthetic static logs in data_synthetic/ with their true parameters.
 
-Each log is drawn by ``bayes_imu.simulate.simulate_log`` (exact discretisation) and written
+Each log is drawn by ``bayes_imu.noise.simulate.simulate_log`` (exact discretisation) and written
 as a gzipped CSV with a header row (``time_s`` plus one rate column, 9 significant digits);
 ``data_synthetic/truth.json`` records every log's model, parameters (bayes_imu names and
 units), rate, length, column, unit and seed. Run from the project root:
@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bayes_imu.models import NoiseModel
-from bayes_imu.simulate import simulate_log
+from bayes_imu.noise.avar_forms import NoiseModel
+from bayes_imu.noise.simulate import simulate_log
 
 OUT = Path(__file__).resolve().parent.parent / "data_synthetic"
 

@@ -88,7 +88,7 @@ def worst_standard_errors(formula, simulated, n_paths):
 
 def fig1(out, rng, quick):
     from bayes_imu import NoiseModel, simulate_log
-    from bayes_imu.autocorr import autocorrelation_fit
+    from bayes_imu.allan.autocorr import autocorrelation_fit
 
     rate = 1.0
     n = 40_000 if quick else 300_000  # 133 or 1000 time constants

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bayes_imu.allan import allan_variance
-from bayes_imu.io import read_log
+from bayes_imu.allan.estimator import allan_variance
+from bayes_imu.io.readers import read_log
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data_real" / "smac_imudata"
 

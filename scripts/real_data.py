@@ -4,7 +4,7 @@ Reads ``../shared/data_real/smac_imudata/`` (SMAC-Group imudata, CC BY-NC-SA 4.0
 place, never copied; the script exits cleanly with a message when the folder is absent).
 ADIS16405: 6 channels (gyro deg/s, accel g) x 6 recordings of 1e6 samples at 100 Hz;
 MTi-G: gyro X (rad/s), 5e5 samples at 100 Hz. Each channel is converted to SI and fitted
-with model selection (``bayes_imu.fit``). The script prints per channel and recording
+with model selection (``bayes_imu.inference.fit``). The script prints per channel and recording
 the selected model and the noise density (median and 90% interval, in the datasheet's
 unit), compares with the datasheet values of ``REFERENCE_VALUES.md``, says whether the six
 replicates' 90% intervals share a common value, and plots the six posteriors side by
@@ -40,7 +40,7 @@ MTIG = ("gyro_x_rad_s", "rad/s", 0.05, "deg/s/sqrt(Hz)", DEG)
 def fit_channel(path, column, unit, n_max, seed):
     from bayes_imu import allan_variance, fit_allan
     from bayes_imu.errors import ConvergenceWarning
-    from bayes_imu.io import read_log, to_si
+    from bayes_imu.io.readers import read_log, to_si
 
     values = to_si(read_log(path, column=column).values[:n_max], unit)
     with warnings.catch_warnings():

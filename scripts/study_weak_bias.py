@@ -32,10 +32,10 @@ def main(argv=None):
     parser.add_argument("--tau-max-record", type=float, default=None)
     parser.add_argument("--seed", type=int, default=7)
     args = parser.parse_args(argv)
-    import bayes_imu.likelihood as likelihood
+    import bayes_imu.inference.likelihood as likelihood
     from bayes_imu.noise import gauss_markov
     from bayes_imu import NoiseModel, allan_variance, drift_sigma, fit_allan, simulate_log
-    from bayes_imu.bands import drift_draws
+    from bayes_imu.drift.bands import drift_draws
     from bayes_imu.errors import ConvergenceWarning
 
     if args.prior_decades_below is not None:

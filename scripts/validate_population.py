@@ -3,7 +3,7 @@
 For each axis of the six ADIS16405 units in ``../shared/data_real/smac_imudata`` (read
 there, never copied; skipped when absent) and each held-out unit h:
 
-1. fit the five other units jointly (``bayes_imu.population.fit_population``: common
+1. fit the five other units jointly (``bayes_imu.inference.population.fit_population``: common
    structure chosen by their summed evidence, hierarchical posterior, new-unit predictive);
 2. predict unit h's calibrated-outage drift (bias = mean of the ``--calibration`` seconds
    before the outage; attitude for a gyro, velocity for an accelerometer) at 0.1-100 s, and
@@ -18,7 +18,7 @@ Contrast: the same drift check with each of the five single-unit fits (model-ave
 ``bayes-imu fit`` gives) in place of the population: what a bound from one unit on the
 bench says about the next unit.
 
-Every fit is cached in ``--cache`` (``bayes_imu.archive`` files), so a second run, here or
+Every fit is cached in ``--cache`` (``bayes_imu.inference.archive`` files), so a second run, here or
 on another machine, reuses them; ``--workers`` processes run the fits in parallel. Prints
 the table and the fractions of consistent (unit, axis, horizon) points; ``--csv`` writes
 the rows. Run: ``python scripts/validate_population.py --workers 2`` (hours on 2 cores
@@ -74,8 +74,8 @@ def _key(unit, axis, terms):
 
 def unit_fit(task):
     """The fit of one (unit, axis) with ``terms``, from the cache or computed and cached."""
-    from bayes_imu.archive import load_fit, save_fit
-    from bayes_imu.fit import fit_allan
+    from bayes_imu.inference.archive import load_fit, save_fit
+    from bayes_imu.inference.fit import fit_allan
 
     cache, unit, axis, terms = task
     path = Path(cache) / _key(unit, axis, terms)
@@ -93,7 +93,7 @@ def unit_fit(task):
 
 def scores(task):
     """Evidences of ``structures`` on one (unit, axis), cached as JSON."""
-    from bayes_imu.fit import score_models
+    from bayes_imu.inference.fit import score_models
 
     cache, unit, axis, structures = task
     path = Path(cache) / f"imu{unit}_{axis}_scores.json"
@@ -110,7 +110,7 @@ def scores(task):
 
 def drift_consistent(posterior, y, calibration, rng):
     """Per horizon: (observed RMS, q05, q95, consistent) of the calibrated-outage check."""
-    from bayes_imu.bands import drift_draws
+    from bayes_imu.drift.bands import drift_draws
 
     sigma = drift_draws(posterior, np.array(HORIZONS), quantity="attitude", bias_start="calibrated",
                         calibration_s=calibration, max_draws=4000, rng=rng)["total"]
@@ -126,7 +126,7 @@ def drift_consistent(posterior, y, calibration, rng):
 
 def fold(task):
     """Population of the other units -> held-out unit h: drift and ADEV checks, and the single-unit contrast."""
-    from bayes_imu.population import fit_population
+    from bayes_imu.inference.population import fit_population
 
     cache, units, axis, held, structure, calibration = task
     others = [u for u in units if u != held]
@@ -165,7 +165,7 @@ def main(argv=None):
     import os
 
     os.environ["BAYES_IMU_SMAC"] = str(args.data)  # the worker processes read it
-    from bayes_imu.selection import CandidateScore, select
+    from bayes_imu.inference.selection import CandidateScore, select
 
     args.cache.mkdir(parents=True, exist_ok=True)
     units = (1, 2, 3) if args.quick else (1, 2, 3, 4, 5, 6)

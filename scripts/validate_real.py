@@ -78,7 +78,7 @@ def main(argv=None):
         print(f"skipped: {DATA} not found")
         return 0
     from bayes_imu import allan_variance, fit_allan
-    from bayes_imu.bands import drift_draws
+    from bayes_imu.drift.bands import drift_draws
 
     rng = np.random.default_rng(20261123)
     dt = 1.0 / RATE

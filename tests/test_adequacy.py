@@ -7,10 +7,10 @@ import numpy as np
 from scipy import stats
 
 from bayes_imu import allan_variance
-from bayes_imu.likelihood import LogPosterior
+from bayes_imu.inference.likelihood import LogPosterior
 from bayes_imu.noise import NoiseModel
-from bayes_imu.selection import adequacy, at_prior_bound, posterior_mode
-from bayes_imu.simulate import simulate_log
+from bayes_imu.inference.selection import adequacy, at_prior_bound, posterior_mode
+from bayes_imu.noise.simulate import simulate_log
 
 DT = 0.01
 TRUTH = {"noise_variance": 1e-4, "bias_variance": 2e-6, "time_constant": 5.0}

@@ -1,4 +1,4 @@
-"""Tests of bayes_imu.allan against independent computations and published references.
+"""Tests of bayes_imu.allan.estimator against independent computations and published references.
 
 References (provenance in ../shared/data_real/*/SOURCE.md and REFERENCE_VALUES.md):
 * NBS14 1000-point set: NIST SP1065 p.108 / Stable32 OADEV at tau = 1, 10, 100 s.
@@ -16,8 +16,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from bayes_imu import InputError
-from bayes_imu.allan import allan_variance, cluster_sizes, greenhall_edf, identify_noise
-from bayes_imu._kernels import phase_from_rate
+from bayes_imu.allan.estimator import allan_variance, cluster_sizes, greenhall_edf, identify_noise
+from bayes_imu.allan.kernels import phase_from_rate
 
 
 def direct_oavar(y, m):

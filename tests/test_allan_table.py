@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from bayes_imu import allan_variance, fit_allan
-from bayes_imu.allan_table import allan_from_table, read_allan_table
-from bayes_imu.cli import main
+from bayes_imu.allan.table import allan_from_table, read_allan_table
+from bayes_imu.cli.main import main
 from bayes_imu.errors import InputError
 
 IMU_UTILS = Path(__file__).resolve().parents[2] / "shared" / "data_real" / "imu_utils"

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from bayes_imu import InputError
-from bayes_imu.autocorr import autocorrelation_fit
+from bayes_imu.allan.autocorr import autocorrelation_fit
 
 
 def gauss_markov(n, dt, variance, tau, rng):

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from bayes_imu.allan import greenhall_edf
-from bayes_imu.avar_covariance import avar_covariance, equivalent_dof
-from bayes_imu.models import NoiseModel
-from bayes_imu.simulate import flicker_difference_acov
+from bayes_imu.allan.estimator import greenhall_edf
+from bayes_imu.noise.avar_covariance import avar_covariance, equivalent_dof
+from bayes_imu.noise.avar_forms import NoiseModel
+from bayes_imu.noise.simulate import flicker_difference_acov
 from test_models import PARAMS
 
 N = 120
@@ -86,7 +86,7 @@ def test_diagonal_is_greenhall_edf_at_large_m(term, alpha, rtol):
 
 def test_small_m_edf_monte_carlo(rng):
     """White rate noise, N = 4096, m = 1, 2, 4: exact EDF vs 2000 simulated records (5 sigma on Var)."""
-    from bayes_imu.allan import allan_variance
+    from bayes_imu.allan.estimator import allan_variance
 
     m = np.array([1, 2, 4])
     model = NoiseModel(("white",), 1.0)

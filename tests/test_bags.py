@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from bayes_imu.cli import main
+from bayes_imu.cli.main import main
 from bayes_imu.errors import InputError
 
 rosbags = pytest.importorskip("rosbags", reason="the bags extra (pip install 'bayes_imu[bags]') is not installed")
@@ -66,7 +66,7 @@ def samples(rng):
 
 @pytest.mark.parametrize("version", [1, 2])
 def test_bag_reads_back_exactly(tmp_path, samples, version):
-    from bayes_imu.bags import read_imu_bag
+    from bayes_imu.io.bags import read_imu_bag
 
     gyro, accel, stamps = samples
     path = tmp_path / ("imu.bag" if version == 1 else "imu_bag")
@@ -96,7 +96,7 @@ def test_fit_from_bag_equals_fit_from_csv(tmp_path, samples):
 
 
 def test_bag_errors_are_one_line(tmp_path, samples, capsys):
-    from bayes_imu.bags import read_imu_bag
+    from bayes_imu.io.bags import read_imu_bag
 
     gyro, accel, stamps = samples
     gappy = stamps.copy()

@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from bayes_imu.bands import default_times, drift_bands, drift_draws, integrated_unit
-from bayes_imu.drift import drift_sigma
+from bayes_imu.drift.bands import default_times, drift_bands, drift_draws, integrated_unit
+from bayes_imu.drift.closed_forms import drift_sigma
 from bayes_imu.errors import InputError
-from bayes_imu.fit import FitResult
-from bayes_imu.models import NoiseModel
-from bayes_imu.simulate import simulate_log
+from bayes_imu.inference.fit import FitResult
+from bayes_imu.noise.avar_forms import NoiseModel
+from bayes_imu.noise.simulate import simulate_log
 
 
 def fake_fit(terms, samples, dt=0.01):

@@ -17,13 +17,13 @@ import warnings
 import numpy as np
 import pytest
 
-from bayes_imu.allan import allan_variance
-from bayes_imu.bands import drift_bands
-from bayes_imu.drift import drift_sigma
+from bayes_imu.allan.estimator import allan_variance
+from bayes_imu.drift.bands import drift_bands
+from bayes_imu.drift.closed_forms import drift_sigma
 from bayes_imu.errors import ConvergenceWarning
-from bayes_imu.fit import fit_allan
-from bayes_imu.models import NoiseModel
-from bayes_imu.simulate import simulate_log
+from bayes_imu.inference.fit import fit_allan
+from bayes_imu.noise.avar_forms import NoiseModel
+from bayes_imu.noise.simulate import simulate_log
 
 BASE = {"noise_variance": 1e-2, "bias_variance": 1e-5, "time_constant": 10.0}
 BAND_TIMES = np.array([1.0, 10.0, 100.0])
@@ -68,7 +68,7 @@ def test_coverage_white_gauss_markov(fits):
 
 @pytest.mark.slow
 def test_drift_bands_contain_true_drift(detected_fits):
-    """The 90% attitude band contains the exact 1-sigma drift of the true sensor (bayes_imu.drift)."""
+    """The 90% attitude band contains the exact 1-sigma drift of the true sensor (bayes_imu.drift.closed_forms)."""
     hits = []
     for truth, result in detected_fits:
         bands = drift_bands(result, BAND_TIMES, quantity="attitude")

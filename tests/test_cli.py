@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from bayes_imu import drift_sigma
-from bayes_imu.cli import main
+from bayes_imu.cli.main import main
 
 
 def test_drift_command_writes_csv_matching_api(tmp_path, capsys):
@@ -59,7 +59,7 @@ def test_fit_command_writes_all_outputs(tmp_path, capsys):
     """bayes-imu fit on a shipped log: summary.json keys, posterior.nc readable, figures, same seed same numbers."""
     import json
 
-    from bayes_imu.cli import main
+    from bayes_imu.cli.main import main
 
     data = Path(__file__).resolve().parents[1] / "data_synthetic" / "gyro_highgrade.csv.gz"
     args = [str(data), "--column", "gyro_x_dps", "--rate", "100", "--seed", "3", "--unit", "deg/s"]
@@ -76,7 +76,7 @@ def test_fit_command_writes_all_outputs(tmp_path, capsys):
     assert abs(sum(c["probability"] for c in summary["candidates"]) - 1.0) < 1e-9
     for name in ("posterior.nc", "allan_fit.png", "corner.png"):
         assert (tmp_path / "a" / name).stat().st_size > 0
-    from bayes_imu.fit import _arviz
+    from bayes_imu.inference.fit import _arviz
 
     idata = _arviz().from_netcdf(str(tmp_path / "a" / "posterior.nc"))
     assert {"posterior", "sample_stats", "observed_data", "log_likelihood"} <= set(idata.groups())
@@ -89,8 +89,8 @@ def test_drift_rows_at_exactly_the_requested_times(tmp_path, capsys, rng):
     """--times writes drift.csv at those times; a white-noise fit under the calibrated start gives
     sigma^2 = q dt^2 (k + k^2 / N) (the sum of k samples, plus k times the error of a mean of N),
     checked at the posterior median of q; the summary line is printed for the quantity."""
-    from bayes_imu.models import NoiseModel
-    from bayes_imu.simulate import simulate_log
+    from bayes_imu.noise.avar_forms import NoiseModel
+    from bayes_imu.noise.simulate import simulate_log
 
     y = simulate_log(NoiseModel(("white",), 0.01), {"noise_variance": 4e-4}, 2**15, rng=rng)
     log = tmp_path / "g.csv"
@@ -108,7 +108,7 @@ def test_drift_rows_at_exactly_the_requested_times(tmp_path, capsys, rng):
 
 
 def test_fit_command_bad_terms_exit_2(tmp_path, capsys):
-    from bayes_imu.cli import main
+    from bayes_imu.cli.main import main
 
     data = Path(__file__).resolve().parents[1] / "data_synthetic" / "gyro_highgrade.csv.gz"
     code = main(["fit", str(data), "--column", "gyro_x_dps", "--rate", "100", "--terms", "white,pink", "--out", str(tmp_path)])
@@ -119,8 +119,8 @@ def test_fit_command_bad_terms_exit_2(tmp_path, capsys):
 
 def test_several_columns_one_summary_per_axis_and_worst_axis(tmp_path, rng):
     """Three white-noise axes with known variances: each axis fitted, the worst axis is the noisiest."""
-    from bayes_imu.models import NoiseModel
-    from bayes_imu.simulate import simulate_log
+    from bayes_imu.noise.avar_forms import NoiseModel
+    from bayes_imu.noise.simulate import simulate_log
 
     variances = {"gx": 1e-2, "gy": 9e-2, "gz": 4e-2}
     model = NoiseModel(("white",), 0.01)
@@ -148,7 +148,7 @@ def test_progress_bars_change_no_number(rng, capsys):
     import io
 
     from bayes_imu._progress import show_progress
-    from bayes_imu.allan import allan_variance
+    from bayes_imu.allan.estimator import allan_variance
 
     y = rng.standard_normal(50_000)
     quiet, loud = allan_variance(y, rate_hz=100.0), allan_variance(y, rate_hz=100.0, progress=True)

@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from bayes_imu.cli import main
-from bayes_imu.display import parse_amount
+from bayes_imu.cli.main import main
+from bayes_imu.drift.display import parse_amount
 from bayes_imu.errors import InputError
 from bayes_imu.noise import TERMS
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayes_imu.cli import main
+from bayes_imu.cli.main import main
 
 GOOD = "time,gx,gy\n" + "\n".join(f"{i / 100:.2f},{np.sin(i * 1.3):.6f},{np.cos(i * 0.7):.6f}" for i in range(400)) + "\n"
 
@@ -182,17 +182,17 @@ def test_output_claimed_by_another_run_is_refused_at_once(tmp_path, log, capsys)
 def test_files_saved_into_out_during_the_run_are_kept(tmp_path, log, monkeypatch):
     """The run claims a new --out at the start; a file the user saves there meanwhile is kept,
     on success and on failure (the folder then stays, holding only the user's file)."""
-    import bayes_imu.plots
+    import bayes_imu.report.plots
 
     out = tmp_path / "out"
-    real = bayes_imu.plots.plot_allan
+    real = bayes_imu.report.plots.plot_allan
 
     def user_saves_notes(*args, **kwargs):
         assert out.is_dir()  # claimed before the work
         (out / "notes.txt").write_text("mine")
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(bayes_imu.plots, "plot_allan", user_saves_notes)
+    monkeypatch.setattr(bayes_imu.report.plots, "plot_allan", user_saves_notes)
     args = ["allan", str(log), "--column", "gx", "--rate", "100", "--quiet"]
     assert main(args + ["--out", str(out)]) == 0
     assert sorted(p.name for p in out.iterdir()) == [".bayes_imu.json", "allan.csv", "allan.png", "notes.txt"]
@@ -201,7 +201,7 @@ def test_files_saved_into_out_during_the_run_are_kept(tmp_path, log, monkeypatch
         (tmp_path / "out2" / "notes.txt").write_text("mine")
         raise ValueError("boom")
 
-    monkeypatch.setattr(bayes_imu.plots, "plot_allan", fails_after_notes)
+    monkeypatch.setattr(bayes_imu.report.plots, "plot_allan", fails_after_notes)
     assert main(args + ["--out", str(tmp_path / "out2")]) == 1
     assert sorted(p.name for p in (tmp_path / "out2").iterdir()) == ["notes.txt"]
 
@@ -234,12 +234,12 @@ def test_output_is_a_file_or_holds_the_input(tmp_path, log, capsys):
 
 def test_failure_while_writing_leaves_nothing_and_keeps_old_output(tmp_path, log, capsys, monkeypatch):
     """An error after some outputs were written: no partial folder, and --force keeps the old results."""
-    import bayes_imu.plots
+    import bayes_imu.report.plots
 
     def broken(*args, **kwargs):
         raise OSError("disk full")
 
-    monkeypatch.setattr(bayes_imu.plots, "plot_allan", broken)
+    monkeypatch.setattr(bayes_imu.report.plots, "plot_allan", broken)
     out = tmp_path / "deep" / "new" / "out"
     args = ["allan", str(log), "--column", "gx", "--rate", "100", "--quiet"]
     assert main(args + ["--out", str(out)]) == 1
@@ -249,19 +249,19 @@ def test_failure_while_writing_leaves_nothing_and_keeps_old_output(tmp_path, log
     monkeypatch.undo()
     assert main(args + ["--out", str(old)]) == 0  # a previous result
     before = _snapshot(old)
-    monkeypatch.setattr(bayes_imu.plots, "plot_allan", broken)
+    monkeypatch.setattr(bayes_imu.report.plots, "plot_allan", broken)
     assert main(args + ["--out", str(old), "--force"]) == 1
     assert _snapshot(old) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in", "old"]
 
 
 def test_interrupt_leaves_nothing(tmp_path, log, monkeypatch):
-    import bayes_imu.plots
+    import bayes_imu.report.plots
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(bayes_imu.plots, "plot_allan", interrupted)
+    monkeypatch.setattr(bayes_imu.report.plots, "plot_allan", interrupted)
     assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "out")]) == 130
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in"]
 
@@ -315,7 +315,7 @@ def test_stdin_and_pipes_are_read_as_streams(tmp_path, monkeypatch):
 def test_long_preamble_and_long_lines_are_read(tmp_path, kind):
     """A 90 KB comment preamble, or a header line longer than the sniffing window, used to read as
     'no data rows': the values now equal those of the clean file."""
-    from bayes_imu.io import read_columns
+    from bayes_imu.io.readers import read_columns
 
     clean = tmp_path / "clean.csv"
     clean.write_text(GOOD)
@@ -331,7 +331,7 @@ def test_long_preamble_and_long_lines_are_read(tmp_path, kind):
 
 def test_headerless_quoted_numbers_keep_every_sample(tmp_path):
     """'"1.5","2.5"' rows: quoted numbers are numbers, not a header (the first sample used to be lost)."""
-    from bayes_imu.io import read_columns
+    from bayes_imu.io.readers import read_columns
 
     path = tmp_path / "q.csv"
     rows = [(np.sin(i), np.cos(i)) for i in range(50)]
@@ -344,12 +344,12 @@ def test_sigterm_is_handled_like_ctrl_c(tmp_path, log, capsys, monkeypatch):
     import os
     import signal
 
-    import bayes_imu.plots
+    import bayes_imu.report.plots
 
     def terminated(*args, **kwargs):
         os.kill(os.getpid(), signal.SIGTERM)
 
-    monkeypatch.setattr(bayes_imu.plots, "plot_allan", terminated)
+    monkeypatch.setattr(bayes_imu.report.plots, "plot_allan", terminated)
     out = tmp_path / "new" / "out"
     assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(out)]) == 143
     err = capsys.readouterr().err
@@ -363,7 +363,7 @@ def test_disk_full_while_writing_keeps_the_previous_result(tmp_path, log, capsys
     result byte-identical, no staging folder left."""
     import errno
 
-    import bayes_imu.plots
+    import bayes_imu.report.plots
 
     out = tmp_path / "out"
     args = ["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(out), "--quiet"]
@@ -373,7 +373,7 @@ def test_disk_full_while_writing_keeps_the_previous_result(tmp_path, log, capsys
     def full(*a, **k):
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(bayes_imu.plots, "plot_allan", full)
+    monkeypatch.setattr(bayes_imu.report.plots, "plot_allan", full)
     assert main(args + ["--force"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"--out {out}: the disk is full" in err

@@ -13,7 +13,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from bayes_imu.cli import main
+from bayes_imu.cli.main import main
 
 ROWS = [f"{i / 100:.2f},{np.sin(i * 1.3):.6f},{np.cos(i * 0.7):.6f}" for i in range(300)]
 CLEAN = ("time,gx,gy\n" + "\n".join(ROWS) + "\n").encode()

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from bayes_imu import NoiseModel
-from bayes_imu.datasheet import datasheet
-from bayes_imu.population import UnitPosterior
+from bayes_imu.noise.datasheet import datasheet
+from bayes_imu.inference.population import UnitPosterior
 
 DT = 0.01
 RAD = math.pi / 180.0  # one degree in rad

@@ -33,7 +33,7 @@ def test_readme_walkthrough_runs_as_written(tmp_path):
     shutil.copytree(ROOT / "data_synthetic", tmp_path / "data_synthetic")
     for line in commands:
         args = shlex.split(line)
-        done = subprocess.run([sys.executable, "-m", "bayes_imu.cli", *args[1:]], cwd=tmp_path, capture_output=True,
+        done = subprocess.run([sys.executable, "-m", "bayes_imu.cli.main", *args[1:]], cwd=tmp_path, capture_output=True,
                               text=True, timeout=900)
         assert done.returncode == 0, (line, done.stderr)
     for path in ("walk/gyro/summary.json", "walk/gyro/drift.png", "walk/population/population.png",

@@ -1,4 +1,4 @@
-"""Tests of bayes_imu.drift against exact references.
+"""Tests of bayes_imu.drift.closed_forms against exact references.
 
 References: ``tests/exact.py`` (exact rational covariance propagation, and 400-bit mpmath
 binary-splitting propagation), neither of which uses the package's closed forms; the
@@ -12,7 +12,7 @@ from exact import fraction_variance, mpmath_variance
 
 from bayes_imu import InputError, ModelError, drift_sigma, euler_variance, gauss_markov_driving_variance
 from bayes_imu import noise_density_to_variance, noise_variance_to_density
-from bayes_imu._euler import SERIES_TERMS, SWITCH, gm_coefficient, gm_sum
+from bayes_imu.noise.euler_sums import SERIES_TERMS, SWITCH, gm_coefficient, gm_sum
 
 REL = 1e-13  # the issue asks for 1e-12; the kernel reaches a few 1e-15
 
@@ -303,7 +303,7 @@ def test_negative_time_is_refused():
 def test_compiled_grid_kernels_equal_numpy_reference():
     """gm_sum_grid / drift_grid (compiled, used for posterior bands) equal gm_sum / gm_coefficient to 1e-13,
     over both branches, the switch-overs, A = 0 (a = 1), A < 0 (a > 1) and k from 0 to 2**53."""
-    from bayes_imu._euler import drift_grid, gm_coefficient, gm_sum, gm_sum_grid
+    from bayes_imu.noise.euler_sums import drift_grid, gm_coefficient, gm_sum, gm_sum_grid
 
     rng = np.random.default_rng(5)
     k = np.concatenate([[0, 1, 2, 3], np.unique(np.round(np.geomspace(1, 3.6e5, 300))), [2.0**40, 2.0**53]])

@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from bayes_imu.allan import allan_variance
+from bayes_imu.allan.estimator import allan_variance
 from bayes_imu.errors import ConvergenceWarning, InputError
-from bayes_imu.fit import fit, fit_allan
-from bayes_imu.io import read_log
-from bayes_imu.likelihood import LogPosterior, default_bounds
-from bayes_imu.models import NoiseModel
-from bayes_imu.selection import log_evidence, posterior_mode
-from bayes_imu.simulate import simulate_log
+from bayes_imu.inference.fit import fit, fit_allan
+from bayes_imu.io.readers import read_log
+from bayes_imu.inference.likelihood import LogPosterior, default_bounds
+from bayes_imu.noise.avar_forms import NoiseModel
+from bayes_imu.inference.selection import log_evidence, posterior_mode
+from bayes_imu.noise.simulate import simulate_log
 
 DATA = Path(__file__).resolve().parents[1] / "data_synthetic"
 TRUTH = json.loads((DATA / "truth.json").read_text())
@@ -54,7 +54,7 @@ def test_bias_drift_log_gets_gauss_markov(lowgrade_fit):
         assert np.quantile(d, 0.005) < truth[name] < np.quantile(d, 0.995), name
     # the 16 base candidates scored, then the stepwise search (one round of additions from the
     # best, then removals); the selected one within the threshold of the best
-    from bayes_imu.selection import candidate_terms, extensions
+    from bayes_imu.inference.selection import candidate_terms, extensions
 
     scored = [c.terms for c in result.candidates]
     assert scored[:16] == candidate_terms()

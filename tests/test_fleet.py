@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from bayes_imu.cli import main
+from bayes_imu.cli.main import main
 
 pytest.importorskip("distributed", reason="the fleet extra (pip install 'bayes_imu[fleet]') is not installed")
 
@@ -100,7 +100,7 @@ def _task(job):
 
 def test_run_batch_maps_failures_to_statuses():
     """The library runs any task (it never calls the command line): 0 success, 2 user error, 1 internal."""
-    from bayes_imu.fleet import BatchJob, run_batch
+    from bayes_imu.report.fleet import BatchJob, run_batch
 
     jobs = [BatchJob("ok", ("ok",)), BatchJob("user", ("user",)), BatchJob("bug", ("bug",))]
     results = run_batch(jobs, _task, scheduler="serial")

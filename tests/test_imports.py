@@ -17,7 +17,7 @@ def test_second_process_compiles_nothing():
     code = """
 import numpy as np
 import bayes_imu as bi
-from bayes_imu.avar_covariance import avar_covariance
+from bayes_imu.noise.avar_covariance import avar_covariance
 y = np.random.default_rng(0).standard_normal(4096)
 a = bi.allan_variance(y, rate_hz=100.0)
 model = bi.NoiseModel(("white", "gauss_markov"), 0.01)
@@ -25,7 +25,7 @@ params = {"noise_variance": 1.0, "bias_variance": 0.1, "time_constant": 5.0}
 avar_covariance(model, params, a.m, a.n_samples)
 post = bi.UnitPosterior(model, np.array([[1.0, 0.1, 5.0]]), 40.0)
 bi.drift_bands(post, [0.1, 1.0], quantity="attitude", bias_start="zero")
-from bayes_imu.outofcore import allan_variance_file
+from bayes_imu.allan.outofcore import allan_variance_file
 """
     import os
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from bayes_imu.errors import InputError
-from bayes_imu.io import MAX_MAGNITUDE, check_signal, read_columns, read_log
+from bayes_imu.io.readers import MAX_MAGNITUDE, check_signal, read_columns, read_log
 
 
 @pytest.fixture
@@ -146,7 +146,7 @@ def test_check_signal_accepts_gravity_offset_tiny_noise(rng):
 @pytest.mark.parametrize("form", sorted(VALID))
 def test_unusual_but_valid_files_through_the_command(tmp_path, samples, form, capsys):
     """Exit status 0, nothing on stderr, and the same allan.csv as the plain CSV."""
-    from bayes_imu.cli import main
+    from bayes_imu.cli.main import main
 
     plain = tmp_path / "plain.csv"
     plain.write_text("gx,gy\n" + "\n".join(_rows(samples)) + "\n", encoding="utf-8")

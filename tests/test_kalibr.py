@@ -3,8 +3,8 @@
 import numpy as np
 
 from bayes_imu import NoiseModel
-from bayes_imu.kalibr import axis_densities
-from bayes_imu.population import UnitPosterior
+from bayes_imu.report.kalibr import axis_densities
+from bayes_imu.inference.population import UnitPosterior
 
 
 def test_short_term_terms_set_the_density_and_slow_biases_the_random_walk():
@@ -31,7 +31,7 @@ def test_one_sensor_several_axes_and_topic(tmp_path, capsys):
     the topic as given; the worst-axis value is the larger of the axes' own medians."""
     import json
 
-    from bayes_imu.cli import main
+    from bayes_imu.cli.main import main
 
     rng = np.random.default_rng(11)
     rows = rng.standard_normal((2**13, 2)) * [0.01, 0.03]

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from bayes_imu.allan import allan_variance, cluster_sizes
-from bayes_imu.avar_covariance import avar_covariance
-from bayes_imu.likelihood import LIKELIHOODS, LogPosterior, _normal_scores, default_bounds
-from bayes_imu.models import NoiseModel
-from bayes_imu.simulate import simulate_log
+from bayes_imu.allan.estimator import allan_variance, cluster_sizes
+from bayes_imu.noise.avar_covariance import avar_covariance
+from bayes_imu.inference.likelihood import LIKELIHOODS, LogPosterior, _normal_scores, default_bounds
+from bayes_imu.noise.avar_forms import NoiseModel
+from bayes_imu.noise.simulate import simulate_log
 
 TRUTH = {"noise_variance": 1e-2, "bias_variance": 1e-5, "time_constant": 10.0}
 MODEL = NoiseModel(("white", "gauss_markov"), 0.01)
@@ -81,6 +81,6 @@ def test_copula_scores_at_truth_are_standard_normal_with_model_correlation(rng):
 def test_max_score_is_the_normal_score_of_the_smallest_probability():
     from scipy import special
 
-    from bayes_imu import likelihood
+    from bayes_imu.inference import likelihood
 
     assert likelihood._MAX_SCORE == float(-special.ndtri(np.finfo(float).tiny))

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from bayes_imu.errors import InputError
-from bayes_imu.models import TERMS, NoiseModel, gauss_markov_avar, random_walk_avar, structure_function
+from bayes_imu.noise.avar_forms import TERMS, NoiseModel, gauss_markov_avar, random_walk_avar, structure_function
 
 PARAMS = {
     "white": {"noise_variance": 2.0},
@@ -128,7 +128,7 @@ def _avar_brute(cov, m):
 def test_per_term_avar_functions_against_definitions(m):
     """white, quantization, rate random walk and ramp against covariance matrices built from each
     process's definition (dt = 0.25)."""
-    from bayes_imu.models import quantization_avar, ramp_avar, white_avar
+    from bayes_imu.noise.avar_forms import quantization_avar, ramp_avar, white_avar
 
     dt, n = 0.25, 2 * m
     # white: y_k iid, variance q
@@ -149,7 +149,7 @@ def test_per_term_avar_functions_against_definitions(m):
 
 def test_bias_instability_avar_is_flat_at_its_definition():
     """Flicker: AVAR = 2 ln2 B^2 / pi at every m (IEEE Std 952's definition of B)."""
-    from bayes_imu.models import bias_instability_avar
+    from bayes_imu.noise.avar_forms import bias_instability_avar
 
     m = np.array([1, 2, 10, 1000])
     np.testing.assert_allclose(bias_instability_avar(m, 0.5), 2 * np.log(2) * 0.25 / np.pi, rtol=1e-12)

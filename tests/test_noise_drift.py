@@ -11,7 +11,7 @@ import pytest
 
 from bayes_imu.noise import REGISTRY, NoiseModel
 from bayes_imu.noise.bias_instability import flicker_difference_acov
-from bayes_imu.simulate import simulate_log
+from bayes_imu.noise.simulate import simulate_log
 
 DT = 0.1
 PARAMS = {

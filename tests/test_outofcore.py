@@ -1,6 +1,6 @@
 """Out-of-core Allan variance: identical (rel 1e-12) to the in-memory computation, one-line errors.
 
-Reference: :func:`bayes_imu.allan.allan_variance` on the same samples loaded in memory
+Reference: :func:`bayes_imu.allan.estimator.allan_variance` on the same samples loaded in memory
 (itself checked against NBS14, Stable32 and an exact-integer computation in test_allan).
 Small chunks (a few hundred samples) exercise every chunk boundary.
 """
@@ -11,10 +11,10 @@ import json
 import numpy as np
 import pytest
 
-from bayes_imu.allan import allan_variance
-from bayes_imu.cli import main
+from bayes_imu.allan.estimator import allan_variance
+from bayes_imu.cli.main import main
 from bayes_imu.errors import InputError
-from bayes_imu.outofcore import allan_variance_file
+from bayes_imu.allan.outofcore import allan_variance_file
 
 
 @pytest.fixture(scope="module")
@@ -80,7 +80,7 @@ def test_errors_are_one_line(tmp_path, make, kwargs, message):
 
 
 def test_not_enough_disk_is_refused_before_writing(tmp_path, samples, monkeypatch):
-    import bayes_imu.outofcore as outofcore
+    import bayes_imu.allan.outofcore as outofcore
 
     np.save(tmp_path / "y.npy", samples)
     monkeypatch.setattr(outofcore, "_available_disk", lambda folder=None: 1000)

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from bayes_imu import NoiseModel, allan_variance, fit_allan, simulate_log
-from bayes_imu import plots
-from bayes_imu.bands import drift_bands
+from bayes_imu.report import plots
+from bayes_imu.drift.bands import drift_bands
 
 
 @pytest.fixture
@@ -98,7 +98,7 @@ def test_drift_plot_labels_terms_with_probability(tmp_path, figures, fit):
 
 
 def test_population_plot(tmp_path, figures):
-    from bayes_imu.population import fit_population
+    from bayes_imu.inference.population import fit_population
 
     rng = np.random.default_rng(5)
     model = NoiseModel(("white",), 0.01)

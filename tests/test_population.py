@@ -9,11 +9,11 @@ import pytest
 from scipy import stats
 
 from bayes_imu import NoiseModel, allan_variance, fit_allan, simulate_log
-from bayes_imu.archive import load_fit, save_fit
-from bayes_imu.bands import drift_bands
-from bayes_imu.cli import main
+from bayes_imu.inference.archive import load_fit, save_fit
+from bayes_imu.drift.bands import drift_bands
+from bayes_imu.cli.main import main
 from bayes_imu.errors import InputError
-from bayes_imu.population import (
+from bayes_imu.inference.population import (
     SPREAD_BOUNDS,
     UnitPosterior,
     _HyperPosterior,
@@ -209,7 +209,7 @@ def test_fit_population_command(tmp_path, capsys):
 
 
 def test_report_population_and_fit_folders(tmp_path):
-    from bayes_imu.report import build_report, read_scene
+    from bayes_imu.report.scene import build_report, read_scene
 
     rng = np.random.default_rng(9)
     paths = _write_units(tmp_path, 3, rng)

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayes_imu.cli import main
+from bayes_imu.cli.main import main
 from bayes_imu.errors import InputError
-from bayes_imu.report import _bound, build_report, read_scene
-from bayes_imu.report_html import write_report
+from bayes_imu.report.scene import _bound, build_report, read_scene
+from bayes_imu.report.html import write_report
 
 DATA = Path(__file__).resolve().parents[1] / "data_synthetic"
 SCENE = """
@@ -62,7 +62,7 @@ def test_better_sensor_ranks_first_and_bounds_are_quantiles(report):
         assert b["unit"] == "rad" and b["median"] < b["bound"] and b["extrapolated"] is False  # 1 h logs
     # the bound is the 95% posterior quantile of sigma(t), recomputed independently from the draws
     fit = rep.sensors[0].fit
-    from bayes_imu.drift import drift_sigma
+    from bayes_imu.drift.closed_forms import drift_sigma
 
     from bayes_imu.noise import NoiseModel
 

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from bayes_imu import NoiseModel
-from bayes_imu.population import UnitPosterior
-from bayes_imu.report import max_outage
-from bayes_imu.selection import CandidateScore, candidate_terms, extensions, model_probabilities, reductions, select
+from bayes_imu.inference.population import UnitPosterior
+from bayes_imu.report.scene import max_outage
+from bayes_imu.inference.selection import CandidateScore, candidate_terms, extensions, model_probabilities, reductions, select
 
 
 def _score(terms, log_z, se=0.0):

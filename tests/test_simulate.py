@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from bayes_imu.allan import allan_variance
+from bayes_imu.allan.estimator import allan_variance
 from bayes_imu.errors import InputError
-from bayes_imu.models import NoiseModel
-from bayes_imu.simulate import simulate_log
+from bayes_imu.noise.avar_forms import NoiseModel
+from bayes_imu.noise.simulate import simulate_log
 from test_models import PARAMS
 
 

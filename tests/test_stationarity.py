@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 from bayes_imu import allan_variance, fit_allan
-from bayes_imu.allan import segment_allan
-from bayes_imu.archive import load_fit, save_fit
-from bayes_imu.bands import drift_draws
+from bayes_imu.allan.estimator import segment_allan
+from bayes_imu.inference.archive import load_fit, save_fit
+from bayes_imu.drift.bands import drift_draws
 from bayes_imu.noise import NoiseModel
-from bayes_imu.simulate import simulate_log
-from bayes_imu.stationarity import STATIONARITY_ALPHA, Stationarity, stationarity_check
+from bayes_imu.noise.simulate import simulate_log
+from bayes_imu.inference.stationarity import STATIONARITY_ALPHA, Stationarity, stationarity_check
 
 DT = 0.01
 
@@ -94,7 +94,7 @@ def test_flagged_fit_widens_drift_bands_by_the_spread(rng, tmp_path):
 
 
 def test_fit_command_warns_when_the_noise_changes(tmp_path, capsys, rng):
-    from bayes_imu.cli import main
+    from bayes_imu.cli.main import main
 
     y = np.concatenate([rng.standard_normal(2**15), 2.0 * rng.standard_normal(2**15)]) * 1e-2
     log = tmp_path / "log.csv"

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from bayes_imu.errors import InputError
-from bayes_imu.timebase import RATE_TOLERANCE, check_time
+from bayes_imu.io.timebase import RATE_TOLERANCE, check_time
 
 
 def _lines(n):

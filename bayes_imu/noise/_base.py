@@ -8,7 +8,7 @@ A term is a stochastic (or, for the ramp, deterministic) component of the rate s
   cluster sizes ``m`` (``tau = m dt``), broadcast ``(...,) x (n_tau,) -> (..., n_tau)``;
 * ``structure(k, params, dt)``: the phase structure function ``D(k)`` (a generalised
   covariance of ``x_k = sum_{t<k} y_t``, in ``u^2``) from which the covariance of the AVAR
-  estimates is built (:mod:`bayes_imu.avar_covariance`), plus ``gm_components`` and
+  estimates is built (:mod:`bayes_imu.noise.avar_covariance`), plus ``gm_components`` and
   ``flicker_level`` for the exact tails of that covariance;
 * ``simulate(params, n, dt, rng)``: an exact draw of the discrete process;
 * ``drift_variance(order, k, params, dt, bias_start, n_cal)``: the exact variance (mean

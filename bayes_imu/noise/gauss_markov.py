@@ -8,7 +8,7 @@ A stationary AR(1) ``b_k = phi b_{k-1} + w_k``, ``phi = exp(-dt/T)``, variance `
     a fast component, ``dt <= T <= 50 dt``: sensor bandwidth, internal filtering, the
     "hump" of MEMS logs at 0.01-0.1 s. It is short-term noise, not a bias: at averaging
     times ``tau >> T`` it is white noise of density ``sqrt(dt s^2 (1 + phi)/(1 - phi))``,
-    which :attr:`bayes_imu.fit.FitResult` adds to the white term's noise density.
+    which :attr:`bayes_imu.inference.fit.FitResult` adds to the white term's noise density.
 ``gauss_markov`` (``bias_variance``, ``time_constant``)
     a wandering bias, ``3 dt <= T <= record / 4``;
 ``gauss_markov_2`` (``bias_variance_2``, ``time_constant_2``)
@@ -28,7 +28,7 @@ leading term is the random-walk limit ``s^2 x (2m^2 + 1)/(3m)``.
 Structure function ``D(k) = s^2 [k (1 - phi^2) - 2 phi (1 - phi^k)] / (1 - phi)^2`` (the
 variance of a sum of ``k`` consecutive samples), series below ``k x = 0.5``.
 
-Drift of the Euler integral, ``a = 1 - phi`` (:mod:`bayes_imu._euler`, ``c_r`` and ``V_r``)::
+Drift of the Euler integral, ``a = 1 - phi`` (:mod:`bayes_imu.noise.euler_sums`, ``c_r`` and ``V_r``)::
 
     zero        s^2 a (2 - a) dt^(2r) V_r(k, a)                    (paper eqs 16, 22, 29)
     stationary  + s^2 dt^(2r) c_r(k)^2
@@ -46,7 +46,7 @@ from math import factorial
 
 import numpy as np
 
-from .._euler import gm_terms_broadcast
+from .euler_sums import gm_terms_broadcast
 from ._base import Term
 
 __all__ = ["HF_CORRELATED", "GAUSS_MARKOV", "GAUSS_MARKOV_2", "gm_avar", "gm_structure"]

@@ -1,0 +1,10 @@
+"""Stage 7, the command line: argv in, library calls, files and exit status out.
+
+Owns argument parsing into frozen option objects, reading the sources a command names
+(:mod:`~bayes_imu.cli.sources`) and mapping library errors to one-line messages and exit
+status 2 (:mod:`~bayes_imu.cli.main`). The library never imports it.
+"""
+
+from .main import main
+
+__all__ = ["main"]

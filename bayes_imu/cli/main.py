@@ -1,0 +1,822 @@
+"""Command-line interface: a thin layer over the public API.
+
+``bayes-imu allan LOG --column NAME --rate HZ --out DIR``
+    Overlapping Allan deviation with confidence intervals (allan.csv, allan.png).
+``bayes-imu fit LOG --column NAME[,NAME...] --rate HZ --out DIR [--seed N]``
+    Model selection and posterior (summary.json, posterior.nc, allan_fit.png, corner.png,
+    drift.csv and drift.png with ``--sensor``); one sub-folder per column when several.
+``bayes-imu report SCENE.toml --out DIR``, ``bayes-imu kalibr ...``, ``bayes-imu drift SENSOR.json --out DIR``
+
+Every output is written to a temporary folder beside ``--out`` and moved into place only
+when complete; an existing non-empty ``--out`` is refused unless ``--force``.
+
+Exit status: 0 success, 2 a user error (one line on stderr, no traceback unless
+``--debug``), 1 an unexpected internal error (one line; ``--debug`` for the traceback).
+"""
+
+import argparse
+import contextlib
+import json
+import logging
+import os
+import shutil
+import signal
+import stat
+import sys
+import tempfile
+import textwrap
+import threading
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from .._version import __version__
+from ..report.output import safe_folder_name, staged_file, staged_folder
+from .._progress import show_progress
+from .sources import SourceOptions, allan_results
+from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, SENSOR_QUANTITIES
+from ..drift.display import DISPLAY_CHOICES, display_unit
+from ..drift.closed_forms import DRIFT_BIAS_STARTS, QUANTITY_ORDER, SI_OUTPUT_UNITS, drift_sigma
+from ..errors import BayesIMUError, InputError
+from ..io.readers import INCREMENT_UNITS, SI_UNITS, UNITS, read_json_object
+from ..inference.fit import DISCREPANCY_MODES
+from ..inference.likelihood import LIKELIHOODS
+from ..noise import BIAS_STARTS, TERMS
+from ..io.timebase import GAP_POLICIES, RATE_RANGE
+
+__all__ = ["main"]
+
+log = logging.getLogger("bayes_imu")
+#: amplitude parameters reported per axis as worst-axis conservative values (the time
+#: constant is not monotone in the drift, so it has no "worst" direction)
+_AMPLITUDES = ("noise_variance", "noise_density", "quantization", "bias_instability", "bias_variance",
+               "rate_random_walk")
+
+
+class _UsageError(Exception):
+    """An argument error (argparse), reported in one line with exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        command = self.prog.removeprefix("bayes-imu").strip()
+        raise _UsageError(f"{command + ': ' if command else ''}{message} (see {self.prog} --help)")
+
+
+_SCENE_HELP = """scene format (TOML; paths relative to the scene file):
+
+  [scene]
+  name = "UAV outage study"
+  outages_s = [10, 60, 300]        # GPS outages to bound (s)
+  credibility = 0.95               # the bound is this posterior quantile of the 1-sigma drift
+  bias_start = "calibrated"        # or "zero" (the paper), "stationary"
+  calibration_s = 60               # bias = mean of the last 60 s before the outage
+
+  [requirement]                    # optional: longest acceptable outage and ranking
+  quantity = "attitude"            # attitude (gyro), velocity or position (accelerometer)
+  max_error = "0.5 deg"            # with a unit (deg, rad, mrad, arcmin; m/s, cm/s; m, cm, km, ft)
+
+  [[sensor]]                       # one log of one unit: bounds for that unit
+  name = "budget MEMS"
+  kind = "gyro"                    # gyro or accel
+  log = "budget.csv"
+  column = "gyro_x"                # or a list ["gyro_x", "gyro_y", "gyro_z"]: the worst axis counts
+  rate_hz = 100
+  units = "deg/s"
+
+  [[sensor]]                       # several units' logs: bounds for a NEW unit (population fit)
+  name = "ADIS16405"
+  kind = "gyro"
+  logs = ["unit1.csv", "unit2.csv", "unit3.csv"]
+  column = "gyro_x"
+  rate_hz = 100
+  units = "deg/s"
+
+  [[sensor]]                       # a bayes-imu fit folder (fitted with --units): no refit
+  name = "tactical"
+  kind = "gyro"
+  fit = "fit_tactical"             # or fits = [...] for several units
+"""
+
+#: options of ``fit`` that ``fit-batch`` forwards to every log: (dest, flag)
+_FORWARDED = (("column", "--column"), ("topic", "--topic"), ("stream", "--stream"), ("rate", "--rate"),
+              ("time_column", "--time-column"), ("gaps", "--gaps"), ("units", "--units"), ("seed", "--seed"),
+              ("terms", "--terms"), ("likelihood", "--likelihood"), ("sensor", "--sensor"), ("horizon", "--horizon"),
+              ("bias_start", "--bias-start"), ("calibration", "--calibration"), ("models", "--models"),
+              ("times", "--times"), ("discrepancy", "--discrepancy"), ("input", "--input"),
+              ("display_units", "--display-units"))
+
+
+def _input_options(batch=False, optional_log=False):
+    """Options shared by the commands that read logs (``batch``: several logs)."""
+    common = _Parser(add_help=False)
+    if batch:
+        common.add_argument("logs", type=Path, nargs="+", help="logs, all with the same columns and options")
+    else:
+        common.add_argument("log", type=Path, nargs="?" if optional_log else None,
+                            help="log: delimited text (.gz accepted), .npy / raw binary, ROS bag"
+                                 + (" (or --allan-table)" if optional_log else ""))
+    common.add_argument("--column", help="column name or 0-based index (text logs); fit takes a comma list")
+    common.add_argument("--topic", help="ROS bag: the sensor_msgs/Imu topic (columns gyro_x ... accel_z)")
+    common.add_argument("--stream", action="store_true",
+                        help="read a text log out of core, in chunks (automatic for .npy and raw binary logs)")
+    common.add_argument("--rate", type=_rate_type,
+                        help=f"sample rate (Hz, {RATE_RANGE[0]:g} to {RATE_RANGE[1]:g}); optional with --time-column")
+    common.add_argument("--time-column", help="time stamps (s): the rate is derived from them and checked")
+    common.add_argument("--gaps", choices=GAP_POLICIES, default="error",
+                        help="irregular time steps: error (default) or fit the longest regular segment")
+    common.add_argument("--input", choices=("rate", "increments"), default="rate",
+                        help="rate samples (default), or delta-angle / delta-velocity increments per sample "
+                             "(divided by the sample period into rates)")
+    common.add_argument("--units", "--unit", dest="units", choices=tuple(UNITS) + tuple(INCREMENT_UNITS),
+                        help="units of the column(s), converted to SI (rad/s, m/s^2): rates " + ", ".join(UNITS)
+                             + "; increments " + ", ".join(INCREMENT_UNITS) + "; default: left as they are")
+    common.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
+    common.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
+    common.add_argument("--quiet", action="store_true", help="no progress bars or messages")
+    return common
+
+
+def _build_parser():
+    parser = _Parser(prog="bayes-imu", description="Bayesian characterization of inertial sensors.")
+    parser.add_argument("--version", action="version", version=f"bayes-imu {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show the traceback of errors")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    common = _input_options()
+
+    allan = sub.add_parser(
+        "allan", parents=[common], help="overlapping Allan deviation of one column of a log",
+        description=textwrap.fill("Overlapping Allan deviation with chi-squared confidence intervals (Greenhall EDF). Writes "
+                    "allan.csv (tau, m, adev, interval, edf, unit) and allan.png.", 96),
+        epilog="examples:\n  bayes-imu allan imu.csv --column gyro_x --rate 100 --units deg/s --out allan_gx\n"
+               "  bayes-imu allan big.npy --rate 400 --out allan_big   (binary logs are read out of core)",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    allan.add_argument("--grid", default="octave", choices=("octave", "decade", "all"), help="cluster sizes")
+    allan.set_defaults(handler=_cmd_allan)
+
+    fit = sub.add_parser(
+        "fit", parents=[_input_options(optional_log=True)], help="Bayesian noise-model fit of columns of a log",
+        description=textwrap.fill("Select the noise terms the log needs (Bayesian evidence), sample their posterior (emcee), "
+                    "check the fit's adequacy. Writes summary.json (posteriors in SI and datasheet units, "
+                    "adequacy, every candidate's probability), posterior.nc (ArviZ), fit.npz (for report and "
+                    "kalibr), allan_fit.png and corner.png; with --sensor also drift.csv and drift.png (the drift "
+                    "credible bands of a GPS outage). Several columns: one sub-folder each.", 96),
+        epilog="examples:\n"
+               "  bayes-imu fit imu.csv --column gyro_x --rate 100 --units deg/s --sensor gyro --out fit_gx\n"
+               "  bayes-imu fit imu.csv --column accel_x,accel_y,accel_z --rate 100 --units g --sensor accel "
+               "--out fit_acc\n"
+               "  bayes-imu fit --allan-table adev.csv --rate 200 --samples 1440000 --units deg/h --out fit_table\n"
+               "  bayes-imu fit dtheta.csv --column dx --rate 400 --input increments --units rad --out fit_inc\n"
+               "terms: " + ", ".join(TERMS),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    _fit_options(fit)
+    fit.add_argument("--allan-table", type=Path, metavar="FILE",
+                     help="fit a published or external Allan deviation table instead of a log: a header with "
+                          "tau (s) and adev (or avar), optionally edf; --rate is the rate of the log it came from")
+    fit.add_argument("--samples", type=_positive_int, metavar="N",
+                     help="with --allan-table: samples in the log it came from (sets the intervals; unknown: "
+                          "the shortest record the table allows is assumed, the widest intervals)")
+    fit.set_defaults(handler=_cmd_fit)
+
+    batch = sub.add_parser("fit-batch", parents=[_input_options(batch=True)],
+                           help="fit many logs in parallel (Dask), one output folder per log")
+    _fit_options(batch)
+    batch.add_argument("--scheduler", help="address of a running Dask scheduler (default: a LocalCluster)")
+    batch.add_argument("--workers", type=_workers_type, help="LocalCluster worker processes (default: one per core)")
+    batch.add_argument("--serial", action="store_true", help="no Dask: one log after another in this process")
+    batch.set_defaults(handler=_cmd_fit_batch)
+
+    population = sub.add_parser(
+        "fit-population", parents=[_input_options(batch=True)],
+        help="joint (hierarchical) fit of several units of one IMU model: what a new unit will do",
+        description="Fit the logs of several units of one IMU model (or long sessions of one unit) jointly: "
+                    "a hierarchical model on the log-parameters gives each unit's posterior, the population's "
+                    "spread, and the posterior predictive for a NEW unit (parameters, Allan deviation band, "
+                    "drift bands). Writes summary.json, population.png, and with --sensor (or gyro / accel "
+                    "--units) drift.csv and drift.png for the new unit.",
+        epilog="example: bayes-imu fit-population imu1.csv imu2.csv imu3.csv --column gyro_x --rate 100 "
+               "--units deg/s --out pop_gx")
+    population.add_argument("--seed", type=_seed_type, default=0,
+                            help="random seed, 0 to 2**32 - 1 (recorded in the outputs), default 0")
+    population.add_argument("--terms", default="auto",
+                            help="'auto' (the common structure chosen by the units' summed evidence) or a "
+                                 "comma-separated list of terms: " + ", ".join(TERMS))
+    population.add_argument("--spread-scale", type=_positive_number, default=1.0, metavar="S",
+                            help="scale of the half-normal prior on the unit-to-unit spread of each "
+                                 "ln-parameter (default 1: a factor e, weakly informative)")
+    _drift_options(population)
+    population.set_defaults(handler=_cmd_fit_population, models="selected")
+
+    report = sub.add_parser(
+        "report", help="conservative drift bounds for several IMUs (scene TOML)",
+        description=textwrap.fill("Fit (or read) every sensor of a scene and rank them by their conservative drift bounds: "
+                    "report.json, report.html (self-contained) and comparison.png.", 96),
+        epilog=_SCENE_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    report.add_argument("scene", type=Path, help="scene TOML file (format below)")
+    report.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
+    report.add_argument("--seed", type=_seed_type, default=0, help="random seed (0 to 2**32 - 1), default 0")
+    report.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
+    report.add_argument("--quiet", action="store_true", help="no progress messages")
+    report.set_defaults(handler=_cmd_report)
+
+    kalibr = sub.add_parser(
+        "kalibr", help="Kalibr IMU noise YAML from fit folders",
+        description="Write a Kalibr / VIO imu.yaml (noise densities and bias random walks, SI) from bayes-imu fit "
+                    "folders fitted with --units. Either sensor may be given alone; several axes (folders, or a "
+                    "several-column fit) give the worst axis, each axis's value listed in comments.",
+        epilog="example: bayes-imu kalibr --gyro fit_gyro --accel fit_accel --credibility 0.95 --topic /imu0 "
+               "--out imu.yaml")
+    kalibr.add_argument("--gyro", type=Path, nargs="+", help="fit folder(s) of gyro axes")
+    kalibr.add_argument("--accel", type=Path, nargs="+", help="fit folder(s) of accelerometer axes")
+    kalibr.add_argument("--topic", default="/imu0", help="rostopic written into the file, default /imu0")
+    kalibr.add_argument("--out", type=Path, required=True, help="YAML file to write")
+    kalibr.add_argument("--credibility", type=float, default=None,
+                        help="upper posterior quantile for conservative values (e.g. 0.95); default: medians")
+    kalibr.add_argument("--force", action="store_true", help="replace a file bayes_imu wrote earlier (never other files)")
+    kalibr.set_defaults(handler=_cmd_kalibr)
+
+    drift = sub.add_parser("drift", help="drift curves from known noise parameters (JSON)")
+    drift.add_argument("sensor", type=Path,
+                       help="JSON file: kind (gyro / accel), rate_hz, noise_density, optional bias_variance, "
+                            "time_constant, random_walk, and units (of the values: rad/s default, deg/s, deg/h; "
+                            "m/s^2 default, g, mg)")
+    drift.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
+    drift.add_argument("--horizon", type=_positive_number, default=3600.0, help="longest time (s), default 3600")
+    drift.add_argument("--bias-start", choices=DRIFT_BIAS_STARTS, default="zero",
+                       help="bias at the start: zero (the paper, default) or stationary")
+    drift.add_argument("--display-units", choices=DISPLAY_CHOICES, default="si",
+                       help="units of drift.csv and the printout: si (rad, m/s, m; default) or deg (attitude in degrees)")
+    drift.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
+    drift.set_defaults(handler=_cmd_drift)
+    return parser
+
+
+# ---------------------------------------------------------------------------- reading
+
+@contextlib.contextmanager
+def _readable_log(args):
+    """``-`` (standard input) or a named pipe: copied as it streams in to a temporary file of
+    the same name, read like any log (line numbers unchanged), removed afterwards. A pipe with
+    no writer is an error at once, not a wait."""
+    path = args.log
+    fifo = str(path) != "-" and path.exists() and stat.S_ISFIFO(path.stat().st_mode)
+    if str(path) != "-" and not fifo:
+        yield
+        return
+    folder = Path(tempfile.mkdtemp(prefix="bayes-imu-input-"))
+    spooled = folder / ("stdin.csv" if str(path) == "-" else path.name)
+    try:
+        with open(spooled, "wb") as target:
+            if fifo:
+                _copy_pipe(path, target)
+            else:
+                shutil.copyfileobj(sys.stdin.buffer, target, 1 << 20)
+        if spooled.stat().st_size == 0:
+            raise InputError(f"{path}: nothing was read from {'standard input' if not fifo else 'the pipe'}; "
+                             "expected a log")
+        args.log, args.log_label = spooled, str(path)
+        yield
+    finally:
+        args.log, args.log_label = path, None
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _copy_pipe(path, target):
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # opening never blocks; a first read tells if a writer exists
+    try:
+        try:
+            first = os.read(fd, 1 << 16)
+        except BlockingIOError:  # a writer, nothing written yet: wait for it
+            first = None
+        if first == b"":
+            raise InputError(f"{path}: a named pipe with no writer; start the program that writes the log first")
+        os.set_blocking(fd, True)
+        if first:
+            target.write(first)
+        while chunk := os.read(fd, 1 << 20):
+            target.write(chunk)
+    finally:
+        os.close(fd)
+
+
+def _log_label(args):
+    return getattr(args, "log_label", None) or str(args.log or args.allan_table)
+
+
+# ---------------------------------------------------------------------------- commands
+
+def _cmd_allan(args):
+    with _readable_log(args):
+        return _allan(args)
+
+
+def _allan(args):
+    columns, results, unit, info = allan_results(SourceOptions.from_namespace(args), "allan", args.grid)
+    info["log"] = _log_label(args)
+    result = results[0]
+    from ..report.plots import plot_allan
+
+    with staged_folder(args.out, force=args.force, inputs=[args.log]) as tmp:
+        lines = ["tau,m,adev,adev_low,adev_high,edf,unit"]
+        lines += [
+            f"{t:.9g},{m},{a:.9g},{lo:.9g},{hi:.9g},{e:.6g},{unit}"
+            for t, m, a, lo, hi, e in zip(result.tau, result.m, result.adev, result.adev_low, result.adev_high, result.edf)
+        ]
+        (tmp / "allan.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+        plot_allan(result, tmp / "allan.png", label=f"{Path(_log_label(args)).name}: {columns[0]} [{unit}]", unit=unit)
+    _say(args, f"{result.tau.size} cluster sizes from {result.n_samples} samples ({info['action']}); "
+               f"wrote {args.out / 'allan.csv'} and allan.png")
+    return 0
+
+
+def _cmd_fit(args):
+    if args.allan_table is not None:
+        if args.log is not None:
+            raise InputError(f"fit: give a log or --allan-table, not both (got {args.log} and {args.allan_table})")
+        return _fit(args)
+    if args.log is None:
+        raise InputError("fit: give a log to fit (or --allan-table FILE); see bayes-imu fit --help")
+    if args.samples is not None:
+        raise InputError("--samples goes with --allan-table (a log's sample count is read from the log)")
+    with _readable_log(args):
+        return _fit(args)
+
+
+def _fit(args):
+    columns, results, unit, info = allan_results(SourceOptions.from_namespace(args), "fit")
+    info["log"] = _log_label(args)
+    terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
+    with staged_folder(args.out, force=args.force, inputs=[args.log or args.allan_table]) as tmp:
+        if len(columns) == 1:
+            _fit_axis(args, results[0], unit, info, terms, columns[0], tmp)
+        else:
+            axes = {}
+            for allan, column, folder in zip(results, columns, _folder_names(columns)):
+                _say(args, f"[{column}]")
+                axes[column] = _fit_axis(args, allan, unit, info, terms, column, tmp / folder)
+                axes[column]["folder"] = folder
+            summary = {"axes": axes, "worst_axis": _worst_axis(axes), "input": info, "seed": args.seed,
+                       "bayes_imu_version": __version__}
+            _write_json(tmp / "summary.json", summary)
+    _say(args, f"wrote {args.out}")
+    return 0
+
+
+def _folder_names(columns):
+    names = []
+    for c in columns:
+        names.append(safe_folder_name(c, names))
+    return names
+
+
+def _fit_axis(args, allan, unit, info, terms, column, out):
+    from ..inference.archive import ARCHIVE_NAME, save_fit
+    from ..inference.fit import fit_allan
+    from ..report.plots import plot_allan_fit, plot_corner
+
+    out.mkdir(exist_ok=True)
+    result = fit_allan(allan, terms=terms, likelihood=args.likelihood, rng=args.seed, discrepancy=args.discrepancy,
+                       progress=args.progress)
+    summary = result.summary(unit=unit)
+    summary.update(log=_log_label(args), column=column, unit=unit, input=info)
+    _say(args, f"model: {' + '.join(result.model.terms)}  (converged: {result.diagnostics['converged']})")
+    for name, p in summary["parameters"].items():
+        _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
+    _say_datasheet(args, summary["datasheet"])
+    adequacy = result.adequacy
+    if not adequacy.adequate:
+        what = [f"goodness of fit p = {adequacy.p_value:.2g} (worst at tau = {adequacy.worst_tau_s:g} s)"]
+        if adequacy.at_prior_bound:
+            what.append("at a prior bound: " + ", ".join(adequacy.at_prior_bound))
+        widened = ("intervals widened by a fitted model discrepancy" if result.widened
+                   else "intervals NOT widened: treat them as too narrow")
+        _warn(f"{column}: the noise model does not describe this log ({'; '.join(what)}); {widened}")
+    steady = result.stationarity
+    if steady is not None and not steady.stationary:
+        _warn(f"{column}: the noise changes during the log: its {steady.n_segments} parts differ by "
+              f"{steady.largest_ratio():.2g}x in Allan deviation at tau = {steady.worst_tau_s:g} s "
+              f"(p = {steady.p_value:.2g}; warm-up?); drift bands include that spread")
+    label = f"{Path(_log_label(args)).name}: {column}"
+    if args.sensor:
+        summary["drift"] = _write_drift(result, args, unit, out)[0]
+    _write_json(out / "summary.json", summary)
+    result.inference_data.to_netcdf(str(out / "posterior.nc"))
+    save_fit(result, out / ARCHIVE_NAME)
+    plot_allan_fit(result, out / "allan_fit.png", label=label, unit=unit, rng=args.seed)
+    plot_corner(result, out / "corner.png", unit=unit)
+    return summary
+
+
+def _say_datasheet(args, block):
+    if block:
+        _say(args, "  datasheet units:")
+        for name, p in block.items():
+            _say(args, f"    {name:30s} median {p['median']:.4g}  90% [{p['q05']:.4g}, {p['q95']:.4g}] {p['unit']}")
+
+
+def _worst_axis(axes):
+    """Per amplitude parameter, the largest upper (q95) value over the axes, and which axis."""
+    worst = {}
+    for name in _AMPLITUDES:
+        have = {c: s["parameters"][name] for c, s in axes.items() if name in s["parameters"]}
+        if have:
+            axis = max(have, key=lambda c: have[c]["q95"])
+            worst[name] = {"q95": have[axis]["q95"], "axis": axis, "unit": have[axis]["unit"]}
+    for quantity in ("attitude", "velocity", "position"):
+        have = {c: s["drift"][quantity] for c, s in axes.items() if quantity in s.get("drift", {})}
+        if have:
+            axis = max(have, key=lambda c: have[c]["q95"])
+            worst[f"drift_{quantity}"] = {**have[axis], "axis": axis}
+    return worst
+
+
+def _write_drift(result, args, unit, out):
+    """drift.csv / drift.png; returns the q05/q50/q95 of sigma(t) at the horizon per quantity, and the
+    bands written (in the display units) with their units."""
+    from ..drift.bands import SENSOR_QUANTITIES, default_times, drift_bands, integrated_unit
+    from ..report.plots import plot_drift
+
+    if args.display_units == "deg" and unit != "rad/s" and args.sensor == "gyro":
+        raise InputError(f"--display-units deg needs a gyro fitted in SI (give --units); this fit is in {unit!r}")
+    t = np.array(args.times) if args.times is not None else default_times(result.model.dt, args.horizon)
+    quantities = SENSOR_QUANTITIES[args.sensor]
+    shown = [display_unit(integrated_unit(unit, q), args.display_units) for q in quantities]
+    bands = [drift_bands(result, t, quantity=q, bias_start=args.bias_start, calibration_s=args.calibration,
+                         models=args.models).scaled(factor) for q, (_, factor) in zip(quantities, shown)]
+    lines = ["t_s,quantity,q05,q50,q95,unit,extrapolated"]
+    at_horizon = {}
+    for b, (u, _) in zip(bands, shown):
+        lines += [f"{ti:.6g},{b.quantity},{lo:.9g},{med:.9g},{hi:.9g},{u},{str(x).lower()}"
+                  for ti, lo, med, hi, x in zip(b.t_s, *b.total, b.extrapolated)]
+        at_horizon[b.quantity] = {"t_s": float(b.t_s[-1]), "q05": float(b.total[0][-1]), "q50": float(b.total[1][-1]),
+                                  "q95": float(b.total[2][-1]), "unit": u, "record_s": b.record_s,
+                                  "extrapolated": bool(b.extrapolated[-1]), "bias_start": b.bias_start,
+                                  "calibration_s": None if np.isnan(b.calibration_s) else b.calibration_s,
+                                  "models": b.models}
+        _say(args, f"{b.quantity}: 1-sigma drift after {b.t_s[-1]:g} s: median {b.total[1][-1]:.4g}, "
+                   f"90% [{b.total[0][-1]:.4g}, {b.total[2][-1]:.4g}] {u}")
+    if bands[0].extrapolated[-1]:
+        _warn(f"the drift horizon ({bands[0].t_s[-1]:g} s) is longer than the log ({bands[0].record_s:g} s): beyond "
+              "the log the bands extrapolate the fitted model (drift.csv column 'extrapolated')")
+    (out / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    plot_drift(bands, out / "drift.png", units=[u for u, _ in shown])
+    return at_horizon, bands, [u for u, _ in shown]
+
+
+def _write_json(path, doc):
+    path.write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n", encoding="utf-8")
+
+
+def _cmd_report(args):
+    from ..report.scene import build_report, read_scene
+    from ..report.html import write_report
+
+    scene = read_scene(args.scene)
+    inputs = [args.scene] + [p for s in scene.sensors for p in s.paths]
+    with staged_folder(args.out, force=args.force, inputs=inputs) as tmp:
+        report = build_report(scene, rng=args.seed)
+        write_report(report, tmp)
+    _say(args, f"ranking: {', '.join(report.ranking)} ({report.reason})")
+    _say(args, f"wrote {args.out}/report.json and report.html")
+    return 0
+
+
+def _cmd_kalibr(args):
+    from ..report.kalibr import kalibr_values_from_folders, write_kalibr_yaml
+
+    if not args.gyro and not args.accel:
+        raise InputError("kalibr: give --gyro FIT_FOLDER..., --accel FIT_FOLDER..., or both")
+    result = kalibr_values_from_folders(args.gyro or (), args.accel or (), credibility=args.credibility)
+    inputs = [p for folder in (args.gyro or []) + (args.accel or []) for p in Path(folder).rglob("*")]
+    with staged_file(args.out, force=args.force, inputs=inputs) as tmp:
+        write_kalibr_yaml(result, tmp, topic=args.topic)
+    if not result.adequate:
+        _warn("Kalibr values from fits that failed the goodness-of-fit check: " + ", ".join(result.inadequate))
+    several = any(len(rows) > 1 for rows in result.per_axis.values())
+    print(f"wrote {args.out} ({result.mode}{', worst axis' if several else ''})")
+    return 0
+
+
+def _fit_options(parser):
+    parser.add_argument("--seed", type=_seed_type, default=0,
+                        help="random seed, 0 to 2**32 - 1 (recorded in the outputs), default 0")
+    parser.add_argument("--terms", default="auto",
+                        help="'auto' (model selection, default) or a comma-separated list of terms: "
+                             + ", ".join(TERMS))
+    parser.add_argument("--likelihood", choices=LIKELIHOODS, default=LIKELIHOODS[0],
+                        help="Allan-variance likelihood: correlated (default: multivariate normal on log AVAR with "
+                             "the exact covariance of the estimates), copula (gamma margins, same correlation), "
+                             "independent (gamma per cluster size, ignores correlation: faster, overconfident)")
+    _drift_options(parser)
+    parser.add_argument("--models", choices=MODEL_CHOICES, default="averaged",
+                        help="drift from every candidate model weighted by its posterior probability (averaged, "
+                             "default) or from the selected model alone (selected)")
+    parser.add_argument("--discrepancy", choices=DISCREPANCY_MODES, default="auto",
+                        help="model-discrepancy term that widens the intervals of an inadequate fit: auto (added "
+                             "when the best model fails the goodness-of-fit check), never, always")
+
+
+def _drift_options(parser):
+    parser.add_argument("--sensor", choices=("gyro", "accel"),
+                        help="also write drift.csv / drift.png: attitude (gyro) or velocity and position (accel)")
+    parser.add_argument("--horizon", type=_positive_number, default=3600.0,
+                        help="longest drift time (s), default 3600")
+    parser.add_argument("--bias-start", choices=BIAS_STARTS, default="calibrated",
+                        help="bias at the start of the outage: calibrated (default: the mean of the --calibration "
+                             "seconds before it is removed), zero (the paper) or stationary (never estimated)")
+    parser.add_argument("--calibration", type=_positive_number, default=DEFAULT_CALIBRATION_S, metavar="S",
+                        help=f"calibration window of --bias-start calibrated (s), default {DEFAULT_CALIBRATION_S:g}")
+    parser.add_argument("--times", type=_times, metavar="T1,T2,...",
+                        help="write drift.csv rows at exactly these times (s) instead of a log grid up to --horizon")
+    parser.add_argument("--display-units", choices=DISPLAY_CHOICES, default="si",
+                        help="units of drift.csv / drift.png: si (rad, m/s, m; default) or deg (attitude in degrees)")
+
+
+def _cmd_fit_population(args):
+    """Several logs (units) of one column: the hierarchical fit and the new-unit predictive."""
+    from ..drift.bands import drift_bands, integrated_unit
+    from ..report.fleet import job_name
+    from ..report.plots import plot_population
+    from ..inference.population import fit_population
+
+    if args.column is not None and "," in args.column:
+        raise InputError(f"--column {args.column!r}: fit-population takes one column (one axis of every unit)")
+    if len(args.logs) < 2:
+        raise InputError(f"fit-population: {len(args.logs)} log given; expected the logs of at least 2 units")
+    if args.units is not None and args.sensor is None:
+        args.sensor = UNITS[args.units][0]
+    allans, labels, infos, unit = [], [], [], None
+    for path in args.logs:
+        one = argparse.Namespace(**{**vars(args), "log": path})
+        with _readable_log(one):
+            columns, results, unit, info = allan_results(SourceOptions.from_namespace(one), "fit")
+        info["log"] = _log_label(one)
+        allans.append(results[0])
+        infos.append(info)
+        labels.append(job_name(Path(info["log"]), labels))
+    terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
+    with staged_folder(args.out, force=args.force, inputs=args.logs) as tmp:
+        pop = fit_population(allans, labels=labels, terms=terms, rng=args.seed, spread_scale=args.spread_scale,
+                             progress=args.progress)
+        summary = pop.summary(unit=unit)
+        summary.update(column=columns[0], unit=unit, logs=[i["log"] for i in infos], input=infos)
+        _say(args, f"common model: {' + '.join(pop.model.terms)} ({len(labels)} units; population sampler "
+                   f"converged: {pop.diagnostics['converged']})")
+        _say(args, "a new unit of this model (unit-to-unit spread included):")
+        for name, p in summary["new_unit"].items():
+            _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
+        _say_datasheet(args, summary["new_unit_datasheet"])
+        for name, p in summary["population"].items():
+            s = p["spread_ln"]
+            _say(args, f"  unit-to-unit spread of {name}: {s['median']:.2g} (90% [{s['q05']:.2g}, {s['q95']:.2g}]) "
+                       "in ln units (0.1 = 10%)")
+        bands, unit_bands, drift_unit = None, (), None
+        if args.sensor:  # the new unit's first quantity, as written to drift.csv, against each unit's own
+            summary["drift"], written, shown = _write_drift(pop.new_unit, args, unit, tmp)
+            bands, drift_unit = written[0], shown[0]
+            factor = display_unit(integrated_unit(unit, bands.quantity), args.display_units)[1]
+            unit_bands = [drift_bands(f, bands.t_s, quantity=bands.quantity, bias_start=args.bias_start,
+                                      calibration_s=args.calibration, rng=args.seed).scaled(factor)
+                          for f in pop.unit_fits]
+        plot_population(pop, tmp / "population.png", unit=unit, bands=bands, unit_bands=unit_bands, rng=args.seed,
+                        drift_unit=drift_unit)
+        _write_json(tmp / "summary.json", summary)
+    _say(args, f"wrote {args.out}")
+    return 0
+
+
+def _cmd_fit_batch(args):
+    """Every log's own fit into a staged copy of --out (claimed, moved in whole: the rules of any output)."""
+    from ..report.fleet import BatchJob, job_name, run_batch
+
+    with staged_folder(args.out, force=args.force, inputs=args.logs) as staging:
+        names, jobs = [], []
+        for log in args.logs:
+            names.append(job_name(log, names))
+            argv = ["fit", str(log), "--out", str(staging / names[-1]), "--quiet"]
+            for dest, flag in _FORWARDED:
+                value = getattr(args, dest)
+                if value is True:
+                    argv.append(flag)
+                elif isinstance(value, tuple):
+                    argv += [flag, ",".join(repr(v) for v in value)]
+                elif value not in (None, False):
+                    argv += [flag, str(value)]
+            jobs.append(BatchJob(names[-1], tuple(argv)))
+        start = time.perf_counter()
+        scheduler = "serial" if args.serial else args.scheduler
+        results = run_batch(jobs, _fleet_fit, scheduler=scheduler, n_workers=args.workers, progress=args.progress)
+        seconds = time.perf_counter() - start
+        samples = 0
+        for r in results:
+            if r.status == 0:
+                summary = json.loads((staging / r.name / "summary.json").read_text())
+                samples += (sum(a["n_samples"] for a in summary["axes"].values()) if "axes" in summary
+                            else summary["n_samples"])
+        failed = [r for r in results if r.status]
+        doc = {"logs": [dict(r.to_json(), log=str(log)) for r, log in zip(results, args.logs)],
+               "n_logs": len(results), "n_failed": len(failed), "seconds": seconds,
+               "logs_per_minute": 60 * len(results) / seconds, "samples_per_second": samples / seconds,
+               "scheduler": scheduler or "LocalCluster", "seed": args.seed, "bayes_imu_version": __version__}
+        _write_json(staging / "batch.json", doc)
+    for r in failed:
+        print(f"bayes-imu: error: {r.name}: {r.error.removeprefix('bayes-imu: error: ')}", file=sys.stderr)
+    _say(args, f"{len(results) - len(failed)} of {len(results)} logs fitted in {seconds:.1f} s "
+               f"({doc['logs_per_minute']:.1f} logs/min); wrote {args.out / 'batch.json'}")
+    return 2 if failed else 0
+
+
+def _fleet_fit(job):
+    """One log of ``fit-batch`` (the fleet's task): exactly ``bayes-imu fit`` with the job's arguments."""
+    try:
+        args = _build_parser().parse_args(list(job.argv))
+    except _UsageError as exc:
+        raise InputError(str(exc)) from None
+    args.progress = False
+    with warnings.catch_warnings():
+        warnings.simplefilter("default")
+        warnings.showwarning = _one_line_warning
+        return _cmd_fit(args)
+
+
+def _read_sensor_json(path):
+    spec = read_json_object(path, "of sensor parameters")
+    unknown = sorted(set(spec) - set(_SENSOR_JSON_KEYS))
+    if unknown:
+        raise InputError(f"{path}: unknown key {unknown[0]!r}; expected keys: {', '.join(_SENSOR_JSON_KEYS)}")
+    for key in ("rate_hz", "kind", "noise_density"):
+        if key not in spec:
+            raise InputError(f"{path}: missing key {key!r}")
+    if spec["kind"] not in SENSOR_QUANTITIES:
+        raise InputError(f"{path}: kind={spec['kind']!r}: expected 'gyro' or 'accel'")
+    si = SI_UNITS[spec["kind"]]
+    units = spec.get("units", si)
+    if units not in UNITS or UNITS[units][0] != spec["kind"]:
+        allowed = [u for u, (k, _) in UNITS.items() if k == spec["kind"]]
+        raise InputError(f"{path}: units={units!r}: expected one of {', '.join(allowed)} for a {spec['kind']}")
+    return spec
+
+
+_SENSOR_JSON_KEYS = ("name", "kind", "units", "rate_hz", "noise_density", "bias_variance", "time_constant",
+                     "random_walk")
+
+
+def _positive_float(path, spec, key, default=None):
+    value = spec.get(key, default)
+    if isinstance(value, bool) or (key in spec and not isinstance(value, (int, float))):
+        raise InputError(f"{path}: {key}={value!r}: expected a number")
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{path}: {key}={value!r}: expected a number") from None
+    if not value > 0 and not (value == 0 and default is not None):
+        raise InputError(f"{path}: {key}={value!r}: expected a positive number")
+    return value
+
+
+def _cmd_drift(args):
+    spec = _read_sensor_json(args.sensor)
+    dt = 1.0 / _positive_float(args.sensor, spec, "rate_hz")
+    if not args.horizon > dt:
+        raise InputError(f"--horizon={args.horizon!r}: expected a time (s) longer than one sample ({dt} s)")
+    t = np.unique(np.round(np.geomspace(dt, args.horizon, 200) / dt)) * dt
+    rows, shown = [], {}
+    k = UNITS[spec.get("units", SI_UNITS[spec["kind"]])][1]  # the values' unit in SI
+    for quantity in SENSOR_QUANTITIES[spec["kind"]]:
+        result = drift_sigma(
+            t, quantity=quantity, dt=dt,
+            noise_density=k * _positive_float(args.sensor, spec, "noise_density"),
+            bias_variance=k * k * _positive_float(args.sensor, spec, "bias_variance", 0.0),
+            time_constant=_positive_float(args.sensor, spec, "time_constant", np.inf),
+            random_walk=k * _positive_float(args.sensor, spec, "random_walk", 0.0),
+            bias_start=args.bias_start,
+        )
+        unit, f = shown[quantity] = display_unit(SI_OUTPUT_UNITS[quantity],
+                                                 args.display_units)
+        rows += [(ti, quantity, w * f, b * f, r * f, tot * f, unit) for ti, w, b, r, tot in
+                 zip(result.t_s, result.white, result.bias, result.random_walk, result.total)]
+    lines = ["t_s,quantity,white,bias,random_walk,total,unit"]
+    lines += [f"{ti:.6g},{q},{w:.9g},{b:.9g},{r:.9g},{tot:.9g},{u}" for ti, q, w, b, r, tot, u in rows]
+    with staged_folder(args.out, force=args.force, inputs=[args.sensor]) as tmp:
+        (tmp / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    for quantity in SENSOR_QUANTITIES[spec["kind"]]:
+        last = [row for row in rows if row[1] == quantity][-1]
+        print(f"{quantity}: 1-sigma drift after {last[0]:g} s = {last[5]:.4g} {last[6]} "
+              f"(order {QUANTITY_ORDER[quantity]})")
+    print(f"wrote {args.out / 'drift.csv'}")
+    return 0
+
+
+# ---------------------------------------------------------------------------- entry point
+
+def _checked(convert, ok, expected):
+    """An argparse type: ``convert(text)``, refused unless ``ok(value)``, with ``expected`` in the message."""
+    def check(text):
+        try:
+            value = convert(text)
+        except ValueError:
+            value = None
+        if value is None or not ok(value):
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}")
+        return value
+
+    return check
+
+
+_positive_int = _checked(int, lambda v: v > 0, "a positive whole number")
+_seed_type = _checked(int, lambda v: 0 <= v < 2**32, "a whole number from 0 to 2**32 - 1")
+_workers_type = _checked(int, lambda v: v >= 1, "at least 1 worker process")
+_rate_type = _checked(float, lambda v: np.isfinite(v) and RATE_RANGE[0] <= v <= RATE_RANGE[1],
+                      f"a sample rate from {RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz")
+_positive_number = _checked(float, lambda v: np.isfinite(v) and v > 0, "a positive number")
+
+
+def _times(text):
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated times in seconds, got {text!r}") from None
+    if not values or not all(np.isfinite(v) and v > 0 for v in values):
+        raise argparse.ArgumentTypeError(f"expected positive times in seconds, got {text!r}")
+    return tuple(sorted(set(values)))
+
+
+def _say(args, text):
+    if not getattr(args, "quiet", False):
+        print(text)
+
+
+def _warn(text):
+    print(f"bayes-imu: warning: {text}", file=sys.stderr)
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None):
+    _warn(message)
+
+
+def main(argv=None):
+    """Run the ``bayes-imu`` command; return the exit status."""
+    parser = _build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except _UsageError as exc:
+        print(f"bayes-imu: error: {exc}", file=sys.stderr)
+        return 2
+    args.progress = show_progress(getattr(args, "quiet", False))
+    logging.basicConfig(level=logging.WARNING, format="%(message)s")  # third-party loggers stay quiet
+    log.setLevel(logging.INFO)
+    with warnings.catch_warnings(), _sigterm_as_interrupt():  # warnings shown the command's way
+        warnings.simplefilter("default")
+        warnings.showwarning = _one_line_warning
+        return _run(args)
+
+
+class _Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that staged outputs are cleaned up as on Ctrl-C."""
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt():
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        raise _Terminated()
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _run(args):
+    try:
+        return args.handler(args)
+    except KeyboardInterrupt:
+        print("bayes-imu: interrupted (Ctrl-C): nothing was kept from this run; earlier results are unchanged",
+              file=sys.stderr)
+        return 130
+    except _Terminated:
+        print("bayes-imu: terminated (SIGTERM): nothing was kept from this run; earlier results are unchanged",
+              file=sys.stderr)
+        return 143
+    except BayesIMUError as exc:
+        if args.debug or os.environ.get("BAYES_IMU_DEBUG") == "1":
+            raise
+        print(f"bayes-imu: error: {exc}", file=sys.stderr)
+        return 2
+    except Exception as exc:  # an internal error: one line, the traceback with --debug
+        if args.debug or os.environ.get("BAYES_IMU_DEBUG") == "1":
+            raise
+        text = str(exc).strip().splitlines()
+        print(f"bayes-imu: internal error: {type(exc).__name__}: {text[0] if text else ''} "
+              "(rerun with --debug for the traceback, and please report it)", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

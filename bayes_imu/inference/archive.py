@@ -1,0 +1,111 @@
+"""A fit saved with its folder (``fit.npz``) and read back, so reports reuse fits instead of refitting.
+
+``fit.npz`` (NumPy archive, no pickles) holds everything a :class:`~bayes_imu.inference.fit.FitResult`
+needs except the ArviZ ``InferenceData`` (``posterior.nc`` beside it): the Allan variance,
+the draws of the selected model and of every model-averaging component, the candidates'
+evidences, the adequacy and stationarity checks, the covariance and the diagnostics.
+"""
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..allan.estimator import AllanResult, SegmentAllan
+from ..errors import InputError
+from .fit import FitResult, MixtureComponent
+from ..io.readers import read_json_object
+from ..noise.avar_forms import NoiseModel
+from .selection import Adequacy, CandidateScore
+from .stationarity import Stationarity
+
+__all__ = ["save_fit", "load_fit", "fit_axes", "ARCHIVE_NAME"]
+
+ARCHIVE_NAME = "fit.npz"
+_FORMAT = 1
+_ALLAN_ARRAYS = ("tau", "m", "avar", "adev", "n_terms", "edf", "alpha", "avar_low", "avar_high")
+
+
+def save_fit(fit, path):
+    """Write ``fit`` to ``path`` (a ``.npz`` file)."""
+    a, q, st = fit.allan, fit.adequacy, getattr(fit, "stationarity", None)
+    meta = {
+        "format": _FORMAT, "terms": list(fit.model.terms), "dt": fit.model.dt, "likelihood": fit.likelihood,
+        "selected": int(fit.selected), "widened": bool(fit.widened), "diagnostics": fit.diagnostics,
+        "seed": fit.seed if isinstance(fit.seed, (int, type(None))) else str(fit.seed),
+        "allan": {"confidence": a.confidence, "rate_hz": a.rate_hz, "n_samples": int(a.n_samples)},
+        "candidates": [{"terms": list(c.terms), "log_evidence": c.log_evidence, "se": c.log_evidence_se,
+                        "ess": c.ess} for c in fit.candidates],
+        "mixture": [{"terms": list(c.terms), "probability": c.probability} for c in fit.mixture],
+        "adequacy": None if q is None else {**q.to_dict(), "residuals": None},
+        "segments": None if a.segments is None else {"n_samples": int(a.segments.n_samples)},
+        "stationarity": None if st is None else {"stationary": bool(st.stationary), "p_value": float(st.p_value),
+                                                 "worst_tau_s": float(st.worst_tau_s)},
+    }
+    arrays = {f"allan_{k}": getattr(a, k) for k in _ALLAN_ARRAYS}
+    arrays.update(samples=fit.samples, log_prob=fit.log_prob, covariance=fit.covariance,
+                  probabilities=np.asarray(fit.probabilities if fit.probabilities is not None else []))
+    for i, c in enumerate(fit.candidates):
+        arrays[f"mode_{i}"] = np.asarray(c.mode)
+    for i, c in enumerate(fit.mixture):
+        arrays[f"mixture_{i}"] = c.samples
+    if q is not None:
+        arrays["residuals"] = np.asarray(q.residuals)
+    if a.segments is not None:
+        arrays.update(segments_m=a.segments.m, segments_avar=a.segments.avar)
+    if st is not None:
+        arrays.update(stationarity_tau=st.tau_s, stationarity_adev=st.segment_adev, stationarity_spread=st.spread)
+    with open(path, "wb") as f:
+        np.savez_compressed(f, meta=np.array(json.dumps(meta)), **arrays)
+
+
+def fit_axes(folder):
+    """``[(axis, folder, summary)]`` of a ``bayes-imu fit`` folder: its one axis, or each axis of a
+    several-column fit (the sub-folders its ``summary.json`` lists under ``axes``)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError(f"{folder}: not a folder; expected a folder written by bayes-imu fit")
+    summary = read_json_object(folder / "summary.json", "a bayes-imu fit summary")
+    if "axes" not in summary:
+        return [(str(summary.get("column", folder.name)), folder, summary)]
+    return [(axis, folder / entry["folder"], entry) for axis, entry in summary["axes"].items()]
+
+
+def load_fit(path):
+    """Read a :class:`~bayes_imu.inference.fit.FitResult` from a fit folder or its ``fit.npz``.
+
+    ``inference_data`` is ``None`` (read ``posterior.nc`` with ArviZ for it).
+    """
+    path = Path(path)
+    file = path / ARCHIVE_NAME if path.is_dir() else path
+    if not file.is_file():
+        hint = " (a folder written by an older bayes_imu: run bayes-imu fit again)" if path.is_dir() else ""
+        raise InputError(f"{path}: no {ARCHIVE_NAME}; expected a folder written by bayes-imu fit{hint}")
+    try:
+        with np.load(file, allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+        meta = json.loads(str(data["meta"]))
+    except (OSError, ValueError, KeyError) as exc:
+        raise InputError(f"{file}: not a readable bayes_imu fit archive ({exc})") from None
+    if meta.get("format") != _FORMAT:
+        raise InputError(f"{file}: archive format {meta.get('format')!r}; this bayes_imu reads format {_FORMAT}")
+    seg = meta.get("segments")
+    segments = None if seg is None else SegmentAllan(data["segments_m"], data["segments_avar"], seg["n_samples"])
+    allan = AllanResult(**{k: data[f"allan_{k}"] for k in _ALLAN_ARRAYS}, confidence=meta["allan"]["confidence"],
+                        rate_hz=meta["allan"]["rate_hz"], n_samples=meta["allan"]["n_samples"], segments=segments)
+    st = meta.get("stationarity")
+    steady = None if st is None else Stationarity(st["stationary"], st["p_value"], st["worst_tau_s"],
+                                                  data["stationarity_tau"], data["stationarity_adev"],
+                                                  data["stationarity_spread"])
+    model = NoiseModel(tuple(meta["terms"]), meta["dt"])
+    candidates = tuple(CandidateScore(tuple(c["terms"]), c["log_evidence"], c["se"], c["ess"], data[f"mode_{i}"])
+                       for i, c in enumerate(meta["candidates"]))
+    mixture = tuple(MixtureComponent(tuple(c["terms"]), c["probability"], data[f"mixture_{i}"])
+                    for i, c in enumerate(meta["mixture"]))
+    q = meta["adequacy"]
+    adequacy = None if q is None else Adequacy(q["adequate"], q["p_value"], q["statistic"], q["dof"],
+                                               data["residuals"], q["worst_tau_s"], tuple(q["at_prior_bound"]))
+    probabilities = data["probabilities"] if data["probabilities"].size else None
+    return FitResult(model, data["samples"], data["log_prob"], allan, candidates, meta["selected"], meta["diagnostics"],
+                     meta["likelihood"], data["covariance"], meta["seed"], None, adequacy, probabilities, mixture,
+                     meta["widened"], steady)

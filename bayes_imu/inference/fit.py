@@ -1,0 +1,628 @@
+"""Bayesian fit of a noise model to an Allan variance: model selection, then emcee.
+
+Pipeline of :func:`fit_allan`:
+
+1. *Pilot*: posterior mode of the full model (all terms) under the independent-gamma
+   likelihood (a weighted least-squares fit in disguise, fast and robust).
+2. *Covariance*: the exact covariance of the AVAR estimates under that pilot model
+   (:mod:`bayes_imu.noise.avar_covariance`), shared by every candidate so that their evidences
+   come from one likelihood function.
+3. *Selection*: every candidate ``white + subset of {quantization, bias_instability,
+   gauss_markov, random_walk}`` gets its mode and its evidence (:mod:`bayes_imu.inference.selection`).
+4. *Refinement*: the covariance is recomputed at the selected model's mode.
+5. *Sampling*: emcee (``vectorize=True``, differential-evolution and stretch moves) in
+   log-parameters, in chunks of 250 steps until the chain is longer than 50 integrated
+   autocorrelation times and that estimate has settled to 5%; then
+   R-hat and bulk/tail ESS from ArviZ. Non-convergence warns (:class:`ConvergenceWarning`)
+   and sets ``diagnostics["converged"] = False``.
+"""
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._progress import progress_bar
+from .._version import __version__
+from ..allan.estimator import AllanResult, allan_variance
+from ..errors import ConvergenceWarning, InputError
+from .likelihood import LIKELIHOODS, LogPosterior, default_bounds
+from ..noise.avar_forms import BASE_TERMS, PARAMETER_UNITS, NoiseModel
+from .stationarity import Stationarity, stationarity_check
+from .selection import (
+    Adequacy,
+    CandidateScore,
+    EvidenceResult,
+    adequacy,
+    candidate_terms,
+    extensions,
+    log_evidence,
+    model_probabilities,
+    posterior_mode,
+    reductions,
+    select,
+    to_phi,
+)
+
+__all__ = ["FitResult", "MixtureComponent", "fit", "fit_allan", "score_models", "DISCREPANCY_MODES"]
+
+DISCREPANCY_MODES = ("auto", "never", "always")
+AUTOCORR_MULTIPLE = 50
+RHAT_MAX = 1.01
+ESS_MIN = 400
+
+
+@dataclass(frozen=True)
+class MixtureComponent:
+    """One candidate's share of the model-averaged posterior.
+
+    Attributes
+    ----------
+    terms : tuple of str
+    probability : float
+        Its posterior probability (renormalised over the components kept).
+    samples : ndarray, shape (n, n_par)
+        Draws of its parameters (physical units, its own ``parameter_names`` order).
+    """
+
+    terms: tuple
+    probability: float
+    samples: np.ndarray
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """Posterior of a noise model fitted to an Allan variance.
+
+    Attributes
+    ----------
+    model : NoiseModel
+        Selected model (term names in :data:`bayes_imu.noise.TERMS`): the answer to "which
+        terms does this sensor need".
+    samples : ndarray, shape (n_draws, n_par)
+        Posterior draws of the parameters (physical units, ``parameter_names`` order: the
+        model's, then ``model_discrepancy`` when the fit was widened), after burn-in and thinning.
+    log_prob : ndarray, shape (n_draws,)
+    allan : AllanResult
+        The data.
+    candidates : tuple of CandidateScore
+        Evidence of every candidate model scored.
+    selected : int
+        Index of the selected candidate.
+    diagnostics : dict
+        ``rhat_max``, ``ess_bulk_min``, ``ess_tail_min``, ``autocorr_time`` (steps),
+        ``n_steps``, ``n_walkers``, ``converged``.
+    likelihood : str
+    covariance : ndarray, shape (n_tau, n_tau)
+        AVAR covariance the likelihood used.
+    seed : object
+        The ``rng`` argument as given (an int for reproducible runs).
+    inference_data : arviz.InferenceData
+    adequacy : Adequacy
+        Goodness of fit of the selected model (without the discrepancy term).
+    probabilities : ndarray, shape (n_candidates,)
+        Posterior probability of each candidate (equal prior odds over those scored).
+    mixture : tuple of MixtureComponent
+        The model-averaged posterior that drift numbers use by default.
+    widened : bool
+        The model-discrepancy term was added (the best candidate was inadequate).
+    stationarity : Stationarity or None
+        Between-segment check of the log (:mod:`bayes_imu.inference.stationarity`); drift bands of a log
+        flagged non-stationary include the spread between its parts.
+    """
+
+    model: NoiseModel
+    samples: np.ndarray
+    log_prob: np.ndarray
+    allan: AllanResult
+    candidates: tuple
+    selected: int
+    diagnostics: dict
+    likelihood: str
+    covariance: np.ndarray
+    seed: object = None
+    inference_data: object = field(default=None, repr=False, compare=False)
+    adequacy: Adequacy = None
+    probabilities: np.ndarray = None
+    mixture: tuple = ()
+    widened: bool = False
+    stationarity: Stationarity = None
+
+    @property
+    def parameter_names(self):
+        return self.model.parameter_names + (("model_discrepancy",) if self.widened else ())
+
+    @property
+    def record_s(self):
+        """Duration of the fitted log (s)."""
+        return self.allan.duration_s if self.allan is not None else float("nan")
+
+    def draws(self, name):
+        """Posterior draws of one parameter, or of a derived one: ``noise_density`` (white plus
+        the white-noise equivalents of the filtered-white and high-frequency correlated terms, the value to compare
+        with a datasheet ARW / VRW), ``white_noise_density`` (the white term alone)."""
+        if name == "noise_density":
+            return np.sqrt(self.model.short_term_variance(self.samples) * self.model.dt)
+        if name == "white_noise_density":
+            return np.sqrt(self.draws("noise_variance") * self.model.dt)
+        if name not in self.parameter_names:
+            raise InputError(f"parameter {name!r}: the model {self.model.terms} has {', '.join(self.parameter_names)}")
+        return self.samples[:, self.parameter_names.index(name)]
+
+    def _derived_names(self):
+        names = list(self.parameter_names)
+        short = [t.name for t in self.model.components if t.role == "short_term" and t.name != "quantization"]
+        if short:
+            names.append("noise_density")
+        if "white" in short and len(short) > 1:
+            names.append("white_noise_density")
+        return names
+
+    def quantiles(self, q=(0.05, 0.5, 0.95)):
+        """Dict name -> quantiles of each parameter (and the derived densities)."""
+        return {n: np.quantile(self.draws(n), q) for n in self._derived_names()}
+
+    def predictive_avar(self, m=None, *, n_draws=400, rng=None, term=None):
+        """Posterior draws of the model Allan variance, ``(n_draws, n_tau)`` (one term if given)."""
+        m = self.allan.m if m is None else np.asarray(m)
+        rng = np.random.default_rng(rng)
+        idx = rng.choice(self.samples.shape[0], size=min(n_draws, self.samples.shape[0]), replace=False)
+        params = self.model.unpack(self.samples[idx])
+        return self.model.avar(m, params) if term is None else self.model.term_avar(term, m, params)
+
+    def summary(self, *, unit="u"):
+        """JSON-ready summary (see the ``bayes-imu fit`` documentation)."""
+        parameters = {}
+        for name in self._derived_names():
+            d = self.draws(name)
+            parameters[name] = {
+                "median": float(np.median(d)),
+                "mean": float(np.mean(d)),
+                "q05": float(np.quantile(d, 0.05)),
+                "q95": float(np.quantile(d, 0.95)),
+                "unit": PARAMETER_UNITS.get(name, "1").format(u=unit),
+            }
+        probabilities = self.probabilities if self.probabilities is not None else np.full(len(self.candidates), np.nan)
+        adequacy = self.adequacy.to_dict() if self.adequacy is not None else None
+        if adequacy is not None:
+            adequacy["widened"] = bool(self.widened)
+            adequacy["stationarity"] = self.stationarity.to_dict() if self.stationarity is not None else None
+        from ..noise.datasheet import KIND_OF_UNIT, datasheet
+
+        return {
+            "model": list(self.model.terms),
+            "parameters": parameters,
+            "datasheet": datasheet(self, KIND_OF_UNIT[unit]) if unit in KIND_OF_UNIT else None,
+            "adequacy": adequacy,
+            "diagnostics": {k: (bool(v) if k == "converged" else int(v) if k in ("n_steps", "n_walkers") else float(v))
+                            for k, v in self.diagnostics.items()},
+            "candidates": [
+                {"model": list(c.terms), "log_evidence": c.log_evidence, "log_evidence_se": c.log_evidence_se,
+                 "probability": float(p), "selected": i == self.selected}
+                for i, (c, p) in enumerate(zip(self.candidates, probabilities))
+            ],
+            "model_averaging": [{"model": list(c.terms), "probability": c.probability} for c in self.mixture],
+            "likelihood": self.likelihood,
+            "rate_hz": float(self.allan.rate_hz),
+            "n_samples": int(self.allan.n_samples),
+            "seed": self.seed if isinstance(self.seed, (int, type(None))) else str(self.seed),
+            "bayes_imu_version": __version__,
+        }
+
+
+def fit(y, *, rate_hz, m="octave", terms="auto", likelihood="correlated", rng=None, n_walkers=32, max_steps=40000,
+        threshold=1.0, n_evidence=4000, discrepancy="auto", progress=False):
+    """Fit rate samples ``y`` (1-D, units u) at ``rate_hz`` [Hz]; options as :func:`fit_allan`."""
+    return fit_allan(allan_variance(y, rate_hz=rate_hz, m=m), terms=terms, likelihood=likelihood, rng=rng,
+                     n_walkers=n_walkers, max_steps=max_steps, threshold=threshold, n_evidence=n_evidence,
+                     discrepancy=discrepancy, progress=progress)
+
+
+@dataclass(frozen=True)
+class _Scored:
+    """One candidate's score, its likelihood and its importance draws."""
+
+    score: CandidateScore
+    post: LogPosterior
+    evidence: EvidenceResult
+
+
+def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walkers=32, max_steps=40000,
+              threshold=1.0, n_evidence=4000, discrepancy="auto", progress=False):
+    """Select a noise model for ``allan``, sample its posterior, check its adequacy.
+
+    Parameters
+    ----------
+    allan : AllanResult
+        Overlapping Allan variance (octave grid recommended; at least 4 cluster sizes).
+    terms : "auto" or sequence of str
+        ``"auto"``: every ``white + subset`` of the IEEE terms, then the stepwise search over
+        the extension terms (:mod:`bayes_imu.inference.selection`); a sequence fixes the model.
+    likelihood : {"correlated", "copula", "independent"}
+    rng : None, int or numpy.random.Generator
+        Seeds the evidence draws and the sampler; the same int gives the same numbers.
+    n_walkers : int
+    max_steps : int
+        Cap on sampler steps; reaching it without convergence warns.
+    threshold : float
+        Selection threshold in nats (:func:`bayes_imu.inference.selection.select`).
+    n_evidence : int
+        Importance draws per candidate.
+    discrepancy : {"auto", "never", "always"}
+        The model-discrepancy term (a fitted relative error on the Allan variance): with
+        ``"auto"`` it is added, to every candidate, when the best candidate fails the
+        adequacy check, so that intervals widen with the misfit instead of shrinking
+        (``"correlated"`` likelihood only).
+    progress : bool
+        Progress bars (candidates, sampler steps) on standard error; same numbers.
+
+    Returns
+    -------
+    FitResult
+    """
+    if not isinstance(allan, AllanResult):
+        raise InputError(f"allan: expected an AllanResult, got {type(allan).__name__}")
+    if allan.m.size < 4:
+        raise InputError(f"Allan variance has {allan.m.size} cluster sizes: need at least 4 to fit a model")
+    if not np.all(allan.avar > 0):
+        i = int(np.argmin(allan.avar))
+        raise InputError(f"Allan variance is {allan.avar[i]!r} at tau = {allan.tau[i]:g} s: a noise model needs a "
+                         "positive Allan variance at every cluster size (is the signal constant or periodic?)")
+    if likelihood not in LIKELIHOODS:
+        raise InputError(f"likelihood={likelihood!r}: expected one of {', '.join(LIKELIHOODS)}")
+    if discrepancy not in DISCREPANCY_MODES:
+        raise InputError(f"discrepancy={discrepancy!r}: expected one of {', '.join(DISCREPANCY_MODES)}")
+    if discrepancy == "always" and likelihood != "correlated":
+        raise InputError(f"discrepancy='always' needs likelihood='correlated', got {likelihood!r}")
+    seed = rng
+    rng = np.random.default_rng(rng)
+    dt = 1.0 / allan.rate_hz
+    stepwise = terms == "auto"
+    if stepwise:
+        candidates = candidate_terms()
+        pilot_model = NoiseModel(BASE_TERMS, dt)
+    else:
+        candidates = [tuple(terms)]
+        pilot_model = NoiseModel(tuple(terms), dt)
+    reference = _pilot(pilot_model, allan)
+    shared = _posterior_factory(pilot_model, reference, allan, likelihood)
+    widen = discrepancy == "always"
+    make = (lambda model: shared(model).with_discrepancy()) if widen else shared
+    with progress_bar(desc="model selection", unit="model", enabled=progress) as bar:
+        scored = _search(make, allan, reference, candidates, stepwise, threshold, n_evidence, rng, bar)
+        chosen = select([c.score for c in scored], threshold=threshold) if len(scored) > 1 else 0
+        if discrepancy == "auto" and likelihood == "correlated":
+            best = scored[chosen]
+            if not adequacy(best.post, best.score.mode, allan.tau).adequate:
+                widen = True
+                scored = [_score(NoiseModel(c.score.terms, dt), c.post.with_discrepancy(), allan, reference,
+                                 n_evidence, rng) for c in scored]
+                bar.update(len(scored))
+                chosen = select([c.score for c in scored], threshold=threshold) if len(scored) > 1 else 0
+    scores = tuple(c.score for c in scored)
+    model = NoiseModel(scores[chosen].terms, dt)
+    n_model = len(model.parameter_names)
+    mode = dict(zip(model.parameter_names, np.exp(scores[chosen].mode[:n_model])))
+    if likelihood != "independent":  # covariance refined at the selected model's mode
+        cov = _covariance(model, mode, allan)
+        post = LogPosterior.from_covariance(model, allan, cov, model.avar(allan.m, mode), default_bounds(model, allan),
+                                            kind=likelihood)
+    else:
+        cov = np.diag(2.0 * allan.avar**2 / allan.edf)
+        post = LogPosterior.build(model, allan, kind="independent")
+    sampled = post.with_discrepancy() if widen else post
+    phi_mode = posterior_mode(sampled, [scores[chosen].mode]).phi
+    start = _initial_walkers(sampled, scored[chosen].evidence, phi_mode, n_walkers, rng)
+    log_samples, log_prob, diagnostics, idata = _sample(sampled, start, rng, max_steps, allan, progress)
+    best_draw = log_samples[int(np.argmax(log_prob))]
+    check = adequacy(post, best_draw, allan.tau, log_samples)
+    probabilities = model_probabilities(scores)
+    mixture = _mixture(scored, chosen, probabilities, np.exp(log_samples), rng)
+    steady = stationarity_check(allan, model, dict(zip(model.parameter_names, np.exp(best_draw[:n_model]))))
+    return FitResult(model, np.exp(log_samples), log_prob, allan, scores, chosen, diagnostics, likelihood, cov, seed,
+                     idata, check, probabilities, mixture, widen, steady)
+
+
+def score_models(allan, models, *, widened=False, likelihood="correlated", n_evidence=4000, rng=None):
+    """Evidence of each model in ``models`` for ``allan``, as :func:`fit_allan` scores its candidates.
+
+    The covariance comes from the same pilot (the full base model), so the evidences are
+    comparable with a fit's own ``candidates`` and across calls on one Allan result.
+
+    Parameters
+    ----------
+    allan : AllanResult
+    models : sequence of sequences of str
+        Term names of each model.
+    widened : bool
+        Add the model-discrepancy term to every model (as a widened fit does).
+    likelihood : {"correlated", "copula", "independent"}
+    n_evidence : int
+    rng : None, int or numpy.random.Generator
+
+    Returns
+    -------
+    tuple of CandidateScore
+        In the order of ``models`` (terms in canonical order).
+    """
+    if likelihood not in LIKELIHOODS:
+        raise InputError(f"likelihood={likelihood!r}: expected one of {', '.join(LIKELIHOODS)}")
+    rng = np.random.default_rng(rng)
+    dt = 1.0 / allan.rate_hz
+    pilot_model = NoiseModel(BASE_TERMS, dt)
+    reference = _pilot(pilot_model, allan)
+    shared = _posterior_factory(pilot_model, reference, allan, likelihood)
+    out = []
+    for terms in models:
+        model = NoiseModel(tuple(terms), dt)
+        post = shared(model).with_discrepancy() if widened else shared(model)
+        out.append(_score(model, post, allan, reference, n_evidence, rng).score)
+    return tuple(out)
+
+
+def _score(model, post, allan, reference, n_evidence, rng):
+    """Mode and evidence of one candidate."""
+    starts = _starts(model, allan, reference)
+    if post.discrepancy:
+        starts = np.column_stack([starts, np.full(len(starts), np.log(0.1))])
+    mode = posterior_mode(post, starts)
+    ev = log_evidence(post, mode.u, n_draws=n_evidence, rng=rng)
+    return _Scored(CandidateScore(model.terms, ev.log_z, ev.se, ev.ess, mode.phi), post, ev)
+
+
+def _search(make_post, allan, reference, candidates, stepwise, threshold, n_evidence, rng, bar):
+    """Score the base candidates, then (``stepwise``) the extension search of :mod:`bayes_imu.inference.selection`."""
+    dt = 1.0 / allan.rate_hz
+    scored = {}
+
+    def run(terms):
+        model = NoiseModel(terms, dt)  # canonical term order: the key of a candidate
+        if model.terms not in scored:
+            scored[model.terms] = _score(model, make_post(model), allan, reference, n_evidence, rng)
+            bar.update()
+        return scored[model.terms]
+
+    for cand in candidates:
+        run(cand)
+    if stepwise:
+        current = max(scored.values(), key=lambda c: c.score.log_evidence)
+        while True:
+            new = [run(c) for c in extensions(current.score.terms)]
+            if not new:
+                break
+            best = max(new, key=lambda c: c.score.log_evidence)
+            margin = threshold + 2.0 * np.hypot(best.score.log_evidence_se, current.score.log_evidence_se)
+            if best.score.log_evidence <= current.score.log_evidence + margin:
+                break
+            current = best
+        for c in reductions(current.score.terms):
+            run(c)
+    return list(scored.values())
+
+
+def _mixture(scored, chosen, probabilities, samples, rng, floor=1e-3):
+    """Model-averaged draws: each candidate with probability >= ``floor`` contributes that share.
+
+    The selected model contributes its MCMC draws; the others their importance draws,
+    resampled by weight. Returns a tuple of :class:`MixtureComponent`.
+    """
+    keep = np.flatnonzero(probabilities >= floor)
+    weights = probabilities[keep] / probabilities[keep].sum()
+    n_total = samples.shape[0]
+    out = []
+    for i, w in zip(keep, weights):
+        count = int(round(w * n_total))
+        if count == 0:
+            continue
+        if i == chosen:
+            draws = samples[rng.choice(n_total, size=min(count, n_total), replace=False)]
+        else:
+            ev = scored[i].evidence
+            lw = np.where(np.isfinite(ev.log_w), ev.log_w, -np.inf)
+            p = np.exp(lw - lw.max())
+            idx = rng.choice(p.size, size=count, replace=True, p=p / p.sum())
+            draws = np.exp(to_phi(ev.u[idx], scored[i].post.bounds))
+        out.append(MixtureComponent(scored[i].score.terms, float(w), draws))
+    return tuple(out)
+
+
+def _posterior_factory(ref_model, reference, allan, likelihood):
+    """``model -> LogPosterior`` sharing one AVAR covariance computed under ``ref_model`` at ``reference``."""
+    if likelihood == "independent":
+        return lambda model: LogPosterior.build(model, allan, kind="independent")
+    cov = _covariance(ref_model, reference, allan)
+    ref_avar = ref_model.avar(allan.m, reference)
+    return lambda model: LogPosterior.from_covariance(model, allan, cov, ref_avar, default_bounds(model, allan),
+                                                      kind=likelihood)
+
+
+def _covariance(model, params, allan):
+    from ..noise.avar_covariance import avar_covariance
+
+    return avar_covariance(model, params, allan.m, allan.n_samples)
+
+
+def _pilot(model, allan):
+    """Mode under the independent-gamma likelihood: dict of physical parameters."""
+    post = LogPosterior.build(model, allan, kind="independent")
+    phi = posterior_mode(post, _starts(model, allan, None)).phi
+    return dict(zip(model.parameter_names, np.exp(phi)))
+
+
+def _starts(model, allan, reference):
+    """Starting log-parameter vectors: heuristics from the curve, one per GM time constant guess.
+
+    Time constants of ordered Gauss-Markov terms are sorted into their order.
+    """
+    tau, avar = allan.tau, allan.avar
+    dt = 1.0 / allan.rate_hz
+    guess = {
+        "noise_variance": avar[0] * allan.m[0],
+        "quantization": np.sqrt(0.1 * avar[0] * tau[0] ** 2 / 3.0),
+        "bias_instability": np.sqrt(0.5 * avar.min() * np.pi / (2.0 * np.log(2.0))),
+        "bias_variance": avar.min(),
+        "time_constant": tau[np.argmin(avar)],
+        "rate_random_walk": np.sqrt(1.5 * avar[-1] / tau[-1]),
+        "correlated_variance": 0.5 * avar[0],
+        "correlated_time_constant": 2.0 * dt,
+        "bias_variance_2": avar.min(),
+        "time_constant_2": 0.5 * tau[-1],
+        "rate_ramp": 0.3 * np.sqrt(2.0 * avar[-1]) / tau[-1],
+        "filtered_variance": 0.1 * avar[0] * allan.m[0],
+    }
+    bounds = default_bounds(model, allan)
+    out = []
+    if "gauss_markov" not in model.terms:
+        gm_taus = [None]
+    elif reference is None:  # pilot: three time-constant guesses
+        gm_taus = list(tau[[len(tau) // 4, len(tau) // 2, 3 * len(tau) // 4]])
+    else:  # candidates: the full-model pilot plus one guess
+        gm_taus = [tau[len(tau) // 2]]
+    sources = [guess] + ([reference] if reference is not None else [])
+    order = model.ordered
+    for src in sources:
+        for t in gm_taus:
+            values = {k: src.get(k, guess[k]) for k in model.parameter_names}
+            if t is not None and src is guess:
+                values["time_constant"] = t
+                values["bias_variance"] = 2.0 * np.interp(1.9 * t, tau, avar)
+            phi = np.log([max(values[k], 1e-300) for k in model.parameter_names])
+            width = bounds[:, 1] - bounds[:, 0]
+            phi = np.clip(phi, bounds[:, 0] + 0.01 * width, bounds[:, 1] - 0.01 * width)
+            if len(order) > 1:
+                phi[list(order)] = _ordered_inside(phi[list(order)], bounds[list(order)])
+            out.append(phi)
+    return np.array(out)
+
+
+def _ordered_inside(values, bounds):
+    """Strictly increasing values, each inside its own box row (boxes of ordered terms overlap)."""
+    values = np.sort(values)
+    lo = bounds[:, 0] + 0.01 * (bounds[:, 1] - bounds[:, 0])
+    hi = bounds[:, 1] - 0.01 * (bounds[:, 1] - bounds[:, 0])
+    out = np.clip(values, lo, hi)
+    for i in range(1, out.size):
+        if out[i] <= out[i - 1]:
+            out[i] = min(hi[i], out[i - 1] + 0.05 * (hi[i] - lo[i]))
+    for i in range(out.size - 2, -1, -1):
+        if out[i] >= out[i + 1]:
+            out[i] = max(lo[i], out[i + 1] - 0.05 * (hi[i] - lo[i]))
+    return out
+
+
+def _initial_walkers(post, evidence, phi_mode, n_walkers, rng):
+    """Walkers from the importance draws, resampled by weight (distinct), else around the mode."""
+    u, log_w = evidence.u, evidence.log_w
+    w = np.exp(log_w - log_w.max())
+    w /= w.sum()
+    k = min(n_walkers, int(np.count_nonzero(w)))
+    idx = rng.choice(w.size, size=k, replace=False, p=w) if k == n_walkers else np.array([], int)
+    start = to_phi(u[idx], post.bounds) if idx.size and u.shape[1] == phi_mode.size else np.empty((0, phi_mode.size))
+    if start.shape[0] < n_walkers:
+        start = phi_mode + 1e-3 * rng.standard_normal((n_walkers, phi_mode.size))
+        if len(post.order) > 1:
+            start[:, list(post.order)] = np.sort(start[:, list(post.order)], axis=1)
+    return np.clip(start, post.bounds[:, 0] + 1e-9, post.bounds[:, 1] - 1e-9)
+
+
+def _sample(post, start, rng, max_steps, allan, progress=False):
+    import emcee
+
+    n_walkers, n_par = start.shape
+    # differential-evolution proposals with some stretch moves: integrated autocorrelation
+    # times ~11 steps instead of ~36 for the stretch move alone on the white + GM posterior
+    # (scripts/bench_fit.py; 3x fewer likelihood calls for the same ESS)
+    moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.StretchMove(), 0.2)]
+    sampler = emcee.EnsembleSampler(n_walkers, n_par, post, vectorize=True, moves=moves)
+    # emcee keeps a legacy RandomState: seed it from our Generator (no global state)
+    sampler.random_state = np.random.RandomState(rng.integers(2**32)).get_state()
+    chunk, state, tau_old = min(250, max_steps), start, np.inf
+    converged = False
+    with progress_bar(desc="sampling", unit="step", enabled=progress) as bar:
+        while sampler.iteration < max_steps:
+            state = sampler.run_mcmc(state, chunk, progress=False)
+            tau_max = float(np.max(sampler.get_autocorr_time(tol=0)))
+            bar.update(chunk)
+            bar.set_postfix_str(f"autocorrelation {tau_max:.0f} steps")
+            long_enough = sampler.iteration >= AUTOCORR_MULTIPLE * tau_max and abs(tau_max - tau_old) < 0.05 * tau_max
+            tau_old = tau_max
+            if long_enough:
+                chain, lp, idata, diagnostics = _thinned(sampler, post, allan, tau_max, n_walkers, True)
+                if diagnostics["converged"]:
+                    converged = True
+                    break
+    if not converged:
+        chain, lp, idata, diagnostics = _thinned(sampler, post, allan, tau_max, n_walkers, False)
+        warnings.warn(
+            f"sampler not converged after {sampler.iteration} steps (autocorrelation time {tau_max:.0f} steps, "
+            f"R-hat {diagnostics['rhat_max']:.3f}, bulk ESS {diagnostics['ess_bulk_min']:.0f}); "
+            "raise max_steps or inspect the chain",
+            ConvergenceWarning,
+            stacklevel=3,
+        )
+    return chain.reshape(-1, n_par), lp.reshape(-1), diagnostics, idata
+
+
+def _arviz():
+    import contextlib
+    import io
+
+    # ArviZ 0.2x announces its refactor on import (a FutureWarning and lines on stdout)
+    with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
+        warnings.simplefilter("ignore", FutureWarning)
+        import arviz
+
+    return arviz
+
+
+def _thinned(sampler, post, allan, tau_max, n_walkers, long_enough):
+    """Drop 3 autocorrelation times of burn-in, thin by half of one; diagnostics on the rest."""
+    burn = int(np.ceil(3 * tau_max))
+    thin = max(1, int(tau_max / 2))
+    chain = sampler.get_chain(discard=burn, thin=thin)  # (draws, walkers, par)
+    lp = sampler.get_log_prob(discard=burn, thin=thin)
+    with warnings.catch_warnings():  # "more chains than draws" on short runs: reported as ConvergenceWarning
+        warnings.simplefilter("ignore", UserWarning)
+        idata = _inference_data(post, chain, lp, allan)
+        diagnostics = _diagnostics(idata, tau_max, sampler.iteration, n_walkers, long_enough)
+    return chain, lp, idata, diagnostics
+
+
+def _inference_data(post, chain, lp, allan):
+    az = _arviz()
+
+    names = post.model.parameter_names + (("model_discrepancy",) if post.discrepancy else ())
+    posterior = {f"log_{n}": chain[:, :, i].T for i, n in enumerate(names)}
+    posterior.update({n: np.exp(chain[:, :, i].T) for i, n in enumerate(names)})
+    loglik = post.log_likelihood(chain).T
+    return az.from_dict(
+        posterior=posterior,
+        sample_stats={"lp": lp.T},
+        log_likelihood={"allan": loglik},
+        observed_data={"avar": allan.avar},
+        coords={"tau": allan.tau},
+        dims={"avar": ["tau"]},
+        attrs={"terms": " ".join(post.model.terms), "likelihood": post.kind, "bayes_imu_version": __version__},
+    )
+
+
+def _diagnostics(idata, tau_max, n_steps, n_walkers, converged):
+    az = _arviz()
+
+    names = [v for v in idata.posterior.data_vars if v.startswith("log_")]
+    rhat = az.rhat(idata, var_names=names)
+    bulk = az.ess(idata, var_names=names, method="bulk")
+    tail = az.ess(idata, var_names=names, method="tail")
+    out = {
+        "rhat_max": float(max(rhat[v].values for v in names)),
+        "ess_bulk_min": float(min(bulk[v].values for v in names)),
+        "ess_tail_min": float(min(tail[v].values for v in names)),
+        "autocorr_time": float(tau_max),
+        "n_steps": int(n_steps),
+        "n_walkers": int(n_walkers),
+    }
+    out["converged"] = bool(converged and out["rhat_max"] < RHAT_MAX and out["ess_bulk_min"] >= ESS_MIN)
+    return out
+
+
+

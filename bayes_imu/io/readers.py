@@ -1,0 +1,479 @@
+"""Reading static IMU logs: delimited text (CSV, TSV, whitespace), optionally gzip-compressed.
+
+Accepted without options: a header row or none (detected: a first row of numbers is
+data), comma, semicolon, tab or whitespace delimiters (detected from the first rows),
+a UTF-8 byte-order mark, CRLF line ends, spaces around fields, blank lines, ``#``
+comment lines and trailing ``# ...`` comments, gzip compression (detected from the
+content, not the file name). Columns are chosen by header name or by 0-based index.
+
+Parsing runs in pandas' C reader (tens of MB/s, ``scripts/bench_io.py``); when it meets
+anything wrong, a line-by-line pass in Python finds the first offending line and the
+error names the file, the line (1-based, counting every line of the file), the column,
+what was found and what was expected. All conversion to float64 and all validation of
+the numbers happens here: later modules can trust finite 1-D float64 arrays.
+"""
+
+import gzip
+import re
+import io
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .._progress import progress_bar
+from ..errors import InputError
+
+__all__ = ["LogData", "read_log", "read_columns", "read_text", "check_signal", "SignalExtent", "positive_number",
+           "UNITS", "to_si", "MAX_MAGNITUDE"]
+
+#: input units and their factor to SI (rad/s for rates, m/s^2 for specific force)
+UNITS = {
+    "rad/s": ("gyro", 1.0),
+    "deg/s": ("gyro", np.pi / 180.0),
+    "deg/h": ("gyro", np.pi / 180.0 / 3600.0),
+    "m/s^2": ("accel", 1.0),
+    "g": ("accel", 9.80665),
+    "mg": ("accel", 9.80665e-3),
+}
+#: the SI unit of each sensor kind's rate samples
+SI_UNITS = {"gyro": "rad/s", "accel": "m/s^2"}
+#: units of delta-angle / delta-velocity increments: sensor kind and factor to SI (rad, m/s)
+INCREMENT_UNITS = {
+    "rad": ("gyro", 1.0),
+    "deg": ("gyro", np.pi / 180.0),
+    "m/s": ("accel", 1.0),
+}
+#: largest accepted |sample| and smallest accepted spread: beyond them squares in the
+#: Allan variance overflow (1e100**2 * 1e9 samples < 1e308) or underflow to zero
+MAX_MAGNITUDE = 1e100
+_MIN_SPREAD = 1e-100
+_SNIFF_BYTES = 1 << 16
+_DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab"}
+
+
+def read_json_object(path, what):
+    """A JSON file holding one object (``what`` names it in the errors): the dict, or one-line errors."""
+    import json
+
+    try:
+        doc = json.loads(read_text(path))
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{path}: line {exc.lineno} column {exc.colno}: invalid JSON ({exc.msg})") from None
+    if not isinstance(doc, dict):
+        raise InputError(f"{path}: expected a JSON object ({what})")
+    return doc
+
+
+def read_text(path):
+    """A small UTF-8 text file (scene, sensor or summary file), with one-line errors."""
+    try:
+        return Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise InputError(f"{path}: is a directory; expected a file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read ({exc})") from None
+
+
+def positive_number(name, value, *, what="number"):
+    """``float(value)``, or a one-line :class:`InputError` unless it is positive and finite."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}={value!r}: expected a positive, finite {what}") from None
+    if not np.isfinite(number) or number <= 0:
+        raise InputError(f"{name}={number!r}: expected a positive, finite {what}")
+    return number
+
+
+def to_si(values, unit, *, where=""):
+    """Convert samples from ``unit`` (a key of :data:`UNITS`) to SI (rad/s or m/s^2)."""
+    if unit not in UNITS:
+        raise InputError(f"{where}unit {unit!r}: expected one of {', '.join(UNITS)}")
+    return np.asarray(values, dtype=np.float64) * UNITS[unit][1]
+
+
+@dataclass(frozen=True)
+class LogData:
+    """Columns read from a log.
+
+    Attributes
+    ----------
+    values : ndarray, shape (n_samples,) or (n_samples, n_columns)
+        The samples, float64, finite; 1-D from :func:`read_log`.
+    columns : tuple of str
+        Column names (``"3"`` for the 4th column of a file without header).
+    path : str
+        Source file.
+    time_s : ndarray, shape (n_samples,) or None
+        The time column (s), if one was asked for.
+    lines : ndarray of int, shape (n_samples,) or None
+        1-based file line of every sample (only with a time column, for its messages).
+    delimiter : str
+        ``"comma"``, ``"semicolon"``, ``"tab"`` or ``"whitespace"``.
+    header : bool
+        Whether the file has a header row.
+    """
+
+    values: np.ndarray
+    columns: tuple
+    path: str
+    time_s: np.ndarray | None = None
+    lines: np.ndarray | None = None
+    delimiter: str = "comma"
+    header: bool = True
+
+    @property
+    def column(self):
+        """The single column's name (:func:`read_log`)."""
+        return self.columns[0]
+
+
+def read_log(path, *, column, time_column=None, progress=False):
+    """Read one numeric column (and optionally a time column, s) of a log; see :func:`read_columns`."""
+    data = read_columns(path, columns=[column], time_column=time_column, progress=progress)
+    return LogData(data.values[:, 0], data.columns, data.path, data.time_s, data.lines, data.delimiter, data.header)
+
+
+def read_columns(path, *, columns, time_column=None, progress=False):
+    """Read numeric columns of a delimited text log (module docstring for the accepted forms).
+
+    Parameters
+    ----------
+    path : str or Path
+    columns : sequence of str or int
+        Header names, or 0-based column indices (an integer-looking string is an index
+        unless the header has a column of that name).
+    time_column : str or int, optional
+        Time stamps in seconds; checked by :mod:`bayes_imu.io.timebase`.
+    progress : bool
+        Show a progress bar (bytes read) on standard error.
+
+    Returns
+    -------
+    LogData
+        ``values`` of shape ``(n_samples, len(columns))``.
+
+    Raises
+    ------
+    InputError
+        One line: missing, empty, binary or corrupt file, no data rows, a missing
+        column, a ragged row, text or a non-finite value where a number belongs, a
+        constant or absurdly large signal.
+    """
+    path = Path(path)
+    fmt = sniff_file(path)
+    wanted = [resolve_column(path, fmt, c) for c in columns]
+    if time_column is not None:
+        wanted.append(resolve_column(path, fmt, time_column))
+    if len(set(wanted)) != len(wanted):
+        raise InputError(f"{path}: the same column is asked for twice ({', '.join(fmt['names'][i] for i in wanted)})")
+    table = _parse(path, fmt, sorted(set(wanted)), progress)
+    order = [sorted(set(wanted)).index(i) for i in wanted]
+    table = table[:, order]
+    names = tuple(fmt["names"][i] for i in wanted)
+    for j, name in enumerate(names[: len(columns)]):
+        check_signal(table[:, j], where=f"{path}: column {name!r}")
+    values = np.ascontiguousarray(table[:, : len(columns)])
+    time_s = lines = None
+    if time_column is not None:
+        time_s = np.ascontiguousarray(table[:, -1])
+        lines = _data_line_numbers(path, fmt)
+    return LogData(values, names[: len(columns)], str(path), time_s, lines, fmt["delimiter_name"], fmt["header"])
+
+
+def check_signal(values, *, where):
+    """Reject a signal no Allan variance can be computed from: empty, constant, absurd magnitude."""
+    SignalExtent().update(values).check(where)
+
+
+class SignalExtent:
+    """Running extent of a signal, so that :func:`check_signal` also works chunk by chunk.
+
+    ``update(chunk, start)`` for each chunk (``start``: index of its first sample), then
+    ``check(where)`` raises the one-line :class:`InputError` of an empty, constant,
+    overflowing or underflowing signal.
+    """
+
+    def __init__(self):
+        self.n, self.low, self.high = 0, np.inf, -np.inf
+        self.big, self.big_index, self.big_value, self.first = 0.0, 0, 0.0, None
+
+    def update(self, values, start=0):
+        if values.size == 0:
+            return self
+        if self.first is None:
+            self.first = float(values[0])
+        i = int(np.argmax(np.abs(values)))
+        if abs(values[i]) > self.big:
+            self.big, self.big_index, self.big_value = float(abs(values[i])), start + i, float(values[i])
+        self.low, self.high = min(self.low, float(values.min())), max(self.high, float(values.max()))
+        self.n += values.size
+        return self
+
+    def check(self, where):
+        if self.n == 0:
+            raise InputError(f"{where}: no samples")
+        if self.big > MAX_MAGNITUDE:
+            raise InputError(f"{where}: sample {self.big_index + 1} is {self.big_value!r}; expected |value| <= "
+                             f"{MAX_MAGNITUDE:g} (a rate or specific force; larger values overflow the Allan variance)")
+        spread = self.high - self.low
+        if spread == 0.0:
+            raise InputError(f"{where}: constant signal (all {self.n} samples are {self.first!r}); "
+                             "expected a varying sensor output")
+        if spread < _MIN_SPREAD:
+            raise InputError(f"{where}: samples vary by only {spread:g}; expected a spread above {_MIN_SPREAD:g} "
+                             "(smaller values underflow the Allan variance: rescale the column)")
+
+
+def open_binary(path):
+    """File object of the (decompressed) bytes; gzip detected by its magic number."""
+    raw = open(path, "rb")
+    magic = raw.read(2)
+    raw.seek(0)
+    return (gzip.GzipFile(fileobj=raw), raw) if magic == b"\x1f\x8b" else (raw, raw)
+
+
+def _head(path, size=_SNIFF_BYTES):
+    """The first ``size`` bytes of the (decompressed) file, with one-line errors for what is not a file."""
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory; expected a CSV file")
+    if not path.is_file():
+        raise InputError(f"{path}: not a regular file (a pipe or device); save the log to a file first")
+    try:
+        stream, raw = open_binary(path)
+        with raw:
+            head = stream.read(size)
+    except (OSError, EOFError, zlib.error) as exc:
+        raise InputError(f"{path}: cannot read ({_first_line(exc)})") from None
+    return head
+
+
+def _first_line(exc):
+    text = str(exc).strip().splitlines()
+    return text[0] if text else type(exc).__name__
+
+
+def sniff_file(path):
+    """Delimiter, header and column names of a text log (:func:`_sniff` on a window that grows
+    until it holds data rows, so a long comment preamble or a very long line is read whole)."""
+    size = _SNIFF_BYTES
+    while True:
+        head = _head(path, size)
+        complete = len(head) < size
+        fmt = _sniff(path, head, complete=complete)
+        if fmt is not None:
+            return fmt
+        if complete:
+            raise InputError(f"{path}: no data rows (only blank or comment lines); expected a header row and samples")
+        size *= 4
+
+
+def _sniff(path, head, *, complete=None):
+    """Delimiter, header and column names from the first bytes (``None``: no data row in them yet)."""
+    complete = len(head) < _SNIFF_BYTES if complete is None else complete
+    if not head:
+        raise InputError(f"{path}: empty file; expected a header row and samples")
+    nul = head.find(b"\x00")
+    if nul >= 0:
+        raise InputError(f"{path}: binary data (NUL byte at offset {nul}); expected a delimited text log")
+    try:  # a multi-byte character may be cut at the end of the sample
+        text = head.decode("utf-8") if complete else head[:-4].decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not UTF-8 text (byte 0x{head[exc.start]:02x} at offset {exc.start}); "
+                         "expected a delimited text log") from None
+    text = text.removeprefix("\ufeff")
+    rows = []  # (line number, content) of the first non-blank, non-comment lines
+    for number, line in enumerate(text.splitlines() if complete else text.splitlines()[:-1], 1):
+        content = line.split("#", 1)[0].strip()
+        if content:
+            rows.append((number, content))
+        if len(rows) == 20:
+            break
+    if not rows:
+        return None
+    if len(rows) == 1 and not complete:  # a header alone in the window: look further for its rows
+        return None
+    _refuse_decimal_commas(path, rows)
+    delimiter = _delimiter(rows)
+    first = _split(rows[0][1], delimiter)
+    header = not all(_is_number(_unquote(f)) for f in first)
+    if header and len(rows) > 1:
+        counts = {len(_split(r, delimiter)) for _, r in rows[1:]}
+        if len(counts) == 1 and (n := counts.pop()) != len(first):
+            raise InputError(f"{path}: line {rows[0][0]}: the header has {len(first)} fields but line {rows[1][0]} has "
+                             f"{n}; expected one name per column (a missing or extra header field would shift "
+                             "every column)")
+    names = [f.strip().strip('"').strip("'") for f in first] if header else [str(i) for i in range(len(first))]
+    if header and len(rows) == 1:
+        raise InputError(f"{path}: a header row but no samples; expected samples below the header")
+    dupes = sorted({n for n in names if names.count(n) > 1})
+    return {"delimiter": delimiter, "delimiter_name": _DELIMITERS.get(delimiter, "whitespace"), "header": header,
+            "names": names, "dupes": dupes, "first_line": rows[0][0]}
+
+
+def _delimiter(rows):
+    """The candidate splitting every sampled row into the same number (> 1) of fields."""
+    for delimiter in (",", ";", "\t", None):
+        counts = {len(_split(r, delimiter)) for _, r in rows}
+        if len(counts) == 1 and counts.pop() > 1:
+            return delimiter
+    for delimiter in (",", ";", "\t"):  # ragged rows: the delimiter present in the first row
+        if delimiter in rows[0][1]:
+            return delimiter
+    return None  # one column, or whitespace-separated
+
+
+def _split(content, delimiter):
+    return content.split() if delimiter is None else content.split(delimiter)
+
+
+_DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+([eE][+-]?\d+)?$")
+
+
+def _refuse_decimal_commas(path, rows):
+    """Fields like ``1,25`` between semicolons or tabs: decimal commas, which would be cut at the comma."""
+    for number, content in rows:
+        for sep in (";", "\t"):
+            fields = [_unquote(f.strip()) for f in content.split(sep)]
+            if len(fields) > 1 and any(_DECIMAL_COMMA.match(f) for f in fields):
+                raise InputError(f"{path}: line {number}: {content[:40]!r} uses decimal commas; expected decimal "
+                                 "points (export the log with '.' as the decimal separator)")
+
+
+def _unquote(field):
+    return field.strip().strip('"').strip("'")
+
+
+def _is_number(field):
+    try:
+        float(field)
+    except ValueError:
+        return False
+    return True
+
+
+def resolve_column(path, fmt, column):
+    """0-based index of a column given by name or index."""
+    names = fmt["names"]
+    key = str(column).strip()
+    if key in names:
+        if key in fmt["dupes"]:
+            raise InputError(f"{path}: column name {key!r} appears more than once in the header; "
+                             "give the column by its 0-based index")
+        return names.index(key)
+    try:
+        index = int(key)
+    except ValueError:
+        shown = ", ".join(repr(n) for n in names[:12]) + (", ..." if len(names) > 12 else "")
+        raise InputError(f"{path}: no column {key!r}; expected one of the header names ({shown}) "
+                         "or a 0-based column index") from None
+    if not 0 <= index < len(names):
+        raise InputError(f"{path}: column index {index} out of range; the file has {len(names)} columns "
+                         f"(0 to {len(names) - 1})")
+    return index
+
+
+def _parse(path, fmt, usecols, progress):
+    """Fast path: pandas' C reader on the selected columns; anything odd goes to :func:`diagnose_text`."""
+    import pandas as pd
+
+    with progress_bar(total=path.stat().st_size, desc=f"reading {path.name}", unit="B", enabled=progress) as bar:
+        stream, raw = open_binary(path)
+        try:
+            with raw:
+                frame = pd.read_csv(io.BufferedReader(_Counting(stream, raw, bar), buffer_size=1 << 20),
+                                    low_memory=False, **csv_options(fmt, usecols))
+        except (ValueError, pd.errors.ParserError, UnicodeDecodeError):
+            diagnose_text(path, fmt, usecols)
+        except (OSError, EOFError, zlib.error) as exc:
+            raise InputError(f"{path}: cannot read ({_first_line(exc)})") from None
+    table = np.column_stack([frame[i].to_numpy(dtype=np.float64) for i in usecols])
+    if table.shape[0] == 0:
+        raise InputError(f"{path}: a header row but no samples; expected samples below the header")
+    if not np.all(np.isfinite(table)):  # NaN: also a too-short row that leaves a wanted field empty
+        diagnose_text(path, fmt, usecols)
+    return table
+
+
+def csv_options(fmt, usecols):
+    """``pandas.read_csv`` options for a sniffed format, converting the columns ``usecols``.
+
+    Every column is tokenised (with ``usecols``, pandas would drop the extra fields of a
+    too-long row silently); only the wanted ones are converted, so text elsewhere is fine.
+    """
+    return {"encoding": "utf-8-sig", "sep": r"\s+" if fmt["delimiter"] is None else fmt["delimiter"],
+            "header": 0 if fmt["header"] else None, "names": range(len(fmt["names"])),
+            "dtype": {i: np.float64 for i in usecols}, "comment": "#", "skip_blank_lines": True,
+            "skipinitialspace": True, "engine": "c"}
+
+
+class _Counting(io.RawIOBase):
+    """Byte stream that advances a progress bar by the compressed bytes consumed."""
+
+    def __init__(self, stream, raw, bar):
+        self._stream, self._raw, self._bar, self._seen = stream, raw, bar, 0
+
+    def readable(self):
+        return True
+
+    def readinto(self, buffer):
+        data = self._stream.read(len(buffer))
+        buffer[: len(data)] = data
+        position = self._raw.tell()
+        self._bar.update(position - self._seen)
+        self._seen = position
+        return len(data)
+
+
+def _data_lines(path, fmt):
+    """Yield ``(line number, fields)`` of every data row (after the header), in file order."""
+    stream, raw = open_binary(path)
+    with raw, io.TextIOWrapper(stream, encoding="utf-8-sig", newline=None) as text:
+        header_pending = fmt["header"]
+        for number, line in enumerate(text, 1):
+            content = line.split("#", 1)[0].strip()
+            if not content:
+                continue
+            if header_pending:
+                header_pending = False
+                continue
+            yield number, _split(content, fmt["delimiter"])
+
+
+def diagnose_text(path, fmt, usecols):
+    """Slow path: find the first bad line and raise its one-line :class:`InputError`."""
+    try:
+        _find_bad_line(path, fmt, usecols)
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not UTF-8 text ({exc.reason} in the data); expected a delimited text log") from None
+    raise InputError(f"{path}: cannot parse as a delimited text log ({fmt['delimiter_name']}-separated, "
+                     f"{len(fmt['names'])} columns)")
+
+
+def _find_bad_line(path, fmt, usecols):
+    n_fields = len(fmt["names"])
+    for number, fields in _data_lines(path, fmt):
+        if len(fields) != n_fields:
+            raise InputError(f"{path}: line {number}: {len(fields)} field{'s' * (len(fields) != 1)}; expected {n_fields} "
+                             f"({'as in the header' if fmt['header'] else 'as in the first row'})")
+        for i in usecols:
+            text = fields[i].strip()
+            try:
+                value = float(text)
+            except ValueError:
+                value = None
+            if value is None or not np.isfinite(value):
+                found = repr(text) if text else "an empty field"
+                raise InputError(f"{path}: line {number}, column {fmt['names'][i]!r}: got {found}; "
+                                 "expected a finite number")
+
+
+def _data_line_numbers(path, fmt):
+    """1-based file line of every data row (for time-stamp messages)."""
+    return np.fromiter((number for number, _ in _data_lines(path, fmt)), dtype=np.int64)

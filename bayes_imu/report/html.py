@@ -1,0 +1,250 @@
+"""Writing a :class:`~bayes_imu.report.scene.Report`: ``report.json`` and a self-contained ``report.html``.
+
+The HTML page embeds every figure as a base64 PNG (the comparison chart is also written
+as ``comparison.png``) (no external files, no scripts) so it
+can be mailed or archived as one file. Sections: the scene, the comparison chart of
+bounds versus outage, the table of bounds, the ranking and its reason, per sensor the
+model it needed (and the evidence of the runner-up), diagnostics, its Allan fit and drift
+bands, and a plain statement of what the bound means and assumes.
+"""
+
+import base64
+import html
+import io
+import json
+
+import numpy as np
+
+from ..drift.bands import SENSOR_QUANTITIES
+from ..io.readers import SI_UNITS as UNITS_SI
+from .scene import MAX_SEARCH_S, OUTPUT_UNITS
+
+
+__all__ = ["write_report", "report_html"]
+
+ASSUMPTIONS = (
+    "Each bound is the {cred:.0%} posterior quantile of the 1-sigma drift sigma(t) of the integrated sensor noise: "
+    "given the static log, the sensor's true 1-sigma drift is below it with {cred:.0%} probability. It is a bound on "
+    "a standard deviation, not on the error itself; a 3-sigma error budget multiplies it by three.",
+    "Noise terms modelled: white and filtered white noise, quantization, a fast correlated term, bias instability "
+    "(flicker), up to two Gauss-Markov biases, rate random walk and rate ramp, each only when the data support it "
+    "(Bayesian evidence). Bounds average over the candidate models, weighted by their posterior probabilities. A fit "
+    "that fails its goodness-of-fit check is flagged and its intervals are widened by a fitted model discrepancy.",
+    "Bias at the start of the outage: {start} ('calibrated', the default: the bias is estimated as the mean of the "
+    "samples over the calibration window just before GPS drops, and its estimation error is included; 'zero' is "
+    "the paper's convention, the bias known exactly; 'stationary' draws it from its stationary distribution).",
+    "Not modelled: temperature dependence, scale-factor and misalignment errors, vibration and g-sensitivity, "
+    "turn-on bias repeatability, and the navigation filter itself (no gravity, Schuler or attitude coupling). "
+    "The log must be static and representative of the operating conditions.",
+    "Unit-to-unit spread: a sensor given by one log (or fit folder) is bounded for that unit only; a sensor given by "
+    "several units' logs is bounded for a new unit of the model (hierarchical fit, each section says which).",
+    "A bound at an outage longer than the sensor's log extrapolates its fitted model: noise slower than the record "
+    "(a long bias time constant, a random walk) is not identified there, so such bounds (marked * in the table) can be "
+    "optimistic; record logs several times longer than the longest outage.",
+)
+
+
+def _png(fig_function, *args, **kwargs):
+    buffer = io.BytesIO()
+    fig_function(*args, buffer, **kwargs)
+    return _data_uri(buffer.getvalue())
+
+
+def _data_uri(png):
+    return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+
+
+def _comparison_figure(report, target):
+    from .plots import pyplot
+
+    plt = pyplot()
+    quantities = [q for q in OUTPUT_UNITS if any(q in SENSOR_QUANTITIES[s.spec.kind] for s in report.sensors)]
+    fig, axes = plt.subplots(1, len(quantities), figsize=(6 * len(quantities), 4.3), squeeze=False)
+    for ax, quantity in zip(axes[0], quantities):
+        for i, s in enumerate(report.sensors):
+            band = next((b for b in s.bands if b.quantity == quantity), None)
+            if band is None:
+                continue
+            keep = band.total[-1] > 0
+            ax.plot(band.t_s[keep], band.total[-1][keep], color=f"C{i}", label=f"{s.spec.name} ({band.quantiles[-1]:.0%} bound)")
+            ax.plot(band.t_s[keep], band.total[1][keep], color=f"C{i}", ls=":", lw=1)
+        for t in report.scene.outages_s:
+            ax.axvline(t, color="gray", lw=0.8, ls="--")
+            ax.annotate(f"outage {t:g} s", (t, 0.02), xycoords=("data", "axes fraction"), rotation=90, fontsize=7,
+                        color="dimgray", ha="right", va="bottom")
+        req = report.scene.requirement
+        if req and req["quantity"] == quantity:
+            given = f" ({req['given']})" if req.get("given") else ""
+            ax.axhline(req["max_error"], color="red", lw=1,
+                       label=f"requirement {req['max_error']:.4g} {req['unit']}{given}")
+            for i, s in enumerate(report.sensors):
+                t_max = s.max_outage_s
+                if t_max is not None and 0 < t_max < MAX_SEARCH_S:
+                    ax.plot([t_max], [req["max_error"]], marker="v", ms=8, color=f"C{i}", ls="none",
+                            label=f"{s.spec.name}: longest acceptable outage {t_max:.3g} s")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("outage duration (s)")
+        ax.set_ylabel(f"1-sigma {quantity} drift ({OUTPUT_UNITS[quantity]})")
+        ax.set_title(f"{quantity}: bound (solid) and median (dotted)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(target, format="png", dpi=100)
+    plt.close(fig)
+
+
+def _source_text(s):
+    spec = s.spec
+    if spec.source in ("fit", "fits"):
+        where = "fit folder" + ("s " if spec.population else " ") + ", ".join(p.name for p in spec.paths)
+    else:
+        where = ("logs " if spec.population else "log ") + ", ".join(p.name for p in spec.paths)
+        where += f", column {spec.column}, input {spec.units}, {spec.rate_hz:g} Hz"
+    axes = f"; worst of axes {', '.join(a.axis for a in s.axes)}: {s.axes[s.worst].axis}" if len(s.axes) > 1 else ""
+    return f"{spec.kind}, {where}{axes}"
+
+
+def _sensor_section(s, cred):
+    if s.fit is None:
+        return _population_section(s)
+    from .plots import plot_allan_fit, plot_drift
+
+    fit = s.fit
+    cands = sorted(fit.candidates, key=lambda c: -c.log_evidence)
+    chosen = fit.candidates[fit.selected]
+    runner = next((c for c in cands if c.terms != chosen.terms), None)
+    why = f"log evidence {chosen.log_evidence:.2f}"
+    if runner is not None:
+        why += f"; best alternative {' + '.join(runner.terms)} at {runner.log_evidence:.2f} ({chosen.log_evidence - runner.log_evidence:+.2f} nats)"
+    d = fit.diagnostics
+    rows = "".join(
+        f"<tr><td>{html.escape(n)}</td><td>{q[0]:.4g}</td><td>{q[1]:.4g}</td><td>{q[2]:.4g}</td></tr>"
+        for n, q in fit.quantiles().items()
+    )
+    allan_png = _png(lambda target: plot_allan_fit(fit, target, label=s.spec.name, unit=UNITS_SI[s.spec.kind], rng=0))
+    units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
+    drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=s.spec.name))
+    conv = "converged" if d["converged"] else "NOT CONVERGED: treat with caution"
+    a = fit.adequacy
+    fit_check = ("adequate" if a.adequate else "INADEQUATE: the model does not describe this log"
+                 + ("; intervals widened by a fitted model discrepancy" if fit.widened else "")
+                 + (f"; at a prior bound: {', '.join(a.at_prior_bound)}" if a.at_prior_bound else ""))
+    rhat = (f"R-hat max {d['rhat_max']:.4f}, bulk ESS min {d['ess_bulk_min']:.0f}, tail ESS min "
+            f"{d['ess_tail_min']:.0f}, " if "rhat_max" in d else "")
+    return f"""
+<section class="sensor" id="sensor-{html.escape(s.spec.name)}">
+<h3>{html.escape(s.spec.name)} ({html.escape(_source_text(s))})</h3>
+<p class="spread">Unit-to-unit spread: NOT included. These bounds are for the tested unit; another unit of the same
+model may be worse (list several units' logs to bound a new unit).</p>
+<p class="model">Model needed: <b>{html.escape(' + '.join(fit.model.terms))}</b> ({why}).</p>
+<p class="adequacy">Goodness of fit: p = {a.p_value:.2g}, worst at tau = {a.worst_tau_s:g} s: {html.escape(fit_check)}.</p>
+<p class="diagnostics">Sampler: {conv}; {rhat}{d['n_steps']} steps x {d['n_walkers']} walkers.</p>
+<table><tr><th>parameter (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>
+<img alt="Allan fit of {html.escape(s.spec.name)}" src="{allan_png}">
+<img alt="drift bands of {html.escape(s.spec.name)}" src="{drift_png}">
+</section>"""
+
+
+def _population_section(s):
+    from .plots import plot_drift, plot_population
+
+    pop = s.axes[s.worst].population
+    rows = "".join(
+        f"<tr><td>{html.escape(n)}</td><td>{q[0]:.4g}</td><td>{q[1]:.4g}</td><td>{q[2]:.4g}</td></tr>"
+        for n, q in pop.new_unit.quantiles().items())
+    spread = "".join(
+        f"<tr><td>{html.escape(n)}</td><td>{q[0]:.3g}</td><td>{q[1]:.3g}</td><td>{q[2]:.3g}</td></tr>"
+        for n, q in pop.spread_quantiles().items())
+    inadequate = [label for label, f in zip(pop.labels, pop.unit_fits) if not f.adequacy.adequate]
+    check = ("every unit's fit adequate" if not inadequate else
+             "INADEQUATE fits (intervals widened where a discrepancy was fitted): " + ", ".join(inadequate))
+    pop_png = _png(lambda target: plot_population(pop, target, unit=UNITS_SI[s.spec.kind], rng=0))
+    units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
+    drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=f"{s.spec.name}: a new unit"))
+    return f"""
+<section class="sensor" id="sensor-{html.escape(s.spec.name)}">
+<h3>{html.escape(s.spec.name)} ({html.escape(_source_text(s))})</h3>
+<p class="spread">Unit-to-unit spread: included. These bounds are for a NEW unit of this model: the posterior
+predictive of a hierarchical fit of {len(pop.labels)} units.</p>
+<p class="model">Common model: <b>{html.escape(' + '.join(pop.model.terms))}</b> (summed evidence over the units);
+{html.escape(check)}; population sampler {'converged' if pop.diagnostics['converged'] else 'NOT CONVERGED'}.</p>
+<table><tr><th>new unit (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>
+<table><tr><th>unit-to-unit spread (ln units)</th><th>5%</th><th>median</th><th>95%</th></tr>{spread}</table>
+<img alt="population of {html.escape(s.spec.name)}" src="{pop_png}">
+<img alt="drift bands of {html.escape(s.spec.name)}" src="{drift_png}">
+</section>"""
+
+
+def report_html(report, comparison_png=None):
+    """The self-contained HTML page as a string (``comparison_png``: the chart's PNG bytes, drawn if None)."""
+    scene = report.scene
+    cred = scene.credibility
+    req = scene.requirement
+    req_text = (f"{req['quantity']} error (1-sigma) at most {req['max_error']:.4g} {req['unit']}"
+                + (f" (given as {req['given']})" if req.get("given") else "") if req else "none")
+    comparison = _png(_comparison_figure, report) if comparison_png is None else _data_uri(comparison_png)
+    bound_rows = []
+    for s in report.sensors:
+        for b in s.bounds:
+            star = "*" if b.get("extrapolated") else ""
+            bound_rows.append(f"<tr><td>{html.escape(s.spec.name)}</td><td>{b['quantity']}</td><td>{b['outage_s']:g}{star}</td>"
+                              f"<td>{b['median']:.4g}</td><td>{b['bound']:.4g}</td><td>{b['unit']}</td></tr>")
+    rank_rows = "".join(
+        f"<li>{html.escape(name)}" + (f": longest outage within the requirement {_fmt_time(s.max_outage_s)}"
+                                        + _beyond_log(s)
+                                        if s.max_outage_s is not None else (": cannot provide the required quantity" if req else ""))
+        + "</li>"
+        for name in report.ranking for s in report.sensors if s.spec.name == name
+    )
+    start = (f"calibrated over {scene.calibration_s:g} s" if scene.bias_start == "calibrated" else scene.bias_start)
+    assumptions = "".join(f"<li>{html.escape(a.format(cred=cred, start=start))}</li>" for a in ASSUMPTIONS)
+    sections = "".join(_sensor_section(s, cred) for s in report.sensors)
+    from .._version import __version__
+
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>IMU selection: {html.escape(scene.name)}</title>
+<style>body{{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}}table{{border-collapse:collapse}}
+td,th{{border:1px solid #bbb;padding:2px 8px;text-align:right}}img{{max-width:100%}}</style></head>
+<body>
+<h1>IMU selection report: {html.escape(scene.name)}</h1>
+<section id="scene"><h2>Scene</h2><p>GPS outages: {', '.join(f'{t:g} s' for t in scene.outages_s)}; credibility {cred:.0%};
+requirement: {html.escape(req_text)}; bias start: {scene.bias_start}; sensors: {len(report.sensors)}.</p></section>
+<section id="ranking"><h2>Ranking</h2><ol>{rank_rows}</ol><p class="reason">{html.escape(report.reason)}.</p></section>
+<section id="comparison"><h2>Bounds versus outage</h2><img alt="comparison chart" src="{comparison}"></section>
+<section id="bounds"><h2>Table of bounds</h2><table><tr><th>sensor</th><th>quantity</th><th>outage (s)</th>
+<th>median</th><th>{cred:.0%} bound</th><th>unit</th></tr>{''.join(bound_rows)}</table></section>
+<section id="meaning"><h2>What the bound means and assumes</h2><ul>{assumptions}</ul></section>
+<section id="sensors"><h2>Sensors</h2>{sections}</section>
+<footer><p>bayes_imu {__version__}; scene file {html.escape(scene.path)}.</p></footer>
+</body></html>
+"""
+
+
+def _beyond_log(sensor):
+    record = sensor.record_s
+    return f" (beyond its {_fmt_time(record)} log: extrapolated)" if sensor.max_outage_s > record else ""
+
+
+def _fmt_time(t):
+    if t >= MAX_SEARCH_S:
+        return f"{MAX_SEARCH_S:g} s or more (search limit)"
+    return f"{t:.4g} s"
+
+
+def write_report(report, out_dir):
+    """Write ``report.json``, ``report.html`` and ``comparison.png`` into ``out_dir`` (created if needed)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    doc = report.to_json()
+    text = json.dumps(doc, indent=2, default=_json_default, allow_nan=False)
+    buffer = io.BytesIO()
+    _comparison_figure(report, buffer)
+    (out_dir / "report.json").write_text(text + "\n", encoding="utf-8")
+    (out_dir / "comparison.png").write_bytes(buffer.getvalue())
+    (out_dir / "report.html").write_text(report_html(report, buffer.getvalue()), encoding="utf-8")
+
+
+def _json_default(value):
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")

@@ -1,0 +1,292 @@
+"""Figures (matplotlib imported inside each function, Agg backend)."""
+
+import numpy as np
+
+__all__ = ["plot_allan", "plot_allan_fit", "plot_corner", "plot_drift", "plot_population"]
+
+
+def pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_allan(result, path, *, label="", unit="u"):
+    """Log-log Allan deviation with its interval bars and the -1/2, 0, +1/2 slope guides.
+
+    The guides pass through the curve's first point (-1/2: angle / velocity random
+    walk), its minimum (0: bias instability) and its last point (+1/2: rate random walk);
+    they are reading aids, not fits.
+    """
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(7, 5))
+    tau, adev = result.tau, result.adev
+    err = np.vstack([adev - result.adev_low, result.adev_high - adev])
+    ax.errorbar(tau, adev, yerr=err, fmt="o-", ms=3, capsize=2, label=label or "overlapping ADEV")
+    i_min = int(np.argmin(adev))
+    guides = (  # (label, slope, anchor index, span in decades before/after the anchor)
+        ("ARW / VRW, slope -1/2", -0.5, 0, (0.0, 1.5), (8, 6)),
+        ("bias instability, slope 0", 0.0, i_min, (1.0, 1.0), (0, -14)),
+        ("RRW, slope +1/2", 0.5, tau.size - 1, (1.5, 0.0), (-60, 10)),
+    )
+    for text, slope, i, (before, after), offset in guides:
+        span = tau[i] * np.logspace(-before, after, 20)
+        line = adev[i] * (span / tau[i]) ** slope
+        ax.plot(span, line, "--", color="gray", lw=1)
+        end = -1 if slope < 0 else 0  # label the free end of the guide
+        ax.annotate(text, (span[end], line[end]), textcoords="offset points", xytext=offset, fontsize=8, color="dimgray")
+    ax.set_ylim(adev.min() / 4, adev.max() * 2)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("averaging time tau (s)")
+    ax.set_ylabel(f"Allan deviation ({unit})")
+    ax.set_title(f"Overlapping Allan deviation, {result.confidence:.1%} intervals")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_allan_fit(fit, path, *, label="", unit="u", rng=None):
+    """Observed Allan deviation with intervals, the 90% posterior predictive band, each term,
+    and a panel of the whitened residuals of the goodness-of-fit check.
+
+    Parameters
+    ----------
+    fit : FitResult
+    path : path-like
+    unit : str
+        Unit of the rate samples (after any conversion).
+    rng : seed for the posterior draws shown.
+    """
+    plt = pyplot()
+    allan = fit.allan
+    tau_f = np.geomspace(allan.tau[0], allan.tau[-1], 80)
+    m_f = np.unique(np.maximum(1, np.round(tau_f * allan.rate_hz)).astype(np.int64))
+    tau_f = m_f / allan.rate_hz
+    fig, (ax, ax_r) = plt.subplots(2, 1, figsize=(7, 6.4), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
+    err = np.vstack([allan.adev - allan.adev_low, allan.adev_high - allan.adev])
+    ax.errorbar(allan.tau, allan.adev, yerr=err, fmt="o", ms=3, capsize=2, color="k", label=label or "observed ADEV")
+    steady = getattr(fit, "stationarity", None)
+    if steady is not None and not steady.stationary:  # the parts of a log whose noise changes
+        for j, part in enumerate(steady.segment_adev):
+            ax.plot(steady.tau_s, part, "-", color="0.45", lw=0.8, alpha=0.8,
+                    label=(f"its {steady.n_segments} parts: noise changes (p = {steady.p_value:.2g})"
+                           if j == 0 else None))
+    pred = np.sqrt(fit.predictive_avar(m_f, rng=rng))
+    lo, med, hi = np.quantile(pred, [0.05, 0.5, 0.95], axis=0)
+    ax.fill_between(tau_f, lo, hi, color="C0", alpha=0.3, label="posterior 90% band")
+    ax.plot(tau_f, med, color="C0", lw=1.5, label=f"model: {' + '.join(fit.model.terms)}")
+    for i, term in enumerate(fit.model.terms):
+        part = np.median(np.sqrt(fit.predictive_avar(m_f, rng=rng, term=term)), axis=0)
+        ax.plot(tau_f, part, "--", color=f"C{i + 1}", lw=1, label=_TERM_LABEL.get(term, term))
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_ylim(allan.adev.min() / 5, allan.adev.max() * 2)
+    ax.set_ylabel(f"Allan deviation ({unit})")
+    ax.set_title("Allan deviation: data and posterior")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    _residual_panel(ax_r, fit)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _residual_panel(ax, fit):
+    """Whitened residuals per cluster size (N(0, 1) each when the model is right), +-2 marked."""
+    check = fit.adequacy
+    ax.set_xscale("log")
+    ax.set_xlabel("averaging time tau (s)")
+    if check is None:
+        return
+    r = check.residuals
+    bad = np.abs(r) > 2.0
+    ax.axhspan(-2, 2, color="C2", alpha=0.12)
+    ax.axhline(0, color="gray", lw=0.8)
+    ax.vlines(fit.allan.tau, 0, r, color=np.where(bad, "C3", "k"), lw=1)
+    ax.plot(fit.allan.tau, r, "o", ms=3, color="k")
+    ax.plot(fit.allan.tau[bad], r[bad], "o", ms=4, color="C3")
+    ax.set_ylabel("whitened\nresidual")
+    verdict = "adequate" if check.adequate else ("INADEQUATE, intervals widened" if fit.widened else "INADEQUATE")
+    ax.set_title(f"goodness of fit: p = {check.p_value:.2g} ({verdict}); shaded: +-2", fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+
+
+def plot_corner(fit, path, *, unit="u"):
+    """Corner plot of the physical parameters with their units, on log axes (corner.py).
+
+    Each panel's title gives the median and the 5% / 95% quantiles; tick labels are plain
+    numbers (no offset notation), so a tightly pinned parameter still reads correctly.
+    """
+    plt = pyplot()
+    import corner
+    from matplotlib.ticker import LogFormatterSciNotation
+
+    from ..noise.avar_forms import PARAMETER_UNITS
+
+    names = fit.parameter_names
+    labels = [f"{n}\n[{PARAMETER_UNITS.get(n, '1').format(u=unit)}]" for n in names]
+    data = fit.samples
+    if data.shape[1] == 1:
+        fig, ax = plt.subplots(figsize=(4.5, 3.2))
+        ax.hist(data[:, 0], bins=np.geomspace(data[:, 0].min(), data[:, 0].max() * (1 + 1e-12), 41), color="C0")
+        ax.set_xscale("log")
+        ax.set_xlabel(labels[0].replace("\n", " "))
+        q = np.quantile(data[:, 0], [0.05, 0.5, 0.95])
+        ax.set_title(f"median {q[1]:.4g}, 90% [{q[0]:.4g}, {q[2]:.4g}]", fontsize=8)
+        fig.tight_layout()
+    else:
+        fig = corner.corner(data, labels=labels, axes_scale="log", quantiles=[0.05, 0.5, 0.95],
+                            label_kwargs={"fontsize": 8}, labelpad=0.15, max_n_ticks=3)
+        k = len(names)
+        axes = np.array(fig.axes).reshape(k, k)
+        for i in range(k):
+            q = np.quantile(data[:, i], [0.05, 0.5, 0.95])
+            axes[i, i].set_title(f"{q[1]:.4g}\n[{q[0]:.3g}, {q[2]:.3g}]", fontsize=7)
+        # plain scientific tick labels (no offset) where corner shows labels: bottom row, left column
+        edges = [(axes[-1, j].xaxis) for j in range(k)] + [(axes[i, 0].yaxis) for i in range(1, k)]
+        for axis in edges:
+            axis.set_major_formatter(LogFormatterSciNotation(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
+            axis.set_minor_formatter(LogFormatterSciNotation(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
+        for ax in fig.axes:
+            ax.tick_params(which="both", labelsize=6)
+        fig.subplots_adjust(left=0.13, bottom=0.13)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+_TERM_LABEL = {"white": "white noise", "quantization": "quantization", "filtered_white": "filtered white noise",
+               "hf_correlated": "fast correlated noise", "bias_instability": "bias instability",
+               "gauss_markov": "Gauss-Markov bias", "gauss_markov_2": "second Gauss-Markov bias",
+               "random_walk": "rate random walk", "ramp": "rate ramp"}
+_QUANTITY_LABEL = {"attitude": "attitude error", "velocity": "velocity error", "position": "position error"}
+
+
+def plot_drift(bands_list, path, *, units, title="", min_probability=0.1):
+    """Drift credible bands (log-log), white and bias parts separately, crossover marked (paper Figs 8, 11).
+
+    Parameters
+    ----------
+    bands_list : sequence of DriftBands
+        One panel per quantity.
+    units : sequence of str
+        Unit of each panel's quantity (e.g. "deg", "m/s", "m").
+    min_probability : float
+        Terms whose posterior probability (model averaging) is lower are not drawn (listed).
+    """
+    plt = pyplot()
+    fig, axes = plt.subplots(1, len(bands_list), figsize=(6.5 * len(bands_list), 6.6), squeeze=False)
+    for ax, bands, unit in zip(axes[0], bands_list, units):
+        keep = bands.total[0] > 0  # the double integral is exactly 0 after one sample
+        t = bands.t_s[keep]
+        lo, hi = bands.total[0][keep], bands.total[-1][keep]
+        ax.fill_between(t, lo, hi, color="C0", alpha=0.3,
+                        label=f"total, {bands.quantiles[0]:.0%}-{bands.quantiles[-1]:.0%} credible band")
+        ax.plot(t, bands.total[len(bands.quantiles) // 2][keep], color="C0", lw=1.5, label="total, median")
+        hidden = []
+        for i, (name, part) in enumerate(bands.terms.items()):
+            positive = part[keep] > 0
+            p = bands.term_probability.get(name, 1.0)
+            if p < min_probability:
+                hidden.append(_TERM_LABEL.get(name, name))
+                continue
+            if np.any(positive):
+                where = f", median where modelled, P = {p:.2f}" if p < 0.995 else ", median"
+                ax.plot(t[positive], part[keep][positive], "--", lw=1, color=f"C{i + 1}",
+                        label=f"{_TERM_LABEL.get(name, name)}{where}")
+        if hidden:
+            import textwrap
+
+            ax.plot([], [], " ", label=textwrap.fill(f"not drawn (P < {min_probability:g}): " + ", ".join(hidden), 60))
+        if np.isfinite(bands.crossover_s):
+            ax.axvline(bands.crossover_s, color="gray", lw=1, ls=":")
+            ax.annotate(f"biases and slow terms\nexceed short-term noise\nafter {bands.crossover_s:.3g} s",
+                        (bands.crossover_s, 0.02), xycoords=("data", "axes fraction"), textcoords="offset points",
+                        xytext=(4, 4), fontsize=7, color="dimgray", va="bottom",
+                        ha="left" if bands.crossover_s < np.sqrt(t[0] * t[-1]) else "right")
+        if bands.record_s < t[-1]:
+            ax.axvspan(bands.record_s, t[-1], color="gray", alpha=0.12,
+                       label=f"beyond the log ({bands.record_s:.4g} s): extrapolation")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("time since GPS loss (s)")
+        ax.set_ylabel(f"1-sigma {_QUANTITY_LABEL[bands.quantity]} ({unit})")
+        start = (f"bias calibrated over {bands.calibration_s:g} s" if bands.bias_start == "calibrated"
+                 else f"bias start: {bands.bias_start}")
+        ax.set_title(f"{bands.quantity} drift, {start}, {bands.models} models", fontsize=10)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=1, frameon=False)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None, drift_unit=None):
+    """Population fit: every unit's Allan deviation with the new-unit 90% band; optionally the
+    new-unit drift band against each unit's own (single-unit) drift median.
+
+    Parameters
+    ----------
+    pop : PopulationResult
+    unit : str
+        Unit of the rate samples.
+    bands : DriftBands, optional
+        New-unit drift bands (one quantity); adds the right-hand panel.
+    unit_bands : sequence of DriftBands
+        Each unit's single-unit bands of the same quantity (medians drawn).
+    drift_unit : str, optional
+        Unit of the drift values shown (default: the integrated unit of ``unit``).
+    """
+    plt = pyplot()
+    panels = 2 if bands is not None else 1
+    fig, axes = plt.subplots(1, panels, figsize=(6.5 * panels, 4.8), squeeze=False)
+    ax = axes[0][0]
+    first = pop.unit_fits[0].allan
+    tau_lo = min(f.allan.tau[0] for f in pop.unit_fits)
+    tau_hi = max(f.allan.tau[-1] for f in pop.unit_fits)
+    m_f = np.unique(np.maximum(1, np.round(np.geomspace(tau_lo, tau_hi, 80) * first.rate_hz)).astype(np.int64))
+    tau_f = m_f / first.rate_hz
+    pred = np.sqrt(pop.new_unit.predictive_avar(m_f, rng=rng))
+    lo, med, hi = np.quantile(pred, [0.05, 0.5, 0.95], axis=0)
+    ax.fill_between(tau_f, lo, hi, color="0.6", alpha=0.45, label="new unit, 90% predictive band")
+    ax.plot(tau_f, med, color="k", lw=1.5, label="new unit, median")
+    for i, (label, f) in enumerate(zip(pop.labels, pop.unit_fits)):
+        ax.plot(f.allan.tau, f.allan.adev, "o-", ms=3, lw=0.8, color=f"C{i % 10}", label=label)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("averaging time tau (s)")
+    ax.set_ylabel(f"Allan deviation ({unit})")
+    ax.set_title(f"{len(pop.labels)} units, model {' + '.join(pop.model.terms)}", fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    if bands is not None:
+        ax = axes[0][1]
+        keep = bands.total[0] > 0
+        t = bands.t_s[keep]
+        ax.fill_between(t, bands.total[0][keep], bands.total[-1][keep], color="0.6", alpha=0.45,
+                        label=f"new unit, {bands.quantiles[0]:.0%}-{bands.quantiles[-1]:.0%} band")
+        ax.plot(t, bands.total[len(bands.quantiles) // 2][keep], color="k", lw=1.5, label="new unit, median")
+        for i, (label, b) in enumerate(zip(pop.labels, unit_bands)):
+            ax.plot(t, b.total[len(b.quantiles) // 2][keep], lw=0.9, color=f"C{i % 10}", label=f"{label} alone, median")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("time since GPS loss (s)")
+        from ..drift.bands import integrated_unit
+
+        shown = drift_unit or integrated_unit(unit, bands.quantity)
+        ax.set_ylabel(f"1-sigma {_QUANTITY_LABEL[bands.quantity]} ({shown})")
+        start = (f"bias calibrated over {bands.calibration_s:g} s" if bands.bias_start == "calibrated"
+                 else f"bias start: {bands.bias_start}")
+        ax.set_title(f"{bands.quantity} drift of a new unit, {start}", fontsize=10)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

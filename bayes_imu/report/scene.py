@@ -1,0 +1,437 @@
+"""Component-selection reports: conservative drift bounds for several IMUs in one scene.
+
+A *scene* (TOML, :func:`read_scene`) lists GPS-outage durations, a credibility, an
+optional requirement on one quantity, and the sensors with their static logs. For each
+sensor :func:`build_report` converts the log to SI (rad/s, m/s^2), fits it with model
+selection (each sensor carries only the terms its data support), and computes:
+
+* ``bounds``: for every outage and quantity, the posterior quantile at ``credibility`` of
+  the 1-sigma drift ``sigma(t)`` (``bound``) and its median; SI output units (rad, m/s, m);
+* ``max_outage_s``: the longest outage whose bound on the required quantity stays within
+  ``max_error``, found by bisection on a continuous time (the bound increases with t).
+
+Ranking: longest ``max_outage_s`` first, ties (and scenes without a requirement) by the
+bound at the longest outage; sensors that cannot provide the required quantity (a gyro
+for a position requirement) rank last.
+"""
+
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..allan.estimator import allan_variance
+from ..drift.bands import DEFAULT_CALIBRATION_S, SENSOR_QUANTITIES, drift_bands, drift_draws
+from ..noise import BIAS_STARTS
+from ..drift.display import parse_amount
+from ..errors import InputError
+from ..inference.fit import fit_allan
+from ..drift.closed_forms import SI_OUTPUT_UNITS
+from ..io.readers import SI_UNITS, UNITS, read_log, read_text, to_si
+
+__all__ = ["Scene", "SensorSpec", "SensorReport", "Report", "read_scene", "build_report", "OUTPUT_UNITS"]
+
+OUTPUT_UNITS = SI_OUTPUT_UNITS
+MAX_SEARCH_S = 1e6
+
+
+@dataclass(frozen=True)
+class SensorSpec:
+    """One ``[[sensor]]`` of a scene.
+
+    Attributes
+    ----------
+    name, kind, units : str
+    paths : tuple of Path
+        The log (``log``), the logs of several units (``logs``), or fit folders (``fit`` / ``fits``).
+    columns : tuple of str
+        Axes to bound (the worst one counts); empty for fit folders (their axes are used).
+    rate_hz : float or None
+    source : {"log", "logs", "fit", "fits"}
+    """
+
+    name: str
+    paths: tuple
+    columns: tuple
+    rate_hz: float
+    kind: str
+    units: str
+    source: str = "log"
+
+    @property
+    def log(self):
+        return self.paths[0]
+
+    @property
+    def column(self):
+        return ",".join(self.columns) if self.columns else "(from the fit)"
+
+    @property
+    def population(self):
+        """Several units: bounds are for a new unit of the model."""
+        return len(self.paths) > 1
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A parsed scene file (see the module docstring and the README for the format)."""
+
+    name: str
+    outages_s: tuple
+    credibility: float
+    sensors: tuple
+    requirement: dict | None = None
+    bias_start: str = "calibrated"
+    path: str = ""
+    calibration_s: float = DEFAULT_CALIBRATION_S
+
+
+@dataclass(frozen=True)
+class AxisResult:
+    """One axis of a sensor: the posterior its bounds come from.
+
+    Attributes
+    ----------
+    axis : str
+    posterior : FitResult or UnitPosterior
+        What the bounds use (a population's new-unit predictive for several units).
+    fit : FitResult or None
+        The single-unit fit (one log or fit folder).
+    population : PopulationResult or None
+    """
+
+    axis: str
+    posterior: object
+    fit: object = None
+    population: object = None
+
+
+@dataclass(frozen=True)
+class SensorReport:
+    """Bounds of one sensor: the worst axis at each outage and quantity (``bounds[i]["axis"]``).
+
+    ``fit`` is the single-unit fit of the worst axis, or ``None`` for a population.
+    """
+
+    spec: SensorSpec
+    axes: tuple
+    bounds: tuple
+    max_outage_s: float | None
+    bands: tuple
+    worst: int = 0
+
+    @property
+    def fit(self):
+        return self.axes[self.worst].fit
+
+    @property
+    def posterior(self):
+        return self.axes[self.worst].posterior
+
+    @property
+    def record_s(self):
+        return self.posterior.record_s
+
+
+@dataclass(frozen=True)
+class Report:
+    scene: Scene
+    sensors: tuple
+    ranking: tuple
+    reason: str
+
+    def to_json(self):
+        """JSON-ready dict (``report.json``)."""
+        from .._version import __version__
+
+        out = []
+        for s in self.sensors:
+            unit = _si_unit(s.spec.kind)
+            entry = {"name": s.spec.name, "kind": s.spec.kind, "source": s.spec.source,
+                     "log": str(s.spec.log), "paths": [str(p) for p in s.spec.paths], "column": s.spec.column,
+                     "input_units": s.spec.units, "axes": [a.axis for a in s.axes], "worst_axis": s.axes[s.worst].axis}
+            if s.fit is not None:
+                summary = s.fit.summary(unit=unit)
+                entry.update({k: summary[k] for k in ("model", "parameters", "diagnostics", "candidates", "adequacy",
+                                                       "model_averaging")})
+                entry["unit_to_unit"] = (f"NOT included: the bounds are for the tested unit ({s.spec.log.name}); "
+                                         "another unit of this model may be worse (give several logs to include it)")
+            else:
+                summary = s.axes[s.worst].population.summary(unit=unit)
+                entry.update(model=summary["model"], parameters=summary["new_unit"], population=summary["population"],
+                             units=summary["units"], structures=summary["structures"],
+                             diagnostics=summary["diagnostics"])
+                entry["unit_to_unit"] = (f"included: the bounds are for a NEW unit of this model (posterior "
+                                         f"predictive of a hierarchical fit of {len(s.spec.paths)} units)")
+            entry.update(bounds=list(s.bounds), max_outage_s=s.max_outage_s)
+            out.append(entry)
+        return {"scene": self.scene.name, "credibility": self.scene.credibility, "outages_s": list(self.scene.outages_s),
+                "requirement": self.scene.requirement, "bias_start": self.scene.bias_start,
+                "calibration_s": self.scene.calibration_s if self.scene.bias_start == "calibrated" else None,
+                "models": "averaged over the candidate models by posterior probability", "sensors": out,
+                "ranking": list(self.ranking), "ranking_reason": self.reason, "bayes_imu_version": __version__}
+
+
+def _si_unit(kind):
+    return SI_UNITS[kind]
+
+
+def _get(table, key, kind, where, default=None, required=True):
+    if key not in table:
+        if required:
+            raise InputError(f"{where}: missing key {key!r}")
+        return default
+    value = table[key]
+    if kind is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+            raise InputError(f"{where}: {key}={value!r}: expected a positive number")
+        return float(value)
+    if not isinstance(value, str) or not value:
+        raise InputError(f"{where}: {key}={value!r}: expected a non-empty string")
+    return value
+
+
+def _known(table, keys, where):
+    """Reject the first key of ``table`` not in ``keys``, by name."""
+    unknown = [k for k in table if k not in keys]
+    if unknown:
+        raise InputError(f"{where}: unknown key {unknown[0]!r}; expected keys: {', '.join(keys)}")
+
+
+def read_scene(path):
+    """Parse and validate a scene TOML file; paths are relative to the file."""
+    path = Path(path)
+    try:
+        doc = tomllib.loads(read_text(path))
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: invalid TOML ({exc})") from None
+    _known(doc, ("scene", "requirement", "sensor"), f"{path}: top level")
+    scene = doc.get("scene")
+    if not isinstance(scene, dict):
+        raise InputError(f"{path}: missing [scene] table")
+    _known(scene, ("name", "outages_s", "credibility", "bias_start", "calibration_s"), f"{path}: [scene]")
+    outages = scene.get("outages_s")
+    if not isinstance(outages, list) or not outages or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) and v > 0 for v in outages):
+        raise InputError(f"{path}: [scene] outages_s={outages!r}: expected a non-empty list of positive seconds")
+    cred = scene.get("credibility", 0.95)
+    if isinstance(cred, bool) or not isinstance(cred, (int, float)) or not 0.5 <= cred < 1:
+        raise InputError(f"{path}: [scene] credibility={cred!r}: expected a number in [0.5, 1)")
+    bias_start = scene.get("bias_start", "calibrated")
+    if bias_start not in BIAS_STARTS:
+        raise InputError(f"{path}: [scene] bias_start={bias_start!r}: expected one of {', '.join(BIAS_STARTS)}")
+    calibration = scene.get("calibration_s", DEFAULT_CALIBRATION_S)
+    if isinstance(calibration, bool) or not isinstance(calibration, (int, float)) or not (
+            np.isfinite(calibration) and calibration > 0):
+        raise InputError(f"{path}: [scene] calibration_s={calibration!r}: expected a positive number of seconds")
+    requirement = doc.get("requirement")
+    if requirement is not None:
+        where = f"{path}: [requirement]"
+        if not isinstance(requirement, dict):
+            raise InputError(f"{where}: expected a table")
+        _known(requirement, ("quantity", "max_error"), where)
+        quantity = _get(requirement, "quantity", str, where)
+        if quantity not in OUTPUT_UNITS:
+            raise InputError(f"{where} quantity={quantity!r}: expected one of {', '.join(OUTPUT_UNITS)}")
+        if "max_error" not in requirement:
+            raise InputError(f"{where}: missing key 'max_error'")
+        given = requirement["max_error"]
+        requirement = {"quantity": quantity, "max_error": parse_amount(given, quantity, f"{where} max_error"),
+                       "unit": OUTPUT_UNITS[quantity], "given": given if isinstance(given, str) else None}
+    sensors = doc.get("sensor")
+    if not isinstance(sensors, list) or not sensors:
+        raise InputError(f"{path}: no [[sensor]] entries")
+    specs = []
+    for i, entry in enumerate(sensors, start=1):
+        where = f"{path}: [[sensor]] #{i}"
+        if not isinstance(entry, dict):
+            raise InputError(f"{where}: expected a table")
+        _known(entry, ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units"), where)
+        kind = _get(entry, "kind", str, where)
+        if kind not in SENSOR_QUANTITIES:
+            raise InputError(f"{where}: kind={kind!r}: expected 'gyro' or 'accel'")
+        sources = [k for k in ("log", "logs", "fit", "fits") if k in entry]
+        if len(sources) != 1:
+            raise InputError(f"{where}: expected exactly one of log, logs (several units), fit or fits (fit folders); "
+                             f"got {', '.join(sources) or 'none'}")
+        source = sources[0]
+        paths = tuple(path.parent / p for p in _paths(entry, source, where))
+        name = _get(entry, "name", str, where)
+        if source in ("fit", "fits"):
+            for key in ("column", "rate_hz", "units"):
+                if key in entry:
+                    raise InputError(f"{where}: {key} is taken from the fit folder; leave it out with {source}")
+            specs.append(SensorSpec(name, paths, (), None, kind, SI_UNITS[kind], source))
+            continue
+        units = _get(entry, "units", str, where)
+        if units not in UNITS or UNITS[units][0] != kind:
+            allowed = [u for u, (k, _) in UNITS.items() if k == kind]
+            raise InputError(f"{where}: units={units!r}: expected one of {', '.join(allowed)} for a {kind}")
+        specs.append(SensorSpec(name, paths, _columns(entry, where), _get(entry, "rate_hz", float, where), kind, units,
+                                source))
+    names = [s.name for s in specs]
+    if len(set(names)) != len(names):
+        raise InputError(f"{path}: sensor names must be unique, got {names}")
+    return Scene(str(scene.get("name", path.stem)), tuple(float(v) for v in outages), float(cred), tuple(specs),
+                 requirement, bias_start, str(path), float(calibration))
+
+
+def _paths(entry, key, where):
+    value = entry[key]
+    many = key in ("logs", "fits")
+    if many and (not isinstance(value, list) or len(value) < 2 or not all(isinstance(v, str) and v for v in value)):
+        raise InputError(f"{where}: {key}={value!r}: expected a list of at least 2 paths (one per unit)")
+    if not many and (not isinstance(value, str) or not value):
+        raise InputError(f"{where}: {key}={value!r}: expected a path")
+    return value if many else [value]
+
+
+def _columns(entry, where):
+    value = entry.get("column")
+    if isinstance(value, str) and value:
+        return (value,)
+    if isinstance(value, list) and value and all(isinstance(v, str) and v for v in value):
+        return tuple(value)
+    raise InputError(f"{where}: column={value!r}: expected a column name or a list of names (several axes: "
+                     "the worst one is bounded)")
+
+
+def _bound(fit, t, quantity, credibility, bias_start, calibration_s=DEFAULT_CALIBRATION_S):
+    d = drift_draws(fit, np.atleast_1d(t), quantity=quantity, bias_start=bias_start, calibration_s=calibration_s)["total"]
+    return np.quantile(d, credibility, axis=0), np.median(d, axis=0)
+
+
+def max_outage(fit, quantity, max_error, credibility, bias_start="calibrated", calibration_s=DEFAULT_CALIBRATION_S):
+    """Longest time (s) whose ``credibility`` bound on ``quantity`` stays within ``max_error``.
+
+    The bound is model-averaged, with the given bias semantics (default: the bias calibrated
+    over ``calibration_s`` seconds before the outage).
+
+    Bisection on log time between one sample and :data:`MAX_SEARCH_S` (relative precision 1e-4);
+    ``0.0`` if even two samples exceed it, :data:`MAX_SEARCH_S` if the search limit does not.
+    """
+    dt = fit.model.dt
+    lo, hi = 2.0 * dt, MAX_SEARCH_S  # position needs two samples to be non-zero
+    def bound(t):
+        return _bound(fit, t, quantity, credibility, bias_start, calibration_s)[0][0]
+
+    if bound(lo) > max_error:
+        return 0.0
+    if bound(hi) <= max_error:
+        return float(MAX_SEARCH_S)
+    while hi / lo > 1.0 + 1e-4:
+        mid = np.sqrt(lo * hi)
+        if bound(mid) <= max_error:
+            lo = mid
+        else:
+            hi = mid
+    return float(lo)
+
+
+def build_report(scene, *, rng=None):
+    """Fit (or read) every sensor of ``scene`` and compute its bounds (module docstring).
+
+    A sensor with several logs or fit folders is a population of units: its bounds are for a
+    new unit of the model (:func:`bayes_imu.inference.population.fit_population`). Several axes: each
+    outage's bound is the worst axis's.
+    """
+    rng = np.random.default_rng(rng)
+    reports = []
+    for spec in scene.sensors:
+        axes = _axes(spec, rng)
+        per_axis = []
+        for a in axes:
+            rows = []
+            for quantity in SENSOR_QUANTITIES[spec.kind]:
+                bound, median = _bound(a.posterior, np.array(scene.outages_s), quantity, scene.credibility,
+                                       scene.bias_start, scene.calibration_s)
+                rows += [{"outage_s": t, "quantity": quantity, "bound": float(b), "median": float(m),
+                          "unit": OUTPUT_UNITS[quantity], "extrapolated": bool(t > a.posterior.record_s),
+                          "axis": a.axis} for t, b, m in zip(scene.outages_s, bound, median)]
+            per_axis.append(rows)
+        bounds = tuple(max((rows[i] for rows in per_axis), key=lambda r: r["bound"]) for i in range(len(per_axis[0])))
+        last = [i for i, b in enumerate(bounds) if b["outage_s"] == max(scene.outages_s)][-1]
+        worst = next(i for i, a in enumerate(axes) if a.axis == bounds[last]["axis"])
+        bands = tuple(drift_bands(axes[worst].posterior, quantity=quantity, bias_start=scene.bias_start,
+                                  horizon_s=max(scene.outages_s) * 2.0, calibration_s=scene.calibration_s,
+                                  quantiles=(1.0 - scene.credibility, 0.5, scene.credibility))
+                      for quantity in SENSOR_QUANTITIES[spec.kind])
+        req = scene.requirement
+        longest = None
+        if req is not None and req["quantity"] in SENSOR_QUANTITIES[spec.kind]:
+            longest = min(max_outage(a.posterior, req["quantity"], req["max_error"], scene.credibility,
+                                     scene.bias_start, scene.calibration_s) for a in axes)
+        reports.append(SensorReport(spec, tuple(axes), bounds, longest, bands, worst))
+    ranking, reason = _rank(scene, reports)
+    return Report(scene, tuple(reports), ranking, reason)
+
+
+def _axes(spec, rng):
+    """The :class:`AxisResult` of each axis of a sensor (fitting its logs or reading its fit folders)."""
+    from ..inference.population import fit_population
+
+    where = f"sensor {spec.name!r}: "
+    if spec.source in ("fit", "fits"):
+        per_unit = [_saved_axes(p, spec, where) for p in spec.paths]
+        names = [n for n, _ in per_unit[0]]
+        if any([n for n, _ in u] != names for u in per_unit[1:]):
+            raise InputError(f"{where}the fit folders have different axes: "
+                             + "; ".join(f"{p}: {', '.join(n for n, _ in u)}" for p, u in zip(spec.paths, per_unit)))
+        fits = {n: [dict(u)[n] for u in per_unit] for n in names}
+        allans = {n: [f.allan for f in fs] for n, fs in fits.items()}
+    else:
+        fits, allans = {}, {}
+        for column in spec.columns:
+            allans[column] = [allan_variance(to_si(read_log(p, column=column).values, spec.units, where=where),
+                                             rate_hz=spec.rate_hz) for p in spec.paths]
+            fits[column] = [fit_allan(a, rng=rng) for a in allans[column]]
+    out = []
+    for axis in fits:
+        if len(fits[axis]) == 1:
+            out.append(AxisResult(axis, fits[axis][0], fits[axis][0]))
+        else:
+            labels = [_label(p, i) for i, p in enumerate(spec.paths)]
+            pop = fit_population(allans[axis], labels=labels, unit_fits=fits[axis], rng=rng)
+            out.append(AxisResult(axis, pop.new_unit, None, pop))
+    return out
+
+
+def _label(path, i):
+    return f"{i + 1}: {path.name}"
+
+
+def _saved_axes(folder, spec, where):
+    """``[(axis, FitResult)]`` of a fit folder (one axis, or each axis of a several-column fit), in SI."""
+    from ..inference.archive import fit_axes, load_fit
+
+    out = []
+    try:
+        for axis, place, summary in fit_axes(folder):
+            unit = summary.get("unit")
+            if unit != spec.units:
+                raise InputError(f"{place}: fitted in {unit!r}; a {spec.kind} report needs a fit in {spec.units} "
+                                 f"(run bayes-imu fit with --units)")
+            out.append((axis, load_fit(place)))
+    except InputError as exc:
+        raise InputError(f"{where}{exc}") from None
+    return out
+
+
+def _rank(scene, reports):
+    t_max = max(scene.outages_s)
+    req = scene.requirement
+
+    def last_bound(r):
+        q = req["quantity"] if req and req["quantity"] in SENSOR_QUANTITIES[r.spec.kind] else SENSOR_QUANTITIES[r.spec.kind][-1]
+        return next(b["bound"] for b in r.bounds if b["outage_s"] == t_max and b["quantity"] == q)
+
+    if req is None:
+        order = sorted(reports, key=last_bound)
+        reason = (f"no requirement: ranked by the {scene.credibility:.0%} bound at the longest outage ({t_max:g} s), "
+                  "smallest first (comparable within one sensor kind)")
+    else:
+        order = sorted(reports, key=lambda r: (r.max_outage_s is None, -(r.max_outage_s or 0.0), last_bound(r)))
+        reason = (f"ranked by the longest outage whose {scene.credibility:.0%} bound on {req['quantity']} stays within "
+                  f"{req['max_error']:g} {req['unit']}; ties by the bound at {t_max:g} s")
+    return tuple(r.spec.name for r in order), reason
