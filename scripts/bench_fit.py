@@ -1,10 +1,15 @@
-"""End-to-end speed of ``bayes-imu fit`` on a 1e6-sample single-column CSV.
+"""End-to-end speed of ``bayes-imu fit`` on a 1e6-sample single-column CSV, beside the fastest peer.
 
 Writes a white + Gauss-Markov log (100 Hz, 1e6 samples, ``bayes_imu.noise.simulate``) to a
-temporary folder and times the command as a user runs it (a fresh process: imports,
-reading the CSV, Allan variance, model selection over 16 candidates, sampling, writing
-summary.json, posterior.nc and both figures). Prints one row per run and the stages of
-the last run (from the Python API, same process).
+temporary folder and times, each in a fresh process as a user runs it:
+
+* ``bayes-imu fit`` (imports, reading the CSV, Allan variance, model selection, sampling,
+  writing summary.json, posterior.nc, fit.npz and both figures);
+* the peer: allan-variance (PyPI) ``compute_avar`` + ``estimate_parameters`` on the same CSV
+  read with pandas (its point estimate by NNLS on its own 100-point grid), when installed.
+
+Prints one row per run, the median ratio, and the stages of the last run (Python API, same
+process). The issue's goal is a ratio of at most 2.
 
     python scripts/bench_fit.py [--runs 3] [--samples 1000000]
 """
@@ -32,16 +37,47 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         log = Path(tmp) / "gyro.csv"
         np.savetxt(log, y, fmt="%.9g", header="gyro_x_dps", comments="")
-        print(f"{'run':>3s} {'samples':>9s} {'wall_s':>7s}  model")
+        peer = _peer_available()
+        print(f"{'run':>3s} {'samples':>9s} {'fit_s':>7s} {'peer_s':>7s} {'ratio':>6s}  model")
+        ours, theirs = [], []
         for run in range(args.runs):
             out = Path(tmp) / f"out{run}"
             start = time.perf_counter()
-            proc = subprocess.run([sys.executable, "-m", "bayes_imu.cli.main", "fit", str(log), "--column", "gyro_x_dps",
+            proc = subprocess.run([sys.executable, "-m", "bayes_imu.cli", "fit", str(log), "--column", "gyro_x_dps",
                                    "--rate", "100", "--out", str(out), "--seed", str(run)],
                                   capture_output=True, text=True, check=True)
-            wall = time.perf_counter() - start
-            print(f"{run:3d} {args.samples:9d} {wall:7.2f}  {proc.stdout.splitlines()[0]}")
+            ours.append(time.perf_counter() - start)
+            theirs.append(_time_peer(log) if peer else float("nan"))
+            print(f"{run:3d} {args.samples:9d} {ours[-1]:7.2f} {theirs[-1]:7.2f} {ours[-1] / theirs[-1]:6.2f}  "
+                  f"{proc.stdout.splitlines()[0]}")
+        if peer:
+            print(f"\nmedian: bayes-imu fit {np.median(ours):.2f} s, allan-variance {np.median(theirs):.2f} s, "
+                  f"ratio {np.median(ours) / np.median(theirs):.2f} (goal <= 2)")
+        else:
+            print("\nallan-variance not installed (pip install allan-variance): no peer timing")
         stages(log)
+
+
+PEER = """
+import sys
+import pandas as pd
+from allan_variance import compute_avar, estimate_parameters
+x = pd.read_csv(sys.argv[1])["gyro_x_dps"].to_numpy()
+tau, avar = compute_avar(x, dt=0.01)
+params, prediction = estimate_parameters(tau, avar)
+"""
+
+
+def _peer_available():
+    import importlib.util
+
+    return importlib.util.find_spec("allan_variance") is not None and importlib.util.find_spec("pandas") is not None
+
+
+def _time_peer(log):
+    start = time.perf_counter()
+    subprocess.run([sys.executable, "-c", PEER, str(log)], capture_output=True, text=True, check=True)
+    return time.perf_counter() - start
 
 
 def stages(log):

@@ -28,9 +28,9 @@ def main():
     shutil.rmtree(ROOT / "walk", ignore_errors=True)
     for line in commands:
         start = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "bayes_imu.cli.main", *shlex.split(line)[1:], "--quiet"]
+        subprocess.run([sys.executable, "-m", "bayes_imu.cli", *shlex.split(line)[1:], "--quiet"]
                        if not line.startswith("bayes-imu kalibr") and not line.startswith("bayes-imu report")
-                       else [sys.executable, "-m", "bayes_imu.cli.main", *shlex.split(line)[1:]],
+                       else [sys.executable, "-m", "bayes_imu.cli", *shlex.split(line)[1:]],
                        cwd=ROOT, check=True, capture_output=True)
         print(f"{time.perf_counter() - start:6.1f} s  {line}")
     out = ROOT / "docs" / "walkthrough"

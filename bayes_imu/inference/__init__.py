@@ -10,6 +10,7 @@ and the adequacy check (:mod:`~bayes_imu.inference.selection`), the stationarity
 from .fit import (
     FitResult,
     MixtureComponent,
+    SamplerChains,
     fit,
     fit_allan,
     score_models,
@@ -24,6 +25,7 @@ from .population import (
 __all__ = [
     "FitResult",
     "MixtureComponent",
+    "SamplerChains",
     "fit",
     "fit_allan",
     "score_models",

@@ -19,6 +19,7 @@ Pipeline of :func:`fit_allan`:
 
 import warnings
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -28,6 +29,7 @@ from ..allan.estimator import AllanResult, allan_variance
 from ..errors import ConvergenceWarning, InputError
 from .likelihood import LIKELIHOODS, LogPosterior, default_bounds
 from ..noise.avar_forms import BASE_TERMS, PARAMETER_UNITS, NoiseModel
+from .diagnostics import summary as convergence_summary
 from .stationarity import Stationarity, stationarity_check
 from .selection import (
     Adequacy,
@@ -44,12 +46,40 @@ from .selection import (
     to_phi,
 )
 
-__all__ = ["FitResult", "MixtureComponent", "fit", "fit_allan", "score_models", "DISCREPANCY_MODES"]
+__all__ = ["FitResult", "MixtureComponent", "SamplerChains", "fit", "fit_allan", "score_models", "DISCREPANCY_MODES"]
 
 DISCREPANCY_MODES = ("auto", "never", "always")
 AUTOCORR_MULTIPLE = 50
 RHAT_MAX = 1.01
 ESS_MIN = 400
+
+
+@dataclass(frozen=True)
+class SamplerChains:
+    """The kept draws of every walker, in emcee's layout, for ArviZ.
+
+    Attributes
+    ----------
+    chain : ndarray, shape (n_draws, n_walkers, n_par)
+        Log-parameters after burn-in and thinning.
+    log_prob : ndarray, shape (n_draws, n_walkers)
+    log_likelihood : ndarray, shape (n_draws, n_walkers)
+    """
+
+    chain: np.ndarray
+    log_prob: np.ndarray
+    log_likelihood: np.ndarray
+
+    def to_inference_data(self, names, allan, attrs):
+        """``arviz.InferenceData``: walkers as chains; ``log_<name>`` and ``<name>`` for each parameter."""
+        az = _arviz()
+        posterior = {f"log_{n}": self.chain[:, :, i].T for i, n in enumerate(names)}
+        posterior.update({n: np.exp(self.chain[:, :, i].T) for i, n in enumerate(names)})
+        with warnings.catch_warnings():  # "more chains than draws" on short runs
+            warnings.simplefilter("ignore", UserWarning)
+            return az.from_dict(posterior=posterior, sample_stats={"lp": self.log_prob.T},
+                                log_likelihood={"allan": self.log_likelihood.T}, observed_data={"avar": allan.avar},
+                                coords={"tau": allan.tau}, dims={"avar": ["tau"]}, attrs=attrs)
 
 
 @dataclass(frozen=True)
@@ -97,7 +127,8 @@ class FitResult:
         AVAR covariance the likelihood used.
     seed : object
         The ``rng`` argument as given (an int for reproducible runs).
-    inference_data : arviz.InferenceData
+    chains : SamplerChains or None
+        The walkers' kept draws (``None`` for a fit read back from ``fit.npz``).
     adequacy : Adequacy
         Goodness of fit of the selected model (without the discrepancy term).
     probabilities : ndarray, shape (n_candidates,)
@@ -121,12 +152,21 @@ class FitResult:
     likelihood: str
     covariance: np.ndarray
     seed: object = None
-    inference_data: object = field(default=None, repr=False, compare=False)
+    chains: SamplerChains = field(default=None, repr=False, compare=False)
     adequacy: Adequacy = None
     probabilities: np.ndarray = None
     mixture: tuple = ()
     widened: bool = False
     stationarity: Stationarity = None
+
+    @cached_property
+    def inference_data(self):
+        """``arviz.InferenceData`` of the chains (walkers as chains; built on first use, which imports
+        ArviZ), ``None`` for a fit read back from ``fit.npz``."""
+        if self.chains is None:
+            return None
+        attrs = {"terms": " ".join(self.model.terms), "likelihood": self.likelihood, "bayes_imu_version": __version__}
+        return self.chains.to_inference_data(self.parameter_names, self.allan, attrs)
 
     @property
     def parameter_names(self):
@@ -313,14 +353,14 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
     sampled = post.with_discrepancy() if widen else post
     phi_mode = posterior_mode(sampled, [scores[chosen].mode]).phi
     start = _initial_walkers(sampled, scored[chosen].evidence, phi_mode, n_walkers, rng)
-    log_samples, log_prob, diagnostics, idata = _sample(sampled, start, rng, max_steps, allan, progress)
+    log_samples, log_prob, diagnostics, chains = _sample(sampled, start, rng, max_steps, allan, progress)
     best_draw = log_samples[int(np.argmax(log_prob))]
     check = adequacy(post, best_draw, allan.tau, log_samples)
     probabilities = model_probabilities(scores)
     mixture = _mixture(scored, chosen, probabilities, np.exp(log_samples), rng)
     steady = stationarity_check(allan, model, dict(zip(model.parameter_names, np.exp(best_draw[:n_model]))))
     return FitResult(model, np.exp(log_samples), log_prob, allan, scores, chosen, diagnostics, likelihood, cov, seed,
-                     idata, check, probabilities, mixture, widen, steady)
+                     chains, check, probabilities, mixture, widen, steady)
 
 
 def score_models(allan, models, *, widened=False, likelihood="correlated", n_evidence=4000, rng=None):
@@ -547,12 +587,12 @@ def _sample(post, start, rng, max_steps, allan, progress=False):
             long_enough = sampler.iteration >= AUTOCORR_MULTIPLE * tau_max and abs(tau_max - tau_old) < 0.05 * tau_max
             tau_old = tau_max
             if long_enough:
-                chain, lp, idata, diagnostics = _thinned(sampler, post, allan, tau_max, n_walkers, True)
+                chain, lp, chains, diagnostics = _thinned(sampler, post, allan, tau_max, n_walkers, True)
                 if diagnostics["converged"]:
                     converged = True
                     break
     if not converged:
-        chain, lp, idata, diagnostics = _thinned(sampler, post, allan, tau_max, n_walkers, False)
+        chain, lp, chains, diagnostics = _thinned(sampler, post, allan, tau_max, n_walkers, False)
         warnings.warn(
             f"sampler not converged after {sampler.iteration} steps (autocorrelation time {tau_max:.0f} steps, "
             f"R-hat {diagnostics['rhat_max']:.3f}, bulk ESS {diagnostics['ess_bulk_min']:.0f}); "
@@ -560,7 +600,7 @@ def _sample(post, start, rng, max_steps, allan, progress=False):
             ConvergenceWarning,
             stacklevel=3,
         )
-    return chain.reshape(-1, n_par), lp.reshape(-1), diagnostics, idata
+    return chain.reshape(-1, n_par), lp.reshape(-1), diagnostics, chains
 
 
 def _arviz():
@@ -581,46 +621,13 @@ def _thinned(sampler, post, allan, tau_max, n_walkers, long_enough):
     thin = max(1, int(tau_max / 2))
     chain = sampler.get_chain(discard=burn, thin=thin)  # (draws, walkers, par)
     lp = sampler.get_log_prob(discard=burn, thin=thin)
-    with warnings.catch_warnings():  # "more chains than draws" on short runs: reported as ConvergenceWarning
-        warnings.simplefilter("ignore", UserWarning)
-        idata = _inference_data(post, chain, lp, allan)
-        diagnostics = _diagnostics(idata, tau_max, sampler.iteration, n_walkers, long_enough)
-    return chain, lp, idata, diagnostics
+    chains = SamplerChains(chain, lp, post.log_likelihood(chain))
+    return chain, lp, chains, _diagnostics(chain, tau_max, sampler.iteration, n_walkers, long_enough)
 
 
-def _inference_data(post, chain, lp, allan):
-    az = _arviz()
-
-    names = post.model.parameter_names + (("model_discrepancy",) if post.discrepancy else ())
-    posterior = {f"log_{n}": chain[:, :, i].T for i, n in enumerate(names)}
-    posterior.update({n: np.exp(chain[:, :, i].T) for i, n in enumerate(names)})
-    loglik = post.log_likelihood(chain).T
-    return az.from_dict(
-        posterior=posterior,
-        sample_stats={"lp": lp.T},
-        log_likelihood={"allan": loglik},
-        observed_data={"avar": allan.avar},
-        coords={"tau": allan.tau},
-        dims={"avar": ["tau"]},
-        attrs={"terms": " ".join(post.model.terms), "likelihood": post.kind, "bayes_imu_version": __version__},
-    )
-
-
-def _diagnostics(idata, tau_max, n_steps, n_walkers, converged):
-    az = _arviz()
-
-    names = [v for v in idata.posterior.data_vars if v.startswith("log_")]
-    rhat = az.rhat(idata, var_names=names)
-    bulk = az.ess(idata, var_names=names, method="bulk")
-    tail = az.ess(idata, var_names=names, method="tail")
-    out = {
-        "rhat_max": float(max(rhat[v].values for v in names)),
-        "ess_bulk_min": float(min(bulk[v].values for v in names)),
-        "ess_tail_min": float(min(tail[v].values for v in names)),
-        "autocorr_time": float(tau_max),
-        "n_steps": int(n_steps),
-        "n_walkers": int(n_walkers),
-    }
+def _diagnostics(chain, tau_max, n_steps, n_walkers, converged):
+    out = {**convergence_summary(chain), "autocorr_time": float(tau_max), "n_steps": int(n_steps),
+           "n_walkers": int(n_walkers)}
     out["converged"] = bool(converged and out["rhat_max"] < RHAT_MAX and out["ess_bulk_min"] >= ESS_MIN)
     return out
 
