@@ -30,6 +30,7 @@ from ..errors import ConvergenceWarning, InputError
 from .likelihood import LIKELIHOODS, LogPosterior, default_bounds
 from ..noise.avar_forms import BASE_TERMS, PARAMETER_UNITS, NoiseModel
 from .diagnostics import summary as convergence_summary
+from .sampling import burn_and_thin, ensemble_sampler, long_enough
 from .stationarity import Stationarity, stationarity_check
 from .selection import (
     Adequacy,
@@ -49,7 +50,6 @@ from .selection import (
 __all__ = ["FitResult", "MixtureComponent", "SamplerChains", "fit", "fit_allan", "score_models", "DISCREPANCY_MODES"]
 
 DISCREPANCY_MODES = ("auto", "never", "always")
-AUTOCORR_MULTIPLE = 50
 RHAT_MAX = 1.01
 ESS_MIN = 400
 
@@ -324,8 +324,7 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
     else:
         candidates = [tuple(terms)]
         pilot_model = NoiseModel(tuple(terms), dt)
-    reference = _pilot(pilot_model, allan)
-    shared = _posterior_factory(pilot_model, reference, allan, likelihood)
+    reference, shared = _shared_posterior(pilot_model, allan, likelihood)
     widen = discrepancy == "always"
     make = (lambda model: shared(model).with_discrepancy()) if widen else shared
     with progress_bar(desc="model selection", unit="model", enabled=progress) as bar:
@@ -389,9 +388,7 @@ def score_models(allan, models, *, widened=False, likelihood="correlated", n_evi
         raise InputError(f"likelihood={likelihood!r}: expected one of {', '.join(LIKELIHOODS)}")
     rng = np.random.default_rng(rng)
     dt = 1.0 / allan.rate_hz
-    pilot_model = NoiseModel(BASE_TERMS, dt)
-    reference = _pilot(pilot_model, allan)
-    shared = _posterior_factory(pilot_model, reference, allan, likelihood)
+    reference, shared = _shared_posterior(NoiseModel(BASE_TERMS, dt), allan, likelihood)
     out = []
     for terms in models:
         model = NoiseModel(tuple(terms), dt)
@@ -464,6 +461,12 @@ def _mixture(scored, chosen, probabilities, samples, rng, floor=1e-3):
             draws = np.exp(to_phi(ev.u[idx], scored[i].post.bounds))
         out.append(MixtureComponent(scored[i].score.terms, float(w), draws))
     return tuple(out)
+
+
+def _shared_posterior(pilot_model, allan, likelihood):
+    """The pilot fit of ``pilot_model`` and the factory of every candidate's posterior (one covariance for all)."""
+    reference = _pilot(pilot_model, allan)
+    return reference, _posterior_factory(pilot_model, reference, allan, likelihood)
 
 
 def _posterior_factory(ref_model, reference, allan, likelihood):
@@ -566,16 +569,8 @@ def _initial_walkers(post, evidence, phi_mode, n_walkers, rng):
 
 
 def _sample(post, start, rng, max_steps, allan, progress=False):
-    import emcee
-
     n_walkers, n_par = start.shape
-    # differential-evolution proposals with some stretch moves: integrated autocorrelation
-    # times ~11 steps instead of ~36 for the stretch move alone on the white + GM posterior
-    # (scripts/bench_fit.py; 3x fewer likelihood calls for the same ESS)
-    moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.StretchMove(), 0.2)]
-    sampler = emcee.EnsembleSampler(n_walkers, n_par, post, vectorize=True, moves=moves)
-    # emcee keeps a legacy RandomState: seed it from our Generator (no global state)
-    sampler.random_state = np.random.RandomState(rng.integers(2**32)).get_state()
+    sampler = ensemble_sampler(post, start, rng)
     chunk, state, tau_old = min(250, max_steps), start, np.inf
     converged = False
     with progress_bar(desc="sampling", unit="step", enabled=progress) as bar:
@@ -584,9 +579,9 @@ def _sample(post, start, rng, max_steps, allan, progress=False):
             tau_max = float(np.max(sampler.get_autocorr_time(tol=0)))
             bar.update(chunk)
             bar.set_postfix_str(f"autocorrelation {tau_max:.0f} steps")
-            long_enough = sampler.iteration >= AUTOCORR_MULTIPLE * tau_max and abs(tau_max - tau_old) < 0.05 * tau_max
+            settled = long_enough(sampler.iteration, tau_max, tau_old)
             tau_old = tau_max
-            if long_enough:
+            if settled:
                 chain, lp, chains, diagnostics = _thinned(sampler, post, allan, tau_max, n_walkers, True)
                 if diagnostics["converged"]:
                     converged = True
@@ -616,9 +611,8 @@ def _arviz():
 
 
 def _thinned(sampler, post, allan, tau_max, n_walkers, long_enough):
-    """Drop 3 autocorrelation times of burn-in, thin by half of one; diagnostics on the rest."""
-    burn = int(np.ceil(3 * tau_max))
-    thin = max(1, int(tau_max / 2))
+    """Drop the burn-in, thin (:func:`~bayes_imu.inference.sampling.burn_and_thin`); diagnostics on the rest."""
+    burn, thin = burn_and_thin(tau_max)
     chain = sampler.get_chain(discard=burn, thin=thin)  # (draws, walkers, par)
     lp = sampler.get_log_prob(discard=burn, thin=thin)
     chains = SamplerChains(chain, lp, post.log_likelihood(chain))

@@ -49,6 +49,7 @@ from .._version import __version__
 from ..allan.estimator import AllanResult
 from ..errors import ConvergenceWarning, InputError
 from .fit import FitResult, fit_allan, score_models
+from .sampling import burn_and_thin, ensemble_sampler, long_enough
 from .likelihood import default_bounds
 from ..noise.avar_forms import PARAMETER_UNITS, NoiseModel
 from .selection import CandidateScore, select
@@ -57,7 +58,6 @@ __all__ = ["PopulationResult", "UnitPosterior", "fit_population", "SPREAD_BOUNDS
 
 #: bounds of the population spread sigma (standard deviation of a ln parameter across units)
 SPREAD_BOUNDS = (1e-3, 5.0)
-AUTOCORR_MULTIPLE = 50
 _LOG_2PI = float(np.log(2.0 * np.pi))
 
 
@@ -396,8 +396,6 @@ def log_box_mass(box, mu, sigma):
 
 
 def _sample_hyper(target, rng, max_steps):
-    import emcee
-
     p = target.n_par
     medians = np.array([np.median(phi, axis=0) for phi in target.phis])
     spread0 = np.clip(np.std(medians, axis=0, ddof=1), 0.01, 1.0)
@@ -407,21 +405,19 @@ def _sample_hyper(target, rng, max_steps):
     box = target.mean_box
     start[:, :p] = np.clip(start[:, :p], box[:, 0] + 1e-6, box[:, 1] - 1e-6)
     start[:, p:] = np.clip(start[:, p:], np.log(SPREAD_BOUNDS[0]) + 1e-6, np.log(SPREAD_BOUNDS[1]) - 1e-6)
-    moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.StretchMove(), 0.2)]
-    sampler = emcee.EnsembleSampler(n_walkers, 2 * p, target, vectorize=True, moves=moves)
-    sampler.random_state = np.random.RandomState(rng.integers(2**32)).get_state()
+    sampler = ensemble_sampler(target, start, rng)
     state, tau_old, converged, tau_max = start, np.inf, False, np.nan
     while sampler.iteration < max_steps:
         state = sampler.run_mcmc(state, 500, progress=False)
         tau_max = float(np.max(sampler.get_autocorr_time(tol=0)))
-        if sampler.iteration >= AUTOCORR_MULTIPLE * tau_max and abs(tau_max - tau_old) < 0.05 * tau_max:
+        if long_enough(sampler.iteration, tau_max, tau_old):
             converged = True
             break
         tau_old = tau_max
     if not converged:
         warnings.warn(f"population sampler not converged after {sampler.iteration} steps (autocorrelation time "
                       f"{tau_max:.0f} steps); raise max_steps", ConvergenceWarning, stacklevel=3)
-    burn, thin = int(np.ceil(3 * tau_max)), max(1, int(tau_max / 2))
+    burn, thin = burn_and_thin(tau_max)
     chain = sampler.get_chain(discard=burn, thin=thin, flat=True)
     diagnostics = {"autocorr_time": tau_max, "n_steps": sampler.iteration, "n_walkers": n_walkers,
                    "n_draws": chain.shape[0], "converged": converged}
