@@ -72,7 +72,10 @@ def test_existing_scheduler_and_serial_mode(tmp_path, logs):
     assert json.loads((tmp_path / "local" / "batch.json").read_text())["scheduler"] == "serial"
 
 
-def test_batch_refuses_busy_output_and_bad_scheduler(tmp_path, logs, capsys):
+def test_batch_refuses_busy_output_and_bad_scheduler(tmp_path, logs, capsys, monkeypatch):
+    import bayes_imu.report.fleet
+
+    monkeypatch.setattr(bayes_imu.report.fleet, "CONNECT_TIMEOUT", "1s")  # the refusal, without 10 s of retries
     paths, _ = logs
     busy = tmp_path / "busy"
     busy.mkdir()

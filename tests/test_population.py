@@ -214,9 +214,9 @@ def test_report_population_and_fit_folders(tmp_path):
     rng = np.random.default_rng(9)
     paths = _write_units(tmp_path, 3, rng)
     assert main(["fit", str(paths[0]), "--column", "gx", "--rate", "100", "--units", "rad/s", "--out",
-                 str(tmp_path / "fit0"), "--quiet"]) == 0
+                 str(tmp_path / "fit0"), "--terms", "white", "--quiet"]) == 0
     assert main(["fit", str(paths[1]), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "fit_u"),
-                 "--quiet"]) == 0
+                 "--terms", "white", "--quiet"]) == 0
     scene = tmp_path / "scene.toml"
     scene.write_text("""[scene]
 outages_s = [1, 10]
@@ -248,7 +248,7 @@ fit = "fit0"
         assert ratio > np.quantile(own, 0.9) / np.median(own)
     # fit folders of several units: a population without refitting any unit
     assert main(["fit", str(paths[2]), "--column", "gx", "--rate", "100", "--units", "rad/s", "--out",
-                 str(tmp_path / "fit2"), "--quiet"]) == 0
+                 str(tmp_path / "fit2"), "--terms", "white", "--quiet"]) == 0
     folders = tmp_path / "folders.toml"
     folders.write_text(scene.read_text().replace('fit = "fit0"', 'fits = ["fit0", "fit2"]'))
     both_units = build_report(read_scene(folders), rng=0).sensors[1]

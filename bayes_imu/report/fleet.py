@@ -23,6 +23,9 @@ from ..errors import InputError
 
 __all__ = ["BatchJob", "JobResult", "run_batch", "job_name"]
 
+#: how long to try to reach a given Dask scheduler before the batch fails (a Dask duration)
+CONNECT_TIMEOUT = "10s"
+
 
 @dataclass(frozen=True)
 class BatchJob:
@@ -115,7 +118,7 @@ def run_batch(jobs, task, *, scheduler=None, n_workers=None, progress=False):
             client = stack.enter_context(Client(cluster))
         else:
             try:
-                client = stack.enter_context(Client(scheduler, timeout="10s"))
+                client = stack.enter_context(Client(scheduler, timeout=CONNECT_TIMEOUT))
             except (OSError, TimeoutError) as exc:
                 raise InputError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
         futures = client.map(run_job, [task] * len(jobs), jobs, pure=False,
