@@ -1,4 +1,6 @@
-"""Calibration (slow): 90% intervals and 90% drift bands cover the truth ~90% of the time.
+"""Calibration: 90% intervals and 90% drift bands cover the truth ~90% of the time.
+
+The default run keeps a fast subset (white-noise logs, below); the rest is slow.
 
 The full study (300 logs, three scenarios, SBC ranks) is ``scripts/bench_calibration.py``;
 this is its smaller check on 40 white + Gauss-Markov logs of 2**15 samples, truth drawn
@@ -77,3 +79,30 @@ def test_drift_bands_contain_true_drift(detected_fits):
         hits.append((bands.quantile(0.05) <= true) & (true <= bands.quantile(0.95)))
     coverage = np.mean(hits, axis=0)
     assert np.all(coverage >= MIN_COVERAGE), dict(zip(BAND_TIMES, coverage))
+
+
+FAST_LOGS = 20
+#: binomial(20, 0.9): P(fewer than 14 hits) = 0.0024
+FAST_MIN_HITS = 14
+
+
+def test_fast_subset_white_noise_coverage():
+    """CI subset of the calibration checks: 20 white-noise logs of 2**13 samples, noise variance
+    drawn log-uniformly over a decade; the 90% interval of the noise variance and the 90% attitude
+    band at 10 s (zero and calibrated bias starts) each contain the truth on at least 14 logs."""
+    rng = np.random.default_rng(20261124)
+    model = NoiseModel(("white",), 0.01)
+    hits = np.zeros(3, dtype=int)
+    for _ in range(FAST_LOGS):
+        q = 1e-2 * 10 ** rng.uniform(-0.5, 0.5)
+        fit = fit_allan(allan_variance(simulate_log(model, {"noise_variance": q}, 2**13, rng=rng), rate_hz=100.0),
+                        terms=("white",), rng=rng)
+        lo, hi = np.quantile(fit.draws("noise_variance"), [0.05, 0.95])
+        hits[0] += lo <= q <= hi
+        true = np.sqrt(q) * 0.01 * np.sqrt(1000.0)  # a sum of 1000 samples: q dt^2 k
+        band = drift_bands(fit, [10.0], quantity="attitude", rng=rng)
+        hits[1] += band.quantile(0.05)[0] <= true <= band.quantile(0.95)[0]
+        true_cal = 0.01 * np.sqrt(q * (1000.0 + 1000.0**2 / 6000.0))  # plus k times the error of a 60 s mean
+        band = drift_bands(fit, [10.0], quantity="attitude", bias_start="calibrated", calibration_s=60.0, rng=rng)
+        hits[2] += band.quantile(0.05)[0] <= true_cal <= band.quantile(0.95)[0]
+    assert np.all(hits >= FAST_MIN_HITS), hits
