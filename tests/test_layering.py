@@ -83,3 +83,38 @@ def test_the_check_sees_a_backward_import(tmp_path):
     found = list(_imports(src, ("allan", "fake")))
     assert found[0][0] == ["report", "plots"] and STAGE[found[0][0][0]] > STAGE["allan"]
     assert found[1][0] == ["_lazy"] and STAGE["_lazy"] == 0
+
+
+def _error_texts(path):
+    """(line, text) of the string parts of every ``raise SomeError(...)`` message in a module."""
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Raise) and isinstance(node.exc, ast.Call):
+            for part in ast.walk(node.exc):
+                if isinstance(part, ast.Constant) and isinstance(part.value, str):
+                    yield node.lineno, part.value
+
+
+def test_library_errors_name_parameters_not_flags():
+    """Outside the cli stage an error names the API's parameters (``out=``, ``force=True``); the command
+    line maps them to its flags (``cli.main.as_flags``). Allowed: advice to rerun the command itself."""
+    import re
+
+    flag = re.compile(r"(?<![\w-])--[a-z][a-z-]+")
+    found = []
+    for path, top, _ in _modules():
+        if top == "cli":
+            continue
+        for line, text in _error_texts(path):
+            if flag.search(text) and "bayes-imu fit" not in text and "rerun fit" not in text:
+                found.append(f"{path.relative_to(PACKAGE.parent)}:{line}: {text!r}")
+    assert not found, "library errors naming command-line flags:\n" + "\n".join(found)
+
+
+def test_the_command_maps_parameters_to_flags():
+    from bayes_imu.cli.main import as_flags
+
+    assert as_flags("out=/tmp/a b: folder exists; or force=True to replace") == "--out /tmp/a b: folder exists; or --force to replace"
+    assert as_flags("scheduler=tcp://h:1: cannot connect") == "--scheduler tcp://h:1: cannot connect"
+    assert as_flags("(or scheduler='serial')") == "(or --serial)"
+    assert as_flags("(is rate_hz right?)") == "(is --rate right?)"
+    assert as_flags("/data/out=1/log.csv: no such file") == "/data/out=1/log.csv: no such file"

@@ -23,12 +23,12 @@ def test_rate_alone_and_rate_cross_check():
     assert check_time(None, rate_hz=50, n_samples=10).rate_hz == 50.0
     t = np.arange(100) / 100.0
     assert check_time(t, rate_hz=100.0 * (1 + RATE_TOLERANCE / 2)).rate_hz == pytest.approx(100.0)
-    with pytest.raises(InputError, match=r"gives 100 Hz .* but --rate is 105 Hz"):
+    with pytest.raises(InputError, match=r"gives 100 Hz .* but rate_hz is 105 Hz"):
         check_time(t, rate_hz=105, where="log.csv")
     with pytest.raises(InputError, match="no sample rate"):
         check_time(None, n_samples=10)
     for bad in (0, -1, float("nan"), float("inf"), "fast"):
-        with pytest.raises(InputError, match="--rate="):
+        with pytest.raises(InputError, match="rate_hz="):
             check_time(None, rate_hz=bad, n_samples=10)
 
 
@@ -46,7 +46,7 @@ def test_irregular_steps_are_named_by_line(where, value, message):
     with pytest.raises(InputError) as info:
         check_time(t, lines=_lines(1000), where="log.csv: column 'time'")
     text = str(info.value)
-    assert message in text and "\n" not in text and "--gaps longest" in text, text
+    assert message in text and "\n" not in text and "gaps='longest'" in text, text
 
 
 def test_longest_segment_is_used_and_reported():

@@ -254,4 +254,4 @@ def _refuse_text(path, n_bytes=4096):
     if head and all(b in printable for b in head):
         first = head.split(b"\n", 1)[0][:40].decode("ascii")
         raise InputError(f"{path}: starts like text ({first!r}), not raw float samples; rename a text log to .csv, "
-                         "or give --column to read it as text")
+                         "or give a column to read it as text")

@@ -61,7 +61,7 @@ def allan_from_table(tau, adev, *, rate_hz, edf=None, n_samples=None, confidence
     if off.any() or np.any(m < 1):
         i = int(np.argmax(off | (m < 1)))
         raise InputError(f"Allan table: tau = {tau[i]:g} s is {m_float[i]:.4g} samples at {rate_hz:g} Hz; expected "
-                         "whole numbers of samples (is --rate right?)")
+                         "whole numbers of samples (is rate_hz right?)")
     if np.any(np.diff(m) <= 0):
         raise InputError(f"Allan table: two tau values round to the same cluster size at {rate_hz:g} Hz")
     avar = adev**2

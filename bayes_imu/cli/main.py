@@ -19,6 +19,7 @@ import contextlib
 import json
 import logging
 import os
+import re
 import shutil
 import signal
 import stat
@@ -793,6 +794,23 @@ def _sigterm_as_interrupt():
         signal.signal(signal.SIGTERM, previous)
 
 
+#: the library's parameter names in its messages -> this command's flags (the library never names a flag)
+_FLAGS = ((re.compile(r"\bforce=True\b"), "--force"), (re.compile(r"\bscheduler='serial'"), "--serial"),
+          (re.compile(r"\bgaps='longest'"), "--gaps longest"), (re.compile(r"\bgive rate_hz or a time column\b"),
+                                                             "give --rate HZ or a --time-column"),
+          (re.compile(r"^(out|scheduler)="), r"--\1 "), (re.compile(r"^columns="), "--column "),
+          (re.compile(r"\bbut rate_hz is\b"), "but --rate is"), (re.compile(r"\(is rate_hz right\?\)"), "(is --rate right?)"),
+          (re.compile(r"\bgive a column\b"), "give --column"))
+
+
+def as_flags(message):
+    """A library error message in this command's terms: ``out=X`` -> ``--out X``, ``force=True`` -> ``--force``
+    (parameters are named at the start of a message, so a path that contains ``out=`` is left alone)."""
+    for pattern, flag in _FLAGS:
+        message = pattern.sub(flag, message)
+    return message
+
+
 def _run(args):
     try:
         return args.handler(args)
@@ -807,7 +825,7 @@ def _run(args):
     except BayesIMUError as exc:
         if args.debug or os.environ.get("BAYES_IMU_DEBUG") == "1":
             raise
-        print(f"bayes-imu: error: {exc}", file=sys.stderr)
+        print(f"bayes-imu: error: {as_flags(str(exc))}", file=sys.stderr)
         return 2
     except Exception as exc:  # an internal error: one line, the traceback with --debug
         if args.debug or os.environ.get("BAYES_IMU_DEBUG") == "1":

@@ -54,7 +54,7 @@ def read_imu_bag(path, *, topic, columns):
     path = Path(path)
     unknown = [c for c in columns if c not in IMU_FIELDS]
     if unknown:
-        raise InputError(f"--column {unknown[0]!r}: expected sensor_msgs/Imu fields {', '.join(IMU_FIELDS)}")
+        raise InputError(f"columns={unknown[0]!r}: expected sensor_msgs/Imu fields {', '.join(IMU_FIELDS)}")
     if not path.exists():
         raise InputError(f"{path}: no such file or bag folder")
     try:

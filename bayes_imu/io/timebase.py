@@ -117,10 +117,10 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
     if gaps not in GAP_POLICIES:
         raise InputError(f"gaps={gaps!r}: expected one of {', '.join(GAP_POLICIES)}")
     if rate_hz is not None:
-        rate_hz = check_rate(positive_number("--rate", rate_hz, what="sample rate in Hz"), where=where)
+        rate_hz = check_rate(positive_number("rate_hz", rate_hz, what="sample rate in Hz"), where=where)
     if time_s is None:
         if rate_hz is None:
-            raise InputError(f"{where}: no sample rate: give --rate HZ or a --time-column")
+            raise InputError(f"{where}: no sample rate: give rate_hz or a time column")
         first, last = (int(lines[0]), int(lines[-1])) if lines is not None and len(lines) else (None, None)
         return TimeBase(rate_hz, "--rate", 0, int(n_samples), first, last)
     t = np.asarray(time_s, dtype=np.float64)
@@ -138,7 +138,7 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
         i = int(np.argmax(bad))
         more = f" ({n_bad - 1} more irregular steps after it)" if n_bad > 1 else ""
         raise InputError(f"{where}: {what} {lines[i + 1]}: {_describe(t[i], t[i + 1], step)}{more}; expected steps of "
-                         f"{step:.6g} s; use --gaps longest to fit the longest regular segment")
+                         f"{step:.6g} s; use gaps='longest' to fit the longest regular segment")
     # longest run of regular steps: segments are split at every irregular step
     cuts = np.concatenate(([0], np.flatnonzero(bad) + 1, [t.size]))
     k = int(np.argmax(np.diff(cuts)))
@@ -151,7 +151,7 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
         raise InputError(f"{where}: the time column gives {rate:.6g} Hz (median step {step:.6g}); expected "
                          f"{RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz with stamps in seconds" + _stamp_hint(step))
     if rate_hz is not None and abs(rate / rate_hz - 1.0) > RATE_TOLERANCE:
-        raise InputError(f"{where}: the time column gives {rate:.6g} Hz (step {1 / rate:.6g} s) but --rate is "
+        raise InputError(f"{where}: the time column gives {rate:.6g} Hz (step {1 / rate:.6g} s) but rate_hz is "
                          f"{rate_hz:g} Hz; expected them to agree within {RATE_TOLERANCE:.0%} (or give only one)")
     if not n_bad:
         return TimeBase(rate, "time column", 0, t.size, int(lines[0]), int(lines[-1]))

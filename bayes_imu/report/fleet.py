@@ -106,7 +106,7 @@ def run_batch(jobs, task, *, scheduler=None, n_workers=None, progress=False):
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError:
-        raise InputError("parallel batches need Dask: pip install 'bayes_imu[fleet]' (or use --serial)") from None
+        raise InputError("parallel batches need Dask: pip install 'bayes_imu[fleet]' (or scheduler='serial')") from None
     import logging
 
     for name in ("distributed", "tornado"):  # Dask's INFO chatter would drown the command's own lines
@@ -120,7 +120,7 @@ def run_batch(jobs, task, *, scheduler=None, n_workers=None, progress=False):
             try:
                 client = stack.enter_context(Client(scheduler, timeout=CONNECT_TIMEOUT))
             except (OSError, TimeoutError) as exc:
-                raise InputError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
+                raise InputError(f"scheduler={scheduler}: cannot connect ({exc})") from None
         futures = client.map(run_job, [task] * len(jobs), jobs, pure=False,
                              key=[f"bayes-imu-job-{j.name}" for j in jobs])
         results = {}

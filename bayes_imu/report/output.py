@@ -48,7 +48,7 @@ def _check_inputs(target, inputs):
     for item in inputs:
         item = Path(item).resolve()
         if item == resolved or resolved in item.parents:
-            raise InputError(f"--out {target}: it is or contains the input {item}; choose an output that holds "
+            raise InputError(f"out={target}: it is or contains the input {item}; choose an output that holds "
                              "no input file")
 
 
@@ -88,7 +88,7 @@ def _check_space(folder, target):
     except OSError:
         return
     if free < MIN_FREE_BYTES:
-        raise InputError(f"--out {target}: only {free / 2**20:.0f} MiB free on its file system; need at least "
+        raise InputError(f"out={target}: only {free / 2**20:.0f} MiB free on its file system; need at least "
                          f"{MIN_FREE_BYTES / 2**20:.0f} MiB (nothing was written)")
 
 
@@ -108,14 +108,14 @@ def previous_entries(folder):
 def _claim_folder(target, force):
     """Claim ``target``: returns ``(made_it, previous_entries)``; raises InputError if it is not ours to write."""
     if target.exists() and not target.is_dir():
-        raise InputError(f"--out {target}: exists and is not a folder; expected a folder to write into")
+        raise InputError(f"out={target}: exists and is not a folder; expected a folder to write into")
     try:
         target.mkdir()
         made = True
     except FileExistsError:
         made = False
     previous = []
-    busy = InputError(f"--out {target}: another bayes-imu run is writing there ({_CLAIM} exists); wait for it, "
+    busy = InputError(f"out={target}: another bayes-imu run is writing there ({_CLAIM} exists); wait for it, "
                       "or remove that file if no run is active")
     if not made:
         if (target / _CLAIM).exists():
@@ -124,14 +124,14 @@ def _claim_folder(target, force):
         if present:
             previous = previous_entries(target)
             if not force:
-                raise InputError(f"--out {target}: folder exists and is not empty ({_names(present)}); use a new "
-                                 "folder, or --force to replace a previous bayes_imu result there")
+                raise InputError(f"out={target}: folder exists and is not empty ({_names(present)}); use a new "
+                                 "folder, or force=True to replace a previous bayes_imu result there")
             if previous is None:
-                raise InputError(f"--out {target}: --force replaces only a previous bayes_imu result, and this folder "
+                raise InputError(f"out={target}: force=True replaces only a previous bayes_imu result, and this folder "
                                  f"holds {_names(present)} with no {MARKER} marker; choose another folder")
             foreign = [n for n in present if n not in previous and n != MARKER]
             if foreign:
-                raise InputError(f"--out {target}: --force would leave {_names(foreign)}, which no bayes_imu run "
+                raise InputError(f"out={target}: force=True would leave {_names(foreign)}, which no bayes_imu run "
                                  "wrote there; move them away or choose another folder")
     try:
         os.close(os.open(target / _CLAIM, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644))
@@ -174,7 +174,7 @@ def staged_folder(target, *, force=False, inputs=()):
         entries = sorted(p.name for p in tmp.iterdir())
         clash = [n for n in entries if (target / n).exists() and n not in previous]
         if clash:
-            raise InputError(f"--out {target}: {_names(clash)} appeared there during the run; nothing was replaced "
+            raise InputError(f"out={target}: {_names(clash)} appeared there during the run; nothing was replaced "
                              "(the new results were not kept)")
         (tmp / MARKER).write_text(json.dumps({"bayes_imu": __version__, "entries": entries}) + "\n", encoding="utf-8")
         for name in previous:  # the previous result, now being replaced: only what that run wrote
@@ -188,7 +188,7 @@ def staged_folder(target, *, force=False, inputs=()):
     except BaseException as exc:
         _cleanup_folder(target, tmp, made, created)
         if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
-            raise InputError(f"--out {target}: the disk is full ({exc.strerror}); nothing was kept from this run"
+            raise InputError(f"out={target}: the disk is full ({exc.strerror}); nothing was kept from this run"
                              + (" and the previous results are unchanged" if previous else "")) from None
         raise
     (target / _CLAIM).unlink(missing_ok=True)
@@ -212,7 +212,7 @@ def staged_file(target, *, force=False, inputs=()):
     """Yield a temporary file path that replaces ``target`` when the block succeeds (rules above)."""
     target = Path(target)
     if target.is_dir():
-        raise InputError(f"--out {target}: is a folder; expected a file name")
+        raise InputError(f"out={target}: is a folder; expected a file name")
     _check_inputs(target, inputs)
     created = _make_parents(target)
     made = False
@@ -223,10 +223,10 @@ def staged_file(target, *, force=False, inputs=()):
             made = True
         except FileExistsError:
             if not force:
-                raise InputError(f"--out {target}: file exists; use --force to replace a previous bayes_imu file") \
+                raise InputError(f"out={target}: file exists; use force=True to replace a previous bayes_imu file") \
                     from None
             if not _is_ours(target):
-                raise InputError(f"--out {target}: --force replaces only a file bayes_imu wrote (first line "
+                raise InputError(f"out={target}: force=True replaces only a file bayes_imu wrote (first line "
                                  "'# bayes_imu ...'); this one is not, choose another name") from None
     except BaseException:
         _remove_created(created)
@@ -246,7 +246,7 @@ def staged_file(target, *, force=False, inputs=()):
             target.unlink()
         _remove_created(created)
         if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
-            raise InputError(f"--out {target}: the disk is full ({exc.strerror}); nothing was written") from None
+            raise InputError(f"out={target}: the disk is full ({exc.strerror}); nothing was written") from None
         raise
 
 
