@@ -1,10 +1,17 @@
-"""Benchmark: bayes_imu.allan_variance vs allantools.oadev, side by side.
+"""Benchmark: bayes_imu.allan_variance vs allantools.oadev, side by side, and the memory-bandwidth floor.
 
 Same data (white + random-walk rate noise), same octave cluster sizes, same values
 (maximum relative difference printed). Prints one table row per record length:
 allantools time, bayes_imu time (values only: running sum + sums; and the full result
-with noise identification, EDF and intervals), the speed-up, and peak memory of the
-bayes_imu call relative to the input array (tracemalloc, numpy allocations).
+with noise identification, EDF, intervals and the segment Allan variances), the speed-ups,
+the threads used, and peak memory of the bayes_imu call relative to the input array
+(tracemalloc, numpy allocations).
+
+The floor: each cluster size needs one pass over the phase record. ``floor_s`` is the
+running sum plus, for every cluster size, the same compiled sum over the same number of
+terms with the three second-difference streams at offset 0 (one memory stream instead of
+three: the fastest a pass over that record can be on this machine); ``values/floor`` is how
+far the Allan variance is from it.
 """
 
 import argparse
@@ -31,11 +38,12 @@ def main(argv=None):
     import allantools
 
     from bayes_imu.allan.estimator import allan_variance
-    from bayes_imu.allan.kernels import phase_from_rate, second_difference_sums
+    from bayes_imu.allan.kernels import phase_from_rate, second_difference_sum, second_difference_sums, threads_for
 
     rng = np.random.default_rng(1)
     allan_variance(rng.standard_normal(1000), rate_hz=100.0)  # compile / load the numba cache
-    print(f"{'samples':>10s} {'allantools_s':>12s} {'values_s':>9s} {'full_s':>7s} {'speedup_values':>14s} {'speedup_full':>12s} {'max_rel_diff':>12s} {'peak_mem_x_input':>16s}")
+    print(f"{'samples':>10s} {'threads':>7s} {'allantools_s':>12s} {'values_s':>9s} {'full_s':>7s} {'speedup_values':>14s} "
+          f"{'speedup_full':>12s} {'floor_s':>8s} {'values/floor':>12s} {'max_rel_diff':>12s} {'peak_mem_x_input':>16s}")
     for n in (int(float(s)) for s in args.sizes.split(",")):
         y = rng.standard_normal(n) + np.cumsum(rng.standard_normal(n)) * 1e-3
         t_at, (taus, adev_at, _, _) = best_time(lambda: allantools.oadev(y, rate=100.0, data_type="freq", taus="octave"), args.repeat)
@@ -46,13 +54,26 @@ def main(argv=None):
             return second_difference_sums(x, ms) / (2.0 * (x.size - 2 * ms) * ms.astype(float) ** 2)
 
         t_values, avar = best_time(values_only, args.repeat)
+
+        def floor():
+            x = phase_from_rate(y, np.mean(y))
+            import numba
+
+            numba.set_num_threads(threads_for(x.size))
+            try:
+                return [second_difference_sum(x[:x.size - 2 * m], x[:x.size - 2 * m], x[:x.size - 2 * m]) for m in ms]
+            finally:
+                numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+
+        t_floor, _ = best_time(floor, args.repeat)
         t_full, result = best_time(lambda: allan_variance(y, rate_hz=100.0, m=ms), args.repeat)
         tracemalloc.start()
         allan_variance(y, rate_hz=100.0, m=ms)
         peak = tracemalloc.get_traced_memory()[1]
         tracemalloc.stop()
         diff = max(np.max(np.abs(np.sqrt(avar) / adev_at - 1)), np.max(np.abs(result.adev / adev_at - 1)))
-        print(f"{n:10d} {t_at:12.3f} {t_values:9.3f} {t_full:7.3f} {t_at / t_values:14.1f} {t_at / t_full:12.1f} {diff:12.1e} {peak / y.nbytes:16.2f}")
+        print(f"{n:10d} {threads_for(n):7d} {t_at:12.3f} {t_values:9.3f} {t_full:7.3f} {t_at / t_values:14.1f} "
+              f"{t_at / t_full:12.1f} {t_floor:8.3f} {t_values / t_floor:12.2f} {diff:12.1e} {peak / y.nbytes:16.2f}")
 
 
 if __name__ == "__main__":

@@ -210,3 +210,25 @@ def test_interval_coverage_white_noise(rng):
         truth = 1.0 / np.array(ms)
         hits += (r.avar_low <= truth) & (truth <= r.avar_high)
     assert np.all((hits / 400 > 0.58) & (hits / 400 < 0.78))
+
+
+def test_thread_count_follows_the_record_and_changes_no_bit(rng):
+    """One thread below SAMPLES_PER_THREAD samples, numba's pool for long records; the sums are per fixed
+    block, so any thread count gives the same bits."""
+    import numba
+
+    from bayes_imu.allan.kernels import SAMPLES_PER_THREAD, phase_from_rate, second_difference_sums, threads_for
+
+    assert threads_for(1000) == 1 and threads_for(SAMPLES_PER_THREAD - 1) == 1
+    assert threads_for(10**12) == numba.config.NUMBA_NUM_THREADS
+    x = phase_from_rate(rng.standard_normal(300_000), 0.0)
+    ms = np.array([1, 16, 1000, 40_000])
+    default = second_difference_sums(x, ms)
+    one = numba.get_num_threads()
+    try:
+        for n in range(1, numba.config.NUMBA_NUM_THREADS + 1):
+            numba.set_num_threads(n)
+            np.testing.assert_array_equal(second_difference_sums(x, ms), default)
+            assert numba.get_num_threads() == n  # the caller's setting is restored
+    finally:
+        numba.set_num_threads(one)

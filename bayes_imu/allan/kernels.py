@@ -11,9 +11,12 @@ record once per cluster size and is memory-bandwidth bound.
 
 import numpy as np
 
-__all__ = ["phase_from_rate", "phase_chunk", "second_difference_sum", "second_difference_sums", "avar_pair_sums"]
+__all__ = ["phase_from_rate", "phase_chunk", "second_difference_sum", "second_difference_sums", "avar_pair_sums",
+           "threads_for", "SAMPLES_PER_THREAD"]
 
 _BLOCK = 1 << 14
+#: samples per thread of the Allan variance sums (8 MiB of phase: ~1 ms of work per cluster size)
+SAMPLES_PER_THREAD = 1 << 20
 _compiled = {}
 _pair_sum = None  # the compiled pair sum, set by _compile
 
@@ -189,14 +192,31 @@ def second_difference_sum(x0, x1, x2):
     return float(_compile()["sum3"](x0, x1, x2, _BLOCK))
 
 
+def threads_for(n_samples):
+    """Threads for a pass over ``n_samples``: one per :data:`SAMPLES_PER_THREAD` (at least one, at
+    most numba's pool). A short record is summed on one thread: starting the others costs more than
+    they save, and on a busy machine they would wait for cores (oversubscription)."""
+    import numba
+
+    return int(max(1, min(numba.config.NUMBA_NUM_THREADS, n_samples // SAMPLES_PER_THREAD)))
+
+
 def second_difference_sums(x, ms):
     """``sum_i (x[i+2m] - 2 x[i+m] + x[i])**2`` over ``0 <= i < len(x) - 2m`` for each ``m``
-    (one :func:`second_difference_sum` per cluster size, on three views of the record)."""
+    (one :func:`second_difference_sum` per cluster size, on three views of the record; the
+    number of threads from :func:`threads_for`)."""
+    import numba
+
     sum3 = _compile()["sum3"]
     out = np.empty(len(ms))
-    for j, m in enumerate(np.asarray(ms, dtype=np.int64)):
-        n = x.size - 2 * m
-        out[j] = sum3(x[:n], x[m:m + n], x[2 * m:2 * m + n], _BLOCK)
+    previous = numba.get_num_threads()
+    numba.set_num_threads(threads_for(x.size))
+    try:
+        for j, m in enumerate(np.asarray(ms, dtype=np.int64)):
+            n = x.size - 2 * m
+            out[j] = sum3(x[:n], x[m:m + n], x[2 * m:2 * m + n], _BLOCK)
+    finally:
+        numba.set_num_threads(previous)
     return out
 
 
