@@ -232,3 +232,16 @@ def test_thread_count_follows_the_record_and_changes_no_bit(rng):
             assert numba.get_num_threads() == n  # the caller's setting is restored
     finally:
         numba.set_num_threads(one)
+
+
+def test_scaled_is_the_allan_variance_of_the_scaled_log(rng):
+    """A unit conversion scales every variance by factor**2, the segment Allan variances included
+    (checked against computing everything again from the scaled samples)."""
+    y = rng.standard_normal(40_000) + 1e-3 * rng.standard_normal(40_000).cumsum()
+    factor = 9.80665
+    direct = allan_variance(factor * y, rate_hz=100.0)
+    scaled = allan_variance(y, rate_hz=100.0).scaled(factor)
+    for name in ("avar", "adev", "avar_low", "avar_high"):
+        np.testing.assert_allclose(getattr(scaled, name), getattr(direct, name), rtol=1e-12)
+    np.testing.assert_allclose(scaled.segments.avar, direct.segments.avar, rtol=1e-12)
+    assert allan_variance(y, rate_hz=100.0).scaled(1.0).segments is not None

@@ -108,6 +108,16 @@ class AllanResult:
     n_samples: int
     segments: SegmentAllan = None
 
+    def scaled(self, factor):
+        """The Allan variance of ``factor * y`` (a unit conversion): every variance, the segments'
+        included, times ``factor**2``."""
+        if factor == 1.0:
+            return self
+        f2 = factor * factor
+        segments = self.segments if self.segments is None else replace(self.segments, avar=self.segments.avar * f2)
+        return replace(self, avar=self.avar * f2, adev=self.adev * abs(factor), avar_low=self.avar_low * f2,
+                       avar_high=self.avar_high * f2, segments=segments)
+
     @property
     def duration_s(self):
         """Length of the record (s): ``n_samples / rate_hz``."""

@@ -398,7 +398,8 @@ def _fit_axis(args, allan, unit, info, terms, column, out):
     if steady is not None and not steady.stationary:
         _warn(f"{column}: the noise changes during the log: its {steady.n_segments} parts differ by "
               f"{steady.largest_ratio():.2g}x in Allan deviation at tau = {steady.worst_tau_s:g} s "
-              f"(p = {steady.p_value:.2g}; warm-up?); drift bands include that spread")
+              f"(p = {steady.p_value:.2g}; warm-up?), with a spread of up to x{steady.spread_factor():.2g} (1 sigma) "
+              "at longer tau; drift bands include that spread")
     label = f"{Path(_log_label(args)).name}: {column}"
     if args.sensor:
         summary["drift"] = _write_drift(result, args, unit, out)[0]

@@ -102,7 +102,7 @@ def allan_results(opts, command, grid="octave"):
         unit = unit if opts.units is not None else "u/s"
         info["input"] = "increments (divided by the sample period)"
     info.update(input_units=opts.units or (unit if bag else "unspecified (u)"), unit=unit)
-    return columns, [_scaled(r, factor) for r in results], unit, info
+    return columns, [r.scaled(factor) for r in results], unit, info
 
 
 def _table(opts):
@@ -118,16 +118,7 @@ def _table(opts):
     info = {"allan_table": str(opts.allan_table), "rate_hz": result.rate_hz, "rate_source": "--rate",
             "samples_used": result.n_samples, "intervals": assumption, "action": "Allan deviation table fitted",
             "input_units": opts.units or "unspecified (u)", "unit": unit}
-    return ["adev"], [_scaled(result, factor)], unit, info
-
-
-def _scaled(result, factor):
-    """The Allan variance of ``factor * y`` (unit conversion): every variance times factor**2."""
-    if factor == 1.0:
-        return result
-    f2 = factor * factor
-    return dataclasses.replace(result, avar=result.avar * f2, adev=result.adev * factor,
-                               avar_low=result.avar_low * f2, avar_high=result.avar_high * f2)
+    return ["adev"], [result.scaled(factor)], unit, info
 
 
 def _streamed(opts, command, grid):

@@ -55,7 +55,7 @@ class Stationarity:
         ``p_value >= STATIONARITY_ALPHA``.
     p_value : float
     worst_tau_s : float
-        Averaging time with the smallest per-size p-value [s].
+        Averaging time with the smallest per-size p-value (the strongest evidence) [s].
     tau_s : (n_tau,) ndarray
         Averaging times checked [s].
     segment_adev : (n_segments, n_tau) ndarray
@@ -89,10 +89,15 @@ class Stationarity:
         a = self.segment_adev[:, int(np.argmin(np.abs(self.tau_s - self.worst_tau_s)))]
         return float(a.max() / a.min())
 
+    def spread_factor(self):
+        """Largest 1-sigma factor on the Allan deviation between parts, ``exp(max s / 2)`` (1 if none)."""
+        return float(np.exp(0.5 * self.spread.max())) if self.spread.size else 1.0
+
     def to_dict(self):
         return {"stationary": bool(self.stationary), "p_value": float(self.p_value),
                 "worst_tau_s": float(self.worst_tau_s), "n_segments": self.n_segments,
                 "adev_ratio_at_worst_tau": self.largest_ratio(),
+                "adev_spread_factor": self.spread_factor(),
                 "spread_ln_avar": {f"{t:g}": float(s) for t, s in zip(self.tau_s, self.spread)}}
 
 
@@ -129,6 +134,8 @@ def stationarity_check(allan, model, params, *, alpha=STATIONARITY_ALPHA):
     dev2 = np.sum((log_avar - log_avar.mean(axis=0)) ** 2, axis=0)
     p_each = stats.chi2.sf(dev2 / v, k - 1)
     p = float(min(1.0, p_each.size * p_each.min()))
-    spread = np.sqrt(np.maximum.accumulate(np.maximum(0.0, dev2 / (k - 1) - v)))
+    excess = np.maximum(0.0, dev2 / (k - 1) - v)
+    worst = int(np.argmin(p_each))
     tau = seg.m[keep] / allan.rate_hz
-    return Stationarity(p >= alpha, p, float(tau[int(np.argmin(p_each))]), tau, np.sqrt(seg.avar[:, keep]), spread)
+    return Stationarity(p >= alpha, p, float(tau[worst]), tau, np.sqrt(seg.avar[:, keep]),
+                        np.sqrt(np.maximum.accumulate(excess)))
