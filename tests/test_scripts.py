@@ -28,6 +28,7 @@ def test_paper_figures_quick(tmp_path):
     assert len(printed) == 2 and min(printed) > 20.0, printed
 
 
+@pytest.mark.slow  # ~20 s: the benchmark's quick run (the default run keeps the cheap paper-figures one)
 def test_speed_vs_error_quick(tmp_path):
     out = _run("bench_speed_vs_error.py", "--quick", "--processes", "1", "--out", str(tmp_path))
     with open(tmp_path / "speed_vs_error.csv") as handle:
@@ -38,6 +39,7 @@ def test_speed_vs_error_quick(tmp_path):
     assert all(float(r["median_seconds"]) >= 0 for r in rows) and "mcmc" in out
 
 
+@pytest.mark.slow  # ~10 s: fits real logs from ../shared
 def test_real_data_quick(tmp_path):
     from conftest import shared_file
 
