@@ -1,0 +1,31 @@
+"""The emcee ensemble shared by the fit and the population fit: seeded from the caller's Generator
+(same seed, same chain; no global state), the stopping rule and the burn-in / thinning."""
+
+import numpy as np
+
+from bayes_imu.inference.sampling import AUTOCORR_MULTIPLE, burn_and_thin, ensemble_sampler, long_enough
+
+
+def _normal(theta):
+    return -0.5 * np.sum(np.atleast_2d(theta) ** 2, axis=1)
+
+
+def test_same_generator_seed_same_chain_and_no_global_state():
+    state = np.random.get_state()
+    chains = []
+    for _ in range(2):
+        rng = np.random.default_rng(5)
+        start = rng.standard_normal((16, 3))
+        sampler = ensemble_sampler(_normal, start, rng)
+        sampler.run_mcmc(start, 200, progress=False)
+        chains.append(sampler.get_chain())
+    np.testing.assert_array_equal(chains[0], chains[1])
+    assert np.all(np.abs(chains[0][100:].reshape(-1, 3).mean(axis=0)) < 0.3)  # it samples N(0, 1)
+    np.testing.assert_array_equal(np.random.get_state()[1], state[1])
+
+
+def test_stopping_rule_and_thinning():
+    assert AUTOCORR_MULTIPLE == 50
+    assert long_enough(500, 10.0, 10.4) and not long_enough(499, 10.0, 10.4)  # 50 autocorrelation times
+    assert not long_enough(1000, 10.0, 11.0)  # the estimate moved by 10%: not settled
+    assert burn_and_thin(10.0) == (30, 5) and burn_and_thin(10.2) == (31, 5) and burn_and_thin(1.5) == (5, 1)
