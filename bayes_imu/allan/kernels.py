@@ -87,7 +87,12 @@ def _compile():
                 d = x2[i] - 2.0 * x1[i] + x0[i]
                 s += d * d
             partial[b] = s
-        return partial.sum()
+        # the block totals in a fixed order (partial.sum() would be a parallel reduction whose order,
+        # hence last bit, depends on the number of threads: results must not depend on the machine)
+        total = 0.0
+        for b in range(n_blocks):
+            total += partial[b]
+        return total
 
     _compiled.update(pair_sums=pair_sums, phase_chunk=phase_chunk, sum3=sum3)
     return _compiled
