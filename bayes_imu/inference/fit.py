@@ -13,7 +13,7 @@ Pipeline of :func:`fit_allan`:
 5. *Sampling*: emcee (``vectorize=True``, differential-evolution and stretch moves) in
    log-parameters, in chunks of 250 steps until the chain is longer than 50 integrated
    autocorrelation times and that estimate has settled to 5%; then
-   R-hat and bulk/tail ESS from ArviZ. Non-convergence warns (:class:`ConvergenceWarning`)
+   rank-normalised R-hat and bulk/tail ESS (:mod:`bayes_imu.inference.diagnostics`). Non-convergence warns (:class:`ConvergenceWarning`)
    and sets ``diagnostics["converged"] = False``.
 """
 
