@@ -225,11 +225,16 @@ def segment_allan(y, m, n_segments=DEFAULT_SEGMENTS):
     if ms.size > _MAX_SEGMENT_TAUS:  # a dense grid ("all"): log-spaced sizes suffice for the check
         ms = np.unique(ms[np.round(np.geomspace(1, ms.size, _MAX_SEGMENT_TAUS)).astype(int) - 1])
     avar = np.empty((n_segments, ms.size))
-    norm = 2.0 * (length + 1 - 2 * ms) * ms.astype(float) ** 2
     for k in range(n_segments):
         part = y[k * length:(k + 1) * length]
-        avar[k] = second_difference_sums(phase_from_rate(part, np.mean(part)), ms) / norm
+        avar[k] = avar_from_sums(second_difference_sums(phase_from_rate(part, np.mean(part)), ms), ms, length)
     return SegmentAllan(ms, avar, length)
+
+
+def avar_from_sums(sums, ms, n_samples):
+    """Overlapping Allan variance from the second-difference sums of ``n_samples`` rate samples (SP1065 eq 14):
+    ``sums / (2 m^2 (n_samples + 1 - 2 m))``."""
+    return sums / (2.0 * (n_samples + 1 - 2 * ms) * ms.astype(float) ** 2)
 
 
 def check_options(rate_hz, confidence, interval):
@@ -245,7 +250,7 @@ def check_options(rate_hz, confidence, interval):
 def assemble_result(ms, sums, alpha, n_samples, rate_hz, confidence, interval):
     """:class:`AllanResult` from the second-difference sums of each cluster size (SP1065 eq 14)."""
     n_terms = n_samples + 1 - 2 * ms
-    avar = sums / (2.0 * n_terms * ms.astype(float) ** 2)
+    avar = avar_from_sums(sums, ms, n_samples)
     alphas = _alpha_array(alpha, ms.size)
     edf = greenhall_edf(alphas, ms, n_samples + 1)
     low, high = chi2_interval(avar, edf, confidence, interval)

@@ -39,10 +39,10 @@ class SourceOptions:
     progress: bool = False
 
     @classmethod
-    def from_namespace(cls, opts, **changes):
-        """The options an ``argparse`` namespace holds (absent ones at their defaults), with ``changes``."""
+    def from_namespace(cls, args):
+        """The options an ``argparse`` namespace holds (absent ones at their defaults)."""
         names = {f.name for f in dataclasses.fields(cls)}
-        return cls(**{**{k: v for k, v in vars(opts).items() if k in names}, **changes})
+        return cls(**{k: v for k, v in vars(args).items() if k in names})
 
 #: fewest samples per command: 4 octave cluster sizes (1, 2, 4, 8 <= N/4) for a fit
 _MIN_SAMPLES = {"allan": 4, "fit": 32}
