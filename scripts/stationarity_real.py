@@ -11,8 +11,6 @@ significantly on their own. Run: ``python scripts/stationarity_real.py`` (about 
 
 import sys
 
-import numpy as np
-
 from validate_real import DATA, RATE, channels
 
 
@@ -20,28 +18,20 @@ def main():
     if not DATA.exists():
         print(f"skipped: {DATA} not found")
         return 0
-    from scipy import special, stats
-
     from bayes_imu import allan_variance
     from bayes_imu.allan.estimator import greenhall_edf
-    from bayes_imu.inference.stationarity import MIN_SEGMENT_EDF, STATIONARITY_ALPHA
+    from bayes_imu.inference.stationarity import STATIONARITY_ALPHA, segment_test
 
     flagged = []
     print(f"{'channel':14s} {'p_value':>9s} {'worst_tau_s':>11s}  sizes that differ on their own (s)")
     for name, _, y in channels():
         half = allan_variance(y[: y.size // 2], rate_hz=RATE)
         seg = half.segments
-        edf = greenhall_edf(half.alpha[: seg.m.size], seg.m, seg.n_samples + 1)
-        keep = edf >= MIN_SEGMENT_EDF
-        log_avar = np.log(seg.avar[:, keep])
-        dev2 = np.sum((log_avar - log_avar.mean(axis=0)) ** 2, axis=0)
-        p_each = stats.chi2.sf(dev2 / special.polygamma(1, edf[keep] / 2.0), seg.n_segments - 1)
-        p = min(1.0, p_each.size * p_each.min())
-        tau = seg.m[keep] / RATE
-        if p < STATIONARITY_ALPHA:
+        check = segment_test(seg, greenhall_edf(half.alpha[: seg.m.size], seg.m, seg.n_samples + 1), RATE)
+        if not check.stationary:
             flagged.append(name)
-        alone = ", ".join(f"{t:g}" for t in tau[p_each * p_each.size < STATIONARITY_ALPHA])
-        print(f"{name:14s} {p:9.2g} {tau[int(np.argmin(p_each))]:11g}  {alone}")
+        alone = ", ".join(f"{t:g}" for t in check.tau_s[check.p_each * check.p_each.size < STATIONARITY_ALPHA])
+        print(f"{name:14s} {check.p_value:9.2g} {check.worst_tau_s:11g}  {alone}")
     print(f"\nflagged non-stationary with the model-free EDF: {len(flagged)} of 37")
     return 0
 

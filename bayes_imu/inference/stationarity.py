@@ -32,12 +32,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._lazy import LazyModule
-from ..noise.avar_covariance import avar_covariance
+from ..noise.avar_covariance import avar_covariance, equivalent_dof
 
 special = LazyModule("scipy.special")
 stats = LazyModule("scipy.stats")
 
-__all__ = ["Stationarity", "stationarity_check", "STATIONARITY_ALPHA", "MIN_SEGMENT_EDF"]
+__all__ = ["Stationarity", "stationarity_check", "segment_test", "STATIONARITY_ALPHA", "MIN_SEGMENT_EDF"]
 
 #: false-alarm rate of the stationarity check on a stationary log
 STATIONARITY_ALPHA = 0.01
@@ -62,6 +62,8 @@ class Stationarity:
         Each segment's Allan deviation there [u].
     spread : (n_tau,) ndarray
         Between-segment standard deviation of ``ln avar`` beyond sampling, non-decreasing.
+    p_each : (n_tau,) ndarray or None
+        The p-value of each size on its own (before Bonferroni).
     """
 
     stationary: bool
@@ -70,6 +72,7 @@ class Stationarity:
     tau_s: np.ndarray
     segment_adev: np.ndarray
     spread: np.ndarray
+    p_each: np.ndarray = None
 
     @property
     def n_segments(self):
@@ -122,20 +125,38 @@ def stationarity_check(allan, model, params, *, alpha=STATIONARITY_ALPHA):
     seg = allan.segments
     if seg is None:
         return None
-    model_avar = np.asarray(model.avar(seg.m, params), dtype=float)
-    cov = avar_covariance(model, params, seg.m, seg.n_samples)
-    edf = 2.0 * model_avar**2 / np.diag(cov)
-    keep = (edf >= MIN_SEGMENT_EDF) & np.all(seg.avar > 0, axis=0)
+    edf = equivalent_dof(model.avar(seg.m, params), avar_covariance(model, params, seg.m, seg.n_samples))
+    return segment_test(seg, edf, allan.rate_hz, alpha=alpha)
+
+
+def segment_test(segments, edf, rate_hz, *, alpha=STATIONARITY_ALPHA):
+    """The test of the module docstring on the parts' Allan variances, given each part's EDF per size.
+
+    Parameters
+    ----------
+    segments : SegmentAllan
+    edf : (n_tau,) array
+        Equivalent degrees of freedom of one part's Allan variance at each size of ``segments.m``
+        (from the fitted model, or from a power-law noise type).
+    rate_hz : float
+    alpha : float
+
+    Returns
+    -------
+    Stationarity or None
+        ``None`` when no size has enough EDF.
+    """
+    edf = np.asarray(edf, dtype=float)
+    keep = (edf >= MIN_SEGMENT_EDF) & np.all(segments.avar > 0, axis=0)
     if not keep.any():
         return None
-    k = seg.n_segments
-    log_avar = np.log(seg.avar[:, keep])
+    k = segments.n_segments
+    log_avar = np.log(segments.avar[:, keep])
     v = special.polygamma(1, edf[keep] / 2.0)
     dev2 = np.sum((log_avar - log_avar.mean(axis=0)) ** 2, axis=0)
     p_each = stats.chi2.sf(dev2 / v, k - 1)
     p = float(min(1.0, p_each.size * p_each.min()))
     excess = np.maximum(0.0, dev2 / (k - 1) - v)
-    worst = int(np.argmin(p_each))
-    tau = seg.m[keep] / allan.rate_hz
-    return Stationarity(p >= alpha, p, float(tau[worst]), tau, np.sqrt(seg.avar[:, keep]),
-                        np.sqrt(np.maximum.accumulate(excess)))
+    tau = segments.m[keep] / rate_hz
+    return Stationarity(p >= alpha, p, float(tau[int(np.argmin(p_each))]), tau, np.sqrt(segments.avar[:, keep]),
+                        np.sqrt(np.maximum.accumulate(excess)), p_each)
