@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 from bayes_imu import allan_variance, fit_allan
-from bayes_imu.allan.estimator import segment_allan
+from bayes_imu.allan.estimator import greenhall_edf, segment_allan
 from bayes_imu.inference.archive import load_fit, save_fit
 from bayes_imu.drift.bands import drift_draws
 from bayes_imu.noise import NoiseModel
 from bayes_imu.noise.simulate import simulate_log
-from bayes_imu.inference.stationarity import STATIONARITY_ALPHA, Stationarity, stationarity_check
+from bayes_imu.inference.stationarity import STATIONARITY_ALPHA, Stationarity, segment_test, stationarity_check
 
 DT = 0.01
 
@@ -65,6 +65,11 @@ def test_a_noise_step_is_flagged_with_its_exact_spread(rng):
     assert check.largest_ratio() == pytest.approx(2.0, rel=0.05)
     assert check.drift_log_sd(0.01) == pytest.approx(check.spread[0] / 2)
     assert check.drift_log_sd(1e6) == pytest.approx(check.spread[-1] / 2)  # held beyond the sizes checked
+    # the same test with the white-noise power-law EDF instead of the model's gives the same spread
+    seg = allan_variance(y, rate_hz=1 / DT).segments
+    free = segment_test(seg, greenhall_edf(np.zeros(seg.m.size, dtype=int), seg.m, seg.n_samples + 1), 1 / DT)
+    assert not free.stationary and free.spread[0] == pytest.approx(np.log(4) / np.sqrt(3), abs=0.03)
+    assert free.p_each.shape == free.tau_s.shape and free.p_value == pytest.approx(min(1, free.p_each.min() * free.p_each.size))
 
 
 def test_flagged_fit_widens_drift_bands_by_the_spread(rng, tmp_path):
