@@ -63,12 +63,18 @@ class SamplerChains:
     chain : ndarray, shape (n_draws, n_walkers, n_par)
         Log-parameters after burn-in and thinning.
     log_prob : ndarray, shape (n_draws, n_walkers)
-    log_likelihood : ndarray, shape (n_draws, n_walkers)
+    posterior : LogPosterior
+        The density sampled; the draws' log likelihoods come from it when ArviZ needs them.
     """
 
     chain: np.ndarray
     log_prob: np.ndarray
-    log_likelihood: np.ndarray
+    posterior: LogPosterior = field(repr=False, compare=False)
+
+    @property
+    def log_likelihood(self):
+        """``(n_draws, n_walkers)`` log likelihood of each kept draw."""
+        return self.posterior.log_likelihood(self.chain)
 
     def to_inference_data(self, names, allan, attrs):
         """``arviz.InferenceData``: walkers as chains; ``log_<name>`` and ``<name>`` for each parameter."""
@@ -352,7 +358,7 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
     sampled = post.with_discrepancy() if widen else post
     phi_mode = posterior_mode(sampled, [scores[chosen].mode]).phi
     start = _initial_walkers(sampled, scored[chosen].evidence, phi_mode, n_walkers, rng)
-    log_samples, log_prob, diagnostics, chains = _sample(sampled, start, rng, max_steps, allan, progress)
+    log_samples, log_prob, diagnostics, chains = _sample(sampled, start, rng, max_steps, progress)
     best_draw = log_samples[int(np.argmax(log_prob))]
     check = adequacy(post, best_draw, allan.tau, log_samples)
     probabilities = model_probabilities(scores)
@@ -568,7 +574,7 @@ def _initial_walkers(post, evidence, phi_mode, n_walkers, rng):
     return np.clip(start, post.bounds[:, 0] + 1e-9, post.bounds[:, 1] - 1e-9)
 
 
-def _sample(post, start, rng, max_steps, allan, progress=False):
+def _sample(post, start, rng, max_steps, progress=False):
     n_walkers, n_par = start.shape
     sampler = ensemble_sampler(post, start, rng)
     chunk, state, tau_old = min(250, max_steps), start, np.inf
@@ -582,12 +588,12 @@ def _sample(post, start, rng, max_steps, allan, progress=False):
             settled = long_enough(sampler.iteration, tau_max, tau_old)
             tau_old = tau_max
             if settled:
-                chain, lp, chains, diagnostics = _thinned(sampler, post, allan, tau_max, n_walkers, True)
+                chain, lp, diagnostics = _thinned(sampler, tau_max, n_walkers, True)
                 if diagnostics["converged"]:
                     converged = True
                     break
     if not converged:
-        chain, lp, chains, diagnostics = _thinned(sampler, post, allan, tau_max, n_walkers, False)
+        chain, lp, diagnostics = _thinned(sampler, tau_max, n_walkers, False)
         warnings.warn(
             f"sampler not converged after {sampler.iteration} steps (autocorrelation time {tau_max:.0f} steps, "
             f"R-hat {diagnostics['rhat_max']:.3f}, bulk ESS {diagnostics['ess_bulk_min']:.0f}); "
@@ -595,7 +601,7 @@ def _sample(post, start, rng, max_steps, allan, progress=False):
             ConvergenceWarning,
             stacklevel=3,
         )
-    return chain.reshape(-1, n_par), lp.reshape(-1), diagnostics, chains
+    return chain.reshape(-1, n_par), lp.reshape(-1), diagnostics, SamplerChains(chain, lp, post)
 
 
 def _arviz():
@@ -610,13 +616,12 @@ def _arviz():
     return arviz
 
 
-def _thinned(sampler, post, allan, tau_max, n_walkers, long_enough):
+def _thinned(sampler, tau_max, n_walkers, settled):
     """Drop the burn-in, thin (:func:`~bayes_imu.inference.sampling.burn_and_thin`); diagnostics on the rest."""
     burn, thin = burn_and_thin(tau_max)
     chain = sampler.get_chain(discard=burn, thin=thin)  # (draws, walkers, par)
     lp = sampler.get_log_prob(discard=burn, thin=thin)
-    chains = SamplerChains(chain, lp, post.log_likelihood(chain))
-    return chain, lp, chains, _diagnostics(chain, tau_max, sampler.iteration, n_walkers, long_enough)
+    return chain, lp, _diagnostics(chain, tau_max, sampler.iteration, n_walkers, settled)
 
 
 def _diagnostics(chain, tau_max, n_steps, n_walkers, converged):
