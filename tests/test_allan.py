@@ -232,6 +232,49 @@ def test_thread_count_follows_the_record_and_changes_no_bit(rng, monkeypatch):
         assert numba.get_num_threads() == before  # the caller's setting is restored
 
 
+def test_one_pass_sums_of_every_size_against_exact_sums(rng):
+    """The sums of all cluster sizes in one pass over blocks (sizes smaller and larger than a block,
+    an octave run and odd sizes, not sorted) equal each size's sum of squared second differences
+    added exactly (math.fsum), to 1e-13 relative."""
+    import math
+
+    from bayes_imu.allan import kernels
+
+    x = kernels.phase_from_rate(rng.standard_normal(400_000) + 0.3, 0.3)
+    ms = np.array([1, 2, 4, 8, 3, 1000, 65_535, 65_536, 65_537, 131_072, 7, 99_999])
+    got = kernels.second_difference_sums(x, ms)
+    for m, value in zip(ms, got):
+        d = x[2 * m:] - 2.0 * x[m:x.size - m] + x[:x.size - 2 * m]
+        assert value == pytest.approx(math.fsum(d * d), rel=1e-13)
+
+
+def test_parallel_running_sum_equals_the_sequential_pass(rng, monkeypatch):
+    """phase_from_rate fills its blocks on several threads from the compensated total of the block sums:
+    the numbers of the one sequential pass (phase_chunk over the whole record), bit for bit, on any
+    number of threads; and within a few ulp of the exact prefix sums."""
+    from fractions import Fraction
+
+    import numba
+
+    from bayes_imu.allan import kernels
+
+    y = rng.standard_normal(2**20 + 12_345) * 1e3 + 5e6  # a large offset and a length not a block multiple
+    offset = float(np.mean(y))
+    sequential = kernels.phase_chunk(y, offset, np.zeros(2))
+    for n in range(1, numba.config.NUMBA_NUM_THREADS + 1):
+        monkeypatch.setattr(kernels, "threads_for", lambda n_samples, n=n: n)
+        x = kernels.phase_from_rate(y, offset)
+        assert x[0] == 0.0
+        np.testing.assert_array_equal(x[1:], sequential)
+    exact, checked = Fraction(0), 0
+    for i, v in enumerate(y[:20_000]):
+        exact += Fraction(v) - Fraction(offset)
+        if i % 997 == 0:
+            assert abs(Fraction(x[i + 1]) - exact) <= 4 * abs(exact) * Fraction(2) ** -52 + Fraction(2) ** -40
+            checked += 1
+    assert checked > 10
+
+
 
 def test_scaled_is_the_allan_variance_of_the_scaled_log(rng):
     """A unit conversion scales every variance by factor**2, the segment Allan variances included

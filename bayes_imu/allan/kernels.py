@@ -3,10 +3,10 @@
 numba is imported lazily (on first use) so that ``import bayes_imu`` stays fast; the
 compiled code is cached on disk next to this module.
 
-Why numba: the fully overlapping Allan variance needs one pass over the whole phase
-record per cluster size. In numpy that pass is three temporaries and a dot product
-(about 3.5x faster than allantools at best); a fused, multi-threaded loop reads the
-record once per cluster size and is memory-bandwidth bound.
+Why numba: the fully overlapping Allan variance sums over the whole phase record for every
+cluster size. In numpy each size is three temporaries and a dot product (about 3.5x faster
+than allantools at best); a fused, multi-threaded loop over blocks of the record sums every
+size while the block is in cache (:func:`second_difference_sums`).
 """
 
 import numpy as np
@@ -15,6 +15,10 @@ __all__ = ["phase_from_rate", "phase_chunk", "second_difference_sum", "second_di
            "threads_for", "SAMPLES_PER_THREAD"]
 
 _BLOCK = 1 << 14
+#: start indices per block of the one-pass sums of every cluster size (:func:`second_difference_sums`)
+_BLOCK_ALL = 1 << 16
+#: samples per plain sum of the compensated running sum
+_PHASE_BLOCK = 256
 #: samples per thread of the Allan variance sums (8 MiB of phase: ~1 ms of work per cluster size)
 SAMPLES_PER_THREAD = 1 << 20
 _compiled = {}
@@ -94,7 +98,86 @@ def _compile():
             total += partial[b]
         return total
 
-    _compiled.update(pair_sums=pair_sums, phase_chunk=phase_chunk, sum3=sum3)
+    @numba.njit(parallel=True, cache=True)
+    def chunk_totals(y, offset, block):
+        # the plain sum of (y - offset) over each block, in the order phase_chunk adds it (the
+        # threads take 256 blocks at a time)
+        n_blocks = (y.size + block - 1) // block
+        out = np.empty(n_blocks)
+        for g in numba.prange((n_blocks + 255) // 256):
+            for b in range(g * 256, min(g * 256 + 256, n_blocks)):
+                acc = 0.0
+                for i in range(b * block, min(b * block + block, y.size)):
+                    acc += y[i] - offset
+                out[b] = acc
+        return out
+
+    @numba.njit(cache=True)
+    def chunk_bases(totals):
+        # phase_chunk's compensated running total (s + c) before each block, from the block sums
+        s = 0.0
+        c = 0.0
+        out = np.empty(totals.size)
+        for b in range(totals.size):
+            out[b] = s + c
+            acc = totals[b]
+            t = s + acc
+            if abs(s) >= abs(acc):
+                c += (s - t) + acc
+            else:
+                c += (acc - t) + s
+            s = t
+        return out
+
+    @numba.njit(parallel=True, cache=True)
+    def phase_blocks(y, offset, bases, block, out):
+        # out[i] = base of the block + the plain sum within the block after y[i]: phase_chunk's
+        # numbers, 256 blocks at a time per thread
+        n_blocks = bases.size
+        for g in numba.prange((n_blocks + 255) // 256):
+            for b in range(g * 256, min(g * 256 + 256, n_blocks)):
+                base = bases[b]
+                acc = 0.0
+                for i in range(b * block, min(b * block + block, y.size)):
+                    acc += y[i] - offset
+                    out[i] = base + acc
+        return out
+
+    @numba.njit(parallel=True, cache=True, fastmath={"reassoc", "contract", "nsz", "arcp"})
+    def sums_all(x, ms, block):
+        # every cluster size in one pass over the record: for each block of start indices the
+        # sizes are summed in increasing order, so a size's stream at x[i + m] is the block the
+        # size before it read at x[i + 2 m'] (an octave grid), still in cache, and the small
+        # sizes share one block of x. The same blocks, inner loop and fixed-order totals as sum3:
+        # the same bits.
+        k = ms.size
+        n_blocks = (x.size - 2 * ms.min() + block - 1) // block
+        partial = np.zeros((n_blocks, k))
+        for b in numba.prange(n_blocks):
+            lo = b * block
+            for j in range(k):
+                m = ms[j]
+                hi = min(lo + block, x.size - 2 * m)
+                if hi <= lo:
+                    continue
+                x0 = x[lo:hi]
+                x1 = x[lo + m:hi + m]
+                x2 = x[lo + 2 * m:hi + 2 * m]
+                s = 0.0
+                for i in range(hi - lo):
+                    d = x2[i] - 2.0 * x1[i] + x0[i]
+                    s += d * d
+                partial[b, j] = s
+        out = np.empty(k)
+        for j in range(k):
+            total = 0.0
+            for b in range((x.size - 2 * ms[j] + block - 1) // block):
+                total += partial[b, j]
+            out[j] = total
+        return out
+
+    _compiled.update(pair_sums=pair_sums, phase_chunk=phase_chunk, sum3=sum3, sums_all=sums_all,
+                     chunk_totals=chunk_totals, chunk_bases=chunk_bases, phase_blocks=phase_blocks)
     return _compiled
 
 
@@ -174,11 +257,24 @@ def phase_from_rate(y, offset):
 
     Sums of at most 256 terms are added to a compensated running total, so each ``x[i]``
     is within a few ulp of the exact prefix sum however long the record: the second
-    differences of ``x`` keep their precision on long records.
+    differences of ``x`` keep their precision on long records. The 256-sample sums are
+    formed on :func:`threads_for` threads, the compensated total of them in order, then the
+    blocks filled in parallel: the numbers of one sequential pass (:func:`phase_chunk`), bit
+    for bit, on any number of threads.
     """
+    import numba
+
+    kernels = _compile()
+    y = np.ascontiguousarray(y, dtype=float)
     out = np.empty(y.size + 1)
     out[0] = 0.0
-    _compile()["phase_chunk"](y, float(offset), out[1:], 256, np.zeros(2))
+    previous = numba.get_num_threads()
+    numba.set_num_threads(threads_for(y.size))
+    try:
+        bases = kernels["chunk_bases"](kernels["chunk_totals"](y, float(offset), _PHASE_BLOCK))
+        kernels["phase_blocks"](y, float(offset), bases, _PHASE_BLOCK, out[1:])
+    finally:
+        numba.set_num_threads(previous)
     return out
 
 
@@ -189,7 +285,7 @@ def phase_chunk(y, offset, state):
     the concatenation equals :func:`phase_from_rate` (without its leading 0) bit for bit.
     """
     out = np.empty(y.size)
-    return _compile()["phase_chunk"](np.ascontiguousarray(y, dtype=float), float(offset), out, 256, state)
+    return _compile()["phase_chunk"](np.ascontiguousarray(y, dtype=float), float(offset), out, _PHASE_BLOCK, state)
 
 
 def second_difference_sum(x0, x1, x2):
@@ -207,22 +303,27 @@ def threads_for(n_samples):
 
 
 def second_difference_sums(x, ms):
-    """``sum_i (x[i+2m] - 2 x[i+m] + x[i])**2`` over ``0 <= i < len(x) - 2m`` for each ``m``
-    (one :func:`second_difference_sum` per cluster size, on three views of the record; the
-    number of threads from :func:`threads_for`)."""
+    """``sum_i (x[i+2m] - 2 x[i+m] + x[i])**2`` over ``0 <= i < len(x) - 2m`` for each ``m``.
+
+    One pass over the record for every cluster size at once: for each block of
+    :data:`_BLOCK_ALL` start indices the sizes are summed in increasing order, so that the
+    small sizes share one block of ``x`` in cache and, on an octave grid, a size's middle
+    stream ``x[i + m]`` is the block the size before it has just read as ``x[i + 2m']``; the
+    record is read about once plus once per size larger than a block, instead of three times
+    per size. Block sums are added in a fixed order, so the result does not depend on the
+    number of threads (:func:`threads_for`).
+    """
     import numba
 
-    sum3 = _compile()["sum3"]
-    out = np.empty(len(ms))
+    ms = np.ascontiguousarray(ms, dtype=np.int64)
+    if ms.size == 0:
+        return np.empty(0)
     previous = numba.get_num_threads()
     numba.set_num_threads(threads_for(x.size))
     try:
-        for j, m in enumerate(np.asarray(ms, dtype=np.int64)):
-            n = x.size - 2 * m
-            out[j] = sum3(x[:n], x[m:m + n], x[2 * m:2 * m + n], _BLOCK)
+        return _compile()["sums_all"](np.ascontiguousarray(x, dtype=float), ms, _BLOCK_ALL)
     finally:
         numba.set_num_threads(previous)
-    return out
 
 
 def avar_pair_sums(table, ms, n, h, s2, x):
