@@ -6,6 +6,9 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, os.path.dirname(__file__))  # the exact-reference helpers
+# the commands write their figures in this process (each worker process would import matplotlib and
+# ArviZ again, seconds per test); tests/test_worker.py checks the worker writes the same files
+os.environ.setdefault("BAYES_IMU_OUTPUT_PROCESS", "0")
 
 #: the shared, read-only real data (licensed separately; never copied into the project)
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data_real"

@@ -76,9 +76,9 @@ def test_fit_command_writes_all_outputs(tmp_path, capsys):
     assert abs(sum(c["probability"] for c in summary["candidates"]) - 1.0) < 1e-9
     for name in ("posterior.nc", "allan_fit.png", "corner.png"):
         assert (tmp_path / "a" / name).stat().st_size > 0
-    from bayes_imu.inference.fit import _arviz
+    from bayes_imu.inference.fit import import_arviz
 
-    idata = _arviz().from_netcdf(str(tmp_path / "a" / "posterior.nc"))
+    idata = import_arviz().from_netcdf(str(tmp_path / "a" / "posterior.nc"))
     assert {"posterior", "sample_stats", "observed_data", "log_likelihood"} <= set(idata.groups())
     assert main(["fit", *args, "--out", str(tmp_path / "b")]) == 0
     # determinism: the same input and seed give a byte-identical summary.json

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bayes_imu.inference import diagnostics
-from bayes_imu.inference.fit import _arviz
+from bayes_imu.inference.fit import import_arviz
 
 
 def _chains(rng, m, n, phi, shift=0.0, repeats=True):
@@ -23,7 +23,7 @@ def _chains(rng, m, n, phi, shift=0.0, repeats=True):
 @pytest.mark.parametrize("m, n, phi, shift", [(32, 40, 0.5, 0.0), (8, 301, 0.9, 0.0), (8, 300, 0.9, 3.0),
                                               (4, 1000, 0.99, 0.0), (32, 7, 0.0, 0.0)])
 def test_matches_arviz(rng, m, n, phi, shift):
-    az = _arviz()
+    az = import_arviz()
     x = _chains(rng, m, n, phi, shift, repeats=n > 25)
     assert diagnostics.rhat(x) == pytest.approx(float(az.rhat(x)), rel=1e-10)
     assert diagnostics.ess_bulk(x) == pytest.approx(float(az.ess(x, method="bulk")), rel=1e-10)

@@ -5,6 +5,6 @@ Owns argument parsing into frozen option objects, reading the sources a command 
 status 2 (:mod:`~bayes_imu.cli.main`). The library never imports it.
 """
 
-from .main import main
+from .main import command, main
 
-__all__ = ["main"]
+__all__ = ["main", "command"]

@@ -1,7 +1,5 @@
 """``python -m bayes_imu.cli``: the ``bayes-imu`` command."""
 
-import sys
+from .main import command
 
-from .main import main
-
-sys.exit(main())
+command()

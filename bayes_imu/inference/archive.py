@@ -19,7 +19,7 @@ from ..noise.avar_forms import NoiseModel
 from .selection import Adequacy, CandidateScore
 from .stationarity import Stationarity
 
-__all__ = ["save_fit", "load_fit", "fit_axes", "ARCHIVE_NAME"]
+__all__ = ["save_fit", "load_fit", "fit_axes", "write_netcdf", "ARCHIVE_NAME"]
 
 ARCHIVE_NAME = "fit.npz"
 _FORMAT = 1
@@ -109,3 +109,8 @@ def load_fit(path):
     return FitResult(model, data["samples"], data["log_prob"], allan, candidates, meta["selected"], meta["diagnostics"],
                      meta["likelihood"], data["covariance"], meta["seed"], None, adequacy, probabilities, mixture,
                      meta["widened"], steady)
+
+
+def write_netcdf(fit, path):
+    """The posterior as an ArviZ NetCDF file (``arviz.from_netcdf`` reads it): :attr:`FitResult.inference_data`."""
+    fit.inference_data.to_netcdf(str(path))

@@ -30,7 +30,7 @@ from ..errors import ConvergenceWarning, InputError
 from .likelihood import LIKELIHOODS, LogPosterior, default_bounds
 from ..noise.avar_forms import BASE_TERMS, PARAMETER_UNITS, NoiseModel
 from .diagnostics import summary as convergence_summary
-from .sampling import burn_and_thin, ensemble_sampler, long_enough
+from .sampling import burn_and_thin, ensemble_sampler, long_enough, one_blas_thread
 from .stationarity import Stationarity, stationarity_check
 from .selection import (
     Adequacy,
@@ -78,7 +78,7 @@ class SamplerChains:
 
     def to_inference_data(self, names, allan, attrs):
         """``arviz.InferenceData``: walkers as chains; ``log_<name>`` and ``<name>`` for each parameter."""
-        az = _arviz()
+        az = import_arviz()
         posterior = {f"log_{n}": self.chain[:, :, i].T for i, n in enumerate(names)}
         posterior.update({n: np.exp(self.chain[:, :, i].T) for i, n in enumerate(names)})
         with warnings.catch_warnings():  # "more chains than draws" on short runs
@@ -320,6 +320,12 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
         raise InputError(f"discrepancy={discrepancy!r}: expected one of {', '.join(DISCREPANCY_MODES)}")
     if discrepancy == "always" and likelihood != "correlated":
         raise InputError(f"discrepancy='always' needs likelihood='correlated', got {likelihood!r}")
+    with one_blas_thread():
+        return _fit(allan, terms, likelihood, rng, n_walkers, max_steps, threshold, n_evidence, discrepancy, progress)
+
+
+def _fit(allan, terms, likelihood, rng, n_walkers, max_steps, threshold, n_evidence, discrepancy, progress):
+    """:func:`fit_allan` after its checks."""
     seed = rng
     rng = np.random.default_rng(rng)
     dt = 1.0 / allan.rate_hz
@@ -599,16 +605,16 @@ def _sample(post, start, rng, max_steps, progress=False):
             f"R-hat {diagnostics['rhat_max']:.3f}, bulk ESS {diagnostics['ess_bulk_min']:.0f}); "
             "raise max_steps or inspect the chain",
             ConvergenceWarning,
-            stacklevel=3,
+            stacklevel=4,
         )
     return chain.reshape(-1, n_par), lp.reshape(-1), diagnostics, SamplerChains(chain, lp, post)
 
 
-def _arviz():
+def import_arviz():
+    """``arviz``, imported without its import-time announcement (a FutureWarning and lines on stdout)."""
     import contextlib
     import io
 
-    # ArviZ 0.2x announces its refactor on import (a FutureWarning and lines on stdout)
     with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
         warnings.simplefilter("ignore", FutureWarning)
         import arviz

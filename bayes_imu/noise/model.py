@@ -90,22 +90,8 @@ class NoiseModel:
         return self.avar_evaluator(m)(params)
 
     def avar_evaluator(self, m):
-        """A function ``params -> (..., n_tau)`` for fixed cluster sizes ``m`` (validated once)."""
-        mf = m_array(m)
-        dt = self.dt
-        components = self.components
-        names = self.parameter_names
-
-        def evaluate(params):
-            if not isinstance(params, dict):
-                params = self.unpack(params)
-            params = {k: np.asarray(params[k], float) for k in names}
-            out = components[0].avar(mf, params, dt)
-            for term in components[1:]:
-                out = out + term.avar(mf, params, dt)
-            return out
-
-        return evaluate
+        """A function ``params -> (..., n_tau)`` for fixed cluster sizes ``m`` (validated once; picklable)."""
+        return AvarEvaluator(self, m_array(m))
 
     def structure_function(self, k, params):
         """Phase structure function of the sum (scalar parameters), see :mod:`bayes_imu.noise`."""
@@ -124,3 +110,26 @@ class NoiseModel:
             if term.role == "short_term" and hasattr(term, "white_equivalent"):
                 total = total + term.white_equivalent(params, self.dt)
         return total
+
+
+class AvarEvaluator:
+    """``params -> (..., n_tau)``: the Allan variance of ``model`` at fixed cluster sizes ``mf``
+    (:meth:`NoiseModel.avar_evaluator`); a class, not a closure, so that a fit can be pickled
+    (the outputs are written by another process, :mod:`bayes_imu.report.worker`)."""
+
+    __slots__ = ("model", "mf")
+
+    def __init__(self, model, mf):
+        self.model = model
+        self.mf = mf
+
+    def __call__(self, params):
+        model, mf = self.model, self.mf
+        if not isinstance(params, dict):
+            params = model.unpack(params)
+        params = {k: np.asarray(params[k], float) for k in model.parameter_names}
+        components = model.components
+        out = components[0].avar(mf, params, model.dt)
+        for term in components[1:]:
+            out = out + term.avar(mf, params, model.dt)
+        return out

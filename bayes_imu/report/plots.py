@@ -6,12 +6,21 @@ __all__ = ["plot_allan", "plot_allan_fit", "plot_corner", "plot_drift", "plot_po
 
 
 def pyplot():
+    """``matplotlib.pyplot`` on the Agg backend."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def import_plotting():
+    """Import what the figures need (pyplot, corner): a worker's warm-up (:mod:`bayes_imu.report.worker`)."""
+    import importlib
+
+    pyplot()
+    importlib.import_module("corner")
 
 
 def plot_allan(result, path, *, label="", unit="u"):

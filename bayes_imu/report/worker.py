@@ -1,0 +1,184 @@
+"""Outputs written by a second process while the command goes on fitting.
+
+A fit's figures and its ArviZ file cost about 2 s of imports (matplotlib, corner, ArviZ and
+xarray) and about 1 s of rendering, all in Python. :class:`OutputWriter` starts one worker
+process (``spawn``: no fork of a threaded process) as the command starts; the worker imports
+those libraries while the command reads the log and fits it on another core, then writes
+each output it is sent, in order. With one usable CPU, or ``background=False``, the same
+calls run in the calling process instead; the files are the same either way (tested).
+
+The worker only writes where it is told (the command's staging folder,
+:mod:`bayes_imu.report.output`); the caller waits for it (:meth:`OutputWriter.wait`) before the
+outputs are moved into place, and stops it when anything fails, so a failed run leaves
+nothing half-written. An error in the worker is raised again in the caller, with its type.
+
+The environment variable :data:`WORKERS_ENV` (``0`` or ``1``) overrides the automatic choice.
+"""
+
+import os
+
+from ..errors import InputError
+
+__all__ = ["OutputWriter", "usable_cpus", "background_default", "WORKERS_ENV"]
+
+#: environment variable: "0" writes outputs in the calling process, "1" in a worker process
+WORKERS_ENV = "BAYES_IMU_OUTPUT_PROCESS"
+
+
+def usable_cpus():
+    """CPUs this process may run on (its affinity mask where the system has one)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # macOS, Windows
+        return os.cpu_count() or 1
+
+
+def background_default():
+    """Whether outputs go to a worker process: :data:`WORKERS_ENV` if set, else two or more usable CPUs."""
+    value = os.environ.get(WORKERS_ENV, "").strip()
+    if value in ("0", "1"):
+        return value == "1"
+    if value:
+        raise InputError(f"environment variable {WORKERS_ENV}={value!r}: expected 0 or 1")
+    return usable_cpus() >= 2
+
+
+class OutputWriter:
+    """Run output-writing calls in a worker process (or here), in the order they are sent.
+
+    Parameters
+    ----------
+    background : bool or None
+        ``True``: a worker process; ``False``: each call runs at once in this process;
+        ``None``: :func:`background_default`.
+    warm : sequence of callables
+        Called (without arguments) by the worker as it starts, typically functions that
+        import the plotting libraries, so that the imports overlap the caller's work.
+
+    Use as a context manager: leaving it normally waits for every call (raising the first
+    error); leaving it by an exception stops the worker at once. Calls travel through pipes
+    (no semaphores, nothing for multiprocessing's resource tracker to clean up); a thread
+    sends them, so the caller never waits for the worker to read.
+    """
+
+    def __init__(self, background=None, warm=()):
+        self.background = background_default() if background is None else bool(background)
+        self._pending = 0
+        self._process = None
+        if self.background:
+            import multiprocessing
+            import queue
+            import threading
+
+            context = multiprocessing.get_context("spawn")
+            job_out, job_in = context.Pipe(duplex=False)
+            self._results, result_in = context.Pipe(duplex=False)
+            self._process = context.Process(target=_serve, args=(job_out, result_in, tuple(warm)), daemon=True,
+                                            name="bayes_imu-outputs")
+            self._process.start()
+            job_out.close()
+            result_in.close()
+            self._outbox = queue.SimpleQueue()
+            self._sender = threading.Thread(target=_send_all, args=(self._outbox, job_in), daemon=True,
+                                            name="bayes_imu-outputs-sender")
+            self._sender.start()
+
+    def submit(self, fn, *args, **kwargs):
+        """Call ``fn(*args, **kwargs)``: at once here, or queued for the worker (arguments pickled)."""
+        if not self.background:
+            fn(*args, **kwargs)
+            return
+        self._outbox.put((fn, args, kwargs))
+        self._pending += 1
+
+    def wait(self):
+        """Block until every queued call is done; raise the first error one of them raised."""
+        while self._pending:
+            error = self._next_result()
+            self._pending -= 1
+            if error is not None:
+                self.stop()
+                raise error
+
+    def _next_result(self):
+        while not self._results.poll(0.5):
+            if not self._process.is_alive() and not self._results.poll():
+                code = self._process.exitcode
+                self.stop()
+                raise RuntimeError(f"the output process stopped (exit code {code}) before writing its outputs")
+        return self._results.recv()
+
+    def stop(self):
+        """Stop the worker at once (calls not yet done are dropped); it writes nothing more."""
+        if self._process is not None:
+            self._outbox.put(None)  # ends the sender thread
+            if self._process.is_alive():
+                self._process.terminate()
+            self._process.join()
+            self._results.close()
+            self._process = None
+        self._pending = 0
+
+    def close(self):
+        """Wait for every queued call, then stop the worker (it has nothing left to write)."""
+        try:
+            self.wait()
+        finally:
+            self.stop()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is None:
+            self.close()
+        else:
+            self.stop()
+        return False
+
+
+def _send_all(outbox, conn):
+    """The sender thread: pickle and send each queued call, in order, until ``None``."""
+    try:
+        while True:
+            job = outbox.get()
+            if job is None:
+                return
+            conn.send(job)
+    except OSError:  # the worker was stopped
+        return
+    finally:
+        conn.close()
+
+
+def _serve(jobs, results, warm):
+    """The worker: warm up, then run each call and send back ``None`` or its exception."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the caller, which stops this process
+    for fn in warm:
+        try:
+            fn()
+        except Exception:  # a failed warm-up import is reported by the call that needs it
+            pass
+    while True:
+        try:
+            fn, args, kwargs = jobs.recv()
+        except EOFError:  # the caller is gone
+            return
+        try:
+            fn(*args, **kwargs)
+        except BaseException as exc:  # sent back, raised again by the caller; nothing more is run
+            results.send(_picklable(exc))
+            return
+        results.send(None)
+
+
+def _picklable(exc):
+    import pickle
+
+    try:
+        pickle.loads(pickle.dumps(exc))
+        return exc
+    except Exception:
+        return RuntimeError(f"{type(exc).__name__}: {exc}")

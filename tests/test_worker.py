@@ -1,0 +1,122 @@
+"""The output worker process (bayes_imu.report.worker) and the command's fast exit."""
+
+import json
+import multiprocessing
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from bayes_imu.cli.main import main
+from bayes_imu.errors import InputError
+from bayes_imu.report.worker import WORKERS_ENV, OutputWriter, background_default
+
+
+def _append(path, text):
+    with open(path, "a", encoding="utf-8") as f:
+        f.write(f"{text} {os.getpid()}\n")
+
+
+def _fail(message):
+    raise InputError(message)
+
+
+def _children():
+    return [p for p in multiprocessing.active_children() if p.name == "bayes_imu-outputs"]
+
+
+@pytest.mark.parametrize("background", [True, False])
+def test_calls_run_in_order_in_the_worker_or_here(tmp_path, background):
+    out = tmp_path / "log.txt"
+    with OutputWriter(background=background) as writer:
+        for i in range(5):
+            writer.submit(_append, out, f"call{i}")
+    lines = [line.split() for line in out.read_text().splitlines()]
+    assert [text for text, _ in lines] == [f"call{i}" for i in range(5)]
+    pids = {int(pid) for _, pid in lines}
+    assert len(pids) == 1 and ((pids.pop() != os.getpid()) == background)
+    assert not _children()
+
+
+def test_an_error_in_the_worker_is_raised_here_with_its_type_and_stops_it(tmp_path):
+    with pytest.raises(InputError, match="bad figure"):
+        with OutputWriter(background=True) as writer:
+            writer.submit(_fail, "bad figure")
+            writer.submit(_append, tmp_path / "after.txt", "never")
+    assert not (tmp_path / "after.txt").exists()  # the calls after the error are dropped
+    assert not _children()
+
+
+def test_leaving_by_an_exception_stops_the_worker_at_once(tmp_path):
+    start = time.perf_counter()
+    with pytest.raises(RuntimeError, match="caller failed"):
+        with OutputWriter(background=True) as writer:
+            writer.submit(time.sleep, 30)
+            writer.submit(_append, tmp_path / "late.txt", "never")
+            raise RuntimeError("caller failed")
+    assert time.perf_counter() - start < 10
+    assert not (tmp_path / "late.txt").exists() and not _children()
+
+
+def test_environment_variable_chooses_and_is_checked(monkeypatch):
+    monkeypatch.setenv(WORKERS_ENV, "0")
+    assert background_default() is False
+    monkeypatch.setenv(WORKERS_ENV, "1")
+    assert background_default() is True
+    monkeypatch.setenv(WORKERS_ENV, "yes")
+    with pytest.raises(InputError, match=f"{WORKERS_ENV}='yes': expected 0 or 1"):
+        background_default()
+
+
+def _fit(tmp_path, name, workers, monkeypatch, log):
+    monkeypatch.setenv(WORKERS_ENV, workers)
+    out = tmp_path / name
+    args = ["fit", str(log), "--column", "gyro", "--rate", "100", "--terms", "white,gauss_markov", "--sensor", "gyro",
+            "--horizon", "30", "--out", str(out), "--seed", "3", "--quiet"]
+    assert main(args) == 0
+    return out
+
+
+def test_fit_outputs_are_the_same_from_the_worker_and_in_process(tmp_path, rng, monkeypatch):
+    """Every file of a fit (figures byte for byte, the ArviZ file's arrays) is the same whether the worker
+    process or the command itself writes it."""
+    from bayes_imu.inference.fit import import_arviz
+
+    log = tmp_path / "log.csv"
+    y = 0.05 * rng.standard_normal(30_000) + 0.002 * np.convolve(rng.standard_normal(30_000), np.ones(500) / 500, "same")
+    log.write_text("gyro\n" + "\n".join(f"{v:.9g}" for v in y) + "\n")
+    here = _fit(tmp_path, "here", "0", monkeypatch, log)
+    there = _fit(tmp_path, "there", "1", monkeypatch, log)
+    names = sorted(p.name for p in here.iterdir())
+    assert names == sorted(p.name for p in there.iterdir())
+    assert {"allan_fit.png", "corner.png", "drift.png", "posterior.nc", "summary.json", "drift.csv", "fit.npz"} <= set(names)
+    for name in ("allan_fit.png", "corner.png", "drift.png", "drift.csv"):
+        assert (here / name).read_bytes() == (there / name).read_bytes(), name
+    assert json.loads((here / "summary.json").read_text()) == json.loads((there / "summary.json").read_text())
+    az = import_arviz()
+    a, b = az.from_netcdf(here / "posterior.nc"), az.from_netcdf(there / "posterior.nc")
+    assert a.groups() == b.groups()
+    for group in a.groups():
+        for var in a[group].data_vars:
+            np.testing.assert_array_equal(a[group][var].values, b[group][var].values)
+    assert not _children()
+
+
+def test_command_exits_with_its_status_and_flushed_output(tmp_path):
+    """The executable leaves without the interpreter's teardown: its status and every line it printed
+    arrive (a user error: one line, status 2; a run: its summary lines, status 0)."""
+    bad = subprocess.run([sys.executable, "-m", "bayes_imu.cli", "fit", str(tmp_path / "missing.csv"), "--rate", "100",
+                          "--out", str(tmp_path / "o")], capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 2
+    assert bad.stderr.count("\n") == 1 and "missing.csv" in bad.stderr
+    sensor = tmp_path / "s.json"
+    sensor.write_text(json.dumps({"kind": "gyro", "rate_hz": 100, "noise_density": 1e-3}))
+    good = subprocess.run([sys.executable, "-m", "bayes_imu.cli", "drift", str(sensor), "--out", str(tmp_path / "d")],
+                          capture_output=True, text=True, timeout=120)
+    assert good.returncode == 0 and good.stderr == ""
+    assert good.stdout.splitlines()[0].startswith("attitude: 1-sigma drift after 3600 s")
+    assert good.stdout.splitlines()[-1] == f"wrote {tmp_path / 'd' / 'drift.csv'}"
+    assert (tmp_path / "d" / "drift.csv").read_text().startswith("t_s,")
