@@ -120,3 +120,17 @@ def test_command_exits_with_its_status_and_flushed_output(tmp_path):
     assert good.stdout.splitlines()[0].startswith("attitude: 1-sigma drift after 3600 s")
     assert good.stdout.splitlines()[-1] == f"wrote {tmp_path / 'd' / 'drift.csv'}"
     assert (tmp_path / "d" / "drift.csv").read_text().startswith("t_s,")
+
+
+def test_warm_ups_leave_nothing_behind(tmp_path, monkeypatch):
+    """The worker's warm-ups write only inside a temporary folder they remove, and close their figure."""
+    import tempfile
+
+    from bayes_imu.inference.archive import prepare_netcdf
+    from bayes_imu.report.plots import import_plotting, pyplot
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    prepare_netcdf()
+    import_plotting()
+    assert list(tmp_path.iterdir()) == []
+    assert pyplot().get_fignums() == []

@@ -44,8 +44,8 @@ from ..drift.display import DISPLAY_CHOICES, display_unit
 from ..drift.closed_forms import DRIFT_BIAS_STARTS, QUANTITY_ORDER, SI_OUTPUT_UNITS, drift_sigma
 from ..errors import BayesIMUError, InputError
 from ..io.readers import INCREMENT_UNITS, SI_UNITS, UNITS, read_json_object
-from ..inference.archive import write_netcdf
-from ..inference.fit import DISCREPANCY_MODES, import_arviz
+from ..inference.archive import prepare_netcdf, write_netcdf
+from ..inference.fit import DISCREPANCY_MODES
 from ..inference.likelihood import LIKELIHOODS
 from ..noise import BIAS_STARTS, TERMS
 from ..io.timebase import GAP_POLICIES, RATE_RANGE
@@ -350,7 +350,9 @@ def _cmd_fit(args):
 
 def _fit(args):
     # the worker imports the plotting libraries while this process reads and fits the log
-    with OutputWriter(warm=(import_arviz, import_plotting)) as writer:
+    # the worker imports ArviZ and the plotting libraries while this process reads and fits the log (a second
+    # worker for the figures alone was tried: on 2 cores it slowed the fit more than it saved)
+    with OutputWriter(warm=(prepare_netcdf, import_plotting)) as writer:
         columns, results, unit, info = allan_results(SourceOptions.from_namespace(args), "fit")
         info["log"] = _log_label(args)
         terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))

@@ -13,13 +13,13 @@ import numpy as np
 
 from ..allan.estimator import AllanResult, SegmentAllan
 from ..errors import InputError
-from .fit import FitResult, MixtureComponent
+from .fit import FitResult, MixtureComponent, import_arviz
 from ..io.readers import read_json_object
 from ..noise.avar_forms import NoiseModel
 from .selection import Adequacy, CandidateScore
 from .stationarity import Stationarity
 
-__all__ = ["save_fit", "load_fit", "fit_axes", "write_netcdf", "ARCHIVE_NAME"]
+__all__ = ["save_fit", "load_fit", "fit_axes", "write_netcdf", "prepare_netcdf", "ARCHIVE_NAME"]
 
 ARCHIVE_NAME = "fit.npz"
 _FORMAT = 1
@@ -114,3 +114,14 @@ def load_fit(path):
 def write_netcdf(fit, path):
     """The posterior as an ArviZ NetCDF file (``arviz.from_netcdf`` reads it): :attr:`FitResult.inference_data`."""
     fit.inference_data.to_netcdf(str(path))
+
+
+def prepare_netcdf():
+    """Import ArviZ and write a two-draw InferenceData into a temporary folder (removed again), so that
+    xarray's NetCDF backend and what it imports on first write are loaded: a worker's warm-up
+    (:mod:`bayes_imu.report.worker`), after which :func:`write_netcdf` costs what later calls do."""
+    import tempfile
+
+    az = import_arviz()
+    with tempfile.TemporaryDirectory(prefix="bayes_imu_warm_") as folder:
+        az.from_dict(posterior={"x": np.zeros((1, 2))}).to_netcdf(str(Path(folder) / "warm.nc"))

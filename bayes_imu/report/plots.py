@@ -16,11 +16,22 @@ def pyplot():
 
 
 def import_plotting():
-    """Import what the figures need (pyplot, corner): a worker's warm-up (:mod:`bayes_imu.report.worker`)."""
+    """Import what the figures need (pyplot, corner) and draw a small log-log figure in memory (fonts,
+    text layout and the PNG writer loaded): a worker's warm-up (:mod:`bayes_imu.report.worker`), so that
+    its first real figure costs what later ones do."""
     import importlib
+    import io
 
-    pyplot()
+    plt = pyplot()
     importlib.import_module("corner")
+    fig, ax = plt.subplots(figsize=(2, 2))
+    ax.errorbar([1e-2, 1.0, 1e2], [1.0, 0.1, 0.3], yerr=0.01, fmt="o", label="x")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_title("warm-up: 0.1 s")
+    ax.legend(fontsize=8)
+    fig.savefig(io.BytesIO(), format="png", dpi=50)
+    plt.close(fig)
 
 
 def plot_allan(result, path, *, label="", unit="u"):
