@@ -161,13 +161,16 @@ def test_population_input_errors():
 def test_archive_round_trip(tmp_path):
     rng = np.random.default_rng(7)
     model = NoiseModel(("white", "gauss_markov"), 0.01)
-    y = simulate_log(model, {"noise_variance": 1e-4, "bias_variance": 1e-8, "time_constant": 10.0}, 40_000, rng=rng)
+    y = simulate_log(model, {"noise_variance": 1e-4, "bias_variance": 1e-6, "time_constant": 10.0}, 40_000, rng=rng)
     fit = fit_allan(allan_variance(y, rate_hz=100.0), rng=0)
     save_fit(fit, tmp_path / "fit.npz")
     back = load_fit(tmp_path)
     np.testing.assert_array_equal(back.samples, fit.samples)
     assert back.model == fit.model and back.widened == fit.widened and back.selected == fit.selected
     assert [c.terms for c in back.mixture] == [c.terms for c in fit.mixture]
+    assert [(c.terms, c.log_evidence, c.method) for c in back.candidates] == \
+        [(c.terms, c.log_evidence, c.method) for c in fit.candidates]
+    assert {c.method for c in fit.candidates} == {"importance", "laplace"}  # both kinds round-trip
     a = drift_bands(fit, [1.0, 100.0], quantity="attitude", bias_start="calibrated", rng=0)
     b = drift_bands(back, [1.0, 100.0], quantity="attitude", bias_start="calibrated", rng=0)
     np.testing.assert_array_equal(a.total, b.total)

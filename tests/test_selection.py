@@ -68,3 +68,48 @@ def test_max_outage_white_noise(bias_start):
         assert abs(t - exact) <= dt
     else:  # the mean of 10 s removed adds q dt t^2 / 10 s: solve q dt t (1 + t / 10) = E^2
         assert t == pytest.approx((-1 + np.sqrt(1 + 4 * exact / 10.0)) / (2 / 10.0), abs=2 * dt)
+
+
+def test_laplace_evidence_against_quadrature_for_one_parameter(rng):
+    """The Laplace estimate of log Z in u (one parameter: white noise) against the same integral by
+    adaptive quadrature of the exact density; one parameter and 2^16 samples: within 0.05 nat."""
+    from scipy import integrate
+
+    from bayes_imu import allan_variance
+    from bayes_imu.inference.likelihood import LogPosterior
+    from bayes_imu.inference.selection import _log_density_u, laplace_log_evidence, posterior_mode
+
+    a = allan_variance(0.3 * rng.standard_normal(2**16), rate_hz=100.0)
+    model = NoiseModel(("white",), 0.01)
+    post = LogPosterior.build(model, a, kind="correlated", reference={"noise_variance": 0.09})
+    mode = posterior_mode(post, [[np.log(0.09)]])
+    log_z, cov = laplace_log_evidence(post, mode.u)
+    peak = float(_log_density_u(post, mode.u)[0])
+    width = 12.0 * np.sqrt(cov[0, 0])
+    mass, _ = integrate.quad(lambda u: np.exp(_log_density_u(post, np.array([u]))[0] - peak), mode.u[0] - width,
+                             mode.u[0] + width, epsabs=0, epsrel=1e-10, limit=200)
+    assert log_z == pytest.approx(peak + np.log(mass), abs=0.05)
+
+
+def test_screened_candidates_are_those_importance_sampling_puts_far_below(rng):
+    """A fit's candidates left with their Laplace estimate (method 'laplace') are more than LAPLACE_SCREEN
+    nats below the best importance-sampled evidence, and their own importance-sampled evidence
+    (score_models, which screens nothing) is more than 8 nats below it: they could not matter."""
+    from bayes_imu import allan_variance
+    from bayes_imu.inference.fit import fit_allan, score_models
+    from bayes_imu.inference.selection import LAPLACE_SCREEN
+    from bayes_imu.noise.simulate import simulate_log
+
+    truth = {"noise_variance": 0.25, "bias_variance": 1e-3, "time_constant": 20.0}
+    y = simulate_log(NoiseModel(("white", "gauss_markov"), 0.01), truth, 2**18, rng=rng)
+    a = allan_variance(y, rate_hz=100.0)
+    fit = fit_allan(a, rng=1)
+    screened = [c for c in fit.candidates if c.method == "laplace"]
+    sampled = [c for c in fit.candidates if c.method == "importance"]
+    assert screened and sampled  # white alone and white + random walk are far below on this log
+    best = max(c.log_evidence for c in sampled)
+    assert all(c.log_evidence < best - LAPLACE_SCREEN and c.log_evidence_se == 0 and c.ess == 0 for c in screened)
+    assert all(p < 1e-3 for c, p in zip(fit.candidates, fit.probabilities) if c.method == "laplace")
+    again = score_models(a, [c.terms for c in screened], rng=2)
+    assert all(c.method == "importance" for c in again)
+    assert max(c.log_evidence for c in again) < best - 8.0

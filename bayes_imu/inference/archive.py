@@ -35,7 +35,7 @@ def save_fit(fit, path):
         "seed": fit.seed if isinstance(fit.seed, (int, type(None))) else str(fit.seed),
         "allan": {"confidence": a.confidence, "rate_hz": a.rate_hz, "n_samples": int(a.n_samples)},
         "candidates": [{"terms": list(c.terms), "log_evidence": c.log_evidence, "se": c.log_evidence_se,
-                        "ess": c.ess} for c in fit.candidates],
+                        "ess": c.ess, "method": c.method} for c in fit.candidates],
         "mixture": [{"terms": list(c.terms), "probability": c.probability} for c in fit.mixture],
         "adequacy": None if q is None else {**q.to_dict(), "residuals": None},
         "segments": None if a.segments is None else {"n_samples": int(a.segments.n_samples)},
@@ -98,7 +98,8 @@ def load_fit(path):
                                                   data["stationarity_tau"], data["stationarity_adev"],
                                                   data["stationarity_spread"])
     model = NoiseModel(tuple(meta["terms"]), meta["dt"])
-    candidates = tuple(CandidateScore(tuple(c["terms"]), c["log_evidence"], c["se"], c["ess"], data[f"mode_{i}"])
+    candidates = tuple(CandidateScore(tuple(c["terms"]), c["log_evidence"], c["se"], c["ess"], data[f"mode_{i}"],
+                                      c.get("method", "importance"))
                        for i, c in enumerate(meta["candidates"]))
     mixture = tuple(MixtureComponent(tuple(c["terms"]), c["probability"], data[f"mixture_{i}"])
                     for i, c in enumerate(meta["mixture"]))

@@ -10,6 +10,18 @@ Student-t (4 dof) centred on the mode with the inverse-Hessian covariance (infla
 1.5^2) and, with weight 0.3, the prior itself; the estimate is unbiased and consistent,
 and its standard error is reported.
 
+Which candidates get importance sampling (the evidences that can matter): every candidate's
+mode is found first, with the Laplace approximation of its evidence in ``u``,
+``log p(u*) + n/2 log 2 pi - 1/2 log det H`` (H the negative Hessian there, eigenvalues
+floored as for the proposal); importance sampling then runs in decreasing order of that
+estimate, and a candidate whose Laplace estimate is more than :data:`LAPLACE_SCREEN` nats
+below the largest importance-sampled evidence so far keeps its Laplace estimate
+(``method="laplace"``). On real and synthetic logs the Laplace estimate was between 7.9 nats
+below and 1.4 nats above the importance-sampled one (``docs/reference.md``), so a screened
+candidate's evidence is at least 8.6 nats below the best, a posterior probability below
+2e-4 relative to it: it could not change the selection nor (below the 1e-3 floor) the
+model average.
+
 Selection rule: the candidate with the largest evidence, except that a candidate with
 fewer terms is preferred while its log evidence is within ``threshold`` nats (default 1)
 plus twice the Monte Carlo standard error of the difference of the best one — extra terms
@@ -42,8 +54,8 @@ special = LazyModule("scipy.special")
 stats = LazyModule("scipy.stats")
 
 __all__ = ["CandidateScore", "Adequacy", "ModeResult", "EvidenceResult", "candidate_terms", "extensions",
-           "posterior_mode", "log_evidence", "select", "model_probabilities", "adequacy", "at_prior_bound",
-           "negative_hessian", "to_phi"]
+           "posterior_mode", "log_evidence", "laplace_log_evidence", "select", "model_probabilities", "adequacy",
+           "at_prior_bound", "negative_hessian", "to_phi", "LAPLACE_SCREEN"]
 
 OPTIONAL_TERMS = ("quantization", "bias_instability", "gauss_markov", "random_walk")
 #: terms added by the stepwise search
@@ -54,6 +66,8 @@ ADEQUACY_ALPHA = 0.01
 BOUND_FRACTION = 0.10
 BOUND_EDGE = 0.02
 _T_DOF = 4.0
+#: nats below the best importance-sampled evidence beyond which a Laplace estimate is final
+LAPLACE_SCREEN = 10.0
 _PRIOR_WEIGHT = 0.3
 _INFLATE = 1.5
 
@@ -73,6 +87,10 @@ class CandidateScore:
         Effective sample size of the importance weights.
     mode : ndarray, shape (n_par,)
         Posterior mode in log-parameters (maximum of the density in ``u``).
+    method : {"importance", "laplace"}
+        How ``log_evidence`` was estimated: by importance sampling, or (a candidate ruled out by
+        the Laplace screen, module docstring) by the Laplace approximation alone, ``se`` and
+        ``ess`` then 0.
     """
 
     terms: tuple
@@ -80,6 +98,7 @@ class CandidateScore:
     log_evidence_se: float
     ess: float
     mode: np.ndarray
+    method: str = "importance"
 
 
 @dataclass(frozen=True)
@@ -304,7 +323,20 @@ def _importance(post, loc, cov, n_draws, rng):
     return EvidenceResult(float(log_z), se, float(ess), u, log_w)
 
 
-def log_evidence(post, u_mode, *, n_draws=4000, rng=None, target_se=0.05, max_rounds=3):
+def laplace_log_evidence(post, u_mode):
+    """Laplace approximation of ``log Z`` at the mode ``u_mode`` (in ``u``) and the covariance it uses.
+
+    Returns ``(log_z, cov)``: ``log p(u*) + n/2 log(2 pi) + 1/2 log det cov``, ``cov`` the inverse
+    negative Hessian of the log density with its eigenvalues floored (:func:`log_evidence`'s
+    proposal, before inflation).
+    """
+    cov = _hessian_cov(post, u_mode)
+    _, log_det = np.linalg.slogdet(cov)
+    log_z = float(_log_density_u(post, u_mode)[0] + 0.5 * u_mode.size * np.log(2.0 * np.pi) + 0.5 * log_det)
+    return log_z, cov
+
+
+def log_evidence(post, u_mode, *, n_draws=4000, rng=None, target_se=0.05, max_rounds=3, hessian_cov=None):
     """Defensive importance-sampling estimate of ``log Z``: an :class:`EvidenceResult`.
 
     If an importance draw is denser than ``u_mode``, the optimiser stopped short of the mode:
@@ -315,10 +347,11 @@ def log_evidence(post, u_mode, *, n_draws=4000, rng=None, target_se=0.05, max_ro
     step, 4x as many draws), at most ``max_rounds`` times; the pass with the smallest standard
     error is returned. When the weight sits on too few draws to estimate a covariance
     (effective sample size below ``n_par + 2``), the refit is the previous proposal widened
-    2x and recentred on the best draw.
+    2x and recentred on the best draw. ``hessian_cov``: the inverse negative Hessian at ``u_mode``
+    when already computed (:func:`laplace_log_evidence`).
     """
     rng = np.random.default_rng(rng)
-    cov = _INFLATE**2 * _hessian_cov(post, u_mode)
+    cov = _INFLATE**2 * (_hessian_cov(post, u_mode) if hessian_cov is None else hessian_cov)
     out = _importance(post, u_mode, cov, n_draws, rng)
     # a draw denser than the "mode" means the optimiser stopped short: restart it from the best draws
     top = out.u[np.argsort(out.log_w)[-5:]]
