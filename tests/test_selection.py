@@ -113,3 +113,24 @@ def test_screened_candidates_are_those_importance_sampling_puts_far_below(rng):
     again = score_models(a, [c.terms for c in screened], rng=2)
     assert all(c.method == "importance" for c in again)
     assert max(c.log_evidence for c in again) < best - 8.0
+
+
+def test_can_skip_refuses_a_mode_the_optimiser_stopped_short_of(rng):
+    """A Laplace estimate taken at a point that is not the mode can be far too low: the screen's pilot
+    draws find a denser point and the candidate is importance-sampled after all; at the true mode, with
+    the same (low) best, it is skipped, and never when the Laplace estimate is within the screen."""
+    from bayes_imu import allan_variance
+    from bayes_imu.inference.likelihood import LogPosterior
+    from bayes_imu.inference.selection import LAPLACE_SCREEN, can_skip, laplace_log_evidence, posterior_mode
+
+    a = allan_variance(0.3 * rng.standard_normal(2**16), rate_hz=100.0)
+    post = LogPosterior.build(NoiseModel(("white",), 0.01), a, kind="correlated", reference={"noise_variance": 0.09})
+    mode = posterior_mode(post, [[np.log(0.09)]])
+    log_z, cov = laplace_log_evidence(post, mode.u)
+    far_above = log_z + LAPLACE_SCREEN + 50.0  # a best evidence this candidate cannot approach
+    assert can_skip(post, mode.u, log_z, cov, far_above, np.random.default_rng(1))
+    assert not can_skip(post, mode.u, log_z, cov, log_z + 0.5 * LAPLACE_SCREEN, np.random.default_rng(1))
+    short = mode.u + 6.0 * np.sqrt(np.diag(cov))  # six standard deviations off: "stopped short"
+    low_z, low_cov = laplace_log_evidence(post, short)
+    assert low_z < log_z - 10.0  # the Laplace estimate there is far too low
+    assert not can_skip(post, short, low_z, low_cov, low_z + LAPLACE_SCREEN + 1.0, np.random.default_rng(1))

@@ -38,7 +38,7 @@ from .selection import (
     EvidenceResult,
     adequacy,
     candidate_terms,
-    LAPLACE_SCREEN,
+    can_skip,
     extensions,
     laplace_log_evidence,
     log_evidence,
@@ -427,8 +427,9 @@ def _candidate_starts(model, post, allan, reference):
 def _score_batch(jobs, allan, reference, n_evidence, rng, best):
     """Score candidates ``jobs`` = ``[(model, post, starts or None)]`` with the Laplace screen of
     :mod:`bayes_imu.inference.selection`: every mode and Laplace estimate first, then importance
-    sampling in decreasing order of the Laplace estimate, except for candidates more than
-    ``LAPLACE_SCREEN`` nats below ``best`` (the largest importance-sampled log evidence so far).
+    sampling in decreasing order of the Laplace estimate, except for candidates that
+    :func:`~bayes_imu.inference.selection.can_skip` rules out against ``best`` (the largest
+    importance-sampled log evidence so far).
     Returns the ``_Scored`` in the order of ``jobs`` and the new ``best``."""
     found = []
     for model, post, starts in jobs:
@@ -437,7 +438,7 @@ def _score_batch(jobs, allan, reference, n_evidence, rng, best):
     out = [None] * len(found)
     for i in sorted(range(len(found)), key=lambda i: -found[i][3]):
         model, post, mode, log_z, cov = found[i]
-        if log_z < best - LAPLACE_SCREEN:
+        if can_skip(post, mode.u, log_z, cov, best, rng):
             out[i] = _Scored(CandidateScore(model.terms, log_z, 0.0, 0.0, mode.phi, "laplace"), post, None)
             continue
         ev = log_evidence(post, mode.u, n_draws=n_evidence, rng=rng, hessian_cov=cov)
