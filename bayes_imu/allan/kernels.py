@@ -9,10 +9,12 @@ than allantools at best); a fused, multi-threaded loop over blocks of the record
 size while the block is in cache (:func:`second_difference_sums`).
 """
 
+import contextlib
+
 import numpy as np
 
 __all__ = ["phase_from_rate", "phase_chunk", "second_difference_sum", "second_difference_sums", "avar_pair_sums",
-           "threads_for", "SAMPLES_PER_THREAD"]
+           "threads_for", "threads_for_pass", "SAMPLES_PER_THREAD"]
 
 _BLOCK = 1 << 14
 #: start indices per block of the one-pass sums of every cluster size (:func:`second_difference_sums`)
@@ -262,19 +264,13 @@ def phase_from_rate(y, offset):
     blocks filled in parallel: the numbers of one sequential pass (:func:`phase_chunk`), bit
     for bit, on any number of threads.
     """
-    import numba
-
     kernels = _compile()
     y = np.ascontiguousarray(y, dtype=float)
     out = np.empty(y.size + 1)
     out[0] = 0.0
-    previous = numba.get_num_threads()
-    numba.set_num_threads(threads_for(y.size))
-    try:
+    with threads_for_pass(y.size):
         bases = kernels["chunk_bases"](kernels["chunk_totals"](y, float(offset), _PHASE_BLOCK))
         kernels["phase_blocks"](y, float(offset), bases, _PHASE_BLOCK, out[1:])
-    finally:
-        numba.set_num_threads(previous)
     return out
 
 
@@ -302,6 +298,20 @@ def threads_for(n_samples):
     return int(max(1, min(numba.config.NUMBA_NUM_THREADS, n_samples // SAMPLES_PER_THREAD)))
 
 
+@contextlib.contextmanager
+def threads_for_pass(n_samples):
+    """Run numba's parallel loops on :func:`threads_for` ``(n_samples)`` threads inside the block, restoring
+    the caller's setting after it."""
+    import numba
+
+    previous = numba.get_num_threads()
+    numba.set_num_threads(threads_for(n_samples))
+    try:
+        yield
+    finally:
+        numba.set_num_threads(previous)
+
+
 def second_difference_sums(x, ms):
     """``sum_i (x[i+2m] - 2 x[i+m] + x[i])**2`` over ``0 <= i < len(x) - 2m`` for each ``m``.
 
@@ -313,17 +323,11 @@ def second_difference_sums(x, ms):
     per size. Block sums are added in a fixed order, so the result does not depend on the
     number of threads (:func:`threads_for`).
     """
-    import numba
-
     ms = np.ascontiguousarray(ms, dtype=np.int64)
     if ms.size == 0:
         return np.empty(0)
-    previous = numba.get_num_threads()
-    numba.set_num_threads(threads_for(x.size))
-    try:
+    with threads_for_pass(x.size):
         return _compile()["sums_all"](np.ascontiguousarray(x, dtype=float), ms, _BLOCK_ALL)
-    finally:
-        numba.set_num_threads(previous)
 
 
 def avar_pair_sums(table, ms, n, h, s2, x):

@@ -27,7 +27,7 @@ import zlib
 
 import numpy as np
 
-from .kernels import phase_chunk, second_difference_sum
+from .kernels import phase_chunk, second_difference_sum, threads_for_pass
 from .._progress import progress_bar
 from .estimator import assemble_result, check_options, cluster_sizes, identification_span, noise_from_phase_samples
 from ..errors import InputError
@@ -228,15 +228,16 @@ def _second_difference_sums(phase_path, ms, n, chunk, bar):
             handle.seek(8 * first)
             return np.fromfile(handle, dtype="<f8", count=count)
 
-        for k, m in enumerate(ms):
-            m = int(m)
-            terms = n + 1 - 2 * m
-            total = 0.0
-            for lo in range(0, terms, chunk):
-                count = min(chunk, terms - lo)
-                total += second_difference_sum(read(lo, count), read(lo + m, count), read(lo + 2 * m, count))
-                bar.update(count)
-            sums[k] = total
+        with threads_for_pass(chunk):  # the threads a chunk of this size is worth (the sums do not depend on it)
+            for k, m in enumerate(ms):
+                m = int(m)
+                terms = n + 1 - 2 * m
+                total = 0.0
+                for lo in range(0, terms, chunk):
+                    count = min(chunk, terms - lo)
+                    total += second_difference_sum(read(lo, count), read(lo + m, count), read(lo + 2 * m, count))
+                    bar.update(count)
+                sums[k] = total
     return sums
 
 
