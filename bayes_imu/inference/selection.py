@@ -18,8 +18,7 @@ estimate. A candidate keeps its Laplace estimate (``method="laplace"``) when it 
 :data:`LAPLACE_SCREEN` nats below the largest importance-sampled evidence so far and a pilot
 of :data:`PILOT_DRAWS` draws from the importance proposal agrees (:func:`can_skip`): no draw
 denser than the mode (an optimiser that stopped short makes the Laplace estimate far too low:
-hundreds of nats on some real accelerometer candidates) and the pilot's estimate that far
-below too. ``scripts/laplace_screen.py`` checks the rule on the shipped synthetic logs and 37
+68-1320 nats on some real gyro candidates) and the pilot's estimate that far below too. ``scripts/laplace_screen.py`` checks the rule on the shipped synthetic logs and 37
 real channels: every candidate it would skip has an importance-sampled evidence far below the
 best (``docs/reference.md``), so it could not change the selection, and its posterior
 probability is below the model average's 1e-3 floor.
