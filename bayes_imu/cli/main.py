@@ -795,8 +795,11 @@ def command(argv=None):
     which returns.
     """
     status = main(argv)
-    sys.stdout.flush()
-    sys.stderr.flush()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (BrokenPipeError, ValueError):  # a reader that left early (| head), or a closed stream
+            pass
     logging.shutdown()
     os._exit(status)
 
