@@ -12,6 +12,7 @@ Prints one row per run, the median ratio, and the stages of the last run (Python
 process). The issue's goal is a ratio of at most 2.
 
     python scripts/bench_fit.py [--runs 3] [--samples 1000000]
+    python scripts/bench_fit.py --real     # the six ADIS16405 gyro x logs (../shared), one run each
 """
 
 import argparse
@@ -23,12 +24,26 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # validate_real's DATA for --real
+
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--samples", type=int, default=1_000_000)
+    parser.add_argument("--real", action="store_true",
+                        help="instead, the real ADIS16405 logs' gyro x axes (../shared, read as given: gzip CSV, "
+                             "deg/s, 100 Hz), one run each")
     args = parser.parse_args(argv)
+    if args.real:
+        from validate_real import DATA
+
+        if not DATA.exists():
+            print(f"skipped: {DATA} not found")
+            return
+        logs = [(DATA / f"adis_16405_imu{i}.csv.gz", "gyro_x_dps", 100.0) for i in range(1, 7)]
+        _compare(logs, 1)
+        return
     from bayes_imu.noise.avar_forms import NoiseModel
     from bayes_imu.noise.simulate import simulate_log
 
@@ -37,33 +52,40 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         log = Path(tmp) / "gyro.csv"
         np.savetxt(log, y, fmt="%.9g", header="gyro_x_dps", comments="")
-        peer = _peer_available()
-        print(f"{'run':>3s} {'samples':>9s} {'fit_s':>7s} {'peer_s':>7s} {'ratio':>6s}  model")
-        ours, theirs = [], []
-        for run in range(args.runs):
-            out = Path(tmp) / f"out{run}"
-            start = time.perf_counter()
-            proc = subprocess.run([sys.executable, "-m", "bayes_imu.cli", "fit", str(log), "--column", "gyro_x_dps",
-                                   "--rate", "100", "--out", str(out), "--seed", str(run)],
-                                  capture_output=True, text=True, check=True)
-            ours.append(time.perf_counter() - start)
-            theirs.append(_time_peer(log) if peer else float("nan"))
-            print(f"{run:3d} {args.samples:9d} {ours[-1]:7.2f} {theirs[-1]:7.2f} {ours[-1] / theirs[-1]:6.2f}  "
-                  f"{proc.stdout.splitlines()[0]}")
-        if peer:
-            print(f"\nmedian: bayes-imu fit {np.median(ours):.2f} s, allan-variance {np.median(theirs):.2f} s, "
-                  f"ratio {np.median(ours) / np.median(theirs):.2f} (goal <= 2)")
-        else:
-            print("\nallan-variance not installed (pip install allan-variance): no peer timing")
+        _compare([(log, "gyro_x_dps", 100.0)], args.runs)
         stages(log)
+
+
+def _compare(logs, runs):
+    """``bayes-imu fit`` and the peer, each in a fresh process, ``runs`` times on each (log, column, rate)."""
+    peer = _peer_available()
+    print(f"{'run':>3s} {'log':>24s} {'fit_s':>7s} {'peer_s':>7s} {'ratio':>6s}  model")
+    ours, theirs = [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        for log, column, rate in logs:
+            for run in range(runs):
+                out = Path(tmp) / f"out{len(ours)}"
+                start = time.perf_counter()
+                proc = subprocess.run([sys.executable, "-m", "bayes_imu.cli", "fit", str(log), "--column", column,
+                                       "--rate", f"{rate:g}", "--out", str(out), "--seed", str(run)],
+                                      capture_output=True, text=True, check=True)
+                ours.append(time.perf_counter() - start)
+                theirs.append(_time_peer(log, column, rate) if peer else float("nan"))
+                print(f"{run:3d} {Path(log).name:>24s} {ours[-1]:7.2f} {theirs[-1]:7.2f} {ours[-1] / theirs[-1]:6.2f}  "
+                      f"{proc.stdout.splitlines()[0]}")
+    if peer:
+        print(f"\nmedian: bayes-imu fit {np.median(ours):.2f} s, allan-variance {np.median(theirs):.2f} s, "
+              f"ratio {np.median(ours) / np.median(theirs):.2f} (goal <= 2)")
+    else:
+        print("\nallan-variance not installed (pip install allan-variance): no peer timing")
 
 
 PEER = """
 import sys
 import pandas as pd
 from allan_variance import compute_avar, estimate_parameters
-x = pd.read_csv(sys.argv[1])["gyro_x_dps"].to_numpy()
-tau, avar = compute_avar(x, dt=0.01)
+x = pd.read_csv(sys.argv[1])[sys.argv[2]].to_numpy()
+tau, avar = compute_avar(x, dt=1.0 / float(sys.argv[3]))
 params, prediction = estimate_parameters(tau, avar)
 """
 
@@ -74,9 +96,10 @@ def _peer_available():
     return importlib.util.find_spec("allan_variance") is not None and importlib.util.find_spec("pandas") is not None
 
 
-def _time_peer(log):
+def _time_peer(log, column, rate):
     start = time.perf_counter()
-    subprocess.run([sys.executable, "-c", PEER, str(log)], capture_output=True, text=True, check=True)
+    subprocess.run([sys.executable, "-c", PEER, str(log), column, f"{rate:g}"], capture_output=True, text=True,
+                   check=True)
     return time.perf_counter() - start
 
 
