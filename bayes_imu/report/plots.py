@@ -176,7 +176,7 @@ def plot_corner(fit, path, *, unit="u"):
         for ax in fig.axes:
             ax.tick_params(which="both", labelsize=6)
         fig.subplots_adjust(left=0.13, bottom=0.13)
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=90, bbox_inches="tight", pad_inches=0.1)  # corner places its axis labels outside the figure
     plt.close(fig)
 
 
