@@ -150,8 +150,9 @@ def _compile():
         # every cluster size in one pass over the record: for each block of start indices the
         # sizes are summed in increasing order, so a size's stream at x[i + m] is the block the
         # size before it read at x[i + 2 m'] (an octave grid), still in cache, and the small
-        # sizes share one block of x. The same blocks, inner loop and fixed-order totals as sum3:
-        # the same bits.
+        # sizes share one block of x. Block sums added in a fixed order (no dependence on the
+        # threads); within about 1e-15 of sum3 on the same size (LLVM vectorises the two loops
+        # differently), not bit for bit.
         k = ms.size
         n_blocks = (x.size - 2 * ms.min() + block - 1) // block
         partial = np.zeros((n_blocks, k))

@@ -115,13 +115,15 @@ class ModeResult:
 
 @dataclass(frozen=True)
 class EvidenceResult:
-    """Importance-sampling evidence: ``log_z``, its ``se``, ``ess``, the draws ``u`` and their ``log_w``."""
+    """Importance-sampling evidence: ``log_z``, its ``se``, ``ess``, the draws ``u``, their ``log_w`` and
+    ``log_density`` (the unnormalised log posterior density of each draw in ``u``)."""
 
     log_z: float
     se: float
     ess: float
     u: np.ndarray
     log_w: np.ndarray
+    log_density: np.ndarray = None
 
 
 @dataclass(frozen=True)
@@ -317,13 +319,19 @@ def _importance(post, loc, cov, n_draws, rng):
     u = np.vstack([np.atleast_2d(t.rvs(size=n_draws - n_prior)).reshape(-1, n), stats.logistic.rvs(size=(n_prior, n), random_state=rng)])
     log_prior_u = np.sum(stats.logistic.logpdf(u), axis=-1)
     log_q = np.logaddexp(np.log1p(-_PRIOR_WEIGHT) + t.logpdf(u).reshape(-1), np.log(_PRIOR_WEIGHT) + log_prior_u)
-    log_w = _log_density_u(post, u) - log_q
+    log_density = _log_density_u(post, u)
+    log_w = log_density - log_q
     log_z = special.logsumexp(log_w) - np.log(n_draws)
     w = np.exp(log_w - log_w.max())
     ess = w.sum() ** 2 / np.sum(w * w)
     # delta-method standard error of the log of a sample mean
     se = float(np.std(w) / (np.sqrt(n_draws) * np.mean(w))) if np.mean(w) > 0 else np.inf
-    return EvidenceResult(float(log_z), se, float(ess), u, log_w)
+    return EvidenceResult(float(log_z), se, float(ess), u, log_w, log_density)
+
+
+def _stopped_short(post, u_mode, log_density):
+    """Whether draws of these log densities are denser than ``u_mode``: the optimiser stopped short of the mode."""
+    return bool(np.max(log_density) > _log_density_u(post, u_mode)[0] + 1e-6)
 
 
 def laplace_log_evidence(post, u_mode):
@@ -351,8 +359,7 @@ def can_skip(post, u_mode, laplace_z, hessian_cov, best, rng, *, screen=None, n_
     if not laplace_z < best - screen:
         return False
     pilot = _importance(post, u_mode, _INFLATE**2 * hessian_cov, n_pilot, rng)
-    denser = np.max(_log_density_u(post, pilot.u)) > _log_density_u(post, u_mode)[0] + 1e-6
-    return bool(not denser and pilot.log_z < best - screen)
+    return not _stopped_short(post, u_mode, pilot.log_density) and pilot.log_z < best - screen
 
 
 def log_evidence(post, u_mode, *, n_draws=4000, rng=None, target_se=0.05, max_rounds=3, hessian_cov=None):
@@ -374,8 +381,7 @@ def log_evidence(post, u_mode, *, n_draws=4000, rng=None, target_se=0.05, max_ro
     out = _importance(post, u_mode, cov, n_draws, rng)
     # a draw denser than the "mode" means the optimiser stopped short: restart it from the best draws
     top = out.u[np.argsort(out.log_w)[-5:]]
-    density = _log_density_u(post, top)
-    if np.max(density) > _log_density_u(post, u_mode)[0] + 1e-6:
+    if _stopped_short(post, u_mode, _log_density_u(post, top)):
         u_mode = posterior_mode(post, np.vstack([to_phi(top, post.bounds), to_phi(u_mode, post.bounds)])).u
         cov = _INFLATE**2 * _hessian_cov(post, u_mode)
         out = _importance(post, u_mode, cov, n_draws, rng)
