@@ -104,9 +104,15 @@ def _time_peer(log, column, rate):
 
 
 def stages(log):
+    """The stages of one fit in this process (after the timed runs: imports warm), then the outputs the
+    worker process writes, each timed here with the first import of what it needs."""
+    import tempfile
+
     from bayes_imu.allan.estimator import allan_variance
-    from bayes_imu.inference.fit import fit_allan
+    from bayes_imu.inference.archive import write_netcdf
+    from bayes_imu.inference.fit import fit_allan, import_arviz
     from bayes_imu.io.readers import read_log
+    from bayes_imu.report.plots import import_plotting, plot_allan_fit, plot_corner
 
     t0 = time.perf_counter()
     values = read_log(log, column="gyro_x_dps").values
@@ -117,6 +123,17 @@ def stages(log):
     t3 = time.perf_counter()
     print(f"\nstages (in-process, warm): read {t1 - t0:.2f} s, Allan variance {t2 - t1:.2f} s, "
           f"selection + sampling {t3 - t2:.2f} s ({result.diagnostics['n_steps']} steps x {result.diagnostics['n_walkers']} walkers)")
+    with tempfile.TemporaryDirectory() as folder:
+        out = Path(folder)
+        times = [time.perf_counter()]
+        for step in (import_arviz, import_plotting, lambda: write_netcdf(result, out / "posterior.nc"),
+                     lambda: plot_allan_fit(result, out / "allan_fit.png", rng=0),
+                     lambda: plot_corner(result, out / "corner.png")):
+            step()
+            times.append(time.perf_counter())
+    d = np.diff(times)
+    print(f"outputs (the worker's work, here): import ArviZ {d[0]:.2f} s, matplotlib + corner {d[1]:.2f} s, "
+          f"posterior.nc {d[2]:.2f} s, allan_fit.png {d[3]:.2f} s, corner.png {d[4]:.2f} s")
 
 
 if __name__ == "__main__":

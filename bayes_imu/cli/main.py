@@ -790,9 +790,8 @@ def command(argv=None):
 
     Every file of the run is written and closed, and the worker process stopped, before
     :func:`main` returns; standard output and error are flushed here. Leaving without the
-    interpreter's teardown saves 0.3-0.9 s a run (freeing numba's compiled code and the
-    imported libraries), a third of a small fit's overhead. Python callers use :func:`main`,
-    which returns.
+    interpreter's teardown (freeing numba's compiled code and the imported libraries) saved
+    0.3-0.9 s a run when timed with ``time``. Python callers use :func:`main`, which returns.
     """
     status = main(argv)
     for stream in (sys.stdout, sys.stderr):

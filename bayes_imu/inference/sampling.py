@@ -45,8 +45,8 @@ def one_blas_thread():
     The fits multiply small matrices (an ensemble of walkers or importance draws by an
     ``n_tau x n_tau`` Cholesky factor): a multi-threaded BLAS gains nothing on them, and its
     idle threads spin on the other cores, where the output process (and, in a fleet, the
-    other fits) would run; measured: 1.4 s of CPU time per 1e6-sample fit on 2 cores, and
-    the same wall time with one thread.
+    other fits) would run (seen once with ``time`` on a 1e6-sample fit on 2 cores: 1.4 s more CPU
+    time with two BLAS threads, the same wall time).
     """
     from threadpoolctl import threadpool_limits
 
