@@ -3,6 +3,7 @@
 import json
 import multiprocessing
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -120,6 +121,31 @@ def test_command_exits_with_its_status_and_flushed_output(tmp_path):
     assert good.stdout.splitlines()[0].startswith("attitude: 1-sigma drift after 3600 s")
     assert good.stdout.splitlines()[-1] == f"wrote {tmp_path / 'd' / 'drift.csv'}"
     assert (tmp_path / "d" / "drift.csv").read_text().startswith("t_s,")
+
+
+def test_a_reader_that_leaves_early_does_not_stop_the_run(tmp_path):
+    """``bayes-imu ... | head -1``: standard output closed before the command prints. The run goes on
+    quietly and writes its outputs (status 0, nothing on standard error), as with a reader that stays."""
+    sensor = tmp_path / "s.json"
+    sensor.write_text(json.dumps({"kind": "gyro", "rate_hz": 100, "noise_density": 1e-3}))
+    proc = subprocess.Popen([sys.executable, "-m", "bayes_imu.cli", "drift", str(sensor), "--out", str(tmp_path / "d")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc.stdout.close()  # the reader is gone before the first line
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0 and err == ""
+    assert (tmp_path / "d" / "drift.csv").read_text().startswith("t_s,")
+
+
+def test_plotting_imports_are_quiet(tmp_path):
+    """corner imports ArviZ, which announces a refactor on standard error once a day (a stamp file in the
+    user's cache folder): the plotting warm-up imports both without a word, on a day with no stamp yet."""
+    code = "from bayes_imu.report.plots import import_plotting; import_plotting()"
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path)}  # no stamp: ArviZ would announce today
+    loud = subprocess.run([sys.executable, "-c", "import corner"], capture_output=True, text=True, env=env, timeout=120)
+    assert "ArviZ" in loud.stderr  # the announcement this guards against (corner alone prints it)
+    shutil.rmtree(tmp_path / "arviz", ignore_errors=True)  # the stamp that import wrote
+    quiet = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    assert quiet.returncode == 0 and quiet.stderr == "" and quiet.stdout == ""
 
 
 def test_warm_ups_leave_nothing_behind(tmp_path, monkeypatch):

@@ -507,7 +507,7 @@ def _cmd_kalibr(args):
     if not result.adequate:
         _warn("Kalibr values from fits that failed the goodness-of-fit check: " + ", ".join(result.inadequate))
     several = any(len(rows) > 1 for rows in result.per_axis.values())
-    print(f"wrote {args.out} ({result.mode}{', worst axis' if several else ''})")
+    _say(args, f"wrote {args.out} ({result.mode}{', worst axis' if several else ''})")
     return 0
 
 
@@ -715,9 +715,9 @@ def _cmd_drift(args):
         (tmp / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
     for quantity in SENSOR_QUANTITIES[spec["kind"]]:
         last = [row for row in rows if row[1] == quantity][-1]
-        print(f"{quantity}: 1-sigma drift after {last[0]:g} s = {last[5]:.4g} {last[6]} "
-              f"(order {QUANTITY_ORDER[quantity]})")
-    print(f"wrote {args.out / 'drift.csv'}")
+        _say(args, f"{quantity}: 1-sigma drift after {last[0]:g} s = {last[5]:.4g} {last[6]} "
+                   f"(order {QUANTITY_ORDER[quantity]})")
+    _say(args, f"wrote {args.out / 'drift.csv'}")
     return 0
 
 
@@ -756,8 +756,21 @@ def _times(text):
 
 
 def _say(args, text):
-    if not getattr(args, "quiet", False):
+    if getattr(args, "quiet", False):
+        return
+    try:
         print(text)
+    except BrokenPipeError:  # the reader left early (| head): the run goes on and writes its outputs, quietly
+        _stdout_to_devnull()
+
+
+def _stdout_to_devnull():
+    """Standard output to the null device, for the rest of the run (what is still buffered is dropped there)."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, sys.stdout.fileno())
+    finally:
+        os.close(devnull)
 
 
 def _warn(text):

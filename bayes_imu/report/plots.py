@@ -19,11 +19,10 @@ def import_plotting():
     """Import what the figures need (pyplot, corner) and draw a small log-log figure in memory (fonts,
     text layout and the PNG writer loaded): a worker's warm-up (:mod:`bayes_imu.report.worker`), so that
     its first real figure costs what later ones do."""
-    import importlib
     import io
 
     plt = pyplot()
-    importlib.import_module("corner")
+    import_corner()
     fig, ax = plt.subplots(figsize=(2, 2))
     ax.errorbar([1e-2, 1.0, 1e2], [1.0, 0.1, 0.3], yerr=0.01, fmt="o", label="x")
     ax.set_xscale("log")
@@ -32,6 +31,17 @@ def import_plotting():
     ax.legend(fontsize=8)
     fig.savefig(io.BytesIO(), format="png", dpi=50)
     plt.close(fig)
+
+
+def import_corner():
+    """``corner``, which imports ArviZ: ArviZ first, without its daily announcement on standard error
+    (:func:`bayes_imu.inference.fit.import_arviz`)."""
+    from ..inference.fit import import_arviz
+
+    import_arviz()
+    import corner
+
+    return corner
 
 
 def plot_allan(result, path, *, label="", unit="u"):
@@ -144,7 +154,7 @@ def plot_corner(fit, path, *, unit="u"):
     numbers (no offset notation), so a tightly pinned parameter still reads correctly.
     """
     plt = pyplot()
-    import corner
+    corner = import_corner()
     from matplotlib.ticker import LogFormatterSciNotation
 
     from ..noise.avar_forms import PARAMETER_UNITS
