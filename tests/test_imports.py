@@ -23,6 +23,7 @@ a = bi.allan_variance(y, rate_hz=100.0)
 model = bi.NoiseModel(("white", "gauss_markov"), 0.01)
 params = {"noise_variance": 1.0, "bias_variance": 0.1, "time_constant": 5.0}
 avar_covariance(model, params, a.m, a.n_samples)
+model.avar(a.m, params)  # the compiled Gauss-Markov AVAR
 post = bi.UnitPosterior(model, np.array([[1.0, 0.1, 5.0]]), 40.0)
 bi.drift_bands(post, [0.1, 1.0], quantity="attitude", bias_start="zero")
 from bayes_imu.allan.outofcore import allan_variance_file

@@ -40,6 +40,21 @@ def test_gauss_markov_avar_matches_mpmath_across_switch(x):
     np.testing.assert_allclose(got, ref, rtol=1e-13)
 
 
+def test_gauss_markov_avar_broadcasts_rows_against_mpmath():
+    """Variances ``(2, 1)`` and time constants ``(3,)`` -> ``(2, 3, n_tau)``; each row is its own
+    process (rows on both sides of the switch, one with T = inf: zero AVAR, exactly)."""
+    m = np.array([1, 3, 64, 5000])
+    s2 = np.array([[2.0], [0.5]])
+    t = np.array([4.0, 3e5, np.inf])
+    got = gauss_markov_avar(m, s2, t, dt=1.0)
+    assert got.shape == (2, 3, 4)
+    for i in range(2):
+        for j in range(2):
+            ref = [float(s2[i, 0] * gm_avar_mpmath(int(mi), 1.0 / t[j])) for mi in m]
+            np.testing.assert_allclose(got[i, j], ref, rtol=1e-13)
+    assert np.all(got[:, 2] == 0.0)
+
+
 def test_gauss_markov_tends_to_random_walk():
     """T -> infinity with sigma_b^2 dt/T fixed: AVAR -> rate random walk with K^2 dt = 2 sigma_b^2 dt / T."""
     m = np.array([1, 4, 100])

@@ -74,23 +74,64 @@ def _series_coefficients(ms):
     return out
 
 
+_coefficients_by_grid = {}  # mf.tobytes() -> _series_coefficients: a likelihood calls gm_avar with one grid
+_avar_kernel = None  # compiled on first use (numba imported lazily), cached on disk
+
+
 def gm_avar(mf, variance, time_constant, dt):
-    """Exact AVAR ``(..., n_tau)`` of a sampled Gauss-Markov process (module docstring)."""
-    coeffs = _series_coefficients(tuple(int(v) for v in mf))
-    s2 = np.asarray(variance, float)[..., None]
-    x = (dt / np.asarray(time_constant, float))[..., None]
-    fx = -np.expm1(-x)
-    y = mf * x
-    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-        fy = -np.expm1(-y)
-        closed = (mf * -np.expm1(-2.0 * x) - (1.0 - fx) * fy * (2.0 + fy)) / (mf * mf * fx * fx)
-        ys = -np.minimum(y, _AVAR_SWITCH)
-        poly = coeffs[-1] * ys + coeffs[-2]
-        for j in range(coeffs.shape[0] - 3, -1, -1):
-            poly = poly * ys + coeffs[j]
-        ratio = np.where(fx > 0, x / fx, 1.0)
-        series = x * ratio * ratio * poly / (mf * mf)
-    return s2 * np.where(y <= _AVAR_SWITCH, series, closed)
+    """Exact AVAR ``(..., n_tau)`` of a sampled Gauss-Markov process (module docstring).
+
+    ``variance`` and ``time_constant`` broadcast together (shape ``...``); ``mf`` is the grid of
+    cluster sizes (1-D). The exponentials are numpy's, the rest a compiled loop that takes one
+    branch per element (series or closed form) in the same order of operations as the
+    array expression it replaced, so the values are the same to the bit (numpy's ``expm1``
+    may differ from the C library's in the last bits, which the closed form's cancellation
+    near the switch amplifies to ~1e-13).
+    """
+    mf = np.asarray(mf, float)
+    key = mf.tobytes()
+    coeffs = _coefficients_by_grid.get(key)
+    if coeffs is None:
+        coeffs = _coefficients_by_grid[key] = _series_coefficients(tuple(int(v) for v in mf))
+    s2, t = np.asarray(variance, float), np.asarray(time_constant, float)
+    if s2.shape != t.shape:
+        s2, t = np.broadcast_arrays(s2, t)
+    x = (dt / t.reshape(-1))[:, None]
+    with np.errstate(over="ignore"):
+        fy = -np.expm1(-(mf * x))
+    out = np.empty(fy.shape)
+    _kernel()(mf, coeffs, np.ascontiguousarray(s2.reshape(-1)), x.ravel(), (-np.expm1(-x)).ravel(),
+              (-np.expm1(-2.0 * x)).ravel(), fy, _AVAR_SWITCH, out)
+    return out.reshape(s2.shape + mf.shape)
+
+
+def _kernel():
+    global _avar_kernel
+    if _avar_kernel is None:
+        import numba
+
+        _avar_kernel = numba.njit(cache=True)(_avar_rows_py)
+    return _avar_kernel
+
+
+def _avar_rows_py(mf, coeffs, s2, x, fx, e2, fy, switch, out):  # pragma: no cover - compiled by numba
+    """``out[i, j]`` = AVAR at ``mf[j]`` of row ``i`` (``x = dt/T``, ``fx = 1 - e^-x``, ``e2 = 1 - e^-2x``,
+    ``fy = 1 - e^-(m x)``): the exact series below ``m x = switch``, else the closed form."""
+    n_terms = coeffs.shape[0]
+    for i in range(x.size):
+        ratio = x[i] / fx[i] if fx[i] > 0 else 1.0
+        for j in range(mf.size):
+            m = mf[j]
+            y = m * x[i]
+            if y <= switch:
+                ys = -y
+                poly = coeffs[n_terms - 1, j] * ys + coeffs[n_terms - 2, j]
+                for k in range(n_terms - 3, -1, -1):
+                    poly = poly * ys + coeffs[k, j]
+                value = x[i] * ratio * ratio * poly / (m * m)
+            else:
+                value = (m * e2[i] - (1.0 - fx[i]) * fy[i, j] * (2.0 + fy[i, j])) / (m * m * fx[i] * fx[i])
+            out[i, j] = s2[i] * value
 
 
 def gm_structure(k, s2, x):

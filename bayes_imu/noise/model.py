@@ -117,19 +117,29 @@ class AvarEvaluator:
     (:meth:`NoiseModel.avar_evaluator`); a class, not a closure, so that a fit can be pickled
     (the outputs are written by another process, :mod:`bayes_imu.report.worker`)."""
 
-    __slots__ = ("model", "mf")
+    __slots__ = ("model", "mf", "_names", "_components")
 
     def __init__(self, model, mf):
         self.model = model
         self.mf = mf
+        self._names = model.parameter_names  # the model is frozen: looked up once, not per call
+        self._components = model.components
+
+    def __getstate__(self):
+        return self.model, self.mf
+
+    def __setstate__(self, state):
+        self.__init__(*state)
 
     def __call__(self, params):
-        model, mf = self.model, self.mf
-        if not isinstance(params, dict):
-            params = model.unpack(params)
-        params = {k: np.asarray(params[k], float) for k in model.parameter_names}
-        components = model.components
-        out = components[0].avar(mf, params, model.dt)
+        mf, dt = self.mf, self.model.dt
+        if isinstance(params, dict):
+            params = {k: np.asarray(params[k], float) for k in self._names}
+        else:
+            theta = np.asarray(params, float)
+            params = {name: theta[..., i] for i, name in enumerate(self._names)}
+        components = self._components
+        out = components[0].avar(mf, params, dt)
         for term in components[1:]:
-            out = out + term.avar(mf, params, model.dt)
+            out = out + term.avar(mf, params, dt)
         return out
