@@ -30,24 +30,72 @@ def _children():
 
 
 @pytest.mark.parametrize("background", [True, False])
-def test_calls_run_in_order_in_the_worker_or_here(tmp_path, background):
+def test_every_call_runs_once_in_the_worker_or_here(tmp_path, background):
     out = tmp_path / "log.txt"
     with OutputWriter(background=background) as writer:
         for i in range(5):
             writer.submit(_append, out, f"call{i}")
     lines = [line.split() for line in out.read_text().splitlines()]
-    assert [text for text, _ in lines] == [f"call{i}" for i in range(5)]
+    assert sorted(text for text, _ in lines) == [f"call{i}" for i in range(5)]
     pids = {int(pid) for _, pid in lines}
-    assert len(pids) == 1 and ((pids.pop() != os.getpid()) == background)
+    assert (os.getpid() not in pids) if background else (pids == {os.getpid()})
     assert not _children()
 
 
+def _interval(path, seconds):
+    start = time.time()
+    time.sleep(seconds)
+    with open(path, "a", encoding="utf-8") as f:
+        f.write(f"{start} {time.time()}\n")
+
+
+def test_calls_run_side_by_side_once_the_caller_waits(tmp_path):
+    """Two 1.5 s calls sent, then the caller waits: with two or more usable CPUs the worker runs
+    them at once (their intervals overlap), with one it runs them one after the other."""
+    from bayes_imu.report.worker import usable_cpus
+
+    out = tmp_path / "times.txt"
+    with OutputWriter(background=True) as writer:
+        writer.submit(_interval, out, 1.5)
+        writer.submit(_interval, out, 1.5)
+    (a0, a1), (b0, b1) = sorted(tuple(map(float, line.split())) for line in out.read_text().splitlines())
+    assert (b0 < a1) == (usable_cpus() >= 2)
+
+
+def _pid_then_sleep(path, seconds):
+    path.write_text(str(os.getpid()))
+    time.sleep(seconds)
+    path.write_text("finished")
+
+
+def _fail_after(message, seconds):
+    time.sleep(seconds)
+    raise InputError(message)
+
+
 def test_an_error_in_the_worker_is_raised_here_with_its_type_and_stops_it(tmp_path):
+    """The error comes back with its type and nothing else runs to its end: with two or more usable
+    CPUs (Linux) the next call started beside the failing one and is stopped (its process gone, its
+    file never finished); with one it never starts; a call sent after the error never runs."""
+    from bayes_imu.report.worker import _can_fork, usable_cpus
+
+    running = tmp_path / "running.txt"
+    start = time.perf_counter()
     with pytest.raises(InputError, match="bad figure"):
         with OutputWriter(background=True) as writer:
-            writer.submit(_fail, "bad figure")
+            writer.submit(_fail_after, "bad figure", 1.0)
+            writer.submit(_pid_then_sleep, running, 30)
+            writer.wait()
             writer.submit(_append, tmp_path / "after.txt", "never")
-    assert not (tmp_path / "after.txt").exists()  # the calls after the error are dropped
+    assert time.perf_counter() - start < 15
+    assert not (tmp_path / "after.txt").exists()
+    side_by_side = _can_fork() and usable_cpus() >= 2
+    assert running.exists() == side_by_side
+    if side_by_side:
+        pid = running.read_text()
+        assert pid != "finished"
+        with pytest.raises(ProcessLookupError):
+            os.kill(int(pid), 0)
     assert not _children()
 
 

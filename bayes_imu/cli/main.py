@@ -412,9 +412,10 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
         summary["drift"] = _write_drift(result, args, unit, out, writer)[0]
     _write_json(out / "summary.json", summary)
     save_fit(result, out / ARCHIVE_NAME)
-    writer.submit(write_netcdf, result, out / "posterior.nc")
+    # the longest first: the worker writes them side by side once this process waits
     writer.submit(plot_allan_fit, result, out / "allan_fit.png", label=label, unit=unit, rng=args.seed)
     writer.submit(plot_corner, result, out / "corner.png", unit=unit)
+    writer.submit(write_netcdf, result, out / "posterior.nc")
     return summary
 
 

@@ -4,8 +4,11 @@ A fit's figures and its ArviZ file cost about 2 s of imports (matplotlib, corner
 xarray) and about 1 s of rendering, all in Python. :class:`OutputWriter` starts one worker
 process (``spawn``: no fork of a threaded process) as the command starts; the worker imports
 those libraries while the command reads the log and fits it on another core, then writes
-each output it is sent, in order. With one usable CPU, or ``background=False``, the same
-calls run in the calling process instead; the files are the same either way (tested).
+each output it is sent. On Linux each output is written by a child forked from the warmed-up
+worker: one at a time while the command is still fitting, side by side (one per usable CPU)
+once it waits, so the figures and the ArviZ file of a fit cost about the longest of them
+instead of their sum. With one usable CPU, or ``background=False``, the same calls run in
+the calling process instead; the files are the same either way (tested).
 
 The worker only writes where it is told (the command's staging folder,
 :mod:`bayes_imu.report.output`); the caller waits for it (:meth:`OutputWriter.wait`) before the
@@ -44,7 +47,11 @@ def background_default():
 
 
 class OutputWriter:
-    """Run output-writing calls in a worker process (or here), in the order they are sent.
+    """Run independent output-writing calls in a worker process (or here).
+
+    In the worker, calls may run side by side and finish in any order (:func:`_serve`): a
+    call must not need another's file. Once a call fails, no other starts, and those still
+    running are stopped.
 
     Parameters
     ----------
@@ -93,6 +100,8 @@ class OutputWriter:
 
     def wait(self):
         """Block until every queued call is done; raise the first error one of them raised."""
+        if self._pending:
+            self._outbox.put(_DRAIN)  # this process now waits: the worker may use every CPU
         while self._pending:
             error = self._next_result()
             self._pending -= 1
@@ -152,7 +161,13 @@ def _send_all(outbox, conn):
 
 
 def _serve(jobs, results, warm):
-    """The worker: warm up, then run each call and send back ``None`` or its exception."""
+    """The worker: warm up, then run each call and send back ``None`` or its exception.
+
+    Where the system forks (Linux), each call runs in a child forked from this warmed-up
+    process (imports shared, nothing loaded again): one at a time while the caller is busy,
+    as many as there are usable CPUs once it waits (:data:`_DRAIN`), so a fit's figures and
+    ArviZ file are written side by side. Elsewhere the calls run here, one after the other.
+    """
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the caller, which stops this process
@@ -161,17 +176,113 @@ def _serve(jobs, results, warm):
             fn()
         except Exception:  # a failed warm-up import is reported by the call that needs it
             pass
+    if _can_fork():
+        import gc
+
+        gc.freeze()  # the warmed-up objects: never collected, so children don't copy their pages to scan them
+        _serve_forking(jobs, results)
+        return
     while True:
         try:
-            fn, args, kwargs = jobs.recv()
+            job = jobs.recv()
         except EOFError:  # the caller is gone
             return
-        try:
-            fn(*args, **kwargs)
-        except BaseException as exc:  # sent back, raised again by the caller; nothing more is run
-            results.send(_picklable(exc))
+        if job == _DRAIN:
+            continue
+        outcome = _call(job)
+        results.send(outcome)
+        if outcome is not None:  # sent back, raised again by the caller; nothing more is run
             return
-        results.send(None)
+
+
+#: sent by the caller as it starts waiting: every usable CPU may write from then on
+_DRAIN = "drain"
+
+
+def _call(job):
+    """Run one ``(fn, args, kwargs)``: ``None``, or the exception it raised (picklable)."""
+    fn, args, kwargs = job
+    try:
+        fn(*args, **kwargs)
+    except BaseException as exc:
+        return _picklable(exc)
+    return None
+
+
+def _can_fork():
+    import sys
+
+    return hasattr(os, "fork") and sys.platform.startswith("linux")
+
+
+def _serve_forking(jobs, results):
+    """:func:`_serve`'s loop with each call in a forked child (at most one while the caller is busy)."""
+    import collections
+    import signal
+    from multiprocessing.connection import wait
+
+    queued, running = collections.deque(), {}  # running: the child's result connection -> its pid
+
+    def stop_children(*_):
+        for pid in running.values():
+            try:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+            except OSError:
+                pass
+        running.clear()
+
+    def stopped(signum, frame):  # OutputWriter.stop terminates this process: its children go with it
+        stop_children()
+        os._exit(1)
+
+    signal.signal(signal.SIGTERM, stopped)
+    cpus, caller_waits = usable_cpus(), False
+    while True:
+        for conn in wait([*running, jobs]):
+            if conn is jobs:
+                try:
+                    job = jobs.recv()
+                except EOFError:  # the caller is gone: nothing more to send results to
+                    stop_children()
+                    return
+                caller_waits = job == _DRAIN
+                if not caller_waits:
+                    queued.append(job)
+                continue
+            try:
+                outcome = conn.recv()
+            except EOFError:
+                outcome = RuntimeError("an output-writing process stopped before it finished")
+            os.waitpid(running.pop(conn), 0)
+            conn.close()
+            results.send(outcome)
+            if outcome is not None:  # raised again by the caller; nothing more is run
+                stop_children()
+                return
+        while queued and len(running) < (cpus if caller_waits else max(1, cpus - 1)):
+            conn, pid = _fork_call(queued.popleft())
+            running[conn] = pid
+
+
+def _fork_call(job):
+    """Run ``job`` in a forked child; returns (the connection its outcome arrives on, its pid)."""
+    import multiprocessing
+    import signal
+
+    receive, send = multiprocessing.Pipe(duplex=False)
+    pid = os.fork()
+    if pid == 0:  # the child: run the call, send its outcome, leave without any teardown
+        status = 1
+        try:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            receive.close()
+            send.send(_call(job))
+            status = 0
+        finally:
+            os._exit(status)
+    send.close()
+    return receive, pid
 
 
 def _picklable(exc):
