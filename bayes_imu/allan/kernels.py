@@ -269,6 +269,9 @@ def phase_from_rate(y, offset):
     y = np.ascontiguousarray(y, dtype=float)
     out = np.empty(y.size + 1)
     out[0] = 0.0
+    if threads_for(y.size) == 1:  # one thread: the sequential pass itself, reading the record once instead of twice
+        kernels["phase_chunk"](y, float(offset), out[1:], _PHASE_BLOCK, np.zeros(2))
+        return out
     with threads_for_pass(y.size):
         bases = kernels["chunk_bases"](kernels["chunk_totals"](y, float(offset), _PHASE_BLOCK))
         kernels["phase_blocks"](y, float(offset), bases, _PHASE_BLOCK, out[1:])
