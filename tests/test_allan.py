@@ -287,3 +287,19 @@ def test_scaled_is_the_allan_variance_of_the_scaled_log(rng):
         np.testing.assert_allclose(getattr(scaled, name), getattr(direct, name), rtol=1e-12)
     np.testing.assert_allclose(scaled.segments.avar, direct.segments.avar, rtol=1e-12)
     assert allan_variance(y, rate_hz=100.0).scaled(1.0).segments is not None
+
+
+def test_chi2_interval_is_scipy_stats_chi2():
+    """The interval's chi-squared quantiles (taken from scipy.special, so that the Allan variance does
+    not import scipy.stats) are scipy.stats.chi2's, from 0.5 to 1e7 degrees of freedom."""
+    from scipy import stats
+
+    from bayes_imu.allan.estimator import chi2_interval
+
+    edf = np.geomspace(0.5, 1e7, 301)
+    avar = np.linspace(1.0, 2.0, edf.size)
+    for confidence in (0.683, 0.9, 0.999):
+        tail = (1.0 - confidence) / 2.0
+        low, high = chi2_interval(avar, edf, confidence)
+        np.testing.assert_allclose(low, edf * avar / stats.chi2.isf(tail, edf), rtol=1e-14)
+        np.testing.assert_allclose(high, edf * avar / stats.chi2.ppf(tail, edf), rtol=1e-14)

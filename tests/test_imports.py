@@ -35,3 +35,33 @@ from bayes_imu.allan.outofcore import allan_variance_file
         done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
     saved = [line for line in (done.stdout + done.stderr).splitlines() if "saved" in line]
     assert not saved, "compiled again in a second process:\n" + "\n".join(saved)
+
+
+def test_a_fit_does_not_import_scipy_stats():
+    """scipy.stats (0.3 s to import) stays out of a fit command's process: emcee is imported without
+    it (its KDE move imports it on first use, and still works), the intervals and tests use
+    scipy.special. The output process, which needs ArviZ, imports it there."""
+    code = """
+import sys, json
+import numpy as np
+from bayes_imu.cli.main import main
+rng = np.random.default_rng(1)
+y = rng.standard_normal(20000) + 0.01 * np.cumsum(rng.standard_normal(20000))
+np.savetxt(sys.argv[1] + "/g.csv", y, header="g", comments="")
+assert main(["fit", sys.argv[1] + "/g.csv", "--column", "g", "--rate", "100", "--out", sys.argv[1] + "/o", "--quiet"]) == 0
+loaded = "scipy.stats" in sys.modules
+import emcee
+s = emcee.EnsembleSampler(8, 1, lambda x: -0.5 * float(x[0]) ** 2, moves=emcee.moves.KDEMove())
+s.run_mcmc(np.linspace(-1, 1, 8)[:, None], 5)
+print(json.dumps([loaded, "scipy.stats" in sys.modules]))
+"""
+    import json
+    import os
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        env = {**os.environ, "BAYES_IMU_OUTPUT_PROCESS": "1"}
+        done = subprocess.run([sys.executable, "-c", code, folder], capture_output=True, text=True, env=env,
+                              timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout.splitlines()[-1]) == [False, True]

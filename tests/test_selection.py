@@ -134,3 +134,26 @@ def test_can_skip_refuses_a_mode_the_optimiser_stopped_short_of(rng):
     low_z, low_cov = laplace_log_evidence(post, short)
     assert low_z < log_z - 10.0  # the Laplace estimate there is far too low
     assert not can_skip(post, short, low_z, low_cov, low_z + LAPLACE_SCREEN + 1.0, np.random.default_rng(1))
+
+
+def test_importance_proposal_is_scipy_multivariate_t_and_logistic():
+    """The proposal of the importance sampler (written without scipy.stats) draws and weighs as
+    scipy.stats.multivariate_t and scipy.stats.logistic do from the same Generator state."""
+    from scipy import stats
+
+    from bayes_imu.inference.selection import _StudentT, _logistic_logpdf
+
+    b = np.array([[1.4, 0.0, 0.0], [0.2, 0.7, 0.0], [-0.1, 0.05, 1e-2]])
+    a = b @ b.T  # a covariance with one small eigenvalue
+    loc = np.array([0.5, -1.0, 3.0])
+    ours = _StudentT(loc, a, 4.0)
+    draws = ours.rvs(500, np.random.default_rng(7))
+    ref = stats.multivariate_t(loc=loc, shape=a, df=4.0, seed=np.random.default_rng(7)).rvs(size=500)
+    np.testing.assert_allclose(draws, ref, rtol=1e-13, atol=0)
+    u = np.vstack([draws, loc + 50.0])
+    np.testing.assert_allclose(ours.logpdf(u), stats.multivariate_t(loc=loc, shape=a, df=4.0).logpdf(u), rtol=1e-13)
+    x = np.concatenate([np.linspace(-800.0, 800.0, 4001), [0.0]])
+    np.testing.assert_allclose(_logistic_logpdf(x), stats.logistic.logpdf(x), rtol=1e-14)
+    assert np.isfinite(_logistic_logpdf(x)).all()
+    np.testing.assert_array_equal(np.random.default_rng(3).logistic(size=(5, 2)),
+                                  stats.logistic.rvs(size=(5, 2), random_state=np.random.default_rng(3)))

@@ -47,6 +47,7 @@ from ..io.readers import INCREMENT_UNITS, SI_UNITS, UNITS, read_json_object
 from ..inference.archive import prepare_netcdf, write_netcdf
 from ..inference.fit import DISCREPANCY_MODES
 from ..inference.likelihood import LIKELIHOODS
+from ..inference.sampling import import_emcee
 from ..noise import BIAS_STARTS, TERMS
 from ..io.timebase import GAP_POLICIES, RATE_RANGE
 
@@ -352,6 +353,7 @@ def _fit(args):
     # the worker imports the plotting libraries while this process reads and fits the log
     # the worker imports ArviZ and the plotting libraries while this process reads and fits the log (a second
     # worker for the figures alone was tried: on 2 cores it slowed the fit more than it saved)
+    import_emcee()  # before the writer's thread starts: emcee without scipy.stats (see import_emcee)
     with OutputWriter(warm=(prepare_netcdf, import_plotting)) as writer:
         columns, results, unit, info = allan_results(SourceOptions.from_namespace(args), "fit")
         info["log"] = _log_label(args)

@@ -10,7 +10,7 @@ half of one.
 
 import numpy as np
 
-__all__ = ["AUTOCORR_MULTIPLE", "ensemble_sampler", "long_enough", "burn_and_thin", "one_blas_thread"]
+__all__ = ["AUTOCORR_MULTIPLE", "ensemble_sampler", "import_emcee", "long_enough", "burn_and_thin", "one_blas_thread"]
 
 #: chain length, in integrated autocorrelation times, before the sampler may stop
 AUTOCORR_MULTIPLE = 50
@@ -20,13 +20,48 @@ def ensemble_sampler(target, start, rng):
     """``emcee.EnsembleSampler`` for the vectorised log density ``target`` from walkers ``start``
     ``(n_walkers, n_par)``; emcee's legacy RandomState is seeded from the Generator ``rng`` (no
     global random state)."""
-    import emcee
+    emcee = import_emcee()
 
     n_walkers, n_par = start.shape
     moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.StretchMove(), 0.2)]
     sampler = emcee.EnsembleSampler(n_walkers, n_par, target, vectorize=True, moves=moves)
     sampler.random_state = np.random.RandomState(rng.integers(2**32)).get_state()
     return sampler
+
+
+def import_emcee():
+    """``emcee``, without loading scipy.stats for it where nothing else has.
+
+    emcee's KDE move (not used here) imports ``scipy.stats.gaussian_kde`` as emcee is imported,
+    and scipy.stats costs about 0.3 s, a tenth of a command's run; nothing else in a fit needs
+    it. So where scipy.stats is not loaded yet and no other thread runs (another thread could
+    be importing it at that moment), emcee is imported with scipy.stats marked absent, which
+    emcee handles (its KDE move is then without ``gaussian_kde``), and the move is given back a
+    ``gaussian_kde`` that imports scipy.stats when called: :class:`emcee.moves.KDEMove` works
+    as before (tested).
+    """
+    import sys
+    import threading
+
+    if "emcee" in sys.modules or "scipy.stats" in sys.modules or threading.active_count() > 1:
+        import emcee
+
+        return emcee
+    sys.modules["scipy.stats"] = None  # "import of scipy.stats halted": emcee's KDE move does without it
+    try:
+        import emcee
+    finally:
+        del sys.modules["scipy.stats"]
+    if getattr(emcee.moves.kde, "gaussian_kde", None) is None:
+        emcee.moves.kde.gaussian_kde = _gaussian_kde
+    return emcee
+
+
+def _gaussian_kde(*args, **kwargs):
+    """``scipy.stats.gaussian_kde``, imported when first called (emcee's KDE move, see :func:`import_emcee`)."""
+    from scipy.stats import gaussian_kde
+
+    return gaussian_kde(*args, **kwargs)
 
 
 def long_enough(iteration, tau_max, tau_previous):
