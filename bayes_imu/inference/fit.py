@@ -30,7 +30,7 @@ from ..errors import ConvergenceWarning, InputError
 from .likelihood import LIKELIHOODS, LogPosterior, default_bounds
 from ..noise.avar_forms import BASE_TERMS, PARAMETER_UNITS, NoiseModel
 from .diagnostics import summary as convergence_summary
-from .sampling import burn_and_thin, ensemble_sampler, long_enough, one_blas_thread
+from .sampling import autocorr_time, burn_and_thin, ensemble_sampler, long_enough, one_blas_thread
 from .stationarity import Stationarity, stationarity_check
 from .selection import (
     Adequacy,
@@ -635,7 +635,7 @@ def _sample(post, start, rng, max_steps, progress=False):
     with progress_bar(desc="sampling", unit="step", enabled=progress) as bar:
         while sampler.iteration < max_steps:
             state = sampler.run_mcmc(state, chunk, progress=False)
-            tau_max = float(np.max(sampler.get_autocorr_time(tol=0)))
+            tau_max = float(np.max(autocorr_time(sampler.get_chain())))
             bar.update(chunk)
             bar.set_postfix_str(f"autocorrelation {tau_max:.0f} steps")
             settled = long_enough(sampler.iteration, tau_max, tau_old)

@@ -49,7 +49,7 @@ from .._version import __version__
 from ..allan.estimator import AllanResult
 from ..errors import ConvergenceWarning, InputError
 from .fit import FitResult, fit_allan, score_models
-from .sampling import burn_and_thin, ensemble_sampler, long_enough
+from .sampling import autocorr_time, burn_and_thin, ensemble_sampler, long_enough
 from .likelihood import default_bounds
 from ..noise.avar_forms import PARAMETER_UNITS, NoiseModel
 from .selection import CandidateScore, select
@@ -409,7 +409,7 @@ def _sample_hyper(target, rng, max_steps):
     state, tau_old, converged, tau_max = start, np.inf, False, np.nan
     while sampler.iteration < max_steps:
         state = sampler.run_mcmc(state, 500, progress=False)
-        tau_max = float(np.max(sampler.get_autocorr_time(tol=0)))
+        tau_max = float(np.max(autocorr_time(sampler.get_chain())))
         if long_enough(sampler.iteration, tau_max, tau_old):
             converged = True
             break
