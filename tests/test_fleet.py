@@ -56,9 +56,27 @@ def test_local_cluster_matches_serial_and_isolates_failures(tmp_path, logs, caps
             serial[path.stem].replace(str(tmp_path / "serial" / path.stem).encode(), b"")
 
 
-def test_existing_scheduler_and_serial_mode(tmp_path, logs):
+def test_existing_scheduler_and_serial_mode(tmp_path, logs, monkeypatch):
+    """Run as a user runs it (no output-process setting): a Dask worker is a daemonic process, which may
+    not start the fit's output process (it failed every log before); a serial batch writes in-process
+    too (a new output process per log would import ArviZ and matplotlib again each time)."""
     from dask.distributed import LocalCluster
 
+    import sys
+
+    from bayes_imu.report.worker import WORKERS_ENV, OutputWriter
+
+    cli = sys.modules["bayes_imu.cli.main"]  # the module (the package's attribute `main` is the function)
+
+    monkeypatch.delenv(WORKERS_ENV, raising=False)
+    chosen = []
+
+    class Recording(OutputWriter):
+        def __init__(self, background=None, warm=()):
+            chosen.append(background)
+            super().__init__(background, warm)
+
+    monkeypatch.setattr(cli, "OutputWriter", Recording)
     paths, _ = logs
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         assert main(["fit-batch", *map(str, paths[:2]), *OPTIONS, "--scheduler", cluster.scheduler_address,
@@ -70,6 +88,7 @@ def test_existing_scheduler_and_serial_mode(tmp_path, logs):
         local = json.loads((tmp_path / "local" / path.stem / "summary.json").read_text())
         assert remote["parameters"] == local["parameters"]
     assert json.loads((tmp_path / "local" / "batch.json").read_text())["scheduler"] == "serial"
+    assert chosen == [False, False]  # the serial batch's two fits, in this process
 
 
 def test_batch_refuses_busy_output_and_bad_scheduler(tmp_path, logs, capsys, monkeypatch):

@@ -208,3 +208,20 @@ def test_warm_ups_leave_nothing_behind(tmp_path, monkeypatch):
     import_plotting()
     assert list(tmp_path.iterdir()) == []
     assert pyplot().get_fignums() == []
+
+
+def _report_default(conn):
+    conn.send(background_default())
+
+
+def test_no_output_process_from_a_daemonic_process(monkeypatch):
+    """A daemonic process (a Dask or multiprocessing pool worker) may not start children: there the
+    outputs are written in-process, whatever the environment variable asks."""
+    monkeypatch.setenv(WORKERS_ENV, "1")
+    context = multiprocessing.get_context("spawn")
+    receive, send = context.Pipe(duplex=False)
+    child = context.Process(target=_report_default, args=(send,), daemon=True)
+    child.start()
+    assert receive.recv() is False
+    child.join()
+    assert background_default() is True  # the same setting, not daemonic

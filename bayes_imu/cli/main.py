@@ -354,7 +354,9 @@ def _fit(args):
     # the worker imports ArviZ and the plotting libraries while this process reads and fits the log (a second
     # worker for the figures alone was tried: on 2 cores it slowed the fit more than it saved)
     import_emcee()  # before the writer's thread starts: emcee without scipy.stats (see import_emcee)
-    with OutputWriter(warm=(prepare_netcdf, import_plotting)) as writer:
+    # a batch's fits write in their own process: it has its own parallelism, and its imports are made once
+    background = False if getattr(args, "in_batch", False) else None
+    with OutputWriter(background=background, warm=(prepare_netcdf, import_plotting)) as writer:
         columns, results, unit, info = allan_results(SourceOptions.from_namespace(args), "fit")
         info["log"] = _log_label(args)
         terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
@@ -644,12 +646,14 @@ def _cmd_fit_batch(args):
 
 
 def _fleet_fit(job):
-    """One log of ``fit-batch`` (the fleet's task): exactly ``bayes-imu fit`` with the job's arguments."""
+    """One log of ``fit-batch`` (the fleet's task): exactly ``bayes-imu fit`` with the job's arguments, its outputs
+    written in this process."""
     try:
         args = _build_parser().parse_args(list(job.argv))
     except _UsageError as exc:
         raise InputError(str(exc)) from None
     args.progress = False
+    args.in_batch = True
     with warnings.catch_warnings():
         warnings.simplefilter("default")
         warnings.showwarning = _one_line_warning

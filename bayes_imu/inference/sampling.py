@@ -33,7 +33,7 @@ def import_emcee():
     """``emcee``, without loading scipy.stats for it where nothing else has.
 
     emcee's KDE move (not used here) imports ``scipy.stats.gaussian_kde`` as emcee is imported,
-    and scipy.stats costs about 0.3 s, a tenth of a command's run; nothing else in a fit needs
+    and scipy.stats costs about 0.3 s (timed once), a tenth of a command's run; nothing else in a fit needs
     it. So where scipy.stats is not loaded yet and no other thread runs (another thread could
     be importing it at that moment), emcee is imported with scipy.stats marked absent, which
     emcee handles (its KDE move is then without ``gaussian_kde``), and the move is given back a
@@ -70,7 +70,7 @@ def autocorr_time(chain, c=5):
     autocorrelation functions averaged, Sokal's window with ``c = 5``), with real FFTs.
 
     emcee transforms each walker's series as complex numbers; a real transform does half the
-    work (about 1.7x faster here, where long chains are checked every 250 steps); the times
+    work (1.7x faster in a one-off timing; long chains are checked every 250 steps); the times
     agree with emcee's to about 1e-15 relative (tested).
     """
     from emcee.autocorr import auto_window

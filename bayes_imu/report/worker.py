@@ -37,12 +37,17 @@ def usable_cpus():
 
 
 def background_default():
-    """Whether outputs go to a worker process: :data:`WORKERS_ENV` if set, else two or more usable CPUs."""
+    """Whether outputs go to a worker process: :data:`WORKERS_ENV` if set, else two or more usable CPUs;
+    never from a daemonic process (a Dask or multiprocessing worker), which may not start one."""
+    import multiprocessing
+
     value = os.environ.get(WORKERS_ENV, "").strip()
-    if value in ("0", "1"):
-        return value == "1"
-    if value:
+    if value and value not in ("0", "1"):
         raise InputError(f"environment variable {WORKERS_ENV}={value!r}: expected 0 or 1")
+    if multiprocessing.current_process().daemon:
+        return False
+    if value:
+        return value == "1"
     return usable_cpus() >= 2
 
 
