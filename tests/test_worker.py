@@ -225,3 +225,29 @@ def test_no_output_process_from_a_daemonic_process(monkeypatch):
     assert receive.recv() is False
     child.join()
     assert background_default() is True  # the same setting, not daemonic
+
+
+def test_python_callers_of_main_write_in_process_unless_asked(tmp_path, rng, monkeypatch):
+    """main() from Python (no environment setting) writes a fit's outputs in the calling process: a spawned
+    output process re-runs the caller's script, which without a __main__ guard ran the command again there
+    (an 'internal error' printed by the child). The executable and an explicit setting use the worker."""
+    import sys as _sys
+
+    cli = _sys.modules["bayes_imu.cli.main"]
+    chosen = []
+
+    class Recording(OutputWriter):
+        def __init__(self, background=None, warm=()):
+            chosen.append(background_default() if background is None else background)
+            super().__init__(False, ())
+
+    monkeypatch.setattr(cli, "OutputWriter", Recording)
+    log = tmp_path / "log.csv"
+    log.write_text("gyro\n" + "\n".join(f"{v:.9g}" for v in 0.05 * rng.standard_normal(4096)) + "\n")
+    monkeypatch.delenv(WORKERS_ENV, raising=False)
+    args = ["fit", str(log), "--column", "gyro", "--rate", "100", "--terms", "white", "--quiet", "--out"]
+    assert main(args + [str(tmp_path / "a")]) == 0
+    monkeypatch.setattr(cli, "_EXECUTABLE", True)  # as bayes_imu.cli:command sets it
+    assert main(args + [str(tmp_path / "b")]) == 0
+    assert chosen == [False, background_default()]
+    assert not _children()
