@@ -4,6 +4,7 @@ steps (exact), the widening of the drift bands, the archive, and the command's w
 
 import dataclasses
 import json
+import re
 
 import numpy as np
 import pytest
@@ -108,6 +109,15 @@ def test_fit_command_warns_when_the_noise_changes(tmp_path, capsys, rng):
                  "--out", str(tmp_path / "o")]) == 0
     err = capsys.readouterr().err
     assert "the noise changes during the log" in err and "drift bands include that spread" in err
+    assert re.search(r"parts differ by (1\.9|2|2\.1)x in Allan deviation", err)  # noise doubled half-way
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert summary["adequacy"]["stationarity"]["stationary"] is False
     assert summary["adequacy"]["stationarity"]["adev_ratio_at_worst_tau"] == pytest.approx(2.0, rel=0.05)
+
+
+def test_small_changes_are_given_in_percent():
+    """A long log resolves a change of a few percent: "differ by 1x" hid it; below 1.1x it reads in percent."""
+    from bayes_imu.cli.main import _ratio_text
+
+    assert _ratio_text(1.013) == "1.3%" and _ratio_text(1.0) == "0%"
+    assert _ratio_text(1.1) == "1.1x" and _ratio_text(2.04) == "2x"

@@ -413,7 +413,7 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
     steady = result.stationarity
     if steady is not None and not steady.stationary:
         _warn(f"{column}: the noise changes during the log: its {steady.n_segments} parts differ by "
-              f"{steady.largest_ratio():.2g}x in Allan deviation at tau = {steady.worst_tau_s:g} s "
+              f"{_ratio_text(steady.largest_ratio())} in Allan deviation at tau = {steady.worst_tau_s:g} s "
               f"(p = {steady.p_value:.2g}; warm-up?), with a spread of up to x{steady.spread_factor():.2g} (1 sigma) "
               "at longer tau; drift bands include that spread")
     label = f"{Path(_log_label(args)).name}: {column}"
@@ -426,6 +426,11 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
     writer.submit(plot_corner, result, out / "corner.png", unit=unit)
     writer.submit(write_netcdf, result, out / "posterior.nc")
     return summary
+
+
+def _ratio_text(ratio):
+    """``1.3x``; below 1.1x a percentage (``2.4%``): a long log resolves a small change, which "1x" would hide."""
+    return f"{100.0 * (ratio - 1.0):.2g}%" if ratio < 1.1 else f"{ratio:.2g}x"
 
 
 def _say_datasheet(args, block):
