@@ -6,6 +6,7 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -248,4 +249,26 @@ def test_python_callers_of_main_write_in_process_unless_asked(tmp_path, rng, mon
     monkeypatch.setattr(cli, "_EXECUTABLE", True)  # as bayes_imu.cli:command sets it
     assert main(args + [str(tmp_path / "b")]) == 0
     assert chosen == [False, background_default()]
+    assert not _children()
+
+
+def _slow_warm_up(folder):
+    import tempfile
+
+    with tempfile.TemporaryDirectory(dir=folder):
+        (Path(folder) / "started").touch()
+        time.sleep(30)
+
+
+def test_stopped_during_its_warm_up_the_worker_leaves_no_temporary_folder(tmp_path):
+    """The caller can finish (or fail) while the worker still warms up (prepare_netcdf writes into a
+    temporary folder): stopped then, the worker removes that folder on its way out."""
+    import functools
+
+    writer = OutputWriter(background=True, warm=(functools.partial(_slow_warm_up, str(tmp_path)),))
+    deadline = time.perf_counter() + 60
+    while not (tmp_path / "started").exists() and time.perf_counter() < deadline:
+        time.sleep(0.05)
+    writer.stop()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["started"]
     assert not _children()

@@ -174,8 +174,12 @@ def _serve(jobs, results, warm):
     ArviZ file are written side by side. Elsewhere the calls run here, one after the other.
     """
     import signal
+    import sys
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the caller, which stops this process
+    # stopped (OutputWriter.stop) while warming up or writing: leave through SystemExit, so that temporary
+    # folders and open files are cleaned up as their `with` blocks end
+    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(1))
     for fn in warm:
         try:
             fn()
