@@ -219,6 +219,8 @@ def _call(job):
 
 
 def _can_fork():
+    """Whether calls run in forked children: Linux only (macOS's system libraries are not fork-safe once
+    loaded; Windows has no fork)."""
     import sys
 
     return hasattr(os, "fork") and sys.platform.startswith("linux")
