@@ -63,8 +63,10 @@ BIAS_T_MAX_RECORD = 0.25
 
 
 @lru_cache(maxsize=64)
-def _series_coefficients(ms):
-    """``c[j, i] = -b_{j+3}(m_i) / ((j+3)! m_i^j)``, exact rationals rounded once."""
+def _series_coefficients(grid):
+    """``c[j, i] = -b_{j+3}(m_i) / ((j+3)! m_i^j)``, exact rationals rounded once; ``grid`` is the cluster
+    sizes' float64 bytes (a cheap cache key: a likelihood calls :func:`gm_avar` with one grid)."""
+    ms = [int(v) for v in np.frombuffer(grid)]
     out = np.empty((_AVAR_TERMS, len(ms)))
     for i, m in enumerate(ms):
         for j in range(_AVAR_TERMS):
@@ -74,7 +76,6 @@ def _series_coefficients(ms):
     return out
 
 
-_coefficients_by_grid = {}  # mf.tobytes() -> _series_coefficients: a likelihood calls gm_avar with one grid
 _avar_kernel = None  # compiled on first use (numba imported lazily), cached on disk
 
 
@@ -88,11 +89,8 @@ def gm_avar(mf, variance, time_constant, dt):
     may differ from the C library's in the last bits, which the closed form's cancellation
     near the switch amplifies to ~1e-13).
     """
-    mf = np.asarray(mf, float)
-    key = mf.tobytes()
-    coeffs = _coefficients_by_grid.get(key)
-    if coeffs is None:
-        coeffs = _coefficients_by_grid[key] = _series_coefficients(tuple(int(v) for v in mf))
+    mf = np.ascontiguousarray(mf, float)
+    coeffs = _series_coefficients(mf.tobytes())
     s2, t = np.asarray(variance, float), np.asarray(time_constant, float)
     if s2.shape != t.shape:
         s2, t = np.broadcast_arrays(s2, t)
