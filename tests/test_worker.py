@@ -114,7 +114,9 @@ def test_environment_variable_chooses_and_is_checked(monkeypatch):
     monkeypatch.setenv(WORKERS_ENV, "0")
     assert background_default() is False
     monkeypatch.setenv(WORKERS_ENV, "1")
-    assert background_default() is True
+    assert background_default() is True and background_default(automatic=False) is True
+    monkeypatch.delenv(WORKERS_ENV)
+    assert background_default(automatic=False) is False  # not asked for: only the variable decides
     monkeypatch.setenv(WORKERS_ENV, "yes")
     with pytest.raises(InputError, match=f"{WORKERS_ENV}='yes': expected 0 or 1"):
         background_default()

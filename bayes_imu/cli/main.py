@@ -36,7 +36,7 @@ import numpy as np
 from .._version import __version__
 from ..report.output import safe_folder_name, staged_file, staged_folder
 from ..report.plots import import_plotting, plot_allan_fit, plot_corner
-from ..report.worker import WORKERS_ENV, OutputWriter
+from ..report.worker import OutputWriter, background_default
 from .._progress import show_progress
 from .sources import SourceOptions, allan_results
 from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, SENSOR_QUANTITIES
@@ -350,17 +350,13 @@ def _cmd_fit(args):
 
 
 def _fit(args):
-    # the worker imports the plotting libraries while this process reads and fits the log
     # the worker imports ArviZ and the plotting libraries while this process reads and fits the log (a second
     # worker for the figures alone was tried: on 2 cores it slowed the fit more than it saved)
     import_emcee()  # before the writer's thread starts: emcee without scipy.stats (see import_emcee)
     # a batch's fits write in their own process: it has its own parallelism, and its imports are made once.
     # Python callers of main() do too, unless the environment asks (a spawned process re-runs the caller's
     # script, which without a __main__ guard would run the command again there)
-    if getattr(args, "in_batch", False):
-        background = False
-    else:
-        background = None if _EXECUTABLE or os.environ.get(WORKERS_ENV, "").strip() else False
+    background = False if getattr(args, "in_batch", False) else background_default(automatic=_EXECUTABLE)
     with OutputWriter(background=background, warm=(prepare_netcdf, import_plotting)) as writer:
         columns, results, unit, info = allan_results(SourceOptions.from_namespace(args), "fit")
         info["log"] = _log_label(args)

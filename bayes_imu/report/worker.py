@@ -36,9 +36,11 @@ def usable_cpus():
         return os.cpu_count() or 1
 
 
-def background_default():
-    """Whether outputs go to a worker process: :data:`WORKERS_ENV` if set, else two or more usable CPUs;
-    never from a daemonic process (a Dask or multiprocessing worker), which may not start one."""
+def background_default(automatic=True):
+    """Whether outputs go to a worker process: :data:`WORKERS_ENV` if set, else (``automatic``) two or more
+    usable CPUs; never from a daemonic process (a Dask or multiprocessing worker), which may not start one.
+    ``automatic=False``: only where the variable asks (a Python caller of the command, whose script a
+    spawned process would run again)."""
     import multiprocessing
 
     value = os.environ.get(WORKERS_ENV, "").strip()
@@ -48,7 +50,7 @@ def background_default():
         return False
     if value:
         return value == "1"
-    return usable_cpus() >= 2
+    return automatic and usable_cpus() >= 2
 
 
 class OutputWriter:
