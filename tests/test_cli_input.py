@@ -301,10 +301,24 @@ def test_stdin_and_pipes_are_read_as_streams(tmp_path, monkeypatch):
     assert main([args[0], "-", *args[1:], str(tmp_path / "stdin")]) == 0
     fifo = tmp_path / "pipe.csv"
     os.mkfifo(fifo)
-    writer = threading.Thread(target=lambda: fifo.write_text(GOOD))
+    # the writer must hold the pipe open before the command looks (a pipe with no writer is refused at
+    # once): a placeholder reader lets its open return, and the command starts once it has
+    placeholder = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
+    opened = threading.Event()
+
+    def write():
+        with open(fifo, "w") as f:
+            opened.set()
+            f.write(GOOD)
+
+    writer = threading.Thread(target=write)
     writer.start()
-    assert main([args[0], str(fifo), *args[1:], str(tmp_path / "pipe")]) == 0
-    writer.join()
+    try:
+        assert opened.wait(10)
+        assert main([args[0], str(fifo), *args[1:], str(tmp_path / "pipe")]) == 0
+    finally:
+        writer.join()
+        os.close(placeholder)
     reference = (tmp_path / "file" / "allan.csv").read_text()
     assert (tmp_path / "stdin" / "allan.csv").read_text() == reference
     assert (tmp_path / "pipe" / "allan.csv").read_text() == reference
