@@ -222,7 +222,8 @@ def test_thread_count_follows_the_record_and_changes_no_bit(rng, monkeypatch):
 
     assert kernels.threads_for(1000) == 1 and kernels.threads_for(kernels.SAMPLES_PER_THREAD - 1) == 1
     assert kernels.threads_for(10**12) == numba.config.NUMBA_NUM_THREADS
-    x = kernels.phase_from_rate(rng.standard_normal(300_000), 0.0)
+    # a record the JIT kernels sum (shorter ones go to the precompiled kernels, on one thread)
+    x = kernels.phase_from_rate(rng.standard_normal(kernels.PRECOMPILED_BELOW + 1000), 0.0)
     ms = np.array([1, 4, 16, 1000, 40_000])
     one = kernels.second_difference_sums(x, ms)
     before = numba.get_num_threads()
@@ -258,7 +259,8 @@ def test_parallel_running_sum_equals_the_sequential_pass(rng, monkeypatch):
 
     from bayes_imu.allan import kernels
 
-    y = rng.standard_normal(2**20 + 12_345) * 1e3 + 5e6  # a large offset and a length not a block multiple
+    # a large offset, a length not a block multiple, long enough for the JIT kernels' parallel pass
+    y = rng.standard_normal(kernels.PRECOMPILED_BELOW + 12_345) * 1e3 + 5e6
     offset = float(np.mean(y))
     sequential = kernels.phase_chunk(y, offset, np.zeros(2))
     for n in range(1, numba.config.NUMBA_NUM_THREADS + 1):
@@ -303,3 +305,45 @@ def test_chi2_interval_is_scipy_stats_chi2():
         low, high = chi2_interval(avar, edf, confidence)
         np.testing.assert_allclose(low, edf * avar / stats.chi2.isf(tail, edf), rtol=1e-14)
         np.testing.assert_allclose(high, edf * avar / stats.chi2.ppf(tail, edf), rtol=1e-14)
+
+
+def test_precompiled_kernels_agree_with_the_jit_build(rng):
+    """The ahead-of-time build (``bayes_imu._compiled``, setup.py) of the same sources as numba's JIT build:
+    built wherever numba has its AOT compiler; the running sums, lag sums and Gauss-Markov AVAR rows bit for
+    bit (strict IEEE arithmetic in both), the fast-math sums of squares to 1e-14 relative (the two builds
+    vectorise them for different CPUs)."""
+    import importlib.util
+
+    from bayes_imu.allan import _sources, kernels
+    from bayes_imu.noise._sources import avar_rows
+
+    if importlib.util.find_spec("numba.pycc") is not None:
+        assert kernels.precompiled() is not None, "numba has its AOT compiler but bayes_imu._compiled was not built"
+    aot = kernels.precompiled()
+    if aot is None:
+        pytest.skip("this numba has no AOT compiler: every kernel is JIT-compiled")
+    import numba
+
+    jit = kernels._compile()
+    y = rng.standard_normal(300_001) * 2.0 + 7.0
+    a, b = np.empty(y.size), np.empty(y.size)
+    aot.phase_chunk(y, 7.0, a, 256, np.zeros(2))
+    jit["phase_chunk"](y, 7.0, b, 256, np.zeros(2))
+    np.testing.assert_array_equal(a, b)
+    ms = np.array([1, 2, 4, 8, 16, 1024, 65_536, 70_001], dtype=np.int64)
+    np.testing.assert_allclose(aot.sums_all(a, ms, 1 << 16), jit["sums_all"](a, ms, 1 << 16), rtol=1e-14)
+    assert aot.sum3(a[:-20], a[10:-10], a[20:], 1 << 14) == pytest.approx(
+        jit["sum3"](a[:-20], a[10:-10], a[20:], 1 << 14), rel=1e-14)
+    table = np.cumsum(rng.random(4 * 64 + 1))
+    args = (table, np.array([1, 4, 16, 64], dtype=np.int64), 5000, 0.3, np.array([0.5, 2.0]), np.array([1e-3, 0.2]))
+    np.testing.assert_array_equal(aot.pair_sums(*args), jit["pair_sums"](*args))
+    mf = np.array([1.0, 2.0, 4.0, 64.0, 4096.0])
+    x = np.array([1e-9, 1e-4, 0.3, 5.0])
+    coeffs = rng.random((12, mf.size))
+    fy = -np.expm1(-np.outer(x, mf))
+    rows = (mf, coeffs, np.ones(4), x, -np.expm1(-x), -np.expm1(-2 * x), fy, 0.5)
+    out_aot, out_jit = np.empty((4, mf.size)), np.empty((4, mf.size))
+    aot.avar_rows(*rows, out_aot)
+    numba.njit(avar_rows)(*rows, out_jit)
+    np.testing.assert_array_equal(out_aot, out_jit)
+    assert set(_sources.FASTMATH) == {"sum3", "sums_all"}

@@ -76,7 +76,7 @@ def _series_coefficients(grid):
     return out
 
 
-_avar_kernel = None  # compiled on first use (numba imported lazily), cached on disk
+_avar_kernel = None  # set on first use (:func:`_kernel`)
 
 
 def gm_avar(mf, variance, time_constant, dt):
@@ -104,32 +104,22 @@ def gm_avar(mf, variance, time_constant, dt):
 
 
 def _kernel():
+    """The compiled AVAR rows (:func:`bayes_imu.noise._sources.avar_rows`): the ahead-of-time build where
+    the package has it (no numba import), else numba's JIT build, cached on disk."""
     global _avar_kernel
     if _avar_kernel is None:
-        import numba
+        from ..allan.kernels import precompiled
 
-        _avar_kernel = numba.njit(cache=True)(_avar_rows_py)
+        module = precompiled()
+        if module is not None:
+            _avar_kernel = module.avar_rows
+        else:
+            import numba
+
+            from ._sources import avar_rows
+
+            _avar_kernel = numba.njit(cache=True)(avar_rows)
     return _avar_kernel
-
-
-def _avar_rows_py(mf, coeffs, s2, x, fx, e2, fy, switch, out):  # pragma: no cover - compiled by numba
-    """``out[i, j]`` = AVAR at ``mf[j]`` of row ``i`` (``x = dt/T``, ``fx = 1 - e^-x``, ``e2 = 1 - e^-2x``,
-    ``fy = 1 - e^-(m x)``): the exact series below ``m x = switch``, else the closed form."""
-    n_terms = coeffs.shape[0]
-    for i in range(x.size):
-        ratio = x[i] / fx[i] if fx[i] > 0 else 1.0
-        for j in range(mf.size):
-            m = mf[j]
-            y = m * x[i]
-            if y <= switch:
-                ys = -y
-                poly = coeffs[n_terms - 1, j] * ys + coeffs[n_terms - 2, j]
-                for k in range(n_terms - 3, -1, -1):
-                    poly = poly * ys + coeffs[k, j]
-                value = x[i] * ratio * ratio * poly / (m * m)
-            else:
-                value = (m * e2[i] - (1.0 - fx[i]) * fy[i, j] * (2.0 + fy[i, j])) / (m * m * fx[i] * fx[i])
-            out[i, j] = s2[i] * value
 
 
 def gm_structure(k, s2, x):

@@ -1,0 +1,83 @@
+"""Build of bayes_imu: the metadata is in setup.cfg; this file adds the precompiled kernels.
+
+``bayes_imu._compiled`` is the ahead-of-time build (numba's AOT compiler, ``numba.pycc``) of the
+kernels in ``bayes_imu/allan/_sources.py`` and ``bayes_imu/noise/_sources.py``: the same Python
+functions that numba JIT-compiles at run time for long records. A command that fits an ordinary
+log then never imports numba nor loads its compiler (about 0.5 s a process). The code targets
+any x86-64 (or the build machine's architecture family), not the build CPU, so a wheel runs
+wherever it is installed. Where numba has no AOT compiler the package is built without the
+extension and every kernel is JIT-compiled on first use, as before (a warning says so).
+"""
+
+import atexit
+import copy
+import importlib.util
+import os
+import shutil
+import sys
+import tempfile
+import types
+import warnings
+from pathlib import Path
+
+from setuptools import setup
+
+HERE = Path(__file__).resolve().parent
+#: exported name -> (source module, numba signature)
+KERNELS = {
+    "phase_chunk": ("allan", "f8[::1](f8[::1], f8, f8[::1], i8, f8[::1])"),
+    "sums_all": ("allan", "f8[::1](f8[::1], i8[::1], i8)"),
+    "sum3": ("allan", "f8(f8[::1], f8[::1], f8[::1], i8)"),
+    "pair_sums": ("allan", "f8[:, ::1](f8[::1], i8[::1], i8, f8, f8[::1], f8[::1])"),
+    "avar_rows": ("noise", "void(f8[::1], f8[:, ::1], f8[::1], f8[::1], f8[::1], f8[::1], f8[:, ::1], f8, f8[:, ::1])"),
+}
+
+
+def _load(stage):
+    """A kernel source module by path (the package itself, and what it imports, need not be importable)."""
+    path = HERE / "bayes_imu" / stage / "_sources.py"
+    spec = importlib.util.spec_from_file_location(f"_bayes_imu_{stage}_sources", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def precompiled_kernels():
+    """The ``Extension`` of ``bayes_imu._compiled``, or ``None`` where numba has no AOT compiler."""
+    # what the build JIT-compiles on the way (a kernel's callee) is cached outside the package: an
+    # entry next to the sources would name this build's module, not the installed one
+    os.environ["NUMBA_CACHE_DIR"] = cache = tempfile.mkdtemp(prefix="bayes_imu_build_")
+    atexit.register(shutil.rmtree, cache, ignore_errors=True)
+    try:
+        import numba.pycc.compiler as pycc_compiler
+        from numba.core.cpu import FastMathOptions
+        from numba.pycc import CC
+    except ImportError as exc:
+        warnings.warn(f"bayes_imu: building without precompiled kernels ({exc}); they are JIT-compiled on first use")
+        return None
+    sources = {stage: _load(stage) for stage in ("allan", "noise")}
+    fastmath = sources["allan"].FASTMATH
+    plain = pycc_compiler.compile_extra
+
+    def compile_extra(typingctx, targetctx, func, args, return_type, flags, *rest, **kwargs):
+        # the AOT compiler gives every export one set of flags: the sum-of-squares kernels get their
+        # fast-math flags here (as their JIT build does), the running sums keep strict IEEE arithmetic
+        if func.__name__ in fastmath and func.__module__ == sources["allan"].__name__:
+            flags = copy.copy(flags)
+            flags.fastmath = FastMathOptions(fastmath[func.__name__])
+        return plain(typingctx, targetctx, func, args, return_type, flags, *rest, **kwargs)
+
+    pycc_compiler.compile_extra = compile_extra
+    # the extension's name is the package of the module that defines it, plus its basename
+    owner = types.ModuleType("bayes_imu._build")
+    owner.__file__ = str(HERE / "bayes_imu" / "_build.py")
+    cc = CC("_compiled", source_module=owner)
+    cc.verbose = False
+    for name, (stage, signature) in KERNELS.items():
+        cc.export(name, signature)(getattr(sources[stage], name))
+    return cc.distutils_extension()
+
+
+extension = precompiled_kernels()
+setup(ext_modules=[extension] if extension is not None else [])
