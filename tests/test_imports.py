@@ -65,3 +65,35 @@ print(json.dumps([loaded, "scipy.stats" in sys.modules]))
                               timeout=300)
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout.splitlines()[-1]) == [False, True]
+
+
+def test_a_fit_writes_every_output_without_numba_or_arviz():
+    """A fit command writing its outputs in its own process (as Python callers do) loads neither numba
+    (the precompiled kernels sum a log this short; numba and its compiled-code machinery cost about 0.5 s;
+    where numba has no AOT compiler the package is built without them, and numba is then expected) nor
+    ArviZ or xarray (posterior.nc through h5netcdf, corner without ArviZ: about 1 s), and writes every file."""
+    code = """
+import sys, json, os
+import numpy as np
+from bayes_imu.cli.main import main
+rng = np.random.default_rng(2)
+y = rng.standard_normal(20000) + 0.01 * np.cumsum(rng.standard_normal(20000))
+np.savetxt(sys.argv[1] + "/g.csv", y, header="g", comments="")
+assert main(["fit", sys.argv[1] + "/g.csv", "--column", "g", "--rate", "100", "--out", sys.argv[1] + "/o", "--quiet"]) == 0
+print(json.dumps([[m for m in ("numba", "arviz", "xarray", "scipy.stats") if m in sys.modules],
+                  sorted(os.listdir(sys.argv[1] + "/o"))]))
+"""
+    import json
+    import os
+    import tempfile
+
+    from bayes_imu.allan.kernels import precompiled
+
+    with tempfile.TemporaryDirectory() as folder:
+        env = {**os.environ, "BAYES_IMU_OUTPUT_PROCESS": "0"}
+        done = subprocess.run([sys.executable, "-c", code, folder], capture_output=True, text=True, env=env,
+                              timeout=300)
+    assert done.returncode == 0, done.stderr
+    loaded, files = json.loads(done.stdout.splitlines()[-1])
+    assert loaded == ([] if precompiled() is not None else ["numba"])
+    assert {"summary.json", "fit.npz", "posterior.nc", "allan_fit.png", "corner.png"} <= set(files)

@@ -113,3 +113,38 @@ def test_population_plot(tmp_path, figures):
     for word in ("new unit, 90% predictive band", "a", "b", "c", "Allan deviation (rad/s)",
                  "1-sigma attitude error (rad)", "a alone, median"):
         assert word in text, word
+
+
+def test_corner_without_arviz_draws_the_same_figure_and_keeps_its_arviz_entry_point(tmp_path, fit):
+    """The plotting warm-up imports corner without ArviZ (about 1 s of imports) in a process that has not
+    loaded it: the corner plot is the same PNG, byte for byte, as the one drawn once ArviZ is loaded, and
+    corner's ArviZ entry point still works (a dict of draws, which only that path accepts, imports ArviZ
+    when it is first needed)."""
+    import json
+    import subprocess
+    import sys
+
+    from bayes_imu.inference.archive import save_fit
+
+    save_fit(fit, tmp_path / "fit.npz")
+    code = """
+import json, sys
+import numpy as np
+from bayes_imu.inference.archive import load_fit
+from bayes_imu.report.plots import import_plotting, plot_corner
+import_plotting()
+fit = load_fit(sys.argv[1])
+plot_corner(fit, sys.argv[2] + "/without.png")
+before = [m for m in ("arviz", "xarray") if m in sys.modules]
+import corner
+fig = corner.corner({"x": np.random.default_rng(0).normal(size=(2, 200))})
+after = "arviz" in sys.modules
+plot_corner(fit, sys.argv[2] + "/with.png")
+print(json.dumps([before, after, len(fig.axes)]))
+"""
+    done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "fit.npz"), str(tmp_path)], capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    before, after, n_axes = json.loads(done.stdout.strip().splitlines()[-1])
+    assert before == [] and after and n_axes == 1
+    assert (tmp_path / "without.png").read_bytes() == (tmp_path / "with.png").read_bytes()

@@ -179,6 +179,40 @@ def test_archive_round_trip(tmp_path):
         load_fit(tmp_path / "missing")
 
 
+def test_posterior_nc_is_the_file_arviz_writes(tmp_path):
+    """write_netcdf (h5netcdf, no ArviZ) against ArviZ's own ``inference_data.to_netcdf``, both read back by
+    ArviZ: the same groups, variables, dimensions, coordinates, dtypes and values (a widened fit: the
+    discrepancy parameter too), the fit's attributes on the file, and every group readable by xarray."""
+    import xarray
+
+    from bayes_imu._version import __version__
+    from bayes_imu.inference.archive import write_netcdf
+    from bayes_imu.inference.fit import import_arviz
+
+    model = NoiseModel(("white", "gauss_markov"), 0.01)
+    y = simulate_log(model, {"noise_variance": 1e-4, "bias_variance": 1e-6, "time_constant": 10.0}, 20_000, rng=5)
+    fit = fit_allan(allan_variance(y, rate_hz=100.0), terms=("white", "gauss_markov"), discrepancy="always", rng=0)
+    write_netcdf(fit, tmp_path / "ours.nc")
+    fit.inference_data.to_netcdf(str(tmp_path / "arviz.nc"))
+    az = import_arviz()
+    ours, theirs = az.from_netcdf(str(tmp_path / "ours.nc")), az.from_netcdf(str(tmp_path / "arviz.nc"))
+    assert ours.groups() == theirs.groups() == ["posterior", "log_likelihood", "sample_stats", "observed_data"]
+    assert "log_model_discrepancy" in ours.posterior
+    for group in theirs.groups():
+        a, b = ours[group], theirs[group]
+        assert list(a.variables) == list(b.variables) and dict(a.sizes) == dict(b.sizes)
+        for name in b.variables:
+            assert a[name].dims == b[name].dims and a[name].dtype == b[name].dtype, (group, name)
+            np.testing.assert_array_equal(a[name].values, b[name].values)
+        with xarray.open_dataset(tmp_path / "ours.nc", group=group, engine="h5netcdf") as ds:
+            assert set(ds.variables) == set(b.variables)
+    assert ours.attrs == {"terms": "white gauss_markov", "likelihood": "correlated",
+                          "bayes_imu_version": __version__}
+    save_fit(fit, tmp_path / "fit.npz")
+    with pytest.raises(InputError, match="no chains"):  # a fit read back has no walkers to write
+        write_netcdf(load_fit(tmp_path / "fit.npz"), tmp_path / "back.nc")
+
+
 def _write_units(folder, n, rng):
     model = NoiseModel(("white",), 0.01)
     paths = []

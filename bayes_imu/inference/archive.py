@@ -13,7 +13,8 @@ import numpy as np
 
 from ..allan.estimator import AllanResult, SegmentAllan
 from ..errors import InputError
-from .fit import FitResult, MixtureComponent, import_arviz
+from .._version import __version__
+from .fit import FitResult, MixtureComponent
 from ..io.readers import read_json_object
 from ..noise.avar_forms import NoiseModel
 from .selection import Adequacy, CandidateScore
@@ -112,17 +113,65 @@ def load_fit(path):
                      meta["widened"], steady)
 
 
-def write_netcdf(fit, path):
-    """The posterior as an ArviZ NetCDF file (``arviz.from_netcdf`` reads it): :attr:`FitResult.inference_data`."""
-    fit.inference_data.to_netcdf(str(path))
-
-
 def prepare_netcdf():
-    """Import ArviZ and write a two-draw InferenceData into a temporary folder (removed again), so that
-    xarray's NetCDF backend and what it imports on first write are loaded: a worker's warm-up
+    """Import what :func:`write_netcdf` needs and write a tiny file into a temporary folder (removed again),
+    so that the HDF5 library and h5netcdf are loaded and initialised: a worker's warm-up
     (:mod:`bayes_imu.report.worker`), after which :func:`write_netcdf` costs what later calls do."""
     import tempfile
 
-    az = import_arviz()
+    tiny = {"posterior": ({"chain": np.arange(1), "draw": np.arange(2)}, {"x": (("chain", "draw"), np.zeros((1, 2)))})}
     with tempfile.TemporaryDirectory(prefix="bayes_imu_warm_") as folder:
-        az.from_dict(posterior={"x": np.zeros((1, 2))}).to_netcdf(str(Path(folder) / "warm.nc"))
+        _write_groups(Path(folder) / "warm.nc", tiny, {})
+
+
+def write_netcdf(fit, path):
+    """The posterior as an ArviZ NetCDF file: what ``fit.inference_data.to_netcdf(path)`` writes, without ArviZ.
+
+    ``arviz.from_netcdf`` (and xarray, group by group) reads it as :attr:`FitResult.inference_data`:
+    groups ``posterior`` (``log_<name>`` and ``<name>`` of each parameter), ``sample_stats``
+    (``lp``), ``log_likelihood`` (``allan``), each ``(chain, draw)`` with walkers as chains, and
+    ``observed_data`` (``avar`` over ``tau`` [s]); the fit's attributes (``terms``, ``likelihood``,
+    ``bayes_imu_version``) on the file (tested against ArviZ's own file). The NetCDF-4 file is
+    written with h5netcdf, a dependency of ArviZ's NetCDF backend: importing ArviZ and xarray
+    costs about 1 s, more than the rest of a fit's outputs (``scripts/bench_fit.py``).
+    """
+    chains = fit.chains
+    if chains is None:
+        raise InputError("write_netcdf: this fit has no chains (read back from fit.npz); posterior.nc is written "
+                         "by the fit that sampled them")
+    names = fit.parameter_names
+    n_draws, n_walkers = chains.chain.shape[:2]
+    sampled = {"chain": np.arange(n_walkers), "draw": np.arange(n_draws)}
+    dims = ("chain", "draw")
+    posterior = {f"log_{n}": (dims, chains.chain[:, :, i].T) for i, n in enumerate(names)}
+    posterior.update({n: (dims, np.exp(chains.chain[:, :, i].T)) for i, n in enumerate(names)})
+    groups = {
+        "posterior": (sampled, posterior),
+        "log_likelihood": (sampled, {"allan": (dims, chains.log_likelihood.T)}),
+        "sample_stats": (sampled, {"lp": (dims, chains.log_prob.T)}),
+        "observed_data": ({"tau": fit.allan.tau}, {"avar": (("tau",), fit.allan.avar)}),
+    }
+    attrs = {"terms": " ".join(fit.model.terms), "likelihood": fit.likelihood, "bayes_imu_version": __version__}
+    _write_groups(path, groups, attrs)
+
+
+def _write_groups(path, groups, attrs):
+    """A NetCDF-4 file of ``groups`` = ``{name: (coordinates, variables)}``, ``coordinates`` = ``{dim: values}``,
+    ``variables`` = ``{name: (dims, values)}``, as xarray encodes them (zlib-compressed, NaN fill value
+    on floats); each group stamped with its creation time and this library, the file with ``attrs``."""
+    from datetime import datetime, timezone
+
+    import h5netcdf
+
+    created = datetime.now(timezone.utc).isoformat()
+    with h5netcdf.File(str(path), "w") as f:
+        f.attrs.update(attrs)
+        for name, (coordinates, variables) in groups.items():
+            g = f.create_group(name)
+            g.dimensions = {dim: len(values) for dim, values in coordinates.items()}
+            for dim, values in {**{d: ((d,), v) for d, v in coordinates.items()}, **variables}.items():
+                dims, values = values
+                values = np.asarray(values)
+                fill = {"fillvalue": np.nan} if values.dtype.kind == "f" else {}
+                g.create_variable(dim, dims, data=values, compression="gzip", **fill)
+            g.attrs.update(created_at=created, inference_library="bayes_imu", inference_library_version=__version__)

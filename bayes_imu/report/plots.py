@@ -1,5 +1,7 @@
 """Figures (matplotlib imported inside each function, Agg backend)."""
 
+import contextlib
+
 import numpy as np
 
 __all__ = ["plot_allan", "plot_allan_fit", "plot_corner", "plot_drift", "plot_population"]
@@ -34,14 +36,71 @@ def import_plotting():
 
 
 def import_corner():
-    """``corner``, which imports ArviZ: ArviZ first, without its daily announcement on standard error
-    (:func:`bayes_imu.inference.fit.import_arviz`)."""
+    """``corner``, without importing ArviZ where nothing has loaded it yet.
+
+    corner imports ArviZ as it is imported (for its ``InferenceData`` entry point), and ArviZ with
+    xarray costs about 1 s to import, more than drawing every figure of a fit; the figures here
+    pass numpy arrays, which corner draws without ArviZ (its path where ArviZ is not installed).
+    So where ArviZ is not loaded and no other thread runs (another could be importing it), corner
+    is imported with ArviZ marked absent, and given back an ``InferenceData`` entry point that
+    imports ArviZ when first called (:func:`_arviz_corner`): ``corner.corner`` works for every
+    input as before (tested). Elsewhere ArviZ is imported first, without its import-time
+    announcement (:func:`bayes_imu.inference.fit.import_arviz`).
+    """
+    import sys
+    import threading
+
+    if "corner" in sys.modules:
+        return sys.modules["corner"]
+    if "arviz" in sys.modules or threading.active_count() > 1:
+        from ..inference.fit import import_arviz
+
+        import_arviz()
+        import corner
+
+        return corner
+    sys.modules["arviz"] = None  # "import of arviz halted": corner's ArviZ entry point is left out
+    try:
+        import corner
+    finally:
+        del sys.modules["arviz"]
+    module = sys.modules.get("corner.corner")
+    if getattr(module, "arviz_corner", False) is None:
+        module.arviz_corner = _arviz_corner
+    return corner
+
+
+def _arviz_corner(*args, **kwargs):
+    """corner's ``InferenceData`` entry point, imported (with ArviZ) on first call: :func:`import_corner`
+    imported corner without it."""
+    import importlib
+    import sys
+
     from ..inference.fit import import_arviz
 
     import_arviz()
-    import corner
+    real = importlib.import_module("corner.arviz_corner").arviz_corner
+    sys.modules["corner.corner"].arviz_corner = real
+    return real(*args, **kwargs)
 
-    return corner
+
+@contextlib.contextmanager
+def _array_path(corner):
+    """corner's own path for numpy arrays inside the block, where ArviZ is loaded too: corner otherwise
+    sends arrays through its ArviZ entry point, which converts them to xarray first (the same PNG,
+    byte for byte, 0.16 s slower for a three-parameter fit; one-off timing)."""
+    import sys
+
+    module = sys.modules.get("corner.corner")
+    saved = getattr(module, "arviz_corner", None)
+    if saved is None:
+        yield
+        return
+    module.arviz_corner = None
+    try:
+        yield
+    finally:
+        module.arviz_corner = saved
 
 
 def plot_allan(result, path, *, label="", unit="u"):
@@ -171,8 +230,9 @@ def plot_corner(fit, path, *, unit="u"):
         ax.set_title(f"median {q[1]:.4g}, 90% [{q[0]:.4g}, {q[2]:.4g}]", fontsize=8)
         fig.tight_layout()
     else:
-        fig = corner.corner(data, labels=labels, axes_scale="log", quantiles=[0.05, 0.5, 0.95],
-                            label_kwargs={"fontsize": 8}, labelpad=0.15, max_n_ticks=3)
+        with _array_path(corner):
+            fig = corner.corner(data, labels=labels, axes_scale="log", quantiles=[0.05, 0.5, 0.95],
+                                label_kwargs={"fontsize": 8}, labelpad=0.15, max_n_ticks=3)
         k = len(names)
         axes = np.array(fig.axes).reshape(k, k)
         for i in range(k):
