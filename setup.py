@@ -2,7 +2,8 @@
 
 ``bayes_imu._compiled`` is the ahead-of-time build (numba's AOT compiler, ``numba.pycc``) of the
 kernels in ``bayes_imu/allan/_sources.py`` and ``bayes_imu/noise/_sources.py``: the same Python
-functions that numba JIT-compiles at run time for long records. A command that fits an ordinary
+functions that numba JIT-compiles at run time for long records (and everywhere, where the build
+had no AOT compiler). The drift grid is among them, so a fit with drift bands compiles nothing either. A command that fits an ordinary
 log then never imports numba nor loads its compiler (about 0.5 s a process). The code targets
 any x86-64 (or the build machine's architecture family), not the build CPU, so a wheel runs
 wherever it is installed. Where numba has no AOT compiler the package is built without the
@@ -30,17 +31,21 @@ KERNELS = {
     "sum3": ("allan", "f8(f8[::1], f8[::1], f8[::1], i8)"),
     "pair_sums": ("allan", "f8[:, ::1](f8[::1], i8[::1], i8, f8, f8[::1], f8[::1])"),
     "avar_rows": ("noise", "void(f8[::1], f8[:, ::1], f8[::1], f8[::1], f8[::1], f8[::1], f8[:, ::1], f8, f8[:, ::1])"),
+    "drift_rows": ("noise", "void(i8, f8[::1], f8[::1], f8[::1], f8[:, ::1], f8[::1], f8, f8[::1], f8[::1], f8[:, ::1], "
+                            "f8[:, ::1], f8[:, ::1], f8[:, ::1], f8[:, ::1], f8[:, ::1])"),
 }
 
 
 def _load(stage):
-    """A kernel source module by path (the package itself, and what it imports, need not be importable)."""
-    path = HERE / "bayes_imu" / stage / "_sources.py"
-    spec = importlib.util.spec_from_file_location(f"_bayes_imu_{stage}_sources", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    """A kernel source module ``bayes_imu.<stage>._sources`` from this tree, its package-relative imports
+    (``noise/_sources.py`` compiles formulas of ``noise/euler_sums.py``) resolved in stand-in packages, so
+    that neither the installed package nor the packages' ``__init__`` (and what they import) is needed."""
+    for name, folder in (("bayes_imu", HERE / "bayes_imu"), (f"bayes_imu.{stage}", HERE / "bayes_imu" / stage)):
+        if name not in sys.modules:
+            package = types.ModuleType(name)
+            package.__path__ = [str(folder)]
+            sys.modules[name] = package
+    return importlib.import_module(f"bayes_imu.{stage}._sources")
 
 
 def precompiled_kernels():

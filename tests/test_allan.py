@@ -309,9 +309,9 @@ def test_chi2_interval_is_scipy_stats_chi2():
 
 def test_precompiled_kernels_agree_with_the_jit_build(rng):
     """The ahead-of-time build (``bayes_imu._compiled``, setup.py) of the same sources as numba's JIT build:
-    built wherever numba has its AOT compiler; the running sums, lag sums and Gauss-Markov AVAR rows bit for
-    bit (strict IEEE arithmetic in both), the fast-math sums of squares to 1e-14 relative (the two builds
-    vectorise them for different CPUs)."""
+    built wherever numba has its AOT compiler; the running sums, lag sums, Gauss-Markov AVAR rows and the
+    drift grid (both orders, bias and stationary parts) bit for bit (strict IEEE arithmetic in both), the
+    fast-math sums of squares to 1e-14 relative (the two builds vectorise them for different CPUs)."""
     import importlib.util
 
     from bayes_imu.allan import _sources, kernels
@@ -347,3 +347,21 @@ def test_precompiled_kernels_agree_with_the_jit_build(rng):
     numba.njit(avar_rows)(*rows, out_jit)
     np.testing.assert_array_equal(out_aot, out_jit)
     assert set(_sources.FASTMATH) == {"sum3", "sums_all"}
+    from bayes_imu.noise import _sources as noise_sources
+    from bayes_imu.noise.euler_sums import SWITCH, _random_walk, series_coefficients
+
+    jit_drift = numba.njit(parallel=True)(noise_sources.drift_rows)
+    k = np.unique(np.round(np.geomspace(1.0, 1e6, 200)))
+    a = np.concatenate([10 ** rng.uniform(-12, -1e-3, 300), [0.5, 0.999999]])
+    log_abs = np.log1p(-a)
+    scales = [rng.random(a.size), rng.random(a.size) * (rng.random(a.size) < 0.5)]
+    extra = [rng.random((2, a.size)), rng.random((2, k.size)), rng.random((1, a.size)), rng.random((1, k.size))]
+    for order in (1, 2):
+        outputs = []
+        for kernel in (aot.drift_rows, jit_drift):
+            total, bias = np.empty((k.size, a.size)), np.empty((k.size, a.size))
+            kernel(order, k, a, log_abs, series_coefficients(order, k), _random_walk(order, k), float(SWITCH[order]),
+                   *scales, *extra, total, bias)
+            outputs.append((total, bias))
+        np.testing.assert_array_equal(outputs[0][0], outputs[1][0])
+        np.testing.assert_array_equal(outputs[0][1], outputs[1][1])

@@ -68,8 +68,9 @@ print(json.dumps([loaded, "scipy.stats" in sys.modules]))
 
 
 def test_a_fit_writes_every_output_without_numba_arviz_or_pandas():
-    """A fit command writing its outputs in its own process (as Python callers do) loads neither numba
-    (the precompiled kernels sum a log this short; numba and its compiled-code machinery cost about 0.5 s;
+    """A fit command with drift bands, writing its outputs in its own process (as Python callers do), loads
+    neither numba (the precompiled kernels sum a log this short and draw the drift grid; numba and its
+    compiled-code machinery cost about 0.5 s;
     where numba has no AOT compiler the package is built without them, and numba is then expected) nor
     ArviZ or xarray (posterior.nc through h5netcdf, corner without ArviZ: about 1 s) nor pandas (a plain table
     of numbers is read by numpy's reader), and writes every file."""
@@ -80,7 +81,8 @@ from bayes_imu.cli.main import main
 rng = np.random.default_rng(2)
 y = rng.standard_normal(20000) + 0.01 * np.cumsum(rng.standard_normal(20000))
 np.savetxt(sys.argv[1] + "/g.csv", y, header="g", comments="")
-assert main(["fit", sys.argv[1] + "/g.csv", "--column", "g", "--rate", "100", "--out", sys.argv[1] + "/o", "--quiet"]) == 0
+assert main(["fit", sys.argv[1] + "/g.csv", "--column", "g", "--rate", "100", "--units", "rad/s", "--sensor", "gyro",
+             "--out", sys.argv[1] + "/o", "--quiet"]) == 0
 print(json.dumps([[m for m in ("numba", "arviz", "xarray", "scipy.stats", "pandas") if m in sys.modules],
                   sorted(os.listdir(sys.argv[1] + "/o"))]))
 """
@@ -97,4 +99,4 @@ print(json.dumps([[m for m in ("numba", "arviz", "xarray", "scipy.stats", "panda
     assert done.returncode == 0, done.stderr
     loaded, files = json.loads(done.stdout.splitlines()[-1])
     assert loaded == ([] if precompiled() is not None else ["numba"])
-    assert {"summary.json", "fit.npz", "posterior.nc", "allan_fit.png", "corner.png"} <= set(files)
+    assert {"summary.json", "fit.npz", "posterior.nc", "allan_fit.png", "corner.png", "drift.png"} <= set(files)

@@ -1,12 +1,26 @@
-"""Source of the compiled Gauss-Markov AVAR kernel: plain Python that numba compiles twice.
+"""Sources of the compiled noise kernels: plain Python that numba compiles twice.
 
-Imported only to compile: :mod:`bayes_imu.noise.gauss_markov` JIT-compiles it on first use where
-the package was built without its ahead-of-time build, which ``setup.py`` compiles into the
-extension ``bayes_imu._compiled`` with the Allan-variance kernels (strict IEEE arithmetic in both:
-the two builds give the same bits).
+Imported only to compile (it imports numba): :mod:`bayes_imu.noise.gauss_markov` (the Gauss-Markov
+AVAR rows) and :mod:`bayes_imu.noise.euler_sums` (the drift grid) JIT-compile these functions on
+first use where the package was built without its ahead-of-time build, which ``setup.py`` compiles
+into the extension ``bayes_imu._compiled`` with the Allan-variance kernels. Strict IEEE arithmetic
+in both builds: they give the same bits (tested). The formulas the drift grid evaluates
+(``_closed_formula``, ``_phi2_series``, ``_lambda_minus_a_series``) are written once, in
+:mod:`bayes_imu.noise.euler_sums`, where numpy evaluates them on arrays; here they are compiled for
+scalars.
 """
 
-__all__ = ["avar_rows"]
+import numba
+import numpy as np
+
+from .euler_sums import LAMBDA_SWITCH, PHI2_SWITCH, _closed_formula, _lambda_minus_a_series, _phi2_series
+
+__all__ = ["avar_rows", "drift_rows", "powers_scalar", "coefficient_scalar"]
+
+# module globals, not closure variables: numba's cache keys a closure's captured dispatcher by identity
+closed_scalar = numba.njit(cache=True)(_closed_formula)
+phi2_series = numba.njit(cache=True)(_phi2_series)
+lambda_minus_a_series = numba.njit(cache=True)(_lambda_minus_a_series)
 
 
 def avar_rows(mf, coeffs, s2, x, fx, e2, fy, switch, out):
@@ -27,3 +41,71 @@ def avar_rows(mf, coeffs, s2, x, fx, e2, fy, switch, out):
             else:
                 value = (m * e2[i] - (1.0 - fx[i]) * fy[i, j] * (2.0 + fy[i, j])) / (m * m * fx[i] * fx[i])
             out[i, j] = s2[i] * value
+
+
+@numba.njit(cache=True)
+def powers_scalar(k, a, log_abs):
+    """Scalar ``(E, 1 - E, 1 - E**2)`` of :func:`bayes_imu.noise.euler_sums._powers`, given ``log|1 - a|`` (a != 1)."""
+    if a == 1.0:
+        return (1.0, 0.0, 0.0) if k == 0 else (0.0, 1.0, 1.0)
+    kl = k * log_abs
+    mag = np.exp(kl)
+    if a > 1.0 and k % 2.0 == 1.0:
+        e, one_minus_e = -mag, 1.0 + mag
+    else:
+        e, one_minus_e = mag, -np.expm1(kl)
+    return e, one_minus_e, one_minus_e * (1.0 + e)
+
+
+@numba.njit(cache=True)
+def coefficient_scalar(order, k, a, one_minus_e, lam):
+    """Scalar :func:`bayes_imu.noise.euler_sums.gm_coefficient` for order 1 or 2 (same branches); ``lam = -log1p(-a)``."""
+    if k < order:  # c_r(k) = 0 exactly for k < r
+        return 0.0
+    if a == 0.0:
+        return k if order == 1 else k * (k - 1.0) / 2.0
+    if order == 1:
+        return one_minus_e / a
+    if a < 1.0:
+        z = k * lam
+        phi2 = phi2_series(z) if z < PHI2_SWITCH else (z + np.expm1(-z)) / (z * z)
+        lma = lambda_minus_a_series(a) if a < LAMBDA_SWITCH else lam - a
+        return (z * z * phi2 - k * lma) / (a * a)
+    return (k * a - one_minus_e) / (a * a)
+
+
+def drift_rows(order, k, a, log_abs, q, rw, switch, bias_scale, stationary_scale, white_scales, white_ks, extra_scales,
+               extra_ks, total, bias):
+    """``total[j, i]``, ``bias[j, i]``: the fused 1-sigma drift of draw ``i`` at time ``k[j]``
+    (:func:`bayes_imu.noise.euler_sums.drift_grid`), laid out (times, draws) so that quantiles over
+    draws read contiguous memory; ``numba.prange`` over times (one thread in the ahead-of-time build)."""
+    n_terms = q.shape[0]
+    for j in numba.prange(k.size):
+        kj = k[j]
+        for i in range(a.size):
+            ai = a[i]
+            y = ai * kj
+            closed = y >= switch or ai >= 1.0
+            need_powers = (bias_scale[i] != 0.0 and closed) or (stationary_scale[i] != 0.0 and ai > 0.0)
+            e, one_minus_e, one_minus_e2 = powers_scalar(kj, ai, log_abs[i]) if need_powers else (1.0, 0.0, 0.0)
+            if bias_scale[i] == 0.0 or kj <= order:
+                v = 0.0
+            elif y < 1e-18:
+                v = rw[j]
+            elif closed:
+                v = closed_scalar(order, kj, ai, e, one_minus_e, one_minus_e2)
+            else:
+                v = q[n_terms - 1, j]
+                for t in range(n_terms - 2, -1, -1):
+                    v = v * y + q[t, j]
+            b = bias_scale[i] * v
+            if stationary_scale[i] != 0.0:
+                c = coefficient_scalar(order, kj, ai, one_minus_e, -log_abs[i])
+                b += stationary_scale[i] * c * c
+            for m in range(extra_scales.shape[0]):
+                b += extra_scales[m, i] * extra_ks[m, j]
+            w = 0.0
+            for m in range(white_scales.shape[0]):
+                w += white_scales[m, i] * white_ks[m, j]
+            bias[j, i] = np.sqrt(b)
+            total[j, i] = np.sqrt(b + w)

@@ -261,8 +261,7 @@ def series_coefficients(order, k):
     return out
 
 
-_grid_kernel = {}
-_closed_scalar = None  # compiled on first use of drift_grid (numba imported lazily)
+_drift_kernel = None  # set on first use of drift_grid (:func:`_kernel`)
 
 
 def gm_sum_grid(order, k, a):
@@ -275,35 +274,6 @@ def gm_sum_grid(order, k, a):
     return root**2
 
 
-def _powers_scalar_py(k, a, log_abs):  # pragma: no cover - compiled by numba
-    """Scalar ``(E, 1 - E, 1 - E**2)`` of :func:`_powers`, given ``log|1 - a|`` (a != 1)."""
-    if a == 1.0:
-        return (1.0, 0.0, 0.0) if k == 0 else (0.0, 1.0, 1.0)
-    kl = k * log_abs
-    mag = np.exp(kl)
-    if a > 1.0 and k % 2.0 == 1.0:
-        e, one_minus_e = -mag, 1.0 + mag
-    else:
-        e, one_minus_e = mag, -np.expm1(kl)
-    return e, one_minus_e, one_minus_e * (1.0 + e)
-
-
-def _coefficient_scalar_py(order, k, a, one_minus_e, lam):  # pragma: no cover - compiled by numba
-    """Scalar :func:`gm_coefficient` for order 1 or 2 (same branches); ``lam = -log1p(-a)``."""
-    if k < order:  # c_r(k) = 0 exactly for k < r
-        return 0.0
-    if a == 0.0:
-        return k if order == 1 else k * (k - 1.0) / 2.0
-    if order == 1:
-        return one_minus_e / a
-    if a < 1.0:
-        z = k * lam
-        phi2 = _phi2_series_nb(z) if z < PHI2_SWITCH else (z + np.expm1(-z)) / (z * z)
-        lma = _lambda_minus_a_series_nb(a) if a < LAMBDA_SWITCH else lam - a
-        return (z * z * phi2 - k * lma) / (a * a)
-    return (k * a - one_minus_e) / (a * a)
-
-
 def drift_grid(order, k, a, bias_scale, stationary_scale, white_scales, white_ks, extra_scales, extra_ks):
     """Fused 1-sigma drift for draws x times: returns ``(total, bias)``, each ``(n_draws, n_times)``.
 
@@ -314,76 +284,39 @@ def drift_grid(order, k, a, bias_scale, stationary_scale, white_scales, white_ks
               + sum_m extra_scales[m, i] * extra_ks[m, j]
 
     with ``V_r`` and ``c_r`` by the same branches as :func:`gm_sum` and :func:`gm_coefficient`
-    (tests: equal to :func:`bayes_imu.drift.closed_forms.drift_sigma`).
+    (tests: equal to :func:`bayes_imu.drift.closed_forms.drift_sigma`), in the compiled kernel
+    :func:`bayes_imu.noise._sources.drift_rows`.
     """
     k = np.ascontiguousarray(k, dtype=float).ravel()
-    if "drift" not in _grid_kernel:
-        _grid_kernel["drift"] = _compile_drift()
     vec = [np.ascontiguousarray(v, dtype=float).ravel() for v in (a, bias_scale, stationary_scale)]
     mat = [np.ascontiguousarray(np.atleast_2d(v), dtype=float) for v in (white_scales, white_ks, extra_scales, extra_ks)]
     a = vec[0]
     with np.errstate(divide="ignore", invalid="ignore"):
         log_abs = np.where(a < 1.0, np.log1p(-np.minimum(a, 1.0)), np.log1p(np.maximum(a, 1.0) - 2.0))
-    return _grid_kernel["drift"](order, k, a, log_abs, series_coefficients(order, k), _random_walk(order, k), SWITCH[order],
-                                 vec[1], vec[2], *mat)
+    total, bias = np.empty((k.size, a.size)), np.empty((k.size, a.size))
+    _kernel()(int(order), k, a, log_abs, np.ascontiguousarray(series_coefficients(order, k), dtype=float),
+              np.ascontiguousarray(_random_walk(order, k), dtype=float), float(SWITCH[order]), vec[1], vec[2], *mat,
+              total, bias)
+    return total.T, bias.T
 
 
-def _compile_drift():
-    import numba
+def _kernel():
+    """The compiled drift grid: the ahead-of-time build where the package has it (no numba import, nothing
+    compiled), else numba's JIT build of the same source (parallel over times, cached on disk)."""
+    global _drift_kernel
+    if _drift_kernel is None:
+        from ..allan.kernels import precompiled
 
-    global _closed_scalar, _coefficient_scalar, _powers_scalar, _phi2_series_nb, _lambda_minus_a_series_nb
-    # the same Python definitions numpy evaluates, compiled for scalars (module globals, so the
-    # on-disk cache finds them again in the next process)
-    _closed_scalar = numba.njit(cache=True)(_closed_formula)
-    _phi2_series_nb = numba.njit(cache=True)(_phi2_series)
-    _lambda_minus_a_series_nb = numba.njit(cache=True)(_lambda_minus_a_series)
-    _coefficient_scalar = numba.njit(cache=True)(_coefficient_scalar_py)
-    _powers_scalar = numba.njit(cache=True)(_powers_scalar_py)
+        module = precompiled()
+        if module is not None and hasattr(module, "drift_rows"):
+            _drift_kernel = module.drift_rows
+        else:
+            import numba
 
-    @numba.njit(parallel=True, cache=True)
-    def kernel(order, k, a, log_abs, q, rw, switch, bias_scale, stationary_scale, white_scales, white_ks, extra_scales, extra_ks):
-        # laid out (times, draws): quantiles over draws then read contiguous memory
-        total = np.empty((k.size, a.size))
-        bias = np.empty((k.size, a.size))
-        n_terms = q.shape[0]
-        for j in numba.prange(k.size):
-            kj = k[j]
-            for i in range(a.size):
-                ai = a[i]
-                y = ai * kj
-                closed = y >= switch or ai >= 1.0
-                need_powers = (bias_scale[i] != 0.0 and closed) or (stationary_scale[i] != 0.0 and ai > 0.0)
-                e, one_minus_e, one_minus_e2 = _powers_scalar(kj, ai, log_abs[i]) if need_powers else (1.0, 0.0, 0.0)
-                if bias_scale[i] == 0.0 or kj <= order:
-                    v = 0.0
-                elif y < 1e-18:
-                    v = rw[j]
-                elif closed:
-                    v = _closed_scalar(order, kj, ai, e, one_minus_e, one_minus_e2)
-                else:
-                    v = q[n_terms - 1, j]
-                    for t in range(n_terms - 2, -1, -1):
-                        v = v * y + q[t, j]
-                b = bias_scale[i] * v
-                if stationary_scale[i] != 0.0:
-                    c = _coefficient_scalar(order, kj, ai, one_minus_e, -log_abs[i])
-                    b += stationary_scale[i] * c * c
-                for m in range(extra_scales.shape[0]):
-                    b += extra_scales[m, i] * extra_ks[m, j]
-                w = 0.0
-                for m in range(white_scales.shape[0]):
-                    w += white_scales[m, i] * white_ks[m, j]
-                bias[j, i] = np.sqrt(b)
-                total[j, i] = np.sqrt(b + w)
-        return total.T, bias.T
+            from ._sources import drift_rows
 
-    return kernel
-
-
-_coefficient_scalar = None
-_powers_scalar = None
-_phi2_series_nb = None
-_lambda_minus_a_series_nb = None
+            _drift_kernel = numba.njit(parallel=True, cache=True)(drift_rows)
+    return _drift_kernel
 
 
 def gm_sum_broadcast(order, k, a):
