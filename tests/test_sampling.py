@@ -49,3 +49,29 @@ def test_autocorr_time_is_emcees_and_that_of_an_ar1_chain():
         ours = autocorr_time(chain)
         np.testing.assert_allclose(ours, integrated_time(chain, tol=0), rtol=1e-13)
     np.testing.assert_allclose(ours[:2], (1 + phi) / (1 - phi), rtol=0.1)
+
+
+def test_autocorr_time_transforms_walkers_together_with_the_same_bits(rng):
+    """The walkers of a parameter are transformed together as contiguous rows: the same numbers, bit for bit,
+    as transforming each walker's series alone (emcee's layout, written out here with real transforms), on
+    chains of several lengths (a power of two and not)."""
+    from emcee.autocorr import auto_window
+
+    from bayes_imu.inference.sampling import autocorr_time
+
+    for n_t in (250, 1000, 3001):
+        chain = np.cumsum(rng.standard_normal((n_t, 16, 3)), axis=0) * 0.05 + rng.standard_normal((n_t, 16, 3))
+        size = 2
+        while size < 2 * n_t:
+            size <<= 1
+        expected = []
+        for d in range(3):
+            total = np.zeros(n_t)
+            for k in range(16):
+                x = chain[:, k, d]
+                f = np.fft.rfft(x - np.mean(x), n=size)
+                acf = np.fft.irfft(f.real * f.real + f.imag * f.imag, n=size)[:n_t]
+                total += acf / acf[0]
+            taus = 2.0 * np.cumsum(total / 16) - 1.0
+            expected.append(taus[auto_window(taus, 5)])
+        np.testing.assert_array_equal(autocorr_time(chain), expected)

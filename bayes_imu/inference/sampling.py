@@ -69,9 +69,11 @@ def autocorr_time(chain, c=5):
     emcee's estimator (:func:`emcee.autocorr.integrated_time` with ``tol=0``: the walkers' normalised
     autocorrelation functions averaged, Sokal's window with ``c = 5``), with real FFTs.
 
-    emcee transforms each walker's series as complex numbers; a real transform does half the
-    work (1.7x faster in a one-off timing; long chains are checked every 250 steps); the times
-    agree with emcee's to about 1e-15 relative (tested).
+    emcee transforms each walker's series as complex numbers, one at a time; here each parameter's
+    walkers are transformed together, as contiguous rows, with real transforms: the same numbers as
+    transforming each series alone, bit for bit (tested), about half the time on short chains (the
+    transforms themselves dominate beyond ~10^4 steps; one-off timings); the times agree with
+    emcee's to about 1e-15 relative (tested).
     """
     from emcee.autocorr import auto_window
 
@@ -81,12 +83,12 @@ def autocorr_time(chain, c=5):
         size <<= 1
     out = np.empty(n_d)
     for d in range(n_d):
+        x = np.ascontiguousarray(chain[:, :, d].T)  # (walkers, steps)
+        f = np.fft.rfft(x - np.mean(x, axis=1, keepdims=True), n=size, axis=-1)
+        acf = np.fft.irfft(f.real * f.real + f.imag * f.imag, n=size, axis=-1)[:, :n_t]
         total = np.zeros(n_t)
         for k in range(n_w):
-            x = chain[:, k, d]
-            f = np.fft.rfft(x - np.mean(x), n=size)
-            acf = np.fft.irfft(f.real * f.real + f.imag * f.imag, n=size)[:n_t]
-            total += acf / acf[0]
+            total += acf[k] / acf[k, 0]
         total /= n_w
         taus = 2.0 * np.cumsum(total) - 1.0
         out[d] = taus[auto_window(taus, c)]
