@@ -2,8 +2,10 @@
 
 Writes, in a temporary folder, an IMU-like log (a time column and six channels, 8
 significant digits, about 70 bytes per row) as plain CSV, gzip CSV and whitespace-separated
-text, then times reading one column and three columns (best of ``--repeat``), and compares
-with ``numpy.loadtxt`` on the plain CSV (a common baseline). Throughput is the uncompressed
+text, then times reading one column and three columns (best of ``--repeat``; pandas' reader,
+which converts only the wanted columns), and compares with ``numpy.loadtxt`` on the plain CSV
+(a common baseline); last, a log of one channel with its time stamps, which numpy's reader
+takes (the fast path of ``bayes_imu.io.readers``). Throughput is the uncompressed
 text size over the wall time.
 
     python scripts/bench_io.py [--rows 2000000] [--repeat 3]
@@ -59,6 +61,14 @@ def main(argv=None):
                 print(f"{name:11s} {len(cols):12d} {t:7.2f} {n_bytes / 1e6 / t:6.0f} {rows * len(cols) / 1e6 / t:10.1f}")
         t = best_time(lambda: np.loadtxt(files["csv"], delimiter=",", skiprows=1, usecols=[1]), 1)
         print(f"{'csv':11s} {'1 (loadtxt)':>12s} {t:7.2f} {n_bytes / 1e6 / t:6.0f} {rows / 1e6 / t:10.1f}")
+        # one channel with its time stamps: numpy's reader, the fast path (no pandas import)
+        two = Path(tmp) / "channel.csv"
+        np.savetxt(two, np.column_stack([np.arange(rows) / 100.0, np.random.default_rng(1).standard_normal(rows) * 0.05]),
+                   fmt="%.8g", delimiter=",", header="time,gyro_x", comments="")
+        size = two.stat().st_size
+        t = best_time(lambda: read_columns(two, columns=["gyro_x"]), args.repeat)
+        print(f"\n{'time,gyro_x':11s} {1:12d} {t:7.2f} {size / 1e6 / t:6.0f} {rows / 1e6 / t:10.1f}   "
+              f"(a 2-column log, {size / 1e6:.0f} MB: numpy's reader)")
 
 
 if __name__ == "__main__":
