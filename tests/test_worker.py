@@ -204,11 +204,9 @@ def test_warm_ups_leave_nothing_behind(tmp_path, monkeypatch):
     """The worker's warm-ups write only inside a temporary folder they remove, and close their figure."""
     import tempfile
 
-    from bayes_imu.inference.archive import prepare_netcdf
     from bayes_imu.report.plots import import_plotting, pyplot
 
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
-    prepare_netcdf()
     import_plotting()
     assert list(tmp_path.iterdir()) == []
     assert pyplot().get_fignums() == []
@@ -266,7 +264,7 @@ def _slow_warm_up(folder):
 
 
 def test_stopped_during_its_warm_up_the_worker_leaves_no_temporary_folder(tmp_path):
-    """The caller can finish (or fail) while the worker still warms up (prepare_netcdf writes into a
+    """The caller can finish (or fail) while the worker still warms up (a warm-up that writes into a
     temporary folder): stopped then, the worker removes that folder on its way out."""
     import functools
 

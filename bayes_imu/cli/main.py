@@ -44,7 +44,7 @@ from ..drift.display import DISPLAY_CHOICES, display_unit
 from ..drift.closed_forms import DRIFT_BIAS_STARTS, QUANTITY_ORDER, SI_OUTPUT_UNITS, drift_sigma
 from ..errors import BayesIMUError, InputError
 from ..io.readers import INCREMENT_UNITS, SI_UNITS, UNITS, read_json_object
-from ..inference.archive import prepare_netcdf, write_netcdf
+from ..inference.archive import write_netcdf
 from ..inference.fit import DISCREPANCY_MODES
 from ..inference.likelihood import LIKELIHOODS
 from ..inference.sampling import import_emcee
@@ -357,7 +357,7 @@ def _fit(args):
     # Python callers of main() do too, unless the environment asks (a spawned process re-runs the caller's
     # script, which without a __main__ guard would run the command again there)
     background = False if getattr(args, "in_batch", False) else background_default(automatic=_EXECUTABLE)
-    with OutputWriter(background=background, warm=(prepare_netcdf, import_plotting)) as writer:
+    with OutputWriter(background=background, warm=(import_plotting,)) as writer:
         columns, results, unit, info = allan_results(SourceOptions.from_namespace(args), "fit")
         info["log"] = _log_label(args)
         terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
@@ -417,10 +417,11 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
         summary["drift"] = _write_drift(result, args, unit, out, writer)[0]
     _write_json(out / "summary.json", summary)
     save_fit(result, out / ARCHIVE_NAME)
-    # the longest first: the worker writes them side by side once this process waits
+    # the figures in the output process (side by side once this process waits); posterior.nc here meanwhile: it
+    # needs only h5netcdf (h5py is loaded with emcee), and queued behind the figures it would end the run later
     writer.submit(plot_allan_fit, result, out / "allan_fit.png", label=label, unit=unit, rng=args.seed)
     writer.submit(plot_corner, result, out / "corner.png", unit=unit)
-    writer.submit(write_netcdf, result, out / "posterior.nc")
+    write_netcdf(result, out / "posterior.nc")
     return summary
 
 

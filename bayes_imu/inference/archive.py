@@ -20,7 +20,7 @@ from ..noise.avar_forms import NoiseModel
 from .selection import Adequacy, CandidateScore
 from .stationarity import Stationarity
 
-__all__ = ["save_fit", "load_fit", "fit_axes", "write_netcdf", "prepare_netcdf", "ARCHIVE_NAME"]
+__all__ = ["save_fit", "load_fit", "fit_axes", "write_netcdf", "ARCHIVE_NAME"]
 
 ARCHIVE_NAME = "fit.npz"
 _FORMAT = 1
@@ -111,17 +111,6 @@ def load_fit(path):
     return FitResult(model, data["samples"], data["log_prob"], allan, candidates, meta["selected"], meta["diagnostics"],
                      meta["likelihood"], data["covariance"], meta["seed"], None, adequacy, probabilities, mixture,
                      meta["widened"], steady)
-
-
-def prepare_netcdf():
-    """Import what :func:`write_netcdf` needs and write a tiny file into a temporary folder (removed again),
-    so that the HDF5 library and h5netcdf are loaded and initialised: a worker's warm-up
-    (:mod:`bayes_imu.report.worker`), after which :func:`write_netcdf` costs what later calls do."""
-    import tempfile
-
-    tiny = {"posterior": ({"chain": np.arange(1), "draw": np.arange(2)}, {"x": (("chain", "draw"), np.zeros((1, 2)))})}
-    with tempfile.TemporaryDirectory(prefix="bayes_imu_warm_") as folder:
-        _write_groups(Path(folder) / "warm.nc", tiny, {})
 
 
 def write_netcdf(fit, path):

@@ -1,13 +1,12 @@
 """Outputs written by a second process while the command goes on fitting.
 
-A fit's figures and its ArviZ file cost about 0.5 s of imports (matplotlib and corner; neither
-they nor ``posterior.nc`` import ArviZ here, see :func:`bayes_imu.report.plots.import_corner` and
-:func:`bayes_imu.inference.archive.write_netcdf`) and about 0.6 s of rendering, all in Python. :class:`OutputWriter` starts one worker
+A fit's figures cost about 0.5 s of imports (matplotlib and corner, without ArviZ: see
+:func:`bayes_imu.report.plots.import_corner`) and about 0.5 s of rendering, all in Python. :class:`OutputWriter` starts one worker
 process (``spawn``: no fork of a threaded process) as the command starts; the worker imports
 those libraries while the command reads the log and fits it on another core, then writes
 each output it is sent. On Linux each output is written by a child forked from the warmed-up
 worker: one at a time while the command is still fitting, side by side (one per usable CPU)
-once it waits, so the figures and the ArviZ file of a fit cost about the longest of them
+once it waits, so the figures of a fit cost about the longest of them
 instead of their sum. With one usable CPU, or ``background=False``, the same calls run in
 the calling process instead; the files are the same either way (tested).
 
@@ -174,7 +173,7 @@ def _serve(jobs, results, warm):
     Where the system forks (Linux), each call runs in a child forked from this warmed-up
     process (imports shared, nothing loaded again): one at a time while the caller is busy,
     as many as there are usable CPUs once it waits (:data:`_DRAIN`), so a fit's figures and
-    ArviZ file are written side by side. Elsewhere the calls run here, one after the other.
+    ArviZ file (when sent) are written side by side. Elsewhere the calls run here, one after the other.
     """
     import signal
     import sys
