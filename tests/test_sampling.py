@@ -75,3 +75,20 @@ def test_autocorr_time_transforms_walkers_together_with_the_same_bits(rng):
             taus = 2.0 * np.cumsum(total / 16) - 1.0
             expected.append(taus[auto_window(taus, 5)])
         np.testing.assert_array_equal(autocorr_time(chain), expected)
+
+
+def test_long_chains_are_checked_at_a_tenth_of_their_length():
+    """Every 250 steps below GEOMETRIC_FROM (the schedule of every shorter chain, unchanged), a tenth of the
+    chain (a multiple of 250) beyond it: a 40 000-step run is checked 54 times instead of 160, and a chain that
+    settles runs at most 10% (plus one chunk) longer."""
+    from bayes_imu.inference.sampling import GEOMETRIC_FROM, steps_to_next_check
+
+    assert [steps_to_next_check(n, 250) for n in (0, 250, GEOMETRIC_FROM - 250)] == [250, 250, 250]
+    assert steps_to_next_check(GEOMETRIC_FROM, 250) == 1000 and steps_to_next_check(12_345, 250) == 1250
+    iteration, checks = 0, 0
+    while iteration < 40_000:
+        step = min(steps_to_next_check(iteration, 250), 40_000 - iteration)
+        assert step % 250 == 0 and step <= max(250, 0.1 * iteration + 250)
+        iteration += step
+        checks += 1
+    assert iteration == 40_000 and checks == 54

@@ -11,8 +11,9 @@ Pipeline of :func:`fit_allan`:
    gauss_markov, random_walk}`` gets its mode and its evidence (:mod:`bayes_imu.inference.selection`).
 4. *Refinement*: the covariance is recomputed at the selected model's mode.
 5. *Sampling*: emcee (``vectorize=True``, differential-evolution and stretch moves) in
-   log-parameters, in chunks of 250 steps until the chain is longer than 50 integrated
-   autocorrelation times and that estimate has settled to 5%; then
+   log-parameters, in chunks of 250 steps (a tenth of the chain past 10 000 steps:
+   :func:`~bayes_imu.inference.sampling.steps_to_next_check`) until the chain is longer than 50
+   integrated autocorrelation times and that estimate has settled to 5%; then
    rank-normalised R-hat and bulk/tail ESS (:mod:`bayes_imu.inference.diagnostics`). Non-convergence warns (:class:`ConvergenceWarning`)
    and sets ``diagnostics["converged"] = False``.
 """
@@ -30,7 +31,8 @@ from ..errors import ConvergenceWarning, InputError
 from .likelihood import LIKELIHOODS, LogPosterior, default_bounds
 from ..noise.avar_forms import BASE_TERMS, PARAMETER_UNITS, NoiseModel
 from .diagnostics import summary as convergence_summary
-from .sampling import autocorr_time, burn_and_thin, ensemble_sampler, long_enough, one_blas_thread
+from .sampling import (GEOMETRIC_FROM, autocorr_time, burn_and_thin, ensemble_sampler, long_enough, one_blas_thread,
+                       steps_to_next_check)
 from .stationarity import Stationarity, stationarity_check
 from .selection import (
     Adequacy,
@@ -637,6 +639,8 @@ def _sample(post, start, rng, max_steps, progress=False):
             state = sampler.run_mcmc(state, chunk, progress=False)
             tau_max = float(np.max(autocorr_time(sampler.get_chain())))
             bar.update(chunk)
+            if sampler.iteration >= GEOMETRIC_FROM:  # a long chain: checked at a tenth of its length, up to the cap
+                chunk = min(steps_to_next_check(sampler.iteration, 250), max_steps - sampler.iteration)
             bar.set_postfix_str(f"autocorrelation {tau_max:.0f} steps")
             settled = long_enough(sampler.iteration, tau_max, tau_old)
             tau_old = tau_max

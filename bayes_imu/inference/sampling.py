@@ -10,10 +10,13 @@ half of one.
 
 import numpy as np
 
-__all__ = ["AUTOCORR_MULTIPLE", "ensemble_sampler", "import_emcee", "autocorr_time", "long_enough", "burn_and_thin", "one_blas_thread"]
+__all__ = ["AUTOCORR_MULTIPLE", "ensemble_sampler", "import_emcee", "autocorr_time", "long_enough", "burn_and_thin",
+           "one_blas_thread", "steps_to_next_check", "GEOMETRIC_FROM"]
 
 #: chain length, in integrated autocorrelation times, before the sampler may stop
 AUTOCORR_MULTIPLE = 50
+#: chain length (steps) from which convergence is checked at a tenth of the chain instead of every fixed chunk
+GEOMETRIC_FROM = 10_000
 
 
 def ensemble_sampler(target, start, rng):
@@ -93,6 +96,21 @@ def autocorr_time(chain, c=5):
         taus = 2.0 * np.cumsum(total) - 1.0
         out[d] = taus[auto_window(taus, c)]
     return out
+
+
+def steps_to_next_check(iteration, every):
+    """Steps to run before the next convergence check of a chain ``iteration`` steps long: ``every`` while
+    it is shorter than :data:`GEOMETRIC_FROM`, then a tenth of its length (a multiple of ``every``).
+
+    Each check estimates the autocorrelation time over the whole chain (an FFT of every walker's
+    series), so checking every ``every`` steps costs quadratically in the chain length: on a real
+    40 000-step ADIS16405 fit the checks were most of its 37 s (0.36 s a check at that length, one-off
+    timing). Geometric spacing makes their total cost linear in the length, and a chain that settles
+    runs at most 10% longer than with fixed chunks; shorter chains are checked exactly as before.
+    """
+    if iteration < GEOMETRIC_FROM:
+        return every
+    return every * int(np.ceil(0.1 * iteration / every))
 
 
 def long_enough(iteration, tau_max, tau_previous):
