@@ -176,3 +176,22 @@ def test_drift_beyond_the_log_is_flagged_as_extrapolation(tmp_path, rng, capsys)
     assert all((float(r[0]) > 40.96) == (r[-1] == "true") for r in rows[1:])
     drift = json.loads((out / "summary.json").read_text())["drift"]["attitude"]
     assert drift["extrapolated"] and drift["record_s"] == 40.96
+
+
+def test_drift_of_a_non_stationary_log_is_the_same_with_the_same_seed(tmp_path):
+    """A log flagged non-stationary gets drift bands widened by random draws of the spread between its parts:
+    they come from --seed, so two runs with the same seed write the same drift.csv and summary drift (they
+    differed from run to run before), and another seed gives other draws."""
+    y = np.random.default_rng(11).standard_normal(40_000)
+    y[20_000:] *= 2.0
+    log = tmp_path / "log.csv"
+    log.write_text("g\n" + "\n".join(f"{v:.9g}" for v in y) + "\n")
+    outs = []
+    for name, seed in (("a", "3"), ("b", "3"), ("c", "4")):
+        assert main(["fit", str(log), "--column", "g", "--rate", "100", "--units", "rad/s", "--sensor", "gyro",
+                     "--terms", "white", "--seed", seed, "--out", str(tmp_path / name), "--quiet"]) == 0
+        summary = json.loads((tmp_path / name / "summary.json").read_text())
+        assert summary["adequacy"]["stationarity"]["stationary"] is False
+        outs.append(((tmp_path / name / "drift.csv").read_text(), summary["drift"]))
+    assert outs[0] == outs[1]
+    assert outs[0][0] != outs[2][0]

@@ -217,3 +217,32 @@ def test_outage_longer_than_the_log_is_marked_extrapolated(report):
     assert tactical.max_outage_s > 3600.0
     page = (out / "report.html").read_text()
     assert "(beyond its 3600 s log: extrapolated)" in page
+
+
+def _flagged_fit():
+    """A log whose noise doubles halfway (flagged non-stationary: its drift draws include the random
+    spread between its parts)."""
+    from bayes_imu import allan_variance, fit_allan
+
+    y = np.random.default_rng(11).standard_normal(40_000)
+    y[20_000:] *= 2.0
+    fit = fit_allan(allan_variance(y, rate_hz=100.0), terms=("white",), rng=0)
+    assert not fit.stationarity.stationary
+    return fit
+
+
+def test_bounds_of_a_non_stationary_log_are_reproducible():
+    """The conservative bound and the longest acceptable outage of a log flagged non-stationary come from the
+    given rng (the part-to-part spread is drawn from it): the same rng gives the same numbers, and the
+    bisection searches one deterministic bound (its draws shared by every time it tries)."""
+    from bayes_imu.report.scene import _bound, max_outage
+
+    fit = _flagged_fit()
+    t = np.array([1.0, 10.0, 100.0])
+    a = _bound(fit, t, "attitude", 0.95, "calibrated", rng=5)
+    np.testing.assert_array_equal(a[0], _bound(fit, t, "attitude", 0.95, "calibrated", rng=5)[0])
+    assert not np.array_equal(a[0], _bound(fit, t, "attitude", 0.95, "calibrated", rng=6)[0])
+    limit = float(a[0][1])  # the bound at 10 s: the longest outage within it is about 10 s
+    first = max_outage(fit, "attitude", limit, 0.95, rng=5)
+    assert first == max_outage(fit, "attitude", limit, 0.95, rng=5)
+    assert 5.0 < first < 20.0

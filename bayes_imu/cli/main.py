@@ -465,7 +465,7 @@ def _write_drift(result, args, unit, out, writer=None):
     quantities = SENSOR_QUANTITIES[args.sensor]
     shown = [display_unit(integrated_unit(unit, q), args.display_units) for q in quantities]
     bands = [drift_bands(result, t, quantity=q, bias_start=args.bias_start, calibration_s=args.calibration,
-                         models=args.models).scaled(factor) for q, (_, factor) in zip(quantities, shown)]
+                         models=args.models, rng=args.seed).scaled(factor) for q, (_, factor) in zip(quantities, shown)]
     lines = ["t_s,quantity,q05,q50,q95,unit,extrapolated"]
     at_horizon = {}
     for b, (u, _) in zip(bands, shown):

@@ -297,12 +297,14 @@ def _columns(entry, where):
                      "the worst one is bounded)")
 
 
-def _bound(fit, t, quantity, credibility, bias_start, calibration_s=DEFAULT_CALIBRATION_S):
-    d = drift_draws(fit, np.atleast_1d(t), quantity=quantity, bias_start=bias_start, calibration_s=calibration_s)["total"]
+def _bound(fit, t, quantity, credibility, bias_start, calibration_s=DEFAULT_CALIBRATION_S, rng=None):
+    d = drift_draws(fit, np.atleast_1d(t), quantity=quantity, bias_start=bias_start, calibration_s=calibration_s,
+                    rng=rng)["total"]
     return np.quantile(d, credibility, axis=0), np.median(d, axis=0)
 
 
-def max_outage(fit, quantity, max_error, credibility, bias_start="calibrated", calibration_s=DEFAULT_CALIBRATION_S):
+def max_outage(fit, quantity, max_error, credibility, bias_start="calibrated", calibration_s=DEFAULT_CALIBRATION_S, *,
+               rng=None):
     """Longest time (s) whose ``credibility`` bound on ``quantity`` stays within ``max_error``.
 
     The bound is model-averaged, with the given bias semantics (default: the bias calibrated
@@ -310,11 +312,17 @@ def max_outage(fit, quantity, max_error, credibility, bias_start="calibrated", c
 
     Bisection on log time between one sample and :data:`MAX_SEARCH_S` (relative precision 1e-4);
     ``0.0`` if even two samples exceed it, :data:`MAX_SEARCH_S` if the search limit does not.
+    The bound of a log flagged non-stationary includes random draws of the spread between its
+    parts (:func:`bayes_imu.drift.bands.drift_draws`): every time the bisection tries uses the
+    same draws (one seed from ``rng``), so the bound it searches is one deterministic, increasing
+    function of time and the same ``rng`` gives the same answer.
     """
     dt = fit.model.dt
     lo, hi = 2.0 * dt, MAX_SEARCH_S  # position needs two samples to be non-zero
+    seed = int(np.random.default_rng(rng).integers(2**63))
+
     def bound(t):
-        return _bound(fit, t, quantity, credibility, bias_start, calibration_s)[0][0]
+        return _bound(fit, t, quantity, credibility, bias_start, calibration_s, rng=seed)[0][0]
 
     if bound(lo) > max_error:
         return 0.0
@@ -345,7 +353,7 @@ def build_report(scene, *, rng=None):
             rows = []
             for quantity in SENSOR_QUANTITIES[spec.kind]:
                 bound, median = _bound(a.posterior, np.array(scene.outages_s), quantity, scene.credibility,
-                                       scene.bias_start, scene.calibration_s)
+                                       scene.bias_start, scene.calibration_s, rng=rng)
                 rows += [{"outage_s": t, "quantity": quantity, "bound": float(b), "median": float(m),
                           "unit": OUTPUT_UNITS[quantity], "extrapolated": bool(t > a.posterior.record_s),
                           "axis": a.axis} for t, b, m in zip(scene.outages_s, bound, median)]
@@ -355,13 +363,13 @@ def build_report(scene, *, rng=None):
         worst = next(i for i, a in enumerate(axes) if a.axis == bounds[last]["axis"])
         bands = tuple(drift_bands(axes[worst].posterior, quantity=quantity, bias_start=scene.bias_start,
                                   horizon_s=max(scene.outages_s) * 2.0, calibration_s=scene.calibration_s,
-                                  quantiles=(1.0 - scene.credibility, 0.5, scene.credibility))
+                                  quantiles=(1.0 - scene.credibility, 0.5, scene.credibility), rng=rng)
                       for quantity in SENSOR_QUANTITIES[spec.kind])
         req = scene.requirement
         longest = None
         if req is not None and req["quantity"] in SENSOR_QUANTITIES[spec.kind]:
             longest = min(max_outage(a.posterior, req["quantity"], req["max_error"], scene.credibility,
-                                     scene.bias_start, scene.calibration_s) for a in axes)
+                                     scene.bias_start, scene.calibration_s, rng=rng) for a in axes)
         reports.append(SensorReport(spec, tuple(axes), bounds, longest, bands, worst))
     ranking, reason = _rank(scene, reports)
     return Report(scene, tuple(reports), ranking, reason)
