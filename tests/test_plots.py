@@ -148,3 +148,25 @@ print(json.dumps([before, after, len(fig.axes)]))
     before, after, n_axes = json.loads(done.stdout.strip().splitlines()[-1])
     assert before == [] and after and n_axes == 1
     assert (tmp_path / "without.png").read_bytes() == (tmp_path / "with.png").read_bytes()
+
+
+def test_corner_notices_stay_out_of_the_output(tmp_path, fit, caplog, monkeypatch):
+    """Draws too concentrated for contours make corner log "Too few points to create valid contours" on the
+    root logger (a command printed it as WARNING:root: lines); plot_corner leaves those notices out and still
+    draws the figure. Without the filter the same call logs them (the test can fail)."""
+    import contextlib
+    import dataclasses
+    import logging
+
+    samples = fit.samples.copy()
+    samples[:, 2] = samples[0, 2]  # one value, and a few draws far from it: the mass sits in one histogram bin
+    samples[:5, 2] *= 1e3
+    pinned = dataclasses.replace(fit, samples=samples)
+    with caplog.at_level(logging.WARNING):
+        plots.plot_corner(pinned, tmp_path / "corner.png")
+    assert not [r for r in caplog.records if "contours" in r.getMessage()]
+    _png(tmp_path / "corner.png")
+    monkeypatch.setattr(plots, "_without_corner_notices", contextlib.nullcontext)
+    with caplog.at_level(logging.WARNING):
+        plots.plot_corner(pinned, tmp_path / "corner2.png")
+    assert [r for r in caplog.records if "contours" in r.getMessage()]

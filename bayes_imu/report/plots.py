@@ -85,6 +85,24 @@ def _arviz_corner(*args, **kwargs):
 
 
 @contextlib.contextmanager
+def _without_corner_notices():
+    """corner's notices on the root logger left out inside the block ("Too few points to create valid
+    contours": a panel whose draws are too concentrated for contours shows them as points), which a command
+    printed as ``WARNING:root:...`` lines that a user can do nothing about."""
+    import logging
+
+    def keep(record):
+        return "corner" not in record.pathname.replace("\\", "/").split("/")
+
+    root = logging.getLogger()
+    root.addFilter(keep)
+    try:
+        yield
+    finally:
+        root.removeFilter(keep)
+
+
+@contextlib.contextmanager
 def _array_path(corner):
     """corner's own path for numpy arrays inside the block, where ArviZ is loaded too: corner otherwise
     sends arrays through its ArviZ entry point, which converts them to xarray first (the same PNG,
@@ -230,7 +248,7 @@ def plot_corner(fit, path, *, unit="u"):
         ax.set_title(f"median {q[1]:.4g}, 90% [{q[0]:.4g}, {q[2]:.4g}]", fontsize=8)
         fig.tight_layout()
     else:
-        with _array_path(corner):
+        with _array_path(corner), _without_corner_notices():
             fig = corner.corner(data, labels=labels, axes_scale="log", quantiles=[0.05, 0.5, 0.95],
                                 label_kwargs={"fontsize": 8}, labelpad=0.15, max_n_ticks=3)
         k = len(names)
