@@ -80,7 +80,6 @@ def main(argv=None):
     from bayes_imu import allan_variance, fit_allan
     from bayes_imu.drift.bands import drift_draws
 
-    rng = np.random.default_rng(20261123)
     dt = 1.0 / RATE
     n_cal = int(round(args.calibration * RATE))
     rows = []
@@ -95,8 +94,11 @@ def main(argv=None):
         ratio = [float(first.adev[np.argmin(abs(first.tau - t))] / second.adev[np.argmin(abs(second.tau - t))])
                  for t in (82.0, 328.0)]
         fit = fit_allan(first, rng=0)
+        # each channel's own stream (the part-to-part spread of a flagged log, the predictive chi-squared factors):
+        # the same numbers on every run, and a channel's numbers depend on its own fit alone
+        rng = np.random.default_rng([20261123, j])
         sigma = drift_draws(fit, np.array(HORIZONS), quantity="attitude", bias_start="calibrated",
-                            calibration_s=args.calibration, models=args.models)["total"]
+                            calibration_s=args.calibration, models=args.models, rng=rng)["total"]
         cells = []
         for i, h in enumerate(HORIZONS):
             k = int(round(h * RATE))
