@@ -246,3 +246,19 @@ def test_bounds_of_a_non_stationary_log_are_reproducible():
     first = max_outage(fit, "attitude", limit, 0.95, rng=5)
     assert first == max_outage(fit, "attitude", limit, 0.95, rng=5)
     assert 5.0 < first < 20.0
+
+
+def test_a_sensors_numbers_do_not_depend_on_the_sensors_beside_it(tmp_path, report):
+    """Each sensor draws from its own stream spawned from the report's seed: with another log in place of the
+    first sensor, the second sensor's bounds and longest outage are the same as in the original scene (with one
+    stream through all sensors they moved with whatever the first sensor's fits had drawn)."""
+    rep, _ = report
+    other = SCENE.replace('name = "budget"\nlog = "{data}/gyro_lowgrade.csv.gz"',
+                          'name = "budget"\nlog = "{data}/gyro_rrw.csv.gz"')
+    assert other != SCENE
+    path = tmp_path / "scene.toml"
+    path.write_text(other.format(data=DATA))
+    again = build_report(read_scene(path), rng=0)
+    assert again.sensors[0].bounds != rep.sensors[0].bounds  # the first sensor did change
+    assert again.sensors[1].bounds == rep.sensors[1].bounds
+    assert again.sensors[1].max_outage_s == rep.sensors[1].max_outage_s

@@ -342,11 +342,15 @@ def build_report(scene, *, rng=None):
 
     A sensor with several logs or fit folders is a population of units: its bounds are for a
     new unit of the model (:func:`bayes_imu.inference.population.fit_population`). Several axes: each
-    outage's bound is the worst axis's.
+    outage's bound is the worst axis's. Each sensor draws from its own stream spawned from ``rng``
+    (:meth:`numpy.random.Generator.spawn`): its numbers are the same whichever sensors are listed
+    beside it (tested).
     """
     rng = np.random.default_rng(rng)
     reports = []
-    for spec in scene.sensors:
+    # each sensor its own stream, spawned from the report's: a sensor's fits and bounds do not depend on the
+    # sensors listed before it (one stream through all of them made them depend on the order and the company)
+    for spec, rng in zip(scene.sensors, rng.spawn(len(scene.sensors))):
         axes = _axes(spec, rng)
         per_axis = []
         for a in axes:
