@@ -12,7 +12,7 @@ extension and every kernel is JIT-compiled on first use, as before (a warning sa
 
 import atexit
 import copy
-import importlib.util
+import importlib
 import os
 import shutil
 import sys

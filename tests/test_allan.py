@@ -365,3 +365,20 @@ def test_precompiled_kernels_agree_with_the_jit_build(rng):
             outputs.append((total, bias))
         np.testing.assert_array_equal(outputs[0][0], outputs[1][0])
         np.testing.assert_array_equal(outputs[0][1], outputs[1][1])
+
+
+def test_compiled_kernel_takes_the_precompiled_build_or_compiles_what_it_lacks(monkeypatch):
+    """compiled_kernel: the extension's kernel where it has it; a kernel an older in-place build lacks is
+    JIT-compiled from its source module instead (the same values)."""
+    import types
+
+    import numba
+
+    from bayes_imu.allan import kernels
+
+    aot = kernels.precompiled()
+    if aot is not None:
+        assert kernels.compiled_kernel("avar_rows", "bayes_imu.noise._sources") is aot.avar_rows
+    monkeypatch.setattr(kernels, "precompiled", lambda: types.SimpleNamespace())  # built before drift_rows existed
+    jit = kernels.compiled_kernel("drift_rows", "bayes_imu.noise._sources", parallel=True)
+    assert isinstance(jit, numba.core.registry.CPUDispatcher)

@@ -28,7 +28,7 @@ import contextlib
 import numpy as np
 
 __all__ = ["phase_from_rate", "phase_chunk", "second_difference_sum", "second_difference_sums", "avar_pair_sums",
-           "threads_for", "threads_for_pass", "precompiled", "SAMPLES_PER_THREAD", "PRECOMPILED_BELOW"]
+           "threads_for", "threads_for_pass", "precompiled", "compiled_kernel", "SAMPLES_PER_THREAD", "PRECOMPILED_BELOW"]
 
 _BLOCK = 1 << 14
 #: start indices per block of the one-pass sums of every cluster size (:func:`second_difference_sums`)
@@ -67,15 +67,26 @@ def _compile():
     return _compiled
 
 
-def _kernels(n_samples):
-    """The kernels for a record of ``n_samples``: the precompiled ones below :data:`PRECOMPILED_BELOW`
-    (where built), else the JIT ones."""
-    if n_samples < PRECOMPILED_BELOW:
-        module = precompiled()
-        if module is not None:
-            return {"phase_chunk": module.phase_chunk, "sums_all": module.sums_all, "pair_sums": module.pair_sums,
-                    "sum3": module.sum3}
-    return _compile()
+def _precompiled_for(n_samples):
+    """The ahead-of-time build where it sums a record of ``n_samples`` (shorter than :data:`PRECOMPILED_BELOW`
+    and built), else ``None``: the JIT kernels of :func:`_compile` then."""
+    return precompiled() if n_samples < PRECOMPILED_BELOW else None
+
+
+def compiled_kernel(name, sources, **jit_options):
+    """The compiled kernel ``name`` of another module: the ahead-of-time build's where the package has it
+    (no numba import, nothing compiled), else numba's JIT build (``jit_options``, cached on disk) of the
+    function ``name`` of the module ``sources``, imported only then (a kernel source module imports
+    numba). An extension built before a kernel was added (an in-place build not redone) lacks it: that
+    kernel is then JIT-compiled."""
+    module = precompiled()
+    if module is not None and hasattr(module, name):
+        return getattr(module, name)
+    import importlib
+
+    import numba
+
+    return numba.njit(cache=True, **jit_options)(getattr(importlib.import_module(sources), name))
 
 
 def phase_from_rate(y, offset):
@@ -89,13 +100,15 @@ def phase_from_rate(y, offset):
     for bit, on any number of threads.
     """
     y = np.ascontiguousarray(y, dtype=float)
-    kernels = _kernels(y.size)
     out = np.empty(y.size + 1)
     out[0] = 0.0
-    if y.size < PRECOMPILED_BELOW or threads_for(y.size) == 1:
+    aot = _precompiled_for(y.size)
+    if aot is not None or threads_for(y.size) == 1:
         # one thread: the sequential pass itself, reading the record once instead of twice
-        kernels["phase_chunk"](y, float(offset), out[1:], _PHASE_BLOCK, np.zeros(2))
+        (_compile()["phase_chunk"] if aot is None else aot.phase_chunk)(y, float(offset), out[1:], _PHASE_BLOCK,
+                                                                         np.zeros(2))
         return out
+    kernels = _compile()
     with threads_for_pass(y.size):
         bases = kernels["chunk_bases"](kernels["chunk_totals"](y, float(offset), _PHASE_BLOCK))
         kernels["phase_blocks"](y, float(offset), bases, _PHASE_BLOCK, out[1:])
@@ -155,8 +168,9 @@ def second_difference_sums(x, ms):
     if ms.size == 0:
         return np.empty(0)
     x = np.ascontiguousarray(x, dtype=float)
-    if x.size < PRECOMPILED_BELOW and precompiled() is not None:
-        return _kernels(x.size)["sums_all"](x, ms, _BLOCK_ALL)
+    aot = _precompiled_for(x.size)
+    if aot is not None:
+        return aot.sums_all(x, ms, _BLOCK_ALL)
     with threads_for_pass(x.size):
         return _compile()["sums_all"](x, ms, _BLOCK_ALL)
 
@@ -166,9 +180,10 @@ def avar_pair_sums(table, ms, n, h, s2, x):
 
     ``table[k] = D(k)`` is the model's phase structure function for ``0 <= k <= 4 max(ms)``;
     ``h`` the flicker level ``B^2/pi``; ``s2`` and ``x = dt/T`` arrays over the Gauss-Markov
-    components (empty when there are none).
+    components (empty when there are none); ``n`` the record's length, which chooses the build as for
+    the record's own sums.
     """
-    table = np.ascontiguousarray(table, dtype=float)
-    return _kernels(table.size)["pair_sums"](table,
-                                            np.ascontiguousarray(ms, dtype=np.int64), int(n), float(h),
-                                            np.ascontiguousarray(s2, dtype=float), np.ascontiguousarray(x, dtype=float))
+    aot = _precompiled_for(int(n))
+    pair_sums = _compile()["pair_sums"] if aot is None else aot.pair_sums
+    return pair_sums(np.ascontiguousarray(table, dtype=float), np.ascontiguousarray(ms, dtype=np.int64), int(n),
+                     float(h), np.ascontiguousarray(s2, dtype=float), np.ascontiguousarray(x, dtype=float))

@@ -301,21 +301,13 @@ def drift_grid(order, k, a, bias_scale, stationary_scale, white_scales, white_ks
 
 
 def _kernel():
-    """The compiled drift grid: the ahead-of-time build where the package has it (no numba import, nothing
-    compiled), else numba's JIT build of the same source (parallel over times, cached on disk)."""
+    """The compiled drift grid (:func:`bayes_imu.noise._sources.drift_rows`, through
+    :func:`bayes_imu.allan.kernels.compiled_kernel`; its JIT build parallel over times)."""
     global _drift_kernel
     if _drift_kernel is None:
-        from ..allan.kernels import precompiled
+        from ..allan.kernels import compiled_kernel
 
-        module = precompiled()
-        if module is not None and hasattr(module, "drift_rows"):
-            _drift_kernel = module.drift_rows
-        else:
-            import numba
-
-            from ._sources import drift_rows
-
-            _drift_kernel = numba.njit(parallel=True, cache=True)(drift_rows)
+        _drift_kernel = compiled_kernel("drift_rows", f"{__package__}._sources", parallel=True)
     return _drift_kernel
 
 

@@ -104,21 +104,13 @@ def gm_avar(mf, variance, time_constant, dt):
 
 
 def _kernel():
-    """The compiled AVAR rows (:func:`bayes_imu.noise._sources.avar_rows`): the ahead-of-time build where
-    the package has it (no numba import), else numba's JIT build, cached on disk."""
+    """The compiled AVAR rows (:func:`bayes_imu.noise._sources.avar_rows`, through
+    :func:`bayes_imu.allan.kernels.compiled_kernel`)."""
     global _avar_kernel
     if _avar_kernel is None:
-        from ..allan.kernels import precompiled
+        from ..allan.kernels import compiled_kernel
 
-        module = precompiled()
-        if module is not None:
-            _avar_kernel = module.avar_rows
-        else:
-            import numba
-
-            from ._sources import avar_rows
-
-            _avar_kernel = numba.njit(cache=True)(avar_rows)
+        _avar_kernel = compiled_kernel("avar_rows", f"{__package__}._sources")
     return _avar_kernel
 
 

@@ -350,14 +350,14 @@ def build_report(scene, *, rng=None):
     reports = []
     # each sensor its own stream, spawned from the report's: a sensor's fits and bounds do not depend on the
     # sensors listed before it (one stream through all of them made them depend on the order and the company)
-    for spec, rng in zip(scene.sensors, rng.spawn(len(scene.sensors))):
-        axes = _axes(spec, rng)
+    for spec, sensor_rng in zip(scene.sensors, rng.spawn(len(scene.sensors))):
+        axes = _axes(spec, sensor_rng)
         per_axis = []
         for a in axes:
             rows = []
             for quantity in SENSOR_QUANTITIES[spec.kind]:
                 bound, median = _bound(a.posterior, np.array(scene.outages_s), quantity, scene.credibility,
-                                       scene.bias_start, scene.calibration_s, rng=rng)
+                                       scene.bias_start, scene.calibration_s, rng=sensor_rng)
                 rows += [{"outage_s": t, "quantity": quantity, "bound": float(b), "median": float(m),
                           "unit": OUTPUT_UNITS[quantity], "extrapolated": bool(t > a.posterior.record_s),
                           "axis": a.axis} for t, b, m in zip(scene.outages_s, bound, median)]
@@ -367,13 +367,13 @@ def build_report(scene, *, rng=None):
         worst = next(i for i, a in enumerate(axes) if a.axis == bounds[last]["axis"])
         bands = tuple(drift_bands(axes[worst].posterior, quantity=quantity, bias_start=scene.bias_start,
                                   horizon_s=max(scene.outages_s) * 2.0, calibration_s=scene.calibration_s,
-                                  quantiles=(1.0 - scene.credibility, 0.5, scene.credibility), rng=rng)
+                                  quantiles=(1.0 - scene.credibility, 0.5, scene.credibility), rng=sensor_rng)
                       for quantity in SENSOR_QUANTITIES[spec.kind])
         req = scene.requirement
         longest = None
         if req is not None and req["quantity"] in SENSOR_QUANTITIES[spec.kind]:
             longest = min(max_outage(a.posterior, req["quantity"], req["max_error"], scene.credibility,
-                                     scene.bias_start, scene.calibration_s, rng=rng) for a in axes)
+                                     scene.bias_start, scene.calibration_s, rng=sensor_rng) for a in axes)
         reports.append(SensorReport(spec, tuple(axes), bounds, longest, bands, worst))
     ranking, reason = _rank(scene, reports)
     return Report(scene, tuple(reports), ranking, reason)
