@@ -1,0 +1,196 @@
+"""Speed options measured and not adopted (issue 17), each printed as a table, so that the numbers the docs
+quote can be rerun:
+
+1. ``--kernels``: the first drift grid in a fresh process, from the precompiled extension and from numba's
+   JIT build of the same source (loaded from numba's on-disk cache; a first compile costs more).
+2. ``--figures``: each figure with and without its layout pass (allan_fit.png with a fixed layout instead of
+   ``tight_layout``; corner.png without its tight bounding box), best of 5, on a fit of the bench log.
+3. ``--bfgs``: the candidates' mode searches of a fit started from the identity (scipy's default) and from
+   the inverse of a finite-difference Hessian (eigenvalues' magnitudes floored at 1e-2): time, and how far
+   the modes found differ in ``-log p`` (negative: the Hessian start found a denser mode), on the bench log
+   and, where ``../shared`` has them, five real ADIS16405 channels.
+
+    python scripts/study_speed_options.py [--kernels] [--figures] [--bfgs]   (all three without options)
+"""
+
+import argparse
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # validate_real's DATA
+
+FIRST_GRID = """
+import sys, time
+import numpy as np
+t = time.perf_counter()
+from bayes_imu.noise import euler_sums
+if sys.argv[1] == "jit":
+    import numba
+    from bayes_imu.noise._sources import drift_rows
+    euler_sums._drift_kernel = numba.njit(parallel=True, cache=True)(drift_rows)
+k = np.arange(1.0, 1001.0); a = np.full(200, 1e-3)
+none_a, none_k = np.zeros((1, a.size)), np.zeros((1, k.size))
+euler_sums.drift_grid(1, k, a, np.ones_like(a), np.zeros_like(a), none_a, none_k, none_a, none_k)
+print(time.perf_counter() - t, "numba" in sys.modules)
+"""
+
+
+def kernels():
+    print(f"{'build':>12s} {'first drift grid in a process (s)':>34s} {'numba imported':>15s}")
+    for build in ("jit", "jit", "precompiled"):  # the first JIT run fills numba's cache if it is empty
+        out = subprocess.run([sys.executable, "-c", FIRST_GRID, build], capture_output=True, text=True, check=True)
+        seconds, numba_loaded = out.stdout.split()
+        print(f"{build:>12s} {float(seconds):34.2f} {numba_loaded:>15s}")
+
+
+def _best(fn, n=5):
+    times = []
+    for _ in range(n):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def _bench_fit():
+    from bayes_imu.allan.estimator import allan_variance
+    from bayes_imu.inference.fit import fit_allan
+    from bayes_imu.noise.avar_forms import NoiseModel
+    from bayes_imu.noise.simulate import simulate_log
+
+    truth = {"noise_variance": 0.25, "bias_variance": 1e-4, "time_constant": 100.0}
+    y = simulate_log(NoiseModel(("white", "gauss_markov"), 0.01), truth, 1_000_000, rng=1)  # bench_fit's log
+    return allan_variance(y, rate_hz=100.0), fit_allan
+
+
+def figures():
+    import matplotlib.figure
+
+    from bayes_imu.report import plots
+
+    allan, fit_allan = _bench_fit()
+    fit = fit_allan(allan, rng=0)
+    plots.import_plotting()
+    figure = matplotlib.figure.Figure
+    tight_layout, savefig = figure.tight_layout, figure.savefig
+    with tempfile.TemporaryDirectory() as folder:
+        out = Path(folder)
+        allan_s = _best(lambda: plots.plot_allan_fit(fit, out / "a.png", rng=0, unit="u"))
+        corner_s = _best(lambda: plots.plot_corner(fit, out / "c.png"))
+        params = {}
+
+        def recording(self, *args, **kwargs):
+            tight_layout(self, *args, **kwargs)
+            p = self.subplotpars
+            params.update(left=p.left, right=p.right, top=p.top, bottom=p.bottom, hspace=p.hspace)
+
+        try:
+            figure.tight_layout = recording
+            plots.plot_allan_fit(fit, out / "a.png", rng=0, unit="u")
+            figure.tight_layout = lambda self, *args, **kwargs: self.subplots_adjust(**params)
+            fixed_s = _best(lambda: plots.plot_allan_fit(fit, out / "a2.png", rng=0, unit="u"))
+            figure.savefig = lambda self, path, **kw: savefig(self, path, **{k: v for k, v in kw.items()
+                                                                              if k not in ("bbox_inches", "pad_inches")})
+            untight_s = _best(lambda: plots.plot_corner(fit, out / "c2.png"))
+        finally:
+            figure.tight_layout, figure.savefig = tight_layout, savefig
+    print(f"{'figure':>14s} {'as drawn (s)':>13s} {'without the layout pass (s)':>28s}")
+    print(f"{'allan_fit.png':>14s} {allan_s:13.3f} {fixed_s:28.3f}   (a fixed layout: tight_layout's own margins)")
+    print(f"{'corner.png':>14s} {corner_s:13.3f} {untight_s:28.3f}   (no tight bounding box: labels may be cut)")
+
+
+def _mode_searches(allan, fit_allan):
+    """Every (posterior, starts) a fit's model search passes to posterior_mode."""
+    import importlib
+
+    selection = importlib.import_module("bayes_imu.inference.selection")
+    fit_module = importlib.import_module("bayes_imu.inference.fit")
+    original, calls = selection.posterior_mode, []
+
+    def record(post, starts):
+        calls.append((post, np.array(starts, float)))
+        return original(post, starts)
+
+    selection.posterior_mode = fit_module.posterior_mode = record
+    try:
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fit_allan(allan, rng=0, max_steps=500)
+    finally:
+        selection.posterior_mode = fit_module.posterior_mode = original
+    return calls
+
+
+def _mode_from_hessian(post, starts):
+    """posterior_mode's search, each BFGS started from the inverse finite-difference Hessian."""
+    from scipy import optimize
+
+    from bayes_imu.inference import selection as s
+
+    best = None
+    for phi0 in np.atleast_2d(starts):
+        u0 = s._to_u(np.asarray(phi0, float), post.bounds)
+        if not np.isfinite(s._log_density_u(post, u0)[0]):
+            continue
+        h = s.negative_hessian(lambda u: s._log_density_u(post, u), u0, 1e-3)
+        options = {"gtol": 1e-5, "maxiter": 2000}
+        if np.all(np.isfinite(h)):
+            w, v = np.linalg.eigh(h)
+            inverse = (v / np.clip(np.abs(w), 1e-2, None)) @ v.T
+            options["hess_inv0"] = 0.5 * (inverse + inverse.T)
+        res = optimize.minimize(s._neg_log_density, u0, args=(post,), jac=s._neg_gradient, method="BFGS",
+                                options=options)
+        if best is None or res.fun < best.fun:
+            best = res
+    return float(best.fun)
+
+
+def bfgs():
+    from bayes_imu.allan.estimator import allan_variance
+    from bayes_imu.inference.selection import posterior_mode
+    from bayes_imu.io.readers import read_log
+
+    bench, fit_allan = _bench_fit()
+    cases = [("bench log (synthetic)", bench)]
+    from validate_real import DATA
+
+    for unit, column in ((3, "gyro_x_dps"), (4, "gyro_x_dps"), (1, "accel_y_g"), (5, "accel_z_g"), (1, "gyro_z_dps")):
+        path = DATA / f"adis_16405_imu{unit}.csv.gz"
+        if path.exists():
+            y = read_log(path, column=column).values
+            cases.append((f"adis{unit} {column}", allan_variance(y, rate_hz=100.0)))
+    print(f"{'log':>22s} {'searches':>8s} {'identity_s':>10s} {'hessian_s':>9s} {'min d(-log p)':>13s} "
+          f"{'max d(-log p)':>13s} {'better>0.01':>11s} {'worse>0.01':>10s}")
+    for name, allan in cases:
+        calls = _mode_searches(allan, fit_allan)
+        start = time.perf_counter()
+        ref = [posterior_mode(p, s).neg_log_density for p, s in calls]
+        middle = time.perf_counter()
+        new = [_mode_from_hessian(p, s) for p, s in calls]
+        end = time.perf_counter()
+        d = np.array(new) - np.array(ref)
+        print(f"{name:>22s} {len(calls):8d} {middle - start:10.2f} {end - middle:9.2f} {d.min():13.3g} {d.max():13.3g} "
+              f"{int(np.sum(d < -1e-2)):11d} {int(np.sum(d > 1e-2)):10d}")
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--kernels", action="store_true")
+    parser.add_argument("--figures", action="store_true")
+    parser.add_argument("--bfgs", action="store_true")
+    args = parser.parse_args(argv)
+    chosen = [name for name in ("kernels", "figures", "bfgs") if getattr(args, name)] or ["kernels", "figures", "bfgs"]
+    for name in chosen:
+        print(f"\n== {name}")
+        globals()[name]()
+
+
+if __name__ == "__main__":
+    main()
