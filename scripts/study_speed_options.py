@@ -1,16 +1,21 @@
-"""Speed options measured and not adopted (issue 17), each printed as a table, so that the numbers the docs
-quote can be rerun:
+"""Speed options of issue 17, adopted or not, each measured and printed as a table, so that the numbers the
+docs quote can be rerun:
 
 1. ``--kernels``: the first drift grid in a fresh process, from the precompiled extension and from numba's
    JIT build of the same source (loaded from numba's on-disk cache; a first compile costs more).
 2. ``--figures``: each figure with and without its layout pass (allan_fit.png with a fixed layout instead of
-   ``tight_layout``; corner.png without its tight bounding box), best of 5, on a fit of the bench log.
-3. ``--bfgs``: the candidates' mode searches of a fit started from the identity (scipy's default) and from
-   the inverse of a finite-difference Hessian (eigenvalues' magnitudes floored at 1e-2): time, and how far
-   the modes found differ in ``-log p`` (negative: the Hessian start found a denser mode), on the bench log
-   and, where ``../shared`` has them, five real ADIS16405 channels.
+   ``tight_layout``; corner.png without its tight bounding box), best of 5, on a fit of the bench log; then
+   corner.png with plain-text tick labels (as drawn, :func:`bayes_imu.report.plots.plain_log_formatter`) and
+   with matplotlib's mathtext labels, on that fit and a real ADIS16405 one (``../shared``, where present).
+3. ``--modes``: the mode searches of a fit (every posterior and its starts, as the model search passes them)
+   by the Newton search that replaced BFGS (:func:`bayes_imu.inference.selection.newton_mode`) and by BFGS
+   from the identity with central-difference gradients, as before: time, and how far the densest end points
+   differ in ``-log p`` (negative: the Newton search found a denser mode), on the bench log and, where
+   ``../shared`` has them, six real ADIS16405 channels. (A BFGS started from the inverse finite-difference
+   Hessian, measured by an earlier version of this script, was about as fast as the identity start and
+   found other local modes on three of five real channels; not adopted.)
 
-    python scripts/study_speed_options.py [--kernels] [--figures] [--bfgs]   (all three without options)
+    python scripts/study_speed_options.py [--kernels] [--figures] [--modes]   (all three without options)
 """
 
 import argparse
@@ -102,6 +107,44 @@ def figures():
     print(f"{'figure':>14s} {'as drawn (s)':>13s} {'without the layout pass (s)':>28s}")
     print(f"{'allan_fit.png':>14s} {allan_s:13.3f} {fixed_s:28.3f}   (a fixed layout: tight_layout's own margins)")
     print(f"{'corner.png':>14s} {corner_s:13.3f} {untight_s:28.3f}   (no tight bounding box: labels may be cut)")
+    _corner_labels(plots, [("bench log (synthetic)", fit)] + _real_fits(fit_allan))
+
+
+def _real_fits(fit_allan, cases=((1, "gyro_x_dps"),)):
+    """Fits of real ADIS16405 channels (``../shared``), where present."""
+    import warnings
+
+    from bayes_imu.allan.estimator import allan_variance
+    from bayes_imu.io.readers import read_log
+    from validate_real import DATA
+
+    out = []
+    for unit, column in cases:
+        path = DATA / f"adis_16405_imu{unit}.csv.gz"
+        if path.exists():
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                fit = fit_allan(allan_variance(read_log(path, column=column).values, rate_hz=100.0), rng=0)
+            out.append((f"adis{unit} {column}", fit))
+    return out
+
+
+def _corner_labels(plots, fits):
+    """corner.png with its edge tick labels in plain text (as drawn) and in mathtext (matplotlib's own)."""
+    from matplotlib.ticker import LogFormatterSciNotation
+
+    print(f"\n{'fit':>22s} {'parameters':>10s} {'corner.png, plain labels (s)':>29s} {'mathtext labels (s)':>20s}")
+    with tempfile.TemporaryDirectory() as folder:
+        out = Path(folder)
+        for name, fit in fits:
+            plain_s = _best(lambda: plots.plot_corner(fit, out / "c.png"))
+            plain = plots.plain_log_formatter
+            try:
+                plots.plain_log_formatter = LogFormatterSciNotation
+                mathtext_s = _best(lambda: plots.plot_corner(fit, out / "c.png"))
+            finally:
+                plots.plain_log_formatter = plain
+            print(f"{name:>22s} {fit.samples.shape[1]:10d} {plain_s:29.3f} {mathtext_s:20.3f}")
 
 
 def _mode_searches(allan, fit_allan):
@@ -128,31 +171,25 @@ def _mode_searches(allan, fit_allan):
     return calls
 
 
-def _mode_from_hessian(post, starts):
-    """posterior_mode's search, each BFGS started from the inverse finite-difference Hessian."""
+def _mode_bfgs(post, starts):
+    """The mode search before the Newton search (issue 17): BFGS from each start (scipy's identity start,
+    central-difference gradient); returns ``-log p`` of the densest end point."""
     from scipy import optimize
 
     from bayes_imu.inference import selection as s
 
-    best = None
+    best = np.inf
     for phi0 in np.atleast_2d(starts):
         u0 = s._to_u(np.asarray(phi0, float), post.bounds)
         if not np.isfinite(s._log_density_u(post, u0)[0]):
             continue
-        h = s.negative_hessian(lambda u: s._log_density_u(post, u), u0, 1e-3)
-        options = {"gtol": 1e-5, "maxiter": 2000}
-        if np.all(np.isfinite(h)):
-            w, v = np.linalg.eigh(h)
-            inverse = (v / np.clip(np.abs(w), 1e-2, None)) @ v.T
-            options["hess_inv0"] = 0.5 * (inverse + inverse.T)
         res = optimize.minimize(s._neg_log_density, u0, args=(post,), jac=s._neg_gradient, method="BFGS",
-                                options=options)
-        if best is None or res.fun < best.fun:
-            best = res
-    return float(best.fun)
+                                options={"gtol": 1e-5, "maxiter": 2000})
+        best = min(best, float(res.fun))
+    return best
 
 
-def bfgs():
+def modes():
     from bayes_imu.allan.estimator import allan_variance
     from bayes_imu.inference.selection import posterior_mode
     from bayes_imu.io.readers import read_log
@@ -161,32 +198,35 @@ def bfgs():
     cases = [("bench log (synthetic)", bench)]
     from validate_real import DATA
 
-    for unit, column in ((3, "gyro_x_dps"), (4, "gyro_x_dps"), (1, "accel_y_g"), (5, "accel_z_g"), (1, "gyro_z_dps")):
+    for unit, column in ((1, "gyro_x_dps"), (3, "gyro_y_dps"), (4, "gyro_x_dps"), (5, "accel_x_g"), (2, "accel_z_g"),
+                         (6, "gyro_z_dps")):
         path = DATA / f"adis_16405_imu{unit}.csv.gz"
         if path.exists():
             y = read_log(path, column=column).values
             cases.append((f"adis{unit} {column}", allan_variance(y, rate_hz=100.0)))
-    print(f"{'log':>22s} {'searches':>8s} {'identity_s':>10s} {'hessian_s':>9s} {'min d(-log p)':>13s} "
-          f"{'max d(-log p)':>13s} {'better>0.01':>11s} {'worse>0.01':>10s}")
+    print(f"{'log':>22s} {'searches':>8s} {'starts':>6s} {'bfgs_s':>7s} {'newton_s':>8s} {'min d(-log p)':>13s} "
+          f"{'max d(-log p)':>13s} {'denser>0.01':>11s} {'less>0.01':>9s}")
     for name, allan in cases:
         calls = _mode_searches(allan, fit_allan)
         start = time.perf_counter()
-        ref = [posterior_mode(p, s).neg_log_density for p, s in calls]
+        ref = [_mode_bfgs(p, s) for p, s in calls]
         middle = time.perf_counter()
-        new = [_mode_from_hessian(p, s) for p, s in calls]
+        new = [posterior_mode(p, s).neg_log_density for p, s in calls]
         end = time.perf_counter()
         d = np.array(new) - np.array(ref)
-        print(f"{name:>22s} {len(calls):8d} {middle - start:10.2f} {end - middle:9.2f} {d.min():13.3g} {d.max():13.3g} "
-              f"{int(np.sum(d < -1e-2)):11d} {int(np.sum(d > 1e-2)):10d}")
+        n_starts = sum(len(np.atleast_2d(s)) for _, s in calls)
+        print(f"{name:>22s} {len(calls):8d} {n_starts:6d} {middle - start:7.2f} {end - middle:8.2f} {d.min():13.3g} "
+              f"{d.max():13.3g} {int(np.sum(d < -1e-2)):11d} {int(np.sum(d > 1e-2)):9d}")
+    print("d(-log p): the Newton search's end point minus BFGS's, per search (negative: Newton's is denser)")
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--kernels", action="store_true")
     parser.add_argument("--figures", action="store_true")
-    parser.add_argument("--bfgs", action="store_true")
+    parser.add_argument("--modes", action="store_true")
     args = parser.parse_args(argv)
-    chosen = [name for name in ("kernels", "figures", "bfgs") if getattr(args, name)] or ["kernels", "figures", "bfgs"]
+    chosen = [name for name in ("kernels", "figures", "modes") if getattr(args, name)] or ["kernels", "figures", "modes"]
     for name in chosen:
         print(f"\n== {name}")
         globals()[name]()

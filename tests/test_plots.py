@@ -84,6 +84,35 @@ def test_corner_has_units_and_no_offset_ticks(tmp_path, figures, fit):
             assert axis.get_offset_text().get_text() == ""
 
 
+def test_corner_tick_labels_are_plain_text_giving_each_tick_value(tmp_path, figures, fit):
+    """The corner plot's edge tick labels are plain text (no mathtext to parse), and each non-empty one reads
+    back, Unicode superscripts included, as its tick's value to the precision the label shows (what
+    matplotlib's mathtext label gives); some minor ticks are labelled (minor_thresholds)."""
+    import re
+
+    plots.plot_corner(fit, tmp_path / "c.png", unit="rad/s")
+    fig = figures[-1]
+    fig.canvas.draw()
+    digits = str.maketrans("\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079", "-0123456789")
+    labelled = 0
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            for tick in axis.get_major_ticks() + axis.get_minor_ticks():
+                text = tick.label1.get_text()
+                if not text:
+                    continue
+                assert "$" not in text
+                match = re.fullmatch(r"(?:([0-9.]+)\u00d7)?10([\u207b\u2070-\u2079\u00b9\u00b2\u00b3]+)", text)
+                assert match, text
+                coefficient = float(match.group(1) or 1.0)
+                value = coefficient * 10.0 ** int(match.group(2).translate(digits))
+                decimals = len(match.group(1).split(".")[1]) if match.group(1) and "." in match.group(1) else 0
+                exponent = np.floor(np.log10(tick.get_loc()))
+                assert value == pytest.approx(tick.get_loc(), abs=0.51 * 10.0 ** (exponent - decimals)), text
+                labelled += 1
+    assert labelled >= 2 * len(fit.parameter_names)
+
+
 def test_drift_plot_labels_terms_with_probability(tmp_path, figures, fit):
     bands = drift_bands(fit, quantity="attitude", bias_start="calibrated", horizon_s=1000.0)
     plots.plot_drift([bands.scaled(180 / np.pi)], tmp_path / "d.png", units=["deg"])

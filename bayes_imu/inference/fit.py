@@ -48,6 +48,7 @@ from .selection import (
     posterior_mode,
     reductions,
     select,
+    within_margin,
     to_phi,
 )
 
@@ -480,8 +481,15 @@ def _search(make_post, allan, reference, candidates, stepwise, threshold, n_evid
             if best_new.score.log_evidence <= current.score.log_evidence + margin:
                 break
             current = best_new
-        run(reductions(current.score.terms))
+        while True:  # backward: on to the best removal while it stays within the selection margin of the best
+            new = run(reductions(current.score.terms))
+            top = max(scored.values(), key=lambda c: c.score.log_evidence).score
+            near = [c for c in new if within_margin(c.score, top, threshold)]
+            if not near:
+                break
+            current = max(near, key=lambda c: c.score.log_evidence)
     return list(scored.values())
+
 
 
 def _rescore_widened(scored, allan, reference, n_evidence, rng):

@@ -35,7 +35,11 @@ four IEEE terms (quantization, bias instability, Gauss-Markov bias, rate random 
 a stepwise evidence search over the terms real MEMS logs add (filtered white noise, a
 high-frequency correlated term, a second Gauss-Markov bias, a rate ramp): from the best candidate so far, each
 single addition is scored; the search moves to the best addition while it gains more than
-the selection threshold, then scores each single removal from where it stopped.
+the selection threshold, then goes backward: it scores each single removal from where it stopped and moves to
+the best one while that stays within the selection margin of the best evidence so far (below), until none does.
+A simpler model the selection rule would prefer is thereby scored even when it lies two or more removals from
+where the forward steps stopped (on real ADIS16405 logs the forward steps can add two terms, neither
+needed on its own).
 
 Adequacy (:func:`adequacy`): the whitened residuals of ``log avar`` under the likelihood's
 own covariance, at the posterior's best draw, are ``N(0, I)`` when the model is right; their
@@ -55,7 +59,7 @@ special = LazyModule("scipy.special")
 linalg = LazyModule("scipy.linalg")
 
 __all__ = ["CandidateScore", "Adequacy", "ModeResult", "EvidenceResult", "candidate_terms", "extensions",
-           "posterior_mode", "log_evidence", "laplace_log_evidence", "select", "model_probabilities", "adequacy",
+           "posterior_mode", "newton_mode", "log_evidence", "laplace_log_evidence", "select", "within_margin", "model_probabilities", "adequacy",
            "at_prior_bound", "negative_hessian", "to_phi", "can_skip", "LAPLACE_SCREEN"]
 
 OPTIONAL_TERMS = ("quantization", "bias_instability", "gauss_markov", "random_walk")
@@ -73,6 +77,15 @@ LAPLACE_SCREEN = 10.0
 PILOT_DRAWS = 256
 _PRIOR_WEIGHT = 0.3
 _INFLATE = 1.5
+#: mode search (:func:`newton_mode`): largest gradient component at a mode, in ``u``
+MODE_GTOL = 1e-5
+#: central-difference steps in ``u`` of the mode search's gradient and Hessian
+GRADIENT_STEP = 1e-6
+HESSIAN_STEP = 1e-4
+#: step fractions the mode search's line search tries, all in one likelihood call
+LINE_FRACTIONS = 0.5 ** np.arange(8)
+#: a Newton search ending with a larger gradient component is continued by BFGS
+POLISH_GRADIENT = 1e-3
 
 
 @dataclass(frozen=True)
@@ -244,21 +257,110 @@ def _log_density_u(post, u):
 
 
 def posterior_mode(post, starts):
-    """Mode of the density in ``u`` from several starting log-parameter vectors: a :class:`ModeResult`."""
+    """Mode of the density in ``u`` from several starting log-parameter vectors: a :class:`ModeResult`.
+
+    From each start, :func:`newton_mode` (a Newton search on finite-difference derivatives, a
+    few vectorised likelihood calls per step); where it ends with a gradient above
+    :data:`POLISH_GRADIENT` (a kink or wall it cannot step over: an edge of the ordered time
+    constants), BFGS goes on from there. The densest end point of all starts is the mode.
+    """
     best = None
     for phi0 in np.atleast_2d(starts):
         u0 = _to_u(np.asarray(phi0, float), post.bounds)
         if not np.isfinite(_log_density_u(post, u0)[0]):
             continue
-        res = optimize.minimize(_neg_log_density, u0, args=(post,), jac=_neg_gradient, method="BFGS",
-                                options={"gtol": 1e-5, "maxiter": 2000})
-        if best is None or res.fun < best.fun:
-            best = res
+        u, fun, grad = newton_mode(post, u0)
+        if np.max(np.abs(grad)) > POLISH_GRADIENT:
+            res = optimize.minimize(_neg_log_density, u, args=(post,), jac=_neg_gradient, method="BFGS",
+                                    options={"gtol": MODE_GTOL, "maxiter": 2000})
+            if res.fun < fun:
+                u, fun = res.x, float(res.fun)
+        if best is None or fun < best[1]:
+            best = (u, fun)
     if best is None:
         from ..errors import ConvergenceError
 
         raise ConvergenceError(f"model {post.model.terms}: no starting point has a finite posterior density")
-    return ModeResult(best.x, to_phi(best.x, post.bounds), float(best.fun))
+    return ModeResult(best[0], to_phi(best[0], post.bounds), float(best[1]))
+
+
+def newton_mode(post, u0, *, gtol=None, max_iter=100, max_step=4.0):
+    """Local minimum of ``-log density`` in ``u`` by Newton steps from ``u0``.
+
+    Each step is ``-V diag(1/|w|) V' g`` for the eigen-decomposition ``H = V diag(w) V'`` of the
+    Hessian (absolute eigenvalues, floored at 1e-6 of the largest: a descent direction where
+    ``H`` is indefinite, Dauphin et al. 2014), at most ``max_step`` long, with a backtracking
+    (Armijo) line search over the step fractions :data:`LINE_FRACTIONS`. The gradient and
+    Hessian are central differences (steps :data:`GRADIENT_STEP`, :data:`HESSIAN_STEP`), all
+    ``n^2 + 3n + 1`` points in one vectorised likelihood call; the full step's stencil travels
+    with the line search's points, so an accepted full step costs one call. Ends when the
+    largest gradient component is below ``gtol`` (default :data:`MODE_GTOL`), when the step
+    cannot lower the density by more than rounding, or after ``max_iter`` steps.
+
+    Returns ``(u, neg_log_density, gradient)`` at the end point. The mode searches of a fit
+    took about a quarter of BFGS's time on the real ADIS16405 logs and ended at least as dense
+    from 617 of 640 starts (``scripts/study_speed_options.py --modes``).
+    """
+    gtol = MODE_GTOL if gtol is None else gtol
+    offsets, derivatives = _stencil(u0.size)
+    n_stencil = offsets.shape[0]
+    u = np.asarray(u0, float)
+    fun, grad, hess = derivatives(_neg_density(post, u + offsets))
+    for _ in range(max_iter):
+        if np.max(np.abs(grad)) < gtol:
+            break
+        w, v = np.linalg.eigh(hess)
+        w = np.abs(w)
+        w = np.maximum(w, 1e-6 * w.max() + 1e-12)
+        step = -v @ ((v.T @ grad) / w)
+        length = np.linalg.norm(step)
+        if length > max_step:
+            step *= max_step / length
+        slope = grad @ step
+        if -slope < 1e-12 * (1.0 + abs(fun)):  # no decrease beyond rounding left
+            break
+        values = _neg_density(post, np.vstack([u + step + offsets, u + LINE_FRACTIONS[1:, None] * step]))
+        trial = np.concatenate([values[:1], values[n_stencil:]])
+        accept = trial <= fun + 1e-4 * LINE_FRACTIONS * slope
+        if accept[0]:
+            u = u + step
+            fun, grad, hess = derivatives(values[:n_stencil])
+            continue
+        k = int(np.argmax(accept)) if accept.any() else int(np.argmin(trial))
+        if not trial[k] < fun:
+            break
+        u = u + LINE_FRACTIONS[k] * step
+        fun, grad, hess = derivatives(_neg_density(post, u + offsets))
+    return u, float(fun), grad
+
+
+def _neg_density(post, u):
+    """``-log density`` at the rows of ``u``, ``+inf`` where it is not finite."""
+    value = -_log_density_u(post, u)
+    return np.where(np.isfinite(value), value, np.inf)
+
+
+def _stencil(n):
+    """Offsets of the central-difference stencil in ``n`` dimensions and the function that turns the values
+    there into ``(value, gradient, Hessian)`` (non-finite differences, next to a wall, read as 0)."""
+    eye = np.eye(n)
+    i, j = np.triu_indices(n, 1)
+    pair = eye[i] + eye[j]
+    hg, hh = GRADIENT_STEP, HESSIAN_STEP
+    offsets = np.vstack([np.zeros((1, n)), hg * eye, -hg * eye, hh * eye, -hh * eye, hh * pair, -hh * pair])
+
+    def derivatives(values):
+        f0 = values[0]
+        gp, gm, hp, hm = (values[1 + k * n: 1 + (k + 1) * n] for k in range(4))
+        pp, mm = values[1 + 4 * n: 1 + 4 * n + i.size], values[1 + 4 * n + i.size:]
+        with np.errstate(invalid="ignore"):
+            grad = (gp - gm) / (2.0 * hg)
+            hess = np.diag((hp - 2.0 * f0 + hm) / hh**2)
+            # f(x+a+b) - f(x+a) - f(x+b) + 2 f(x) - f(x-a) - f(x-b) + f(x-a-b) = 2 h^2 H_ab + O(h^4)
+            hess[i, j] = hess[j, i] = (pp - hp[i] - hp[j] + 2.0 * f0 - hm[i] - hm[j] + mm) / (2.0 * hh * hh)
+        return f0, np.where(np.isfinite(grad), grad, 0.0), np.where(np.isfinite(hess), hess, 0.0)
+
+    return offsets, derivatives
 
 
 def _neg_log_density(u, post):
@@ -436,6 +538,13 @@ def log_evidence(post, u_mode, *, n_draws=4000, rng=None, target_se=0.05, max_ro
     return out
 
 
+def within_margin(score, top, threshold=1.0):
+    """Whether ``score``'s log evidence is within ``threshold`` plus twice the Monte Carlo standard error
+    of the difference of ``top``'s (:class:`CandidateScore` both): the selection margin."""
+    margin = threshold + 2.0 * np.hypot(score.log_evidence_se, top.log_evidence_se)
+    return score.log_evidence >= top.log_evidence - margin
+
+
 def select(scores, *, threshold=1.0):
     """Index of the selected candidate (rule in the module docstring).
 
@@ -443,12 +552,6 @@ def select(scores, *, threshold=1.0):
     Monte Carlo standard error of the difference of the best one; the qualifying candidate
     with the fewest terms (then the larger evidence) is selected.
     """
-    best = max(range(len(scores)), key=lambda i: scores[i].log_evidence)
-    top = scores[best]
-
-    def qualifies(s):
-        margin = threshold + 2.0 * np.hypot(s.log_evidence_se, top.log_evidence_se)
-        return s.log_evidence >= top.log_evidence - margin
-
-    ok = [i for i, s in enumerate(scores) if qualifies(s)]
+    top = max(scores, key=lambda s: s.log_evidence)
+    ok = [i for i, s in enumerate(scores) if within_margin(s, top, threshold)]
     return min(ok, key=lambda i: (len(scores[i].terms), -scores[i].log_evidence))

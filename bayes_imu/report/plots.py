@@ -4,7 +4,7 @@ import contextlib
 
 import numpy as np
 
-__all__ = ["plot_allan", "plot_allan_fit", "plot_corner", "plot_drift", "plot_population"]
+__all__ = ["plot_allan", "plot_allan_fit", "plot_corner", "plot_drift", "plot_population", "plain_log_formatter"]
 
 
 def pyplot():
@@ -232,7 +232,6 @@ def plot_corner(fit, path, *, unit="u"):
     """
     plt = pyplot()
     corner = import_corner()
-    from matplotlib.ticker import LogFormatterSciNotation
 
     from ..noise.avar_forms import PARAMETER_UNITS
 
@@ -259,13 +258,41 @@ def plot_corner(fit, path, *, unit="u"):
         # plain scientific tick labels (no offset) where corner shows labels: bottom row, left column
         edges = [(axes[-1, j].xaxis) for j in range(k)] + [(axes[i, 0].yaxis) for i in range(1, k)]
         for axis in edges:
-            axis.set_major_formatter(LogFormatterSciNotation(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
-            axis.set_minor_formatter(LogFormatterSciNotation(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
+            axis.set_major_formatter(plain_log_formatter(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
+            axis.set_minor_formatter(plain_log_formatter(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
         for ax in fig.axes:
             ax.tick_params(which="both", labelsize=6)
         fig.subplots_adjust(left=0.13, bottom=0.13)
     fig.savefig(path, dpi=90, bbox_inches="tight", pad_inches=0.1)  # corner places its axis labels outside the figure
     plt.close(fig)
+
+
+_SUPERSCRIPT = str.maketrans("-0123456789", "\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079")
+
+
+def plain_log_formatter(**kwargs):
+    """``matplotlib.ticker.LogFormatterSciNotation(**kwargs)`` whose labels are plain text (``2\u00d710\u207b\u00b3``,
+    Unicode superscripts) instead of mathtext (``$\\mathdefault{2\\times10^{-3}}$``): the same ticks labelled, the
+    same numbers. Every mathtext label is parsed when drawn (about 8 ms each, matplotlib's cache holds 50), and
+    the edges of a corner plot with labelled minor ticks carry 50-60 of them: about a fifth of its drawing time
+    (``scripts/study_speed_options.py --figures``)."""
+    import re
+
+    from matplotlib.ticker import LogFormatterSciNotation
+
+    pattern = re.compile(r"^\$\\mathdefault\{(-?)(?:([0-9.]+)\\times\s*)?([0-9]+)(?:\^\{(-?[0-9]+)\})?\}\$$")
+
+    class PlainLogFormatter(LogFormatterSciNotation):
+        def __call__(self, x, pos=None):
+            label = super().__call__(x, pos)
+            match = pattern.match(label)
+            if match is None:  # anything else (an empty label, another notation) as matplotlib writes it
+                return label
+            sign, coefficient, base, exponent = match.groups()
+            text = base + (exponent.translate(_SUPERSCRIPT) if exponent is not None else "")
+            return sign + (f"{coefficient}\u00d7{text}" if coefficient else text)
+
+    return PlainLogFormatter(**kwargs)
 
 
 _TERM_LABEL = {"white": "white noise", "quantization": "quantization", "filtered_white": "filtered white noise",
