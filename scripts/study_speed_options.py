@@ -110,10 +110,8 @@ def figures():
     _corner_labels(plots, [("bench log (synthetic)", fit)] + _real_fits(fit_allan))
 
 
-def _real_fits(fit_allan, cases=((1, "gyro_x_dps"),)):
-    """Fits of real ADIS16405 channels (``../shared``), where present."""
-    import warnings
-
+def _real_allans(cases):
+    """``(name, Allan variance)`` of real ADIS16405 channels ``(unit, column)`` (``../shared``), where present."""
     from bayes_imu.allan.estimator import allan_variance
     from bayes_imu.io.readers import read_log
     from validate_real import DATA
@@ -122,10 +120,19 @@ def _real_fits(fit_allan, cases=((1, "gyro_x_dps"),)):
     for unit, column in cases:
         path = DATA / f"adis_16405_imu{unit}.csv.gz"
         if path.exists():
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                fit = fit_allan(allan_variance(read_log(path, column=column).values, rate_hz=100.0), rng=0)
-            out.append((f"adis{unit} {column}", fit))
+            out.append((f"adis{unit} {column}", allan_variance(read_log(path, column=column).values, rate_hz=100.0)))
+    return out
+
+
+def _real_fits(fit_allan, cases=((1, "gyro_x_dps"),)):
+    """Fits of real ADIS16405 channels (``../shared``), where present."""
+    import warnings
+
+    out = []
+    for name, allan in _real_allans(cases):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            out.append((name, fit_allan(allan, rng=0)))
     return out
 
 
@@ -190,20 +197,11 @@ def _mode_bfgs(post, starts):
 
 
 def modes():
-    from bayes_imu.allan.estimator import allan_variance
     from bayes_imu.inference.selection import posterior_mode
-    from bayes_imu.io.readers import read_log
 
     bench, fit_allan = _bench_fit()
-    cases = [("bench log (synthetic)", bench)]
-    from validate_real import DATA
-
-    for unit, column in ((1, "gyro_x_dps"), (3, "gyro_y_dps"), (4, "gyro_x_dps"), (5, "accel_x_g"), (2, "accel_z_g"),
-                         (6, "gyro_z_dps")):
-        path = DATA / f"adis_16405_imu{unit}.csv.gz"
-        if path.exists():
-            y = read_log(path, column=column).values
-            cases.append((f"adis{unit} {column}", allan_variance(y, rate_hz=100.0)))
+    cases = [("bench log (synthetic)", bench)] + _real_allans(
+        ((1, "gyro_x_dps"), (3, "gyro_y_dps"), (4, "gyro_x_dps"), (5, "accel_x_g"), (2, "accel_z_g"), (6, "gyro_z_dps")))
     print(f"{'log':>22s} {'searches':>8s} {'starts':>6s} {'bfgs_s':>7s} {'newton_s':>8s} {'min d(-log p)':>13s} "
           f"{'max d(-log p)':>13s} {'denser>0.01':>11s} {'less>0.01':>9s}")
     for name, allan in cases:

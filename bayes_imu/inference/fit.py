@@ -477,8 +477,7 @@ def _search(make_post, allan, reference, candidates, stepwise, threshold, n_evid
             if not new:
                 break
             best_new = max(new, key=lambda c: c.score.log_evidence)
-            margin = threshold + 2.0 * np.hypot(best_new.score.log_evidence_se, current.score.log_evidence_se)
-            if best_new.score.log_evidence <= current.score.log_evidence + margin:
+            if within_margin(current.score, best_new.score, threshold):  # the addition gains no more than the margin
                 break
             current = best_new
         while True:  # backward: on to the best removal while it stays within the selection margin of the best
@@ -489,7 +488,6 @@ def _search(make_post, allan, reference, candidates, stepwise, threshold, n_evid
                 break
             current = max(near, key=lambda c: c.score.log_evidence)
     return list(scored.values())
-
 
 
 def _rescore_widened(scored, allan, reference, n_evidence, rng):

@@ -59,8 +59,9 @@ special = LazyModule("scipy.special")
 linalg = LazyModule("scipy.linalg")
 
 __all__ = ["CandidateScore", "Adequacy", "ModeResult", "EvidenceResult", "candidate_terms", "extensions",
-           "posterior_mode", "newton_mode", "log_evidence", "laplace_log_evidence", "select", "within_margin", "model_probabilities", "adequacy",
-           "at_prior_bound", "negative_hessian", "to_phi", "can_skip", "LAPLACE_SCREEN"]
+           "posterior_mode", "newton_mode", "log_evidence", "laplace_log_evidence", "select", "within_margin",
+           "model_probabilities", "adequacy", "at_prior_bound", "negative_hessian", "to_phi", "can_skip",
+           "LAPLACE_SCREEN"]
 
 OPTIONAL_TERMS = ("quantization", "bias_instability", "gauss_markov", "random_walk")
 #: terms added by the stepwise search
