@@ -3,10 +3,12 @@ docs quote can be rerun:
 
 1. ``--kernels``: the first drift grid in a fresh process, from the precompiled extension and from numba's
    JIT build of the same source (loaded from numba's on-disk cache; a first compile costs more).
-2. ``--figures``: each figure with and without its layout pass (allan_fit.png with a fixed layout instead of
-   ``tight_layout``; corner.png without its tight bounding box), best of 5, on a fit of the bench log; then
-   corner.png with plain-text tick labels (as drawn, :func:`bayes_imu.report.plots.plain_log_formatter`) and
-   with matplotlib's mathtext labels, on that fit and a real ADIS16405 one (``../shared``, where present).
+2. ``--figures``: allan_fit.png with and without its layout pass (a fixed layout instead of ``tight_layout``),
+   best of 5, on a fit of the bench log; then corner.png as drawn (its own grid of
+   :func:`corner.hist2d` panels, :func:`bayes_imu.report.plots._corner_grid`), the same grid with matplotlib's
+   mathtext tick labels instead of plain text (:func:`bayes_imu.report.plots.plain_log_formatter`), and as it
+   was drawn before (``corner.corner``, plain labels, a tight bounding box), on that fit and two real
+   ADIS16405 ones (5 and 7 parameters; ``../shared``, where present).
 3. ``--modes``: the mode searches of a fit (every posterior and its starts, as the model search passes them)
    by the Newton search that replaced BFGS (:func:`bayes_imu.inference.selection.newton_mode`) and by BFGS
    from the identity with central-difference gradients, as before: time, and how far the densest end points
@@ -82,11 +84,10 @@ def figures():
     fit = fit_allan(allan, rng=0)
     plots.import_plotting()
     figure = matplotlib.figure.Figure
-    tight_layout, savefig = figure.tight_layout, figure.savefig
+    tight_layout = figure.tight_layout
     with tempfile.TemporaryDirectory() as folder:
         out = Path(folder)
         allan_s = _best(lambda: plots.plot_allan_fit(fit, out / "a.png", rng=0, unit="u"))
-        corner_s = _best(lambda: plots.plot_corner(fit, out / "c.png"))
         params = {}
 
         def recording(self, *args, **kwargs):
@@ -99,15 +100,12 @@ def figures():
             plots.plot_allan_fit(fit, out / "a.png", rng=0, unit="u")
             figure.tight_layout = lambda self, *args, **kwargs: self.subplots_adjust(**params)
             fixed_s = _best(lambda: plots.plot_allan_fit(fit, out / "a2.png", rng=0, unit="u"))
-            figure.savefig = lambda self, path, **kw: savefig(self, path, **{k: v for k, v in kw.items()
-                                                                              if k not in ("bbox_inches", "pad_inches")})
-            untight_s = _best(lambda: plots.plot_corner(fit, out / "c2.png"))
         finally:
-            figure.tight_layout, figure.savefig = tight_layout, savefig
+            figure.tight_layout = tight_layout
     print(f"{'figure':>14s} {'as drawn (s)':>13s} {'without the layout pass (s)':>28s}")
     print(f"{'allan_fit.png':>14s} {allan_s:13.3f} {fixed_s:28.3f}   (a fixed layout: tight_layout's own margins)")
-    print(f"{'corner.png':>14s} {corner_s:13.3f} {untight_s:28.3f}   (no tight bounding box: labels may be cut)")
-    _corner_labels(plots, [("bench log (synthetic)", fit)] + _real_fits(fit_allan))
+    cases = ((1, "gyro_x_dps"), (4, "gyro_x_dps"))
+    _corner_ways(plots, [("bench log (synthetic)", fit)] + _real_fits(fit_allan, cases))
 
 
 def _real_allans(cases):
@@ -136,22 +134,46 @@ def _real_fits(fit_allan, cases=((1, "gyro_x_dps"),)):
     return out
 
 
-def _corner_labels(plots, fits):
-    """corner.png with its edge tick labels in plain text (as drawn) and in mathtext (matplotlib's own)."""
+def _corner_ways(plots, fits):
+    """corner.png as drawn, with mathtext tick labels, and through ``corner.corner`` as before."""
     from matplotlib.ticker import LogFormatterSciNotation
 
-    print(f"\n{'fit':>22s} {'parameters':>10s} {'corner.png, plain labels (s)':>29s} {'mathtext labels (s)':>20s}")
+    print(f"\n{'fit':>22s} {'parameters':>10s} {'corner.png as drawn (s)':>24s} {'mathtext labels (s)':>20s} "
+          f"{'corner.corner, before (s)':>26s}")
     with tempfile.TemporaryDirectory() as folder:
         out = Path(folder)
         for name, fit in fits:
-            plain_s = _best(lambda: plots.plot_corner(fit, out / "c.png"))
+            drawn_s = _best(lambda: plots.plot_corner(fit, out / "c.png"))
             plain = plots.plain_log_formatter
             try:
                 plots.plain_log_formatter = LogFormatterSciNotation
                 mathtext_s = _best(lambda: plots.plot_corner(fit, out / "c.png"))
             finally:
                 plots.plain_log_formatter = plain
-            print(f"{name:>22s} {fit.samples.shape[1]:10d} {plain_s:29.3f} {mathtext_s:20.3f}")
+            before_s = _best(lambda: _corner_before(plots, fit, out / "c.png"))
+            print(f"{name:>22s} {fit.samples.shape[1]:10d} {drawn_s:24.3f} {mathtext_s:20.3f} {before_s:26.3f}")
+
+
+def _corner_before(plots, fit, path):
+    """corner.png as plot_corner drew it before its own grid: ``corner.corner`` on log axes, plain edge
+    labels, and a tight bounding box (corner places its axis labels outside the figure)."""
+    plt = plots.pyplot()
+    corner = plots.import_corner()
+    data, k = fit.samples, fit.samples.shape[1]
+    fig = corner.corner(data, labels=list(fit.parameter_names), axes_scale="log", quantiles=[0.05, 0.5, 0.95],
+                        label_kwargs={"fontsize": 8}, labelpad=0.15, max_n_ticks=3)
+    axes = np.array(fig.axes).reshape(k, k)
+    for i in range(k):
+        q = np.quantile(data[:, i], [0.05, 0.5, 0.95])
+        axes[i, i].set_title(f"{q[1]:.4g}\n[{q[0]:.3g}, {q[2]:.3g}]", fontsize=7)
+    for axis in [axes[-1, j].xaxis for j in range(k)] + [axes[i, 0].yaxis for i in range(1, k)]:
+        axis.set_major_formatter(plots.plain_log_formatter(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
+        axis.set_minor_formatter(plots.plain_log_formatter(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
+    for ax in fig.axes:
+        ax.tick_params(which="both", labelsize=6)
+    fig.subplots_adjust(left=0.13, bottom=0.13)
+    fig.savefig(path, dpi=90, bbox_inches="tight", pad_inches=0.1)
+    plt.close(fig)
 
 
 def _mode_searches(allan, fit_allan):

@@ -199,3 +199,51 @@ def test_corner_notices_stay_out_of_the_output(tmp_path, fit, caplog, monkeypatc
     with caplog.at_level(logging.WARNING):
         plots.plot_corner(pinned, tmp_path / "corner2.png")
     assert [r for r in caplog.records if "contours" in r.getMessage()]
+
+
+@pytest.mark.parametrize("low, high", [(0.0748, 0.0762), (0.0795, 0.09), (3e-5, 2.4e-4), (20.0, 310.0),
+                                       (1e-6, 3e-4), (4e-6, 7e-4), (0.1, 5e3), (1e-12, 1e3), (0.999, 1.001)])
+def test_corner_ticks_lie_inside_with_few_labels_and_decades_labelled_when_there_are_two(low, high):
+    """Each axis's ticks (plots._log_ticks): inside its range, sorted and distinct, labelled and unlabelled
+    apart; 1 to 4 labelled, and those the powers of ten wherever two or more lie inside; over two or more
+    decades the unlabelled ones only 1, 2 or 5 times a power of ten."""
+    labelled, other = plots._log_ticks(low, high)
+    ticks = np.concatenate([labelled, other])
+    assert np.all((ticks >= low * (1 - 1e-9)) & (ticks <= high * (1 + 1e-9)))
+    assert np.unique(ticks).size == ticks.size and np.all(np.diff(labelled) > 0)
+    assert 1 <= labelled.size <= 4
+    powers = [10.0**e for e in range(int(np.floor(np.log10(low))), int(np.ceil(np.log10(high))) + 1)
+              if low <= 10.0**e <= high]
+    if len(powers) >= 2:
+        assert set(np.log10(labelled).round(9)) <= set(np.log10(powers).round(9))
+        assert len(labelled) == min(len(powers), 4) or len(powers) > 4
+        coefficient = other / 10.0 ** np.floor(np.log10(other) + 1e-9)
+        assert np.all(np.isin(np.round(coefficient, 6), (1.0, 2.0, 5.0)))
+    else:
+        assert labelled.size >= 2 or ticks.size == 1
+
+
+def test_corner_grid_is_the_lower_triangle_with_labels_on_its_edges_only(tmp_path, figures):
+    """k (k + 1) / 2 panels in a k x k grid; every visible tick label on the bottom row (x) or the left column
+    (y, below the first row), with each edge's axis label; a parameter pinned to one value still draws."""
+    import dataclasses
+
+    model = NoiseModel(("white", "gauss_markov", "random_walk"), 0.01)
+    y = simulate_log(model, {"noise_variance": 1e-4, "bias_variance": 1e-7, "time_constant": 20.0,
+                             "rate_random_walk": 1e-6}, 40_000, rng=4)
+    fit = fit_allan(allan_variance(y, rate_hz=100.0), terms=model.terms, rng=0)
+    k = fit.samples.shape[1]
+    samples = fit.samples.copy()
+    samples[:, 1] = samples[0, 1]  # one parameter pinned
+    plots.plot_corner(dataclasses.replace(fit, samples=samples), tmp_path / "c.png")
+    _png(tmp_path / "c.png", min_size=(k * 150, k * 150))
+    fig = figures[-1]
+    fig.canvas.draw()
+    assert len(fig.axes) == k * (k + 1) // 2
+    grid = {(ax.get_subplotspec().rowspan.start, ax.get_subplotspec().colspan.start): ax for ax in fig.axes}
+    assert set(grid) == {(i, j) for i in range(k) for j in range(i + 1)}
+    for (i, j), ax in grid.items():
+        shown_x = [t for t in ax.get_xticklabels() if t.get_visible() and t.get_text()]
+        shown_y = [t for t in ax.get_yticklabels() if t.get_visible() and t.get_text()]
+        assert bool(shown_x) == (i == k - 1) and bool(ax.get_xlabel()) == (i == k - 1), (i, j)
+        assert bool(shown_y) == (j == 0 and i > 0) and bool(ax.get_ylabel()) == (j == 0 and i > 0), (i, j)

@@ -142,6 +142,8 @@ class LogPosterior:
         if not self.order and len(self.model.ordered) > 1:
             object.__setattr__(self, "order", self.model.ordered)
             object.__setattr__(self, "log_order_mass", ordered_log_mass(self.bounds, self.model.ordered))
+        # the uniform prior's log density inside the box, computed once (not per call)
+        object.__setattr__(self, "_log_prior_inside", -float(np.sum(np.log(self.bounds[:, 1] - self.bounds[:, 0]))))
         n_model = len(self.model.parameter_names)
         if self.bounds.shape[0] != n_model + int(self.discrepancy):
             raise InputError(f"prior box has {self.bounds.shape[0]} rows: the model has {n_model} parameters"
@@ -265,17 +267,17 @@ class LogPosterior:
 
     def log_prior(self, log_theta):
         """Uniform density on the box of log-parameters."""
-        width = np.sum(np.log(self.bounds[:, 1] - self.bounds[:, 0]))
-        return np.where(self.in_prior(np.asarray(log_theta, float)), -width, -np.inf)
+        return np.where(self.in_prior(np.asarray(log_theta, float)), self._log_prior_inside, -np.inf)
 
     def __call__(self, log_theta):
         """Log posterior (unnormalised), ``-inf`` outside the prior box; emcee ``vectorize=True``."""
         log_theta = np.asarray(log_theta, float)
-        lp = self.log_prior(log_theta)
-        ok = np.isfinite(lp)
-        out = np.full(lp.shape, -np.inf)
+        ok = self.in_prior(log_theta)
+        if ok.all():  # the usual case: every point inside the box
+            return self._log_prior_inside + self.log_likelihood(log_theta)
+        out = np.full(ok.shape, -np.inf)
         if np.any(ok):
-            out[ok] = lp[ok] + self.log_likelihood(log_theta[ok])
+            out[ok] = self._log_prior_inside + self.log_likelihood(log_theta[ok])
         return out
 
 

@@ -102,25 +102,6 @@ def _without_corner_notices():
         root.removeFilter(keep)
 
 
-@contextlib.contextmanager
-def _array_path(corner):
-    """corner's own path for numpy arrays inside the block, where ArviZ is loaded too: corner otherwise
-    sends arrays through its ArviZ entry point, which converts them to xarray first (the same PNG,
-    byte for byte, 0.16 s slower for a three-parameter fit; one-off timing)."""
-    import sys
-
-    module = sys.modules.get("corner.corner")
-    saved = getattr(module, "arviz_corner", None)
-    if saved is None:
-        yield
-        return
-    module.arviz_corner = None
-    try:
-        yield
-    finally:
-        module.arviz_corner = saved
-
-
 def plot_allan(result, path, *, label="", unit="u"):
     """Log-log Allan deviation with its interval bars and the -1/2, 0, +1/2 slope guides.
 
@@ -225,13 +206,14 @@ def _residual_panel(ax, fit):
 
 
 def plot_corner(fit, path, *, unit="u"):
-    """Corner plot of the physical parameters with their units, on log axes (corner.py).
+    """Corner plot of the physical parameters with their units, on log axes.
 
     Each panel's title gives the median and the 5% / 95% quantiles; tick labels are plain
-    numbers (no offset notation), so a tightly pinned parameter still reads correctly.
+    numbers (no offset notation), so a tightly pinned parameter still reads correctly. The
+    pair panels are corner.py's (:func:`corner.hist2d`: points, density, 0.5-2 sigma contours),
+    the grid is laid out here (:func:`_corner_grid`).
     """
     plt = pyplot()
-    corner = import_corner()
 
     from ..noise.avar_forms import PARAMETER_UNITS
 
@@ -246,25 +228,126 @@ def plot_corner(fit, path, *, unit="u"):
         q = np.quantile(data[:, 0], [0.05, 0.5, 0.95])
         ax.set_title(f"median {q[1]:.4g}, 90% [{q[0]:.4g}, {q[2]:.4g}]", fontsize=8)
         fig.tight_layout()
+        fig.savefig(path, dpi=90, bbox_inches="tight", pad_inches=0.1)
     else:
-        with _array_path(corner), _without_corner_notices():
-            fig = corner.corner(data, labels=labels, axes_scale="log", quantiles=[0.05, 0.5, 0.95],
-                                label_kwargs={"fontsize": 8}, labelpad=0.15, max_n_ticks=3)
-        k = len(names)
-        axes = np.array(fig.axes).reshape(k, k)
-        for i in range(k):
-            q = np.quantile(data[:, i], [0.05, 0.5, 0.95])
-            axes[i, i].set_title(f"{q[1]:.4g}\n[{q[0]:.3g}, {q[2]:.3g}]", fontsize=7)
-        # plain scientific tick labels (no offset) where corner shows labels: bottom row, left column
-        edges = [(axes[-1, j].xaxis) for j in range(k)] + [(axes[i, 0].yaxis) for i in range(1, k)]
-        for axis in edges:
-            axis.set_major_formatter(plain_log_formatter(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
-            axis.set_minor_formatter(plain_log_formatter(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
-        for ax in fig.axes:
-            ax.tick_params(which="both", labelsize=6)
-        fig.subplots_adjust(left=0.13, bottom=0.13)
-    fig.savefig(path, dpi=90, bbox_inches="tight", pad_inches=0.1)  # corner places its axis labels outside the figure
+        fig = _corner_grid(plt, data, labels)
+        fig.savefig(path, dpi=90)
     plt.close(fig)
+
+
+#: the corner grid's layout (inches): a panel, the gap between panels, and the margins that hold the
+#: tick labels and two-line axis labels (left, bottom), the diagonal's two-line titles (top)
+_PANEL_IN, _GAP_IN, _MARGINS_IN = 1.9, 0.1, {"left": 1.15, "bottom": 1.1, "right": 0.25, "top": 0.5}
+
+
+def _corner_grid(plt, data, labels, bins=20):
+    """The lower triangle of a corner plot of ``data`` ``(draws, k)`` on log axes: a histogram of each
+    parameter on the diagonal (5%, 50%, 95% quantiles dashed, as corner.py draws them) and
+    :func:`corner.hist2d` below it; tick labels on the bottom row and left column only.
+
+    corner.py's ``corner`` draws the same panels in a full k x k grid and blanks the tick labels of inner
+    panels by giving them empty label lists, which creates a tick object for every minor tick of every
+    log axis (about 1300 for seven parameters, half its drawing time); here the inner panels' labels are
+    switched off (no tick created), each parameter's ticks are computed once for its column and row, and
+    the layout is fixed (no tight bounding box, which draws the figure twice): a third to half of the
+    time for 5-7 parameters (``scripts/study_speed_options.py --figures``).
+    """
+    corner = import_corner()
+    k = data.shape[1]
+    ranges = [_draw_range(data[:, j]) for j in range(k)]
+    ticks = [_log_ticks(*r) for r in ranges]
+    size = k * _PANEL_IN + (k - 1) * _GAP_IN
+    width, height = size + _MARGINS_IN["left"] + _MARGINS_IN["right"], size + _MARGINS_IN["bottom"] + _MARGINS_IN["top"]
+    fig = plt.figure(figsize=(width, height))
+    grid = fig.add_gridspec(k, k, left=_MARGINS_IN["left"] / width, right=1.0 - _MARGINS_IN["right"] / width,
+                            bottom=_MARGINS_IN["bottom"] / height, top=1.0 - _MARGINS_IN["top"] / height,
+                            wspace=_GAP_IN / _PANEL_IN, hspace=_GAP_IN / _PANEL_IN)
+    with _without_corner_notices():
+        for i in range(k):
+            for j in range(i + 1):
+                ax = fig.add_subplot(grid[i, j])
+                if i == j:
+                    _diagonal_panel(ax, data[:, i], ranges[i], bins)
+                else:
+                    corner.hist2d(data[:, j], data[:, i], ax=ax, range=[ranges[j], ranges[i]],
+                                  axes_scale=["log", "log"], bins=bins, color="k")
+                    _set_ticks(ax.yaxis, ticks[i], labelled=j == 0, label=labels[i])
+                _set_ticks(ax.xaxis, ticks[j], labelled=i == k - 1, label=labels[j])
+                ax.tick_params(which="both", labelsize=6)
+    return fig
+
+
+def _draw_range(x):
+    """``(low, high)`` of positive draws ``x``; a parameter pinned to one value gets +-10% around it."""
+    low, high = float(np.min(x)), float(np.max(x))
+    return (low, high) if high > low else (low / 1.1, high * 1.1)
+
+
+def _log_ticks(low, high, max_labels=4):
+    """``(labelled, unlabelled)`` tick positions of a log axis from ``low`` to ``high``: matplotlib's log
+    tick positions inside the range (its linear ones where the range is narrower than those; over two
+    decades or more only 1, 2 and 5 times a power of ten), at most ``max_labels`` of them labelled (the
+    powers of ten where there are two or more, else those nearest to evenly spaced points), so that
+    rotated labels do not overlap."""
+    from matplotlib.ticker import LogLocator
+
+    both = np.concatenate([LogLocator(numticks=3).tick_values(low, high), LogLocator(subs="auto").tick_values(low, high)])
+    ticks = np.unique(both[(both >= low * (1 - 1e-9)) & (both <= high * (1 + 1e-9))])
+    if ticks.size == 0:
+        return ticks, ticks
+    exponent = np.log10(ticks)
+    decades = np.isclose(exponent, np.round(exponent), rtol=0.0, atol=1e-9)
+    if np.count_nonzero(decades) >= 2:
+        # only 1, 2 and 5 times a power of ten between them (every tick drawn costs), the powers labelled
+        coefficient = np.round(ticks / 10.0 ** np.floor(exponent + 1e-9), 6)
+        keep = np.isin(coefficient, (1.0, 2.0, 5.0))
+        ticks, decades = ticks[keep], decades[keep]
+        candidates = np.flatnonzero(decades)
+        chosen = candidates[::-(-candidates.size // max_labels)]
+    else:
+        # the ticks nearest to evenly spaced points of the axis (its ends left out: next to the neighbouring
+        # panel's labels)
+        targets = np.linspace(np.log10(low), np.log10(high), max_labels + 2)[1:-1]
+        chosen = np.unique(np.argmin(np.abs(exponent[None, :] - targets[:, None]), axis=1))
+    labelled = np.zeros(ticks.size, bool)
+    labelled[chosen] = True
+    return ticks[labelled], ticks[~labelled]
+
+
+def _set_ticks(axis, ticks, *, labelled, label):
+    """Fixed ticks on ``axis`` (:func:`_log_ticks`: the labelled ones major, the rest minor); on an edge
+    (``labelled``) plain tick labels rotated 45 degrees and the axis label, elsewhere no labels."""
+    from matplotlib.ticker import FixedLocator, NullFormatter
+
+    major, minor = ticks
+    axis.set_major_locator(FixedLocator(major))
+    axis.set_minor_locator(FixedLocator(minor))
+    axis.set_minor_formatter(NullFormatter())
+    name = "x" if axis.axis_name == "x" else "y"
+    if labelled:
+        axis.set_major_formatter(plain_log_formatter(labelOnlyBase=False, minor_thresholds=(np.inf, np.inf)))
+        axis.axes.tick_params(axis=name, which="major", labelrotation=45)
+        axis.set_label_text(label, fontsize=8)
+    else:
+        axis.set_major_formatter(NullFormatter())
+        axis.axes.tick_params(axis=name, which="both", **{"labelbottom" if name == "x" else "labelleft": False})
+
+
+def _diagonal_panel(ax, x, limits, bins):
+    """One parameter's histogram on log bins, its 5%, 50%, 95% quantiles dashed and given in the title."""
+    from matplotlib.ticker import NullLocator
+
+    counts, edges = np.histogram(x, bins=np.geomspace(limits[0], limits[1], bins + 1))
+    ax.stairs(counts, edges, color="k")
+    q = np.quantile(x, [0.05, 0.5, 0.95])
+    for value in q:
+        ax.axvline(value, ls="dashed", color="k")
+    ax.set_xscale("log")
+    ax.set_xlim(limits)
+    ax.set_ylim(0.0, 1.1 * counts.max())
+    ax.yaxis.set_major_locator(NullLocator())
+    ax.yaxis.set_minor_locator(NullLocator())
+    ax.set_title(f"{q[1]:.4g}\n[{q[0]:.3g}, {q[2]:.3g}]", fontsize=7)
 
 
 _SUPERSCRIPT = str.maketrans("-0123456789", "\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079")
