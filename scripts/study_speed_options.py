@@ -17,7 +17,12 @@ docs quote can be rerun:
    Hessian, measured by an earlier version of this script, was about as fast as the identity start and
    found other local modes on three of five real channels; not adopted.)
 
-    python scripts/study_speed_options.py [--kernels] [--figures] [--modes]   (all three without options)
+4. ``--sampler``: the ensemble as the fit runs it (:func:`bayes_imu.inference.sampling.ensemble_sampler`: emcee's
+   sampler and moves with less Python per step) against emcee's own classes, on the posteriors of the bench fit
+   and two real ones: microseconds per step of 32 walkers, the likelihood's share, and whether the chains are the
+   same bit for bit.
+
+    python scripts/study_speed_options.py [--kernels] [--figures] [--modes] [--sampler]   (all four without options)
 """
 
 import argparse
@@ -240,13 +245,55 @@ def modes():
     print("d(-log p): the Newton search's end point minus BFGS's, per search (negative: Newton's is denser)")
 
 
+def sampler():
+    """The ensemble as the fit runs it (:func:`bayes_imu.inference.sampling.ensemble_sampler`) against emcee's own
+    EnsembleSampler, DEMove and StretchMove: 2000 steps of 32 walkers on the posterior each fit sampled, from the
+    same walkers and seed; time per step, the likelihood's share, and whether the chains are the same."""
+    import emcee
+
+    from bayes_imu.inference.sampling import ensemble_sampler
+
+    bench, fit_allan = _bench_fit()
+    fits = [("bench log (synthetic)", fit_allan(bench, rng=0))] + _real_fits(fit_allan, ((1, "gyro_x_dps"), (4, "gyro_x_dps")))
+
+    def emcee_own(target, start, rng):
+        moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.StretchMove(), 0.2)]
+        made = emcee.EnsembleSampler(start.shape[0], start.shape[1], target, vectorize=True, moves=moves)
+        made.random_state = np.random.RandomState(rng.integers(2**32)).get_state()
+        return made
+
+    print(f"{'fit':>22s} {'parameters':>10s} {'as run (us/step)':>17s} {'emcee own (us/step)':>20s} "
+          f"{'likelihood (us/step)':>21s} {'same chains':>11s}")
+    steps = 2000
+    for name, fit in fits:
+        post = fit.chains.posterior
+        start = fit.chains.chain[-1]  # the last kept walkers: inside the box, spread as the posterior
+        times, chains = [], []
+        for make in (ensemble_sampler, emcee_own):
+            best = np.inf
+            for _ in range(3):
+                made = make(post, start, np.random.default_rng(0))
+                begin = time.perf_counter()
+                made.run_mcmc(start, steps, progress=False)
+                best = min(best, time.perf_counter() - begin)
+            times.append(best / steps * 1e6)
+            chains.append(made.get_chain())
+        half = start[: start.shape[0] // 2]
+        likelihood = 2 * _best(lambda: post(half), n=200) * 1e6
+        print(f"{name:>22s} {start.shape[1]:10d} {times[0]:17.0f} {times[1]:20.0f} {likelihood:21.0f} "
+              f"{str(bool(np.array_equal(*chains))):>11s}")
+    print("likelihood: the two vectorised calls of a step (each half of the ensemble), best of 200")
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--kernels", action="store_true")
     parser.add_argument("--figures", action="store_true")
     parser.add_argument("--modes", action="store_true")
+    parser.add_argument("--sampler", action="store_true")
     args = parser.parse_args(argv)
-    chosen = [name for name in ("kernels", "figures", "modes") if getattr(args, name)] or ["kernels", "figures", "modes"]
+    names = ("kernels", "figures", "modes", "sampler")
+    chosen = [name for name in names if getattr(args, name)] or list(names)
     for name in chosen:
         print(f"\n== {name}")
         globals()[name]()

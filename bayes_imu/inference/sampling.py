@@ -39,8 +39,9 @@ _LEAN = {}
 def _lean_classes(emcee):
     """emcee's sampler and its two moves, with the same draws from the same random numbers, less Python per step.
 
-    At 32 walkers a step's two vectorised likelihood calls cost about 90 us, and emcee's own Python about
-    170 us more (a real ADIS16405 fit, ``scripts/study_speed_options.py --sampler``), spent where it handles
+    At 32 walkers a step's two vectorised likelihood calls cost 54-101 us on the bench log's and two real
+    ADIS16405 fits' posteriors (3-7 parameters), and emcee's own classes about 150 us more: 205-269 us a step,
+    146-209 us with these (``scripts/study_speed_options.py --sampler``). emcee's time goes where it handles
     one walker at a time or copies its random state:
 
     * the sampler's ``random_state`` reads as ``None``: emcee copies the generator's state (624 words) into

@@ -249,8 +249,9 @@ def _corner_grid(plt, data, labels, bins=20):
     panels by giving them empty label lists, which creates a tick object for every minor tick of every
     log axis (about 1300 for seven parameters, half its drawing time); here the inner panels' labels are
     switched off (no tick created), each parameter's ticks are computed once for its column and row, and
-    the layout is fixed (no tight bounding box, which draws the figure twice): a third to half of the
-    time for 5-7 parameters (``scripts/study_speed_options.py --figures``).
+    the layout is fixed (no tight bounding box, which draws the figure twice): 0.37 s against 0.97 s for a
+    real fit's five parameters, 0.66 s against 2.22 s for seven, 0.15 s against 0.27 s for three
+    (``scripts/study_speed_options.py --figures``).
     """
     corner = import_corner()
     k = data.shape[1]
@@ -287,8 +288,8 @@ def _log_ticks(low, high, max_labels=4):
     """``(labelled, unlabelled)`` tick positions of a log axis from ``low`` to ``high``: matplotlib's log
     tick positions inside the range (its linear ones where the range is narrower than those; over two
     decades or more only 1, 2 and 5 times a power of ten), at most ``max_labels`` of them labelled (the
-    powers of ten where there are two or more, else those nearest to evenly spaced points), so that
-    rotated labels do not overlap."""
+    powers of ten where there are two or more, else every k-th, centred), so that rotated labels do not
+    overlap."""
     from matplotlib.ticker import LogLocator
 
     both = np.concatenate([LogLocator(numticks=3).tick_values(low, high), LogLocator(subs="auto").tick_values(low, high)])
@@ -305,10 +306,10 @@ def _log_ticks(low, high, max_labels=4):
         candidates = np.flatnonzero(decades)
         chosen = candidates[::-(-candidates.size // max_labels)]
     else:
-        # the ticks nearest to evenly spaced points of the axis (its ends left out: next to the neighbouring
-        # panel's labels)
-        targets = np.linspace(np.log10(low), np.log10(high), max_labels + 2)[1:-1]
-        chosen = np.unique(np.argmin(np.abs(exponent[None, :] - targets[:, None]), axis=1))
+        # every k-th tick, the chosen ones centred in the list (evenly spaced where the ticks are)
+        stride = -(-ticks.size // max_labels)
+        count = -(-ticks.size // stride)
+        chosen = (ticks.size - 1 - stride * (count - 1)) // 2 + stride * np.arange(count)
     labelled = np.zeros(ticks.size, bool)
     labelled[chosen] = True
     return ticks[labelled], ticks[~labelled]
