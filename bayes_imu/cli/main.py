@@ -395,6 +395,9 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
     summary = result.summary(unit=unit)
     summary.update(log=_log_label(args), column=column, unit=unit, input=info)
     _say(args, f"model: {' + '.join(result.model.terms)}  (converged: {result.diagnostics['converged']})")
+    note = _averaging_note(summary)
+    if note:
+        _say(args, note)
     for name, p in summary["parameters"].items():
         _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
     _say_datasheet(args, summary["datasheet"])
@@ -423,6 +426,22 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
     writer.submit(plot_corner, result, out / "corner.png", unit=unit)
     write_netcdf(result, out / "posterior.nc")
     return summary
+
+
+def _averaging_note(summary, *, likely=0.1, certain=0.9):
+    """A line where the selected model and the model average disagree (``None`` where they agree): the terms
+    it leaves out that the average gives a probability of at least ``likely``, and its own terms below
+    ``certain``. The selected model is the simplest within the selection margin; the drift bands average over
+    every candidate (``term_probability`` in summary.json)."""
+    selected, probability = set(summary["model"]), summary["term_probability"]
+    shown = [(t, p) for t, p in probability.items() if (p < certain if t in selected else p >= likely)]
+    if not shown:
+        return None
+    own = next((c["probability"] for c in summary["candidates"] if c["selected"]), float("nan"))
+    terms = ", ".join(f"{t} {p:.2f} ({'in' if t in selected else 'not in'} this model)"
+                      for t, p in sorted(shown, key=lambda kv: -kv[1]))
+    return (f"  selected as the simplest model within the margin of the best evidence (probability {own:.2f}); "
+            f"the drift bands average over all models: {terms}")
 
 
 def _ratio_text(ratio):

@@ -209,6 +209,21 @@ class FitResult:
             names.append("white_noise_density")
         return names
 
+    def term_probabilities(self):
+        """Dict term -> posterior probability that the sensor has it: the summed probability of the
+        model-averaged components (:attr:`mixture`, what the drift bands average over) whose model has the term,
+        for every term of any component, in the canonical term order.
+
+        It can disagree with :attr:`model`, the selection rule's answer (the simplest model within the margin of
+        the best evidence): a term the selected model leaves out may carry most of the probability when several
+        richer models each come close to the best (a real ADIS16405 gyro: rate random walk at 0.84, the
+        selected model, without it, at 0.16).
+        """
+        from ..noise.avar_forms import TERMS
+
+        present = {t for c in self.mixture for t in c.terms}
+        return {t: float(sum(c.probability for c in self.mixture if t in c.terms)) for t in TERMS if t in present}
+
     def quantiles(self, q=(0.05, 0.5, 0.95)):
         """Dict name -> quantiles of each parameter (and the derived densities)."""
         return {n: np.quantile(self.draws(n), q) for n in self._derived_names()}
@@ -253,6 +268,7 @@ class FitResult:
                 for i, (c, p) in enumerate(zip(self.candidates, probabilities))
             ],
             "model_averaging": [{"model": list(c.terms), "probability": c.probability} for c in self.mixture],
+            "term_probability": self.term_probabilities(),
             "likelihood": self.likelihood,
             "rate_hz": float(self.allan.rate_hz),
             "n_samples": int(self.allan.n_samples),
