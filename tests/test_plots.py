@@ -205,8 +205,9 @@ def test_corner_notices_stay_out_of_the_output(tmp_path, fit, caplog, monkeypatc
                                        (1e-6, 3e-4), (4e-6, 7e-4), (0.1, 5e3), (1e-12, 1e3), (0.999, 1.001)])
 def test_corner_ticks_lie_inside_with_few_labels_and_decades_labelled_when_there_are_two(low, high):
     """Each axis's ticks (plots._log_ticks): inside its range, sorted and distinct, labelled and unlabelled
-    apart; 1 to 4 labelled, and those the powers of ten wherever two or more lie inside; over two or more
-    decades the unlabelled ones only 1, 2 or 5 times a power of ten."""
+    apart; 1 to 4 labelled, and those two or more powers of ten wherever two or more lie inside; over two or
+    more decades the unlabelled ones only 1, 2 or 5 times a power of ten; where two or more of those that may
+    be labelled lie farther than 5% of the axis from its ends, no label within 5% of them."""
     labelled, other = plots._log_ticks(low, high)
     ticks = np.concatenate([labelled, other])
     assert np.all((ticks >= low * (1 - 1e-9)) & (ticks <= high * (1 + 1e-9)))
@@ -215,12 +216,16 @@ def test_corner_ticks_lie_inside_with_few_labels_and_decades_labelled_when_there
     powers = [10.0**e for e in range(int(np.floor(np.log10(low))), int(np.ceil(np.log10(high))) + 1)
               if low <= 10.0**e <= high]
     if len(powers) >= 2:
-        assert set(np.log10(labelled).round(9)) <= set(np.log10(powers).round(9))
-        assert len(labelled) == min(len(powers), 4) or len(powers) > 4
+        assert set(np.log10(labelled).round(9)) <= set(np.log10(powers).round(9)) and len(labelled) >= 2
         coefficient = other / 10.0 ** np.floor(np.log10(other) + 1e-9)
         assert np.all(np.isin(np.round(coefficient, 6), (1.0, 2.0, 5.0)))
     else:
         assert labelled.size >= 2 or ticks.size == 1
+    labellable = np.array(powers) if len(powers) >= 2 else ticks
+    where = (np.log10(labellable) - np.log10(low)) / np.log10(high / low)
+    if np.count_nonzero((where > 0.05) & (where < 0.95)) >= 2:
+        labelled_where = (np.log10(labelled) - np.log10(low)) / np.log10(high / low)
+        assert np.all((labelled_where > 0.05) & (labelled_where < 0.95))
 
 
 def test_corner_grid_is_the_lower_triangle_with_labels_on_its_edges_only(tmp_path, figures):

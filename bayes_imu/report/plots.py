@@ -288,8 +288,8 @@ def _log_ticks(low, high, max_labels=4):
     """``(labelled, unlabelled)`` tick positions of a log axis from ``low`` to ``high``: matplotlib's log
     tick positions inside the range (its linear ones where the range is narrower than those; over two
     decades or more only 1, 2 and 5 times a power of ten), at most ``max_labels`` of them labelled (the
-    powers of ten where there are two or more, else every k-th, centred), so that rotated labels do not
-    overlap."""
+    powers of ten where there are two or more, else every k-th, centred; those near the axis's ends left
+    unlabelled where two others are: :func:`_inside_ends`), so that rotated labels do not overlap."""
     from matplotlib.ticker import LogLocator
 
     both = np.concatenate([LogLocator(numticks=3).tick_values(low, high), LogLocator(subs="auto").tick_values(low, high)])
@@ -303,16 +303,25 @@ def _log_ticks(low, high, max_labels=4):
         coefficient = np.round(ticks / 10.0 ** np.floor(exponent + 1e-9), 6)
         keep = np.isin(coefficient, (1.0, 2.0, 5.0))
         ticks, decades = ticks[keep], decades[keep]
-        candidates = np.flatnonzero(decades)
+        candidates = _inside_ends(ticks, low, high, np.flatnonzero(decades))
         chosen = candidates[::-(-candidates.size // max_labels)]
     else:
         # every k-th tick, the chosen ones centred in the list (evenly spaced where the ticks are)
-        stride = -(-ticks.size // max_labels)
-        count = -(-ticks.size // stride)
-        chosen = (ticks.size - 1 - stride * (count - 1)) // 2 + stride * np.arange(count)
+        candidates = _inside_ends(ticks, low, high, np.arange(ticks.size))
+        stride = -(-candidates.size // max_labels)
+        count = -(-candidates.size // stride)
+        chosen = candidates[(candidates.size - 1 - stride * (count - 1)) // 2 + stride * np.arange(count)]
     labelled = np.zeros(ticks.size, bool)
     labelled[chosen] = True
     return ticks[labelled], ticks[~labelled]
+
+
+def _inside_ends(ticks, low, high, candidates, margin=0.05):
+    """The ``candidates`` (indices into ``ticks``) farther than ``margin`` of the axis's log length from both
+    ends, where two or more are (a label at a panel's edge runs into the next panel's), else all of them."""
+    where = (np.log10(ticks[candidates]) - np.log10(low)) / max(np.log10(high) - np.log10(low), 1e-300)
+    inside = candidates[(where > margin) & (where < 1.0 - margin)]
+    return inside if inside.size >= 2 else candidates
 
 
 def _set_ticks(axis, ticks, *, labelled, label):
