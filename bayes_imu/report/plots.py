@@ -249,8 +249,8 @@ def _corner_grid(plt, data, labels, bins=20):
     panels by giving them empty label lists, which creates a tick object for every minor tick of every
     log axis (about 1300 for seven parameters, half its drawing time); here the inner panels' labels are
     switched off (no tick created), each parameter's ticks are computed once for its column and row, and
-    the layout is fixed (no tight bounding box, which draws the figure twice): 0.37 s against 0.97 s for a
-    real fit's five parameters, 0.66 s against 2.22 s for seven, 0.15 s against 0.27 s for three
+    the layout is fixed (no tight bounding box, which draws the figure twice): 0.34 s against 0.63 s for a
+    real fit's five parameters, 0.60 s against 2.11 s for seven, 0.13 s against 0.24 s for three
     (``scripts/study_speed_options.py --figures``).
     """
     corner = import_corner()
