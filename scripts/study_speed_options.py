@@ -34,7 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))  # validate_real's DATA
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # validate_real's DATA, bench_io's best_time
+
+from bench_io import best_time  # noqa: E402  (best of n wall times)
 
 FIRST_GRID = """
 import sys, time
@@ -60,15 +62,6 @@ def kernels():
         print(f"{build:>12s} {float(seconds):34.2f} {numba_loaded:>15s}")
 
 
-def _best(fn, n=5):
-    times = []
-    for _ in range(n):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return min(times)
-
-
 def _bench_fit():
     from bayes_imu.allan.estimator import allan_variance
     from bayes_imu.inference.fit import fit_allan
@@ -92,7 +85,7 @@ def figures():
     tight_layout = figure.tight_layout
     with tempfile.TemporaryDirectory() as folder:
         out = Path(folder)
-        allan_s = _best(lambda: plots.plot_allan_fit(fit, out / "a.png", rng=0, unit="u"))
+        allan_s = best_time(lambda: plots.plot_allan_fit(fit, out / "a.png", rng=0, unit="u"), 5)
         params = {}
 
         def recording(self, *args, **kwargs):
@@ -104,7 +97,7 @@ def figures():
             figure.tight_layout = recording
             plots.plot_allan_fit(fit, out / "a.png", rng=0, unit="u")
             figure.tight_layout = lambda self, *args, **kwargs: self.subplots_adjust(**params)
-            fixed_s = _best(lambda: plots.plot_allan_fit(fit, out / "a2.png", rng=0, unit="u"))
+            fixed_s = best_time(lambda: plots.plot_allan_fit(fit, out / "a2.png", rng=0, unit="u"), 5)
         finally:
             figure.tight_layout = tight_layout
     print(f"{'figure':>14s} {'as drawn (s)':>13s} {'without the layout pass (s)':>28s}")
@@ -148,14 +141,14 @@ def _corner_ways(plots, fits):
     with tempfile.TemporaryDirectory() as folder:
         out = Path(folder)
         for name, fit in fits:
-            drawn_s = _best(lambda: plots.plot_corner(fit, out / "c.png"))
+            drawn_s = best_time(lambda: plots.plot_corner(fit, out / "c.png"), 5)
             plain = plots.plain_log_formatter
             try:
                 plots.plain_log_formatter = LogFormatterSciNotation
-                mathtext_s = _best(lambda: plots.plot_corner(fit, out / "c.png"))
+                mathtext_s = best_time(lambda: plots.plot_corner(fit, out / "c.png"), 5)
             finally:
                 plots.plain_log_formatter = plain
-            before_s = _best(lambda: _corner_before(plots, fit, out / "c.png"))
+            before_s = best_time(lambda: _corner_before(plots, fit, out / "c.png"), 5)
             print(f"{name:>22s} {fit.samples.shape[1]:10d} {drawn_s:24.3f} {mathtext_s:20.3f} {before_s:26.3f}")
 
 
@@ -279,7 +272,7 @@ def sampler():
             times.append(best / steps * 1e6)
             chains.append(made.get_chain())
         half = start[: start.shape[0] // 2]
-        likelihood = 2 * _best(lambda: post(half), n=200) * 1e6
+        likelihood = 2 * best_time(lambda: post(half), 200) * 1e6
         print(f"{name:>22s} {start.shape[1]:10d} {times[0]:17.0f} {times[1]:20.0f} {likelihood:21.0f} "
               f"{str(bool(np.array_equal(*chains))):>11s}")
     print("likelihood: the two vectorised calls of a step (each half of the ensemble), best of 200")

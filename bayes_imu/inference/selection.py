@@ -376,7 +376,7 @@ def _neg_log_density(u, post):
     return value if np.isfinite(value) else 1e300
 
 
-def _neg_gradient(u, post, step=1e-6):
+def _neg_gradient(u, post, step=GRADIENT_STEP):
     """Central differences, all 2n points in one vectorised likelihood call."""
     eye = step * np.eye(u.size)
     vals = _log_density_u(post, np.vstack([u + eye, u - eye]))
