@@ -21,8 +21,10 @@ docs quote can be rerun:
    sampler and moves with less Python per step) against emcee's own classes, on the posteriors of the bench fit
    and two real ones: microseconds per step of 32 walkers, the likelihood's share, and whether the chains are the
    same bit for bit.
+5. ``--seeds``: imu4 gyro x (seven parameters) fitted with seeds 0-5: whether each sampler converged, its steps,
+   R-hat and seconds (its posterior has a second mode; convergence depends on the seed).
 
-    python scripts/study_speed_options.py [--kernels] [--figures] [--modes] [--sampler]   (all four without options)
+    python scripts/study_speed_options.py [--kernels] [--figures] [--modes] [--sampler] [--seeds]   (all without options)
 """
 
 import argparse
@@ -278,14 +280,39 @@ def sampler():
     print("likelihood: the two vectorised calls of a step (each half of the ensemble), best of 200")
 
 
+def seeds():
+    """imu4 gyro x (../shared; two Gauss-Markov biases and a random walk, seven parameters) fitted with seeds 0-5:
+    whether the sampler converged within 40 000 steps, its steps, R-hat and the fit's seconds. Its posterior has
+    a second mode that walkers visit for thousands of steps, so convergence depends on the seed."""
+    import warnings
+
+    from bayes_imu.inference.fit import fit_allan
+
+    cases = _real_allans(((4, "gyro_x_dps"),))
+    if not cases:
+        print("skipped: ../shared not found")
+        return
+    name, allan = cases[0]
+    print(f"{'log':>16s} {'seed':>4s} {'converged':>9s} {'steps':>6s} {'r_hat':>6s} {'fit_s':>6s}  model")
+    for seed in range(6):
+        start = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fit = fit_allan(allan, rng=seed)
+        d = fit.diagnostics
+        print(f"{name:>16s} {seed:4d} {str(d['converged']):>9s} {d['n_steps']:6d} {d['rhat_max']:6.3f} "
+              f"{time.perf_counter() - start:6.1f}  {' + '.join(fit.model.terms)}")
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--kernels", action="store_true")
     parser.add_argument("--figures", action="store_true")
     parser.add_argument("--modes", action="store_true")
     parser.add_argument("--sampler", action="store_true")
+    parser.add_argument("--seeds", action="store_true")
     args = parser.parse_args(argv)
-    names = ("kernels", "figures", "modes", "sampler")
+    names = ("kernels", "figures", "modes", "sampler", "seeds")
     chosen = [name for name in names if getattr(args, name)] or list(names)
     for name in chosen:
         print(f"\n== {name}")
