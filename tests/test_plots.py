@@ -202,12 +202,15 @@ def test_corner_notices_stay_out_of_the_output(tmp_path, fit, caplog, monkeypatc
 
 
 @pytest.mark.parametrize("low, high", [(0.0748, 0.0762), (0.0795, 0.09), (3e-5, 2.4e-4), (20.0, 310.0),
-                                       (1e-6, 3e-4), (4e-6, 7e-4), (0.1, 5e3), (1e-12, 1e3), (0.999, 1.001)])
-def test_corner_ticks_lie_inside_with_few_labels_and_decades_labelled_when_there_are_two(low, high):
+                                       (1e-6, 3e-4), (4e-6, 7e-4), (0.1, 5e3), (1e-12, 1e3), (0.999, 1.001),
+                                       (7.5e-5, 4.2e-4), (60.0, 450.0), (1.1e-3, 2.8e-2), (0.9, 1.2)])
+def test_corner_ticks_lie_inside_with_few_labels_apart_and_decades_labelled_when_there_are_two(low, high):
     """Each axis's ticks (plots._log_ticks): inside its range, sorted and distinct, labelled and unlabelled
     apart; 1 to 4 labelled, and those two or more powers of ten wherever two or more lie inside; over two or
     more decades the unlabelled ones only 1, 2 or 5 times a power of ten; where two or more of those that may
-    be labelled lie farther than 5% of the axis from its ends, no label within 5% of them."""
+    be labelled lie farther than 10% of the axis from its ends, no label within 10% of them (else 5%, where
+    two lie farther than that); labels at least 15% of the axis apart (45-degree labels of 7 points on a
+    1.9-inch panel; the rule before put 9e-5 and 1e-4 6% apart on (7.5e-5, 4.2e-4), a real fit's axis)."""
     labelled, other = plots._log_ticks(low, high)
     ticks = np.concatenate([labelled, other])
     assert np.all((ticks >= low * (1 - 1e-9)) & (ticks <= high * (1 + 1e-9)))
@@ -223,9 +226,12 @@ def test_corner_ticks_lie_inside_with_few_labels_and_decades_labelled_when_there
         assert labelled.size >= 2 or ticks.size == 1
     labellable = np.array(powers) if len(powers) >= 2 else ticks
     where = (np.log10(labellable) - np.log10(low)) / np.log10(high / low)
-    if np.count_nonzero((where > 0.05) & (where < 0.95)) >= 2:
-        labelled_where = (np.log10(labelled) - np.log10(low)) / np.log10(high / low)
-        assert np.all((labelled_where > 0.05) & (labelled_where < 0.95))
+    labelled_where = (np.log10(labelled) - np.log10(low)) / np.log10(high / low)
+    for edge in (0.1, 0.05):
+        if np.count_nonzero((where > edge) & (where < 1.0 - edge)) >= 2:
+            assert np.all((labelled_where > edge) & (labelled_where < 1.0 - edge))
+            break
+    assert np.all(np.diff(labelled_where) >= 0.15 - 1e-12)
 
 
 def test_corner_grid_is_the_lower_triangle_with_labels_on_its_edges_only(tmp_path, figures):

@@ -143,6 +143,10 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None):
     """Observed Allan deviation with intervals, the 90% posterior predictive band, each term,
     and a panel of the whitened residuals of the goodness-of-fit check.
 
+    The panels have fixed sizes (:data:`_FIT_LAYOUT_IN`) and the legend stands beside them, its long
+    entries wrapped: no layout pass (``tight_layout`` draws the figure once more: 0.22-0.37 s against
+    0.17-0.20 s, ``scripts/study_speed_options.py --figures``), and no entry hides an observed point.
+
     Parameters
     ----------
     fit : FitResult
@@ -156,19 +160,20 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None):
     tau_f = np.geomspace(allan.tau[0], allan.tau[-1], 80)
     m_f = np.unique(np.maximum(1, np.round(tau_f * allan.rate_hz)).astype(np.int64))
     tau_f = m_f / allan.rate_hz
-    fig, (ax, ax_r) = plt.subplots(2, 1, figsize=(7, 6.4), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
+    fig, (ax, ax_r) = _fixed_panels(plt, _FIT_LAYOUT_IN)
     err = np.vstack([allan.adev - allan.adev_low, allan.adev_high - allan.adev])
-    ax.errorbar(allan.tau, allan.adev, yerr=err, fmt="o", ms=3, capsize=2, color="k", label=label or "observed ADEV")
+    ax.errorbar(allan.tau, allan.adev, yerr=err, fmt="o", ms=3, capsize=2, color="k",
+                label=_wrapped(label or "observed ADEV"))
     steady = getattr(fit, "stationarity", None)
     if steady is not None and not steady.stationary:  # the parts of a log whose noise changes
         for j, part in enumerate(steady.segment_adev):
             ax.plot(steady.tau_s, part, "-", color="0.45", lw=0.8, alpha=0.8,
-                    label=(f"its {steady.n_segments} parts: noise changes (p = {steady.p_value:.2g})"
+                    label=(_wrapped(f"its {steady.n_segments} parts: noise changes (p = {steady.p_value:.2g})")
                            if j == 0 else None))
     pred = np.sqrt(fit.predictive_avar(m_f, rng=rng))
     lo, med, hi = np.quantile(pred, [0.05, 0.5, 0.95], axis=0)
     ax.fill_between(tau_f, lo, hi, color="C0", alpha=0.3, label="posterior 90% band")
-    ax.plot(tau_f, med, color="C0", lw=1.5, label=f"model: {' + '.join(fit.model.terms)}")
+    ax.plot(tau_f, med, color="C0", lw=1.5, label=_wrapped("model: " + " + ".join(fit.model.terms)))
     for i, term in enumerate(fit.model.terms):
         part = np.median(np.sqrt(fit.predictive_avar(m_f, rng=rng, term=term)), axis=0)
         ax.plot(tau_f, part, "--", color=f"C{i + 1}", lw=1, label=_TERM_LABEL.get(term, term))
@@ -178,11 +183,47 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None):
     ax.set_ylabel(f"Allan deviation ({unit})")
     ax.set_title("Allan deviation: data and posterior")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    # beside the panel, not on it: inside, eight entries hid observed points wherever matplotlib put them
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     _residual_panel(ax_r, fit)
-    fig.tight_layout()
+    for axis in (ax.xaxis, ax.yaxis, ax_r.xaxis):
+        _plain_log_labels(axis)
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+#: plot_allan_fit's layout (inches): the two panels' width and heights, the gap between them (the residual
+#: panel's title), and the margins: tick and axis labels (left, bottom), the title (top), the legend (right)
+_FIT_LAYOUT_IN = {"width": 5.6, "heights": (3.9, 1.3), "gap": 0.45, "left": 0.85, "right": 2.75, "bottom": 0.6,
+                  "top": 0.4}
+
+
+def _fixed_panels(plt, layout):
+    """A figure of panels stacked with a shared x axis, laid out at fixed sizes in inches (``layout``): the
+    same picture as a tight layout, without drawing the figure once more to measure it."""
+    heights = layout["heights"]
+    width = layout["left"] + layout["width"] + layout["right"]
+    height = layout["bottom"] + sum(heights) + layout["gap"] * (len(heights) - 1) + layout["top"]
+    return plt.subplots(len(heights), 1, figsize=(width, height), sharex=True,
+                        gridspec_kw={"height_ratios": heights, "left": layout["left"] / width,
+                                     "right": 1.0 - layout["right"] / width, "bottom": layout["bottom"] / height,
+                                     "top": 1.0 - layout["top"] / height,
+                                     "hspace": layout["gap"] / np.mean(heights)})
+
+
+def _wrapped(text, width=34):
+    """``text`` on lines of at most ``width`` characters, broken at spaces (a word longer than that, such as
+    a long file name, across lines): a legend entry beside a panel stays inside the figure."""
+    import textwrap
+
+    return "\n".join(textwrap.wrap(text, width, subsequent_indent="  ", break_on_hyphens=False)) or text
+
+
+def _plain_log_labels(axis):
+    """The labels matplotlib gives a log axis (:class:`~matplotlib.ticker.LogFormatterSciNotation`, major and
+    minor), in plain text (:func:`plain_log_formatter`): no mathtext to parse (about 8 ms a label)."""
+    axis.set_major_formatter(plain_log_formatter())
+    axis.set_minor_formatter(plain_log_formatter(labelOnlyBase=False))
 
 
 def _residual_panel(ax, fit):
@@ -248,10 +289,11 @@ def _corner_grid(plt, data, labels, bins=20):
     corner.py's ``corner`` draws the same panels in a full k x k grid and blanks the tick labels of inner
     panels by giving them empty label lists, which creates a tick object for every minor tick of every
     log axis (about 1300 for seven parameters, half its drawing time); here the inner panels' labels are
-    switched off (no tick created), each parameter's ticks are computed once for its column and row, and
-    the layout is fixed (no tight bounding box, which draws the figure twice): 0.34 s against 0.63 s for a
-    real fit's five parameters, 0.60 s against 2.11 s for seven, 0.13 s against 0.24 s for three
-    (``scripts/study_speed_options.py --figures``).
+    switched off (no tick created), each parameter's ticks are computed once for its column and row, the
+    unlabelled ticks are drawn on the edge panels only, and the layout is fixed (no tight bounding box,
+    which draws the figure twice): 0.33 s against 0.90-0.92 s for a real fit's five parameters,
+    0.57-0.59 s against 2.19 s for seven, 0.14-0.16 s against 0.26-0.29 s for three
+    (``scripts/study_speed_options.py --figures``, two runs).
     """
     corner = import_corner()
     k = data.shape[1]
@@ -274,7 +316,7 @@ def _corner_grid(plt, data, labels, bins=20):
                                   axes_scale=["log", "log"], bins=bins, color="k")
                     _set_ticks(ax.yaxis, ticks[i], labelled=j == 0, label=labels[i])
                 _set_ticks(ax.xaxis, ticks[j], labelled=i == k - 1, label=labels[j])
-                ax.tick_params(which="both", labelsize=6)
+                ax.tick_params(which="both", labelsize=7)
     return fig
 
 
@@ -284,15 +326,24 @@ def _draw_range(x):
     return (low, high) if high > low else (low / 1.1, high * 1.1)
 
 
+#: the corner grid's tick labels: none nearer than LABEL_END of the axis's log length to its ends (where two
+#: others can be labelled), none nearer than LABEL_GAP to one another (45-degree labels of 7 points on a
+#: 1.9-inch panel: a label reaches about a tenth of the panel beyond its tick)
+LABEL_END, LABEL_GAP = 0.1, 0.15
+
+
 def _log_ticks(low, high, max_labels=4):
     """``(labelled, unlabelled)`` tick positions of a log axis from ``low`` to ``high``: matplotlib's log
     tick positions inside the range (its linear ones where the range is narrower than those; where two or
     more powers of ten lie inside, only 1, 2 and 5 times a power of ten), at most ``max_labels`` of them
-    labelled (those powers of ten, else every k-th tick, centred; those near the axis's ends left unlabelled
-    where two others can be: :func:`_inside_ends`), so that rotated labels do not overlap."""
+    labelled (those powers of ten, else ticks spread over the axis, the round ones first: :func:`_spaced`;
+    those near the axis's ends left unlabelled where two others can be: :func:`_inside_ends`), so that
+    rotated labels do not overlap."""
     from matplotlib.ticker import LogLocator
 
-    both = np.concatenate([LogLocator(numticks=3).tick_values(low, high), LogLocator(subs="auto").tick_values(low, high)])
+    powers = 10.0 ** np.arange(np.ceil(np.log10(low) - 1e-9), np.floor(np.log10(high) + 1e-9) + 1)
+    both = np.concatenate([LogLocator(numticks=3).tick_values(low, high), LogLocator(subs="auto").tick_values(low, high),
+                           powers])  # every power of ten inside (over many decades matplotlib skips some)
     ticks = np.unique(both[(both >= low * (1 - 1e-9)) & (both <= high * (1 + 1e-9))])
     if ticks.size == 0:
         return ticks, ticks
@@ -306,32 +357,49 @@ def _log_ticks(low, high, max_labels=4):
         candidates = _inside_ends(ticks, low, high, np.flatnonzero(decades))
         chosen = candidates[::-(-candidates.size // max_labels)]
     else:
-        # every k-th tick, the chosen ones centred in the list (evenly spaced where the ticks are)
-        candidates = _inside_ends(ticks, low, high, np.arange(ticks.size))
-        stride = -(-candidates.size // max_labels)
-        count = -(-candidates.size // stride)
-        chosen = candidates[(candidates.size - 1 - stride * (count - 1)) // 2 + stride * np.arange(count)]
+        chosen = _spaced(ticks, _inside_ends(ticks, low, high, np.arange(ticks.size)), low, high, max_labels)
     labelled = np.zeros(ticks.size, bool)
     labelled[chosen] = True
     return ticks[labelled], ticks[~labelled]
 
 
-def _inside_ends(ticks, low, high, candidates, margin=0.05):
+def _spaced(ticks, candidates, low, high, max_labels, gap=LABEL_GAP):
+    """At most ``max_labels`` of the ``candidates`` (indices into ``ticks``), at least ``gap`` of the axis's
+    log length apart: a power of ten first, then 2 and 5 times one, then the others, each group from the
+    axis's middle out, a tick kept where no kept one is nearer. On a log axis the ticks are not evenly spaced
+    (8, 9, 10, 20, 30 x 10^-5), so every k-th one could put two labels nearly on one another."""
+    where = (np.log10(ticks) - np.log10(low)) / max(np.log10(high) - np.log10(low), 1e-300)
+    coefficient = np.round(ticks / 10.0 ** np.floor(np.log10(ticks) + 1e-9), 6)
+    rank = np.where(coefficient == 1.0, 0, np.where(np.isin(coefficient, (2.0, 5.0)), 1, 2))
+    kept = []
+    for i in sorted(candidates, key=lambda i: (rank[i], abs(where[i] - 0.5))):
+        if len(kept) < max_labels and all(abs(where[i] - where[j]) >= gap for j in kept):
+            kept.append(i)
+    return np.sort(np.array(kept, dtype=np.int64))
+
+
+def _inside_ends(ticks, low, high, candidates, margin=LABEL_END):
     """The ``candidates`` (indices into ``ticks``) farther than ``margin`` of the axis's log length from both
-    ends, where two or more are (a label at a panel's edge runs into the next panel's), else all of them."""
+    ends, where two or more are (a label at a panel's edge runs into the next panel's), else those farther
+    than half that, else all of them."""
     where = (np.log10(ticks[candidates]) - np.log10(low)) / max(np.log10(high) - np.log10(low), 1e-300)
-    inside = candidates[(where > margin) & (where < 1.0 - margin)]
-    return inside if inside.size >= 2 else candidates
+    for edge in (margin, margin / 2):
+        inside = candidates[(where > edge) & (where < 1.0 - edge)]
+        if inside.size >= 2:
+            return inside
+    return candidates
 
 
 def _set_ticks(axis, ticks, *, labelled, label):
     """Fixed ticks on ``axis`` (:func:`_log_ticks`: the labelled ones major, the rest minor); on an edge
     (``labelled``) plain tick labels rotated 45 degrees and the axis label, elsewhere no labels."""
-    from matplotlib.ticker import FixedLocator, NullFormatter
+    from matplotlib.ticker import FixedLocator, NullFormatter, NullLocator
 
     major, minor = ticks
     axis.set_major_locator(FixedLocator(major))
-    axis.set_minor_locator(FixedLocator(minor))
+    # the unlabelled ticks on the edges only, where they help read the labelled ones: an inner panel lines up
+    # with its edge panels (each tick drawn is an object of five artists: about 1 ms)
+    axis.set_minor_locator(FixedLocator(minor) if labelled else NullLocator())
     axis.set_minor_formatter(NullFormatter())
     name = axis.axis_name
     if labelled:
@@ -367,8 +435,8 @@ def plain_log_formatter(**kwargs):
     """``matplotlib.ticker.LogFormatterSciNotation(**kwargs)`` whose labels are plain text (``2\u00d710\u207b\u00b3``,
     Unicode superscripts) instead of mathtext (``$\\mathdefault{2\\times10^{-3}}$``): the same ticks labelled, the
     same numbers. Every mathtext label is parsed when drawn (about 8 ms each, matplotlib's cache holds 50): the
-    corner plot's edge labels in mathtext cost 0.17 / 0.40 / 0.63 s for 3 / 5 / 7 parameters against 0.13 / 0.34 /
-    0.60 s in plain text (``scripts/study_speed_options.py --figures``)."""
+    corner plot with mathtext edge labels costs 0.17 / 0.39-0.42 / 0.84-0.87 s for 3 / 5 / 7 parameters
+    against 0.14-0.16 / 0.33 / 0.57-0.59 s in plain text (``scripts/study_speed_options.py --figures``)."""
     import re
 
     from matplotlib.ticker import LogFormatterSciNotation
