@@ -72,6 +72,35 @@ def test_allan_fit_has_band_terms_and_residuals(tmp_path, figures, fit):
         assert word in text, word
 
 
+def test_allan_fit_keeps_every_label_inside_the_figure_and_its_legend_off_the_data(tmp_path, figures, fit):
+    """The fixed layout (no tight_layout pass): every visible text (title, axis and tick labels, legend entries,
+    a long log name wrapped) lies inside the saved figure, and the legend stands beside the data panel, not on
+    it (inside, its entries hid observed points on real logs)."""
+    name = "a_long_name_of_a_real_recording_from_the_test_bench_2026-11-24.csv.gz: gyro_x_dps"
+    plots.plot_allan_fit(fit, tmp_path / "f.png", label=name, unit="rad/s", rng=0)
+    fig = figures[-1]
+    fig.canvas.draw()  # at the figure's own dpi, the units of fig.bbox
+    renderer = fig.canvas.get_renderer()
+    ax = fig.axes[0]
+    legend = ax.get_legend()
+    texts = list(legend.get_texts())
+    for each in fig.axes:
+        texts += [each.title, each.xaxis.label, each.yaxis.label]
+        for axis, (low, high) in ((each.xaxis, each.get_xlim()), (each.yaxis, each.get_ylim())):
+            texts += [t.label1 for t in axis.get_major_ticks() + axis.get_minor_ticks()
+                      if t.label1.get_visible() and min(low, high) <= t.get_loc() <= max(low, high)]
+    page = fig.bbox
+    for text in texts:
+        if not text.get_text():
+            continue
+        box = text.get_window_extent(renderer)
+        assert page.x0 - 1 <= box.x0 and box.x1 <= page.x1 + 1 and page.y0 - 1 <= box.y0 and box.y1 <= page.y1 + 1, \
+            text.get_text()
+    assert not legend.get_window_extent(renderer).overlaps(ax.get_window_extent(renderer))
+    assert any(name.split(":")[0][:20] in t.get_text() for t in legend.get_texts())
+    assert max(len(line) for t in legend.get_texts() for line in t.get_text().split("\n")) <= 34
+
+
 def test_corner_has_units_and_no_offset_ticks(tmp_path, figures, fit):
     plots.plot_corner(fit, tmp_path / "c.png", unit="rad/s")
     _png(tmp_path / "c.png")
