@@ -34,6 +34,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from unittest.mock import patch  # a callable run with an attribute replaced (the ways a figure was drawn)
 from pathlib import Path
 
 import numpy as np
@@ -98,8 +99,8 @@ def figures():
         def draw():
             plots.plot_allan_fit(fit, path, rng=0, unit="u")
 
-        return [draw, _patched(figure, "savefig", laid_out, lambda: _quietly(draw)),
-                _patched(plots, "plain_log_formatter", LogFormatterSciNotation, draw)]
+        return [draw, patch.object(figure, "savefig", laid_out)(lambda: _quietly(draw)),
+                patch.object(plots, "plain_log_formatter", LogFormatterSciNotation)(draw)]
 
     _time_table(fits, ["allan_fit.png as drawn (s)", "with a tight_layout pass (s)", "mathtext labels (s)"],
                 allan_fit_ways)
@@ -116,19 +117,6 @@ def _interleaved(ways, rounds=5):
             way()
             best[i] = min(best[i], time.perf_counter() - start)
     return best
-
-
-def _patched(owner, name, value, call):
-    """``call`` as a callable that runs with ``owner.name`` set to ``value``, restored afterwards."""
-    def run():
-        original = getattr(owner, name)
-        setattr(owner, name, value)
-        try:
-            return call()
-        finally:
-            setattr(owner, name, original)
-
-    return run
 
 
 def _real_allans(cases):
@@ -165,7 +153,7 @@ def _corner_ways(plots, fits):
         def draw():
             plots.plot_corner(fit, path)
 
-        return [draw, _patched(plots, "plain_log_formatter", LogFormatterSciNotation, draw),
+        return [draw, patch.object(plots, "plain_log_formatter", LogFormatterSciNotation)(draw),
                 lambda: _quietly(lambda: _corner_before(plots, fit, path))]
 
     print()

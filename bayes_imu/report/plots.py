@@ -351,8 +351,7 @@ def _log_ticks(low, high, max_labels=4):
     decades = np.isclose(exponent, np.round(exponent), rtol=0.0, atol=1e-9)
     if np.count_nonzero(decades) >= 2:
         # only 1, 2 and 5 times a power of ten between them (every tick drawn costs), the powers labelled
-        coefficient = np.round(ticks / 10.0 ** np.floor(exponent + 1e-9), 6)
-        keep = np.isin(coefficient, (1.0, 2.0, 5.0))
+        keep = np.isin(_coefficient(ticks), (1.0, 2.0, 5.0))
         ticks, decades = ticks[keep], decades[keep]
         candidates = _inside_ends(ticks, low, high, np.flatnonzero(decades))
         chosen = candidates[::-(-candidates.size // max_labels)]
@@ -368,8 +367,7 @@ def _spaced(ticks, candidates, low, high, max_labels, gap=LABEL_GAP):
     log length apart: a power of ten first, then 2 and 5 times one, then the others, each group from the
     axis's middle out, a tick kept where no kept one is nearer. On a log axis the ticks are not evenly spaced
     (8, 9, 10, 20, 30 x 10^-5), so every k-th one could put two labels nearly on one another."""
-    where = (np.log10(ticks) - np.log10(low)) / max(np.log10(high) - np.log10(low), 1e-300)
-    coefficient = np.round(ticks / 10.0 ** np.floor(np.log10(ticks) + 1e-9), 6)
+    where, coefficient = _axis_fraction(ticks, low, high), _coefficient(ticks)
     rank = np.where(coefficient == 1.0, 0, np.where(np.isin(coefficient, (2.0, 5.0)), 1, 2))
     kept = []
     for i in sorted(candidates, key=lambda i: (rank[i], abs(where[i] - 0.5))):
@@ -378,11 +376,21 @@ def _spaced(ticks, candidates, low, high, max_labels, gap=LABEL_GAP):
     return np.sort(np.array(kept, dtype=np.int64))
 
 
+def _axis_fraction(ticks, low, high):
+    """Where ``ticks`` lie on a log axis from ``low`` to ``high``: 0 at its start, 1 at its end."""
+    return (np.log10(ticks) - np.log10(low)) / max(np.log10(high) - np.log10(low), 1e-300)
+
+
+def _coefficient(ticks):
+    """``ticks`` over their power of ten (1 to 9.99...), rounded to 6 decimals: 2 for 2e-5."""
+    return np.round(ticks / 10.0 ** np.floor(np.log10(ticks) + 1e-9), 6)
+
+
 def _inside_ends(ticks, low, high, candidates, margin=LABEL_END):
     """The ``candidates`` (indices into ``ticks``) farther than ``margin`` of the axis's log length from both
     ends, where two or more are (a label at a panel's edge runs into the next panel's), else those farther
     than half that, else all of them."""
-    where = (np.log10(ticks[candidates]) - np.log10(low)) / max(np.log10(high) - np.log10(low), 1e-300)
+    where = _axis_fraction(ticks[candidates], low, high)
     for edge in (margin, margin / 2):
         inside = candidates[(where > edge) & (where < 1.0 - edge)]
         if inside.size >= 2:
