@@ -235,14 +235,15 @@ def test_thread_count_follows_the_record_and_changes_no_bit(rng, monkeypatch):
 
 def test_one_pass_sums_of_every_size_against_exact_sums(rng):
     """The sums of all cluster sizes in one pass over blocks (sizes smaller and larger than a block,
-    an octave run and odd sizes, not sorted) equal each size's sum of squared second differences
+    octave runs summed four and two sizes a loop, one whose 16 m reach leaves the record in the last
+    blocks, and odd sizes, not sorted) equal each size's sum of squared second differences
     added exactly (math.fsum), to 1e-13 relative."""
     import math
 
     from bayes_imu.allan import kernels
 
     x = kernels.phase_from_rate(rng.standard_normal(400_000) + 0.3, 0.3)
-    ms = np.array([1, 2, 4, 8, 3, 1000, 65_535, 65_536, 65_537, 131_072, 7, 99_999])
+    ms = np.array([1, 2, 4, 8, 3, 1000, 65_535, 65_536, 65_537, 131_072, 7, 99_999, 4096, 8192, 16_384, 32_768])
     got = kernels.second_difference_sums(x, ms)
     for m, value in zip(ms, got):
         d = x[2 * m:] - 2.0 * x[m:x.size - m] + x[:x.size - 2 * m]
@@ -275,6 +276,28 @@ def test_parallel_running_sum_equals_the_sequential_pass(rng, monkeypatch):
             assert abs(Fraction(x[i + 1]) - exact) <= 4 * abs(exact) * Fraction(2) ** -52 + Fraction(2) ** -40
             checked += 1
     assert checked > 10
+
+
+@pytest.mark.parametrize("extra", [0, 12_345])
+def test_record_mean_is_the_exact_mean_on_any_number_of_threads(rng, monkeypatch, extra):
+    """record_mean of a record the JIT kernels sum (block sums on threads, added by math.fsum) is within
+    4 ulp of the exact rational mean, on a large offset with noise, the same bits on 1 or more threads;
+    a short record's mean is numpy's."""
+    from fractions import Fraction
+
+    from bayes_imu.allan import kernels
+
+    y = rng.standard_normal(kernels.PRECOMPILED_BELOW + extra) * 3.0 + 9.81
+    exact = sum(map(Fraction, y.tolist()), Fraction(0)) / y.size
+    got = kernels.record_mean(y)
+    assert abs(Fraction(got) - exact) <= 4 * abs(exact) * Fraction(2) ** -52
+    import numba
+
+    for n in range(1, numba.config.NUMBA_NUM_THREADS + 1):
+        monkeypatch.setattr(kernels, "threads_for", lambda n_samples, n=n: n)
+        assert kernels.record_mean(y) == got
+    short = y[:1000]
+    assert kernels.record_mean(short) == float(np.mean(short))
 
 
 

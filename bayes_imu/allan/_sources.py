@@ -201,29 +201,70 @@ def phase_blocks(y, offset, bases, block, out):
 
 def sums_all(x, ms, block):
     # every cluster size in one pass over the record: for each block of start indices the
-    # sizes are summed in increasing order, so a size's stream at x[i + m] is the block the
-    # size before it read at x[i + 2 m'] (an octave grid), still in cache, and the small
-    # sizes share one block of x. Block sums added in a fixed order (no dependence on the
-    # threads); within about 1e-15 of sum3 on the same size (LLVM vectorises the two loops
-    # differently), not bit for bit.
+    # sizes are summed in the order given, so on an octave grid a size's stream at x[i + m] is
+    # the block the size before it read at x[i + 2 m'], still in cache, and the small sizes
+    # share one block of x. Four sizes m, 2m, 4m, 8m in a row (an octave run) are summed in one
+    # loop over the block: six streams x[i], x[i + m], ..., x[i + 16 m] for four sizes instead of
+    # twelve (the loop is bound by loads from cache: 1.4-1.5x faster on an octave grid; eight
+    # sizes a loop gained nothing more); two sizes m, 2m in one loop where four do not fit. Block sums
+    # added in a fixed order (no dependence on the threads); within about 1e-15 of sum3 on the
+    # same size (LLVM vectorises the loops differently), not bit for bit.
     k = ms.size
     n_blocks = (x.size - 2 * ms.min() + block - 1) // block
     partial = np.zeros((n_blocks, k))
     for b in numba.prange(n_blocks):
         lo = b * block
-        for j in range(k):
+        j = 0
+        while j < k:
             m = ms[j]
             hi = min(lo + block, x.size - 2 * m)
-            if hi <= lo:
+            if j + 1 < k and ms[j + 1] == 2 * m and lo + block <= x.size - 4 * m:
+                a0 = x[lo:lo + block]
+                a1 = x[lo + m:lo + block + m]
+                a2 = x[lo + 2 * m:lo + block + 2 * m]
+                a4 = x[lo + 4 * m:lo + block + 4 * m]
+                s1 = 0.0
+                s2 = 0.0
+                if j + 3 < k and ms[j + 2] == 4 * m and ms[j + 3] == 8 * m and lo + block <= x.size - 16 * m:
+                    a8 = x[lo + 8 * m:lo + block + 8 * m]
+                    a16 = x[lo + 16 * m:lo + block + 16 * m]
+                    s4 = 0.0
+                    s8 = 0.0
+                    for i in range(block):
+                        z = a0[i]
+                        d1 = a2[i] - 2.0 * a1[i] + z
+                        d2 = a4[i] - 2.0 * a2[i] + z
+                        d4 = a8[i] - 2.0 * a4[i] + z
+                        d8 = a16[i] - 2.0 * a8[i] + z
+                        s1 += d1 * d1
+                        s2 += d2 * d2
+                        s4 += d4 * d4
+                        s8 += d8 * d8
+                    partial[b, j + 2] = s4
+                    partial[b, j + 3] = s8
+                    width = 4
+                else:
+                    for i in range(block):
+                        z = a0[i]
+                        d1 = a2[i] - 2.0 * a1[i] + z
+                        d2 = a4[i] - 2.0 * a2[i] + z
+                        s1 += d1 * d1
+                        s2 += d2 * d2
+                    width = 2
+                partial[b, j] = s1
+                partial[b, j + 1] = s2
+                j += width
                 continue
-            x0 = x[lo:hi]
-            x1 = x[lo + m:hi + m]
-            x2 = x[lo + 2 * m:hi + 2 * m]
-            s = 0.0
-            for i in range(hi - lo):
-                d = x2[i] - 2.0 * x1[i] + x0[i]
-                s += d * d
-            partial[b, j] = s
+            if hi > lo:
+                x0 = x[lo:hi]
+                x1 = x[lo + m:hi + m]
+                x2 = x[lo + 2 * m:hi + 2 * m]
+                s = 0.0
+                for i in range(hi - lo):
+                    d = x2[i] - 2.0 * x1[i] + x0[i]
+                    s += d * d
+                partial[b, j] = s
+            j += 1
     out = np.empty(k)
     for j in range(k):
         total = 0.0

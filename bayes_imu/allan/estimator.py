@@ -17,7 +17,7 @@ from .._lazy import LazyModule
 
 special = LazyModule("scipy.special")  # chi-squared quantiles without scipy.stats (0.3 s to import)
 
-from .kernels import phase_from_rate, second_difference_sums
+from .kernels import phase_from_rate, record_mean, second_difference_sums
 from .._progress import progress_bar
 from ..errors import InputError
 from ..io.readers import positive_number
@@ -198,7 +198,7 @@ def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, inte
     y = _as_samples(y)
     rate_hz = check_options(rate_hz, confidence, interval)
     ms = cluster_sizes(m, y.size)
-    x = phase_from_rate(y, np.mean(y))  # mean removed before the running sum (precision)
+    x = phase_from_rate(y, record_mean(y))  # mean removed before the running sum (precision)
     sums = np.empty(ms.size)
     groups = np.array_split(np.arange(ms.size), min(ms.size, 8)) if progress else [np.arange(ms.size)]
     with progress_bar(total=ms.size, desc="Allan variance", unit="tau", enabled=progress) as bar:
@@ -227,7 +227,7 @@ def segment_allan(y, m, n_segments=DEFAULT_SEGMENTS):
     avar = np.empty((n_segments, ms.size))
     for k in range(n_segments):
         part = y[k * length:(k + 1) * length]
-        avar[k] = avar_from_sums(second_difference_sums(phase_from_rate(part, np.mean(part)), ms), ms, length)
+        avar[k] = avar_from_sums(second_difference_sums(phase_from_rate(part, record_mean(part)), ms), ms, length)
     return SegmentAllan(ms, avar, length)
 
 
