@@ -101,6 +101,8 @@ def one_log(job):
             out["auto_" + models] = (bands.quantile(0.05) <= true) & (true <= bands.quantile(0.95))
         out["auto_selected_true"] = res.model.terms == model.terms
         out["auto_adequate"] = res.adequacy.adequate
+        out["auto_two_biases"] = "gauss_markov_2" in res.model.terms
+        out["auto_converged"] = res.diagnostics["converged"]
     if select:
         full = NoiseModel(("white", "quantization", "bias_instability", "gauss_markov", "random_walk"), 1.0 / RATE)
         ref = _pilot(full, allan)
@@ -167,13 +169,15 @@ def main(argv=None):
                 print(f"{scenario:10s} {kind:12s} " + " ".join(f"{c:6.3f}" for c in cover))
     if args.auto:
         print(f"\n{'scenario':12s} {'bands':9s} terms='auto': 90% band covers the true drift at t = {BAND_TIMES.tolist()} s"
-              f"   true model selected / adequate")
+              f"   true model selected / adequate / two biases selected / converged")
         for scenario in scenarios:
             rows = [r for r in results if r["scenario"] == scenario]
             for models in ("averaged", "selected"):
                 cover = np.mean([r["auto_" + models] for r in rows], axis=0)
                 extra = (f"   {np.mean([r['auto_selected_true'] for r in rows]):.2f} / "
-                         f"{np.mean([r['auto_adequate'] for r in rows]):.2f}") if models == "averaged" else ""
+                         f"{np.mean([r['auto_adequate'] for r in rows]):.2f} / "
+                         f"{np.mean([r['auto_two_biases'] for r in rows]):.2f} / "
+                         f"{np.mean([r['auto_converged'] for r in rows]):.2f}") if models == "averaged" else ""
                 print(f"{scenario:12s} {models:9s} " + " ".join(f"{c:6.3f}" for c in cover) + extra)
     if not args.no_selection:
         print(f"\n{'scenario':10s} {'true model':28s} {'selected true':>13s}  most frequent wrong choice")

@@ -23,8 +23,9 @@ docs quote can be rerun:
    sampler and moves with less Python per step) against emcee's own classes, on the posteriors of the bench fit
    and two real ones: microseconds per step of 32 walkers, the likelihood's share, and whether the chains are the
    same bit for bit.
-5. ``--seeds``: imu4 gyro x (seven parameters) fitted with seeds 0-5: whether each sampler converged, its steps,
-   R-hat and seconds (its posterior has a second mode; convergence depends on the seed).
+5. ``--seeds``: imu4 gyro x (seven parameters, two Gauss-Markov biases) fitted with seeds 0-7, with and without
+   the relabel move, then with ``terms="auto"``: whether each sampler converged, its steps, R-hat, the share of
+   draws in the region reached only by relabelling, and seconds.
 
     python scripts/study_speed_options.py [--kernels] [--figures] [--modes] [--sampler] [--seeds]   (all without options)
 """
@@ -313,27 +314,41 @@ def sampler():
 
 
 def seeds():
-    """imu4 gyro x (../shared; two Gauss-Markov biases and a random walk, seven parameters) fitted with seeds 0-5:
-    whether the sampler converged within 40 000 steps, its steps, R-hat and the fit's seconds. Its posterior has
-    a second mode that walkers visit for thousands of steps, so convergence depends on the seed."""
+    """imu4 gyro x (../shared; white + filtered white + two Gauss-Markov biases + random walk, seven parameters)
+    fitted with seeds 0-7, with and without the relabel move (:func:`bayes_imu.inference.sampling.relabel_move`),
+    then as a user would (``terms="auto"``, with the move): whether the sampler converged within 40 000 steps, its
+    steps, R-hat, the share of draws with the slower bias switched off (its variance under a tenth of its median;
+    the first bias then takes the slow time constant: the region the local moves reach only through a swap of
+    labels) and the fit's seconds."""
+    import contextlib
     import warnings
 
     from bayes_imu.inference.fit import fit_allan
 
+    module = sys.modules[fit_allan.__module__]
     cases = _real_allans(((4, "gyro_x_dps"),))
     if not cases:
         print("skipped: ../shared not found")
         return
     name, allan = cases[0]
-    print(f"{'log':>16s} {'seed':>4s} {'converged':>9s} {'steps':>6s} {'r_hat':>6s} {'fit_s':>6s}  model")
-    for seed in range(6):
-        start = time.perf_counter()
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            fit = fit_allan(allan, rng=seed)
-        d = fit.diagnostics
-        print(f"{name:>16s} {seed:4d} {str(d['converged']):>9s} {d['n_steps']:6d} {d['rhat_max']:6.3f} "
-              f"{time.perf_counter() - start:6.1f}  {' + '.join(fit.model.terms)}")
+    two = ("white", "filtered_white", "gauss_markov", "gauss_markov_2", "random_walk")
+    ways = (("no relabel", two, patch.object(module, "exchangeable_biases", lambda post: None)),
+            ("relabel", two, contextlib.nullcontext()), ("auto", "auto", contextlib.nullcontext()))
+    print(f"{'log':>16s} {'way':>10s} {'seed':>4s} {'converged':>9s} {'steps':>6s} {'r_hat':>6s} {'switched':>9s} "
+          f"{'fit_s':>6s}  model")
+    for way, terms, patch in ways:
+        with patch:
+            for seed in range(8):
+                start = time.perf_counter()
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    fit = fit_allan(allan, terms=terms, rng=seed)
+                seconds = time.perf_counter() - start
+                d, names = fit.diagnostics, fit.model.parameter_names
+                slow = fit.samples[:, names.index("bias_variance_2")] if "bias_variance_2" in names else None
+                share = np.nan if slow is None else np.mean(slow < 0.1 * np.median(slow))
+                print(f"{name:>16s} {way:>10s} {seed:4d} {str(d['converged']):>9s} {d['n_steps']:6d} {d['rhat_max']:6.3f} "
+                      f"{share:9.3f} {seconds:6.1f}  {' + '.join(fit.model.terms)}")
 
 
 def main(argv=None):

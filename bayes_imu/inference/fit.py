@@ -651,9 +651,29 @@ def _initial_walkers(post, evidence, phi_mode, n_walkers, rng):
     return np.clip(start, post.bounds[:, 0] + 1e-9, post.bounds[:, 1] - 1e-9)
 
 
+#: terms that are one Gauss-Markov bias each, with one prior: exchangeable but for the ordering of their time constants
+EXCHANGEABLE_TERMS = ("gauss_markov", "gauss_markov_2")
+
+
+def exchangeable_biases(post):
+    """``(variance_columns, time_columns, time_bounds)`` of the Gauss-Markov biases of ``post`` when two or more
+    of :data:`EXCHANGEABLE_TERMS` share one prior box (the relabel move of
+    :func:`~bayes_imu.inference.sampling.relabel_move`), else ``None``."""
+    names = post.model.parameter_names
+    columns = [(names.index(t.parameters[0]), names.index(t.parameters[1]))
+               for t in post.model.components if t.name in EXCHANGEABLE_TERMS]
+    if len(columns) < 2:
+        return None
+    var_cols, time_cols = (list(c) for c in zip(*columns))
+    rows = post.bounds
+    if not (np.all(rows[var_cols] == rows[var_cols[0]]) and np.all(rows[time_cols] == rows[time_cols[0]])):
+        return None
+    return var_cols, time_cols, rows[time_cols[0]]
+
+
 def _sample(post, start, rng, max_steps, progress=False):
     n_walkers, n_par = start.shape
-    sampler = ensemble_sampler(post, start, rng)
+    sampler = ensemble_sampler(post, start, rng, exchangeable_biases(post))
     chunk, state, tau_old = min(250, max_steps), start, np.inf
     converged = False
     with progress_bar(desc="sampling", unit="step", enabled=progress) as bar:
