@@ -336,8 +336,8 @@ def seeds():
             ("relabel", two, contextlib.nullcontext()), ("auto", "auto", contextlib.nullcontext()))
     print(f"{'log':>16s} {'way':>10s} {'seed':>4s} {'converged':>9s} {'steps':>6s} {'r_hat':>6s} {'switched':>9s} "
           f"{'fit_s':>6s}  model")
-    for way, terms, patch in ways:
-        with patch:
+    for way, terms, replaced in ways:
+        with replaced:
             for seed in range(8):
                 start = time.perf_counter()
                 with warnings.catch_warnings():
