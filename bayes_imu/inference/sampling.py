@@ -14,13 +14,15 @@ ordered only to name them, so where the weaker one is negligible it may sit belo
 other's time constant: two regions of the ordered parameters that the local moves join only
 through a swap of every coordinate of both biases. On the real ADIS16405 imu4 gyro log the
 second region holds about 4% of the posterior; without the move a walker that enters it stays
-~15 000 steps, and 2-3 of 6 seeds stopped at 40 000 steps unconverged (``docs/reference.md``).
+~15 000 steps: of seeds 0-7, four stopped at 40 000 steps unconverged and three of the other four
+never visited it; with the move all eight converge, 3-5% of their draws there
+(``scripts/study_speed_options.py --seeds``, ``docs/reference.md``).
 """
 
 import numpy as np
 
-__all__ = ["AUTOCORR_MULTIPLE", "RELABEL_SHARE", "ensemble_sampler", "relabel_move", "import_emcee", "autocorr_time", "long_enough", "burn_and_thin",
-           "one_blas_thread", "steps_to_next_check", "GEOMETRIC_FROM"]
+__all__ = ["AUTOCORR_MULTIPLE", "RELABEL_SHARE", "ensemble_sampler", "relabel_move", "import_emcee", "autocorr_time",
+           "long_enough", "burn_and_thin", "one_blas_thread", "steps_to_next_check", "GEOMETRIC_FROM"]
 
 #: chain length, in integrated autocorrelation times, before the sampler may stop
 AUTOCORR_MULTIPLE = 50
