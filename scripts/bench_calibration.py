@@ -174,10 +174,9 @@ def main(argv=None):
             rows = [r for r in results if r["scenario"] == scenario]
             for models in ("averaged", "selected"):
                 cover = np.mean([r["auto_" + models] for r in rows], axis=0)
-                extra = (f"   {np.mean([r['auto_selected_true'] for r in rows]):.2f} / "
-                         f"{np.mean([r['auto_adequate'] for r in rows]):.2f} / "
-                         f"{np.mean([r['auto_two_biases'] for r in rows]):.2f} / "
-                         f"{np.mean([r['auto_converged'] for r in rows]):.2f}") if models == "averaged" else ""
+                rates = ("auto_selected_true", "auto_adequate", "auto_two_biases", "auto_converged")
+                extra = ("   " + " / ".join(f"{np.mean([r[key] for r in rows]):.2f}" for key in rates)
+                         if models == "averaged" else "")
                 print(f"{scenario:12s} {models:9s} " + " ".join(f"{c:6.3f}" for c in cover) + extra)
     if not args.no_selection:
         print(f"\n{'scenario':10s} {'true model':28s} {'selected true':>13s}  most frequent wrong choice")

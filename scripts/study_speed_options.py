@@ -347,13 +347,19 @@ def seeds():
                     fit = fit_allan(allan, terms=terms, rng=seed)
                 seconds = time.perf_counter() - start
                 d, names = fit.diagnostics, fit.model.parameter_names
-                slow = fit.samples[:, names.index("bias_variance_2")] if "bias_variance_2" in names else None
-                share = np.nan if slow is None else np.mean(slow < 0.1 * np.median(slow))
+                share = (np.mean(_switched_off(fit.samples[:, names.index("bias_variance_2")]))
+                         if "bias_variance_2" in names else np.nan)
                 print(f"{name:>16s} {way:>10s} {seed:4d} {str(d['converged']):>9s} {d['n_steps']:6d} "
                       f"{d['rhat_max']:6.3f} {share:9.3f} {seconds:6.1f}  {' + '.join(fit.model.terms)}")
                 if way == "relabel" and seed == 0:
                     check = fit
     _region_mass_by_importance(check)
+
+
+def _switched_off(variance, reference=None):
+    """Where the slower bias is switched off: its variance under a tenth of the median of ``reference``
+    (its posterior draws; ``variance`` itself by default)."""
+    return variance < 0.1 * np.median(variance if reference is None else reference)
 
 
 def _region_mass_by_importance(fit, n_draws=200_000, rounds=3):
@@ -366,12 +372,12 @@ def _region_mass_by_importance(fit, n_draws=200_000, rounds=3):
     post, names = fit.chains.posterior, fit.model.parameter_names
     chain = fit.chains.chain.reshape(-1, post.n_par)
     column = names.index("bias_variance_2")
-    limit = np.log(0.1 * np.median(fit.samples[:, column]))
+    draws_v2 = fit.samples[:, column]
+    off = _switched_off(np.exp(chain[:, column]), draws_v2)
     u = selection._to_u(chain, post.bounds)
-    parts = [selection._StudentT(u[m].mean(0), 1.5**2 * np.cov(u[m].T), 4.0)
-             for m in (chain[:, column] >= limit, chain[:, column] < limit)]
+    parts = [selection._StudentT(u[m].mean(0), 1.5**2 * np.cov(u[m].T), 4.0) for m in (~off, off)]
     rng = np.random.default_rng(0)
-    print(f"\nswitched-off region of the relabel fit with seed 0: {np.mean(chain[:, column] < limit):.3f} of its "
+    print(f"\nswitched-off region of the relabel fit with seed 0: {np.mean(off):.3f} of its "
           "kept draws; by importance sampling (two-t proposal from the chain's two regions):")
     for _ in range(rounds):
         first = rng.random(n_draws) < 0.5
@@ -380,7 +386,7 @@ def _region_mass_by_importance(fit, n_draws=200_000, rounds=3):
                                                                       np.log(0.5) + parts[1].logpdf(draws))
         w = np.exp(log_w - log_w.max())
         w /= w.sum()
-        inside = selection.to_phi(draws, post.bounds)[:, column] < limit
+        inside = _switched_off(np.exp(selection.to_phi(draws, post.bounds)[:, column]), draws_v2)
         share = float(np.sum(w * inside))
         error = np.sqrt(np.sum(w**2 * (inside - share) ** 2))  # self-normalised estimate's standard error
         print(f"  {share:.3f} +- {error:.3f} (effective draws {1 / np.sum(w**2):.0f})")

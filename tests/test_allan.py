@@ -285,20 +285,19 @@ def test_record_mean_is_the_exact_mean_on_any_number_of_threads(rng, monkeypatch
     a short record's mean is numpy's."""
     from fractions import Fraction
 
+    import numba
+
     from bayes_imu.allan import kernels
 
     y = rng.standard_normal(kernels.PRECOMPILED_BELOW + extra) * 3.0 + 9.81
     exact = sum(map(Fraction, y.tolist()), Fraction(0)) / y.size
     got = kernels.record_mean(y)
     assert abs(Fraction(got) - exact) <= 4 * abs(exact) * Fraction(2) ** -52
-    import numba
-
     for n in range(1, numba.config.NUMBA_NUM_THREADS + 1):
         monkeypatch.setattr(kernels, "threads_for", lambda n_samples, n=n: n)
         assert kernels.record_mean(y) == got
     short = y[:1000]
     assert kernels.record_mean(short) == float(np.mean(short))
-
 
 
 def test_scaled_is_the_allan_variance_of_the_scaled_log(rng):

@@ -12,11 +12,11 @@ from bayes_imu.allan.estimator import allan_variance
 from bayes_imu.errors import ConvergenceWarning, InputError
 from bayes_imu.inference.fit import fit, fit_allan
 from bayes_imu.io.readers import read_log
-from conftest import shared_file
 from bayes_imu.inference.likelihood import LogPosterior, default_bounds
 from bayes_imu.noise.avar_forms import NoiseModel
 from bayes_imu.inference.selection import log_evidence, posterior_mode
 from bayes_imu.noise.simulate import simulate_log
+from conftest import shared_file
 
 DATA = Path(__file__).resolve().parents[1] / "data_synthetic"
 TRUTH = json.loads((DATA / "truth.json").read_text())

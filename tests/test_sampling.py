@@ -199,7 +199,7 @@ def test_ensemble_sampler_adds_the_relabel_move_only_for_exchangeable_biases():
 
     rng = np.random.default_rng(6)
     start = np.column_stack([rng.standard_normal((32, 2)), rng.uniform(0.0, 1.0, 32), rng.standard_normal(32),
-                             rng.uniform(2.0, 3.0, 32)])[:, [0, 1, 2, 3, 4]]
+                             rng.uniform(2.0, 3.0, 32)])
     plain = ensemble_sampler(_two_biases, start, np.random.default_rng(1))
     assert len(plain._moves) == 2
     sampler = ensemble_sampler(_two_biases, start, np.random.default_rng(1), ([1, 3], [2, 4], (0.0, 3.0)))
