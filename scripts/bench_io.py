@@ -2,17 +2,21 @@
 
 Writes, in a temporary folder, an IMU-like log (a time column and six channels, 8
 significant digits, about 70 bytes per row) as plain CSV, gzip CSV and whitespace-separated
-text, then times reading one column and three columns (best of ``--repeat``; pandas' reader,
-which converts only the wanted columns), and compares with ``numpy.loadtxt`` on the plain CSV
-(a common baseline); last, a log of one channel with its time stamps, which numpy's reader
-takes (the fast path of ``bayes_imu.io.readers``). Throughput is the uncompressed
-text size over the wall time.
+text, then times reading one column and three columns (best of ``--repeat``), naming the path
+that read them: numpy's reader (the fast path of ``bayes_imu.io.readers``: the wanted columns
+and the last one converted, the delimiters counted) or pandas' C reader (whitespace-separated
+wide logs); then pandas' path alone on the same CSV, and ``numpy.loadtxt`` (a common baseline,
+which checks no row); then a log of one channel with its time stamps; last, one column of the
+gzip CSV read in a fresh process (imports included), and whether that process imported pandas.
+Throughput is the uncompressed text size over the wall time.
 
     python scripts/bench_io.py [--rows 2000000] [--repeat 3]
 """
 
 import argparse
 import gzip
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -47,28 +51,54 @@ def main(argv=None):
     parser.add_argument("--rows", type=float, default=2e6)
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args(argv)
-    from bayes_imu.io.readers import read_columns
+    from bayes_imu.io.readers import _parse_pandas, read_columns, sniff_file
 
     rows = int(args.rows)
     with tempfile.TemporaryDirectory() as tmp:
         files, n_bytes = write_logs(Path(tmp), rows, np.random.default_rng(0))
         print(f"{rows} rows x 7 columns, {n_bytes / 1e6:.1f} MB of text "
               f"(gzip {files['csv.gz'].stat().st_size / 1e6:.1f} MB)\n")
-        print(f"{'file':11s} {'columns read':>12s} {'time_s':>7s} {'MB/s':>6s} {'Msamples/s':>10s}")
+        print(f"{'file':11s} {'columns read':>12s} {'time_s':>7s} {'MB/s':>6s} {'Msamples/s':>10s}  path")
         for name, path in files.items():
             for cols in (["gyro_x"], ["gyro_x", "gyro_y", "gyro_z"]):
                 t = best_time(lambda: read_columns(path, columns=cols), args.repeat)
-                print(f"{name:11s} {len(cols):12d} {t:7.2f} {n_bytes / 1e6 / t:6.0f} {rows * len(cols) / 1e6 / t:10.1f}")
+                print(f"{name:11s} {len(cols):12d} {t:7.2f} {n_bytes / 1e6 / t:6.0f} {rows * len(cols) / 1e6 / t:10.1f}  "
+                      f"{_path_taken(path, len(cols))}")
+        fmt = sniff_file(files["csv"])
+        t = best_time(lambda: _parse_pandas(files["csv"], fmt, [1], False), args.repeat)
+        print(f"{'csv':11s} {1:12d} {t:7.2f} {n_bytes / 1e6 / t:6.0f} {rows / 1e6 / t:10.1f}  pandas (its path alone)")
         t = best_time(lambda: np.loadtxt(files["csv"], delimiter=",", skiprows=1, usecols=[1]), 1)
-        print(f"{'csv':11s} {'1 (loadtxt)':>12s} {t:7.2f} {n_bytes / 1e6 / t:6.0f} {rows / 1e6 / t:10.1f}")
+        print(f"{'csv':11s} {1:12d} {t:7.2f} {n_bytes / 1e6 / t:6.0f} {rows / 1e6 / t:10.1f}  numpy.loadtxt (no checks)")
         # one channel with its time stamps: numpy's reader, the fast path (no pandas import)
         two = Path(tmp) / "channel.csv"
         np.savetxt(two, np.column_stack([np.arange(rows) / 100.0, np.random.default_rng(1).standard_normal(rows) * 0.05]),
                    fmt="%.8g", delimiter=",", header="time,gyro_x", comments="")
         size = two.stat().st_size
         t = best_time(lambda: read_columns(two, columns=["gyro_x"]), args.repeat)
-        print(f"\n{'time,gyro_x':11s} {1:12d} {t:7.2f} {size / 1e6 / t:6.0f} {rows / 1e6 / t:10.1f}   "
-              f"(a 2-column log, {size / 1e6:.0f} MB: numpy's reader)")
+        print(f"\n{'time,gyro_x':11s} {1:12d} {t:7.2f} {size / 1e6 / t:6.0f} {rows / 1e6 / t:10.1f}  "
+              f"{_path_taken(two, 1)} (a 2-column log, {size / 1e6:.0f} MB)")
+        fresh = ("import sys, time; start = time.perf_counter(); from bayes_imu.io.readers import read_columns; "
+                 f"read_columns({str(files['csv.gz'])!r}, columns=['gyro_x']); "
+                 "print(time.perf_counter() - start, 'pandas' in sys.modules)")
+        times = []
+        for _ in range(args.repeat):
+            out = subprocess.run([sys.executable, "-c", fresh], capture_output=True, text=True, check=True).stdout.split()
+            times.append(float(out[0]))
+        print(f"\none column of the gzip CSV in a fresh process (imports included): {min(times):.2f} s, best of "
+              f"{args.repeat}; pandas imported: {out[1]}")
+
+
+def _path_taken(path, n_columns):
+    """Which reader takes ``n_columns`` of ``path`` in this process now: numpy's (the fast path) or pandas' (where
+    numpy's is not tried, :func:`~bayes_imu.io.readers._numpy_first`, or leaves the file to pandas)."""
+    from bayes_imu._progress import progress_bar
+    from bayes_imu.io.readers import _numpy_first, _parse_plain, sniff_file
+
+    fmt, columns = sniff_file(path), list(range(1, 1 + n_columns))
+    if not _numpy_first(fmt, columns):
+        return "pandas"
+    with progress_bar(total=1, enabled=False) as bar:
+        return "pandas" if _parse_plain(path, fmt, columns, bar) is None else "numpy"
 
 
 if __name__ == "__main__":

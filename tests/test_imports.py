@@ -47,7 +47,8 @@ import numpy as np
 from bayes_imu.cli.main import main
 rng = np.random.default_rng(1)
 y = rng.standard_normal(20000) + 0.01 * np.cumsum(rng.standard_normal(20000))
-np.savetxt(sys.argv[1] + "/g.csv", y, header="g", comments="")
+np.savetxt(sys.argv[1] + "/g.csv", np.column_stack([np.arange(y.size) / 100.0, y, -y, 2.0 * y]), header="t,g,h,k",
+           delimiter=",", comments="")
 assert main(["fit", sys.argv[1] + "/g.csv", "--column", "g", "--rate", "100", "--out", sys.argv[1] + "/o", "--quiet"]) == 0
 loaded = "scipy.stats" in sys.modules
 import emcee
@@ -73,14 +74,15 @@ def test_a_fit_writes_every_output_without_numba_arviz_or_pandas():
     compiled-code machinery cost about 0.5 s;
     where numba has no AOT compiler the package is built without them, and numba is then expected) nor
     ArviZ or xarray (posterior.nc through h5netcdf, corner without ArviZ: about 1 s) nor pandas (a plain table
-    of numbers is read by numpy's reader), and writes every file."""
+    of numbers, here four columns of which one is fitted, is read by numpy's reader), and writes every file."""
     code = """
 import sys, json, os
 import numpy as np
 from bayes_imu.cli.main import main
 rng = np.random.default_rng(2)
 y = rng.standard_normal(20000) + 0.01 * np.cumsum(rng.standard_normal(20000))
-np.savetxt(sys.argv[1] + "/g.csv", y, header="g", comments="")
+np.savetxt(sys.argv[1] + "/g.csv", np.column_stack([np.arange(y.size) / 100.0, y, -y, 2.0 * y]), header="t,g,h,k",
+           delimiter=",", comments="")
 assert main(["fit", sys.argv[1] + "/g.csv", "--column", "g", "--rate", "100", "--units", "rad/s", "--sensor", "gyro",
              "--out", sys.argv[1] + "/o", "--quiet"]) == 0
 print(json.dumps([[m for m in ("numba", "arviz", "xarray", "scipy.stats", "pandas") if m in sys.modules],

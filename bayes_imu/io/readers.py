@@ -6,9 +6,11 @@ a UTF-8 byte-order mark, CRLF line ends, spaces around fields, blank lines, ``#`
 comment lines and trailing ``# ...`` comments, gzip compression (detected from the
 content, not the file name). Columns are chosen by header name or by 0-based index.
 
-Parsing runs in numpy's C reader where the file is a plain table of numbers of one or two
-columns (one channel, with or without its time stamps), else in pandas' C reader (wider logs,
-quoted fields, text columns; tens of MB/s, ``scripts/bench_io.py``); when that meets anything wrong, a
+Parsing runs in numpy's C reader where the file is a plain table whose converted columns are numbers
+(every column of a log of one or two, the wanted ones and the last of a wider delimited log whose
+delimiters are counted: :func:`_parse_plain`), else in pandas' C reader (quoted fields, ragged rows, text
+in a converted column, whitespace-separated wide logs; hundreds of MB/s, ``scripts/bench_io.py``); when
+that meets anything wrong, a
 line-by-line pass in Python finds the first offending line and the error names the file,
 the line (1-based, counting every line of the file), the column, what was found and what
 was expected. All conversion to float64 and all validation of
@@ -315,8 +317,10 @@ def _sniff(path, head, *, complete=None):
     if header and len(rows) == 1:
         raise InputError(f"{path}: a header row but no samples; expected samples below the header")
     dupes = sorted({n for n in names if names.count(n) > 1})
+    # whether the sampled rows end in a number: numpy's reader converts a wide log's last column (_parse_plain)
+    last_numeric = all(_is_number(_split(r, delimiter)[-1]) for _, r in (rows[1:] if header else rows))
     return {"delimiter": delimiter, "delimiter_name": _DELIMITERS.get(delimiter, "whitespace"), "header": header,
-            "names": names, "dupes": dupes, "first_line": rows[0][0]}
+            "names": names, "dupes": dupes, "first_line": rows[0][0], "last_numeric": last_numeric}
 
 
 def _delimiter(rows):
@@ -381,15 +385,18 @@ def resolve_column(path, fmt, column):
     return index
 
 
-#: the widest log that numpy's reader takes (:func:`_parse_plain`)
+#: the widest log whose every field numpy's reader converts (:func:`_parse_plain`; a wider one: the wanted columns
+#: and the last)
 PLAIN_COLUMNS = 2
 
 
 def _parse(path, fmt, usecols, progress):
     """The columns ``usecols`` of the data rows: :func:`_parse_plain`, else pandas' C reader on the selected
     columns; anything odd goes to :func:`diagnose_text`."""
-    with progress_bar(total=path.stat().st_size, desc=f"reading {path.name}", unit="B", enabled=progress) as bar:
-        table = _parse_plain(path, fmt, usecols, bar)
+    table = None
+    if _numpy_first(fmt, usecols):
+        with progress_bar(total=path.stat().st_size, desc=f"reading {path.name}", unit="B", enabled=progress) as bar:
+            table = _parse_plain(path, fmt, usecols, bar)
     if table is None:
         table = _parse_pandas(path, fmt, usecols, progress)
     if table.shape[0] == 0:
@@ -399,35 +406,76 @@ def _parse(path, fmt, usecols, progress):
     return table
 
 
+def _numpy_first(fmt, usecols):
+    """Whether :func:`_parse` tries numpy's reader first: always where pandas is not imported yet (its import, about
+    0.2 s, is most of what numpy saves), else for a log of at most :data:`PLAIN_COLUMNS` columns or a wide log of
+    which at most two columns are converted (the wanted ones and the last), where numpy is as fast as pandas. A
+    six-column ADIS16405 gzip log of 1e6 rows: one column 0.24-0.26 s against pandas' 0.24-0.27 s, all six 0.41-0.55
+    s against 0.27-0.31 s (``import pandas`` done; one-off timings)."""
+    import sys
+
+    n_columns = len(fmt["names"])
+    return ("pandas" not in sys.modules or n_columns <= PLAIN_COLUMNS
+            or len(set(usecols) | {n_columns - 1}) <= 2)
+
+
 def _parse_plain(path, fmt, usecols, bar):
-    """``numpy.loadtxt`` on a plain table of at most :data:`PLAIN_COLUMNS` columns (one channel, with or without
-    its time stamps): every data line with as many numeric fields as the header (or the first row) names;
-    ``None`` for any other file, which pandas then reads as before. Wider logs stay with pandas, which
-    converts only the wanted columns (numpy converts them all, and with ``usecols`` would not check
-    the others: a 6-column ADIS16405 log took 0.75 s instead of 0.53 s, one-off timing).
+    """``numpy.loadtxt`` on a plain table: every data line with as many numeric fields as the header (or the first
+    row) names; ``None`` for any other file, which pandas then reads as before (:func:`_parse_pandas`).
+
+    A log of at most :data:`PLAIN_COLUMNS` columns (one channel, with or without its time stamps) has every field
+    converted, so a ragged row is refused by numpy itself. A wider log with a one-character delimiter has only
+    the wanted columns converted, and the last one, so a row short of the last field is refused; the delimiters
+    of the whole text are counted as it streams past, and unless they come to ``columns - 1`` a line (header
+    included), some row is longer than the header, or a delimiter sits in a quoted field or a comment, and the
+    file goes to pandas. So where the wide path reads a file, every row has exactly the header's fields, as
+    pandas' path requires (it tokenises every column); the other columns are not converted there either (text is
+    fine). A whitespace-separated wide log stays with pandas (its delimiters are runs of blanks), and so does one
+    whose sampled rows end in text (``fmt["last_numeric"]``, :func:`sniff_file`: numpy would refuse it).
 
     Where numpy reads a field at all, its value is pandas' (both round each decimal string correctly:
-    ``tests/test_io.py`` compares them on every shipped log and on edge cases), and every field numpy
-    refuses (quotes, an empty field, a decimal comma) sends the file to pandas, so what is accepted or
-    refused, and every error message, is as before. It spares a command the import of pandas (about
-    0.15 s) and parses a 1e6-line column in about 0.06 s (``scripts/bench_io.py``).
+    ``tests/test_io.py`` compares them on every shipped log, the real logs and edge cases), and every field numpy
+    refuses (quotes, an empty field, a decimal comma, text in the last column) sends the file to pandas, so what
+    is accepted or refused, and every error message, is as before. It spares a command the import of pandas
+    (about 0.2 s); :func:`_numpy_first` says when it is tried (``scripts/bench_io.py`` for large logs).
     """
     import warnings
 
-    if len(fmt["names"]) > PLAIN_COLUMNS:
+    n_columns = len(fmt["names"])
+    wide = n_columns > PLAIN_COLUMNS
+    delimiter = fmt["delimiter"]
+    if wide and (delimiter is None or not fmt.get("last_numeric", True)):
         return None
+    read = sorted(set(usecols) | {n_columns - 1}) if wide else None
     stream, raw = open_binary(path)
+    counting = _Counting(stream, raw, bar, ord(delimiter) if wide else None)
     try:
-        with raw, io.TextIOWrapper(io.BufferedReader(_Counting(stream, raw, bar), buffer_size=1 << 20),
-                                   encoding="utf-8-sig", newline=None) as text, warnings.catch_warnings():
+        with raw, io.TextIOWrapper(io.BufferedReader(counting, buffer_size=1 << 20), encoding="utf-8-sig",
+                                   newline=None) as text, warnings.catch_warnings():
+            _read_in_megabytes(text)
             warnings.simplefilter("error")  # "input contained no data": pandas' path says what is wrong
-            table = np.loadtxt(text, dtype=np.float64, delimiter=fmt["delimiter"], comments="#",
-                               skiprows=1 if fmt["header"] else 0, ndmin=2)
+            table = np.loadtxt(text, dtype=np.float64, delimiter=delimiter, comments="#",
+                               skiprows=1 if fmt["header"] else 0, ndmin=2, usecols=read)
     except (ValueError, UserWarning, UnicodeDecodeError, OSError, EOFError, zlib.error):
         return None
-    if table.shape[1] != len(fmt["names"]):
+    if wide:
+        lines = table.shape[0] + int(fmt["header"])
+        if counting.delimiters != lines * (n_columns - 1):
+            return None
+        return np.ascontiguousarray(table[:, [read.index(c) for c in usecols]])
+    if table.shape[1] != n_columns:
         return None
     return np.ascontiguousarray(table[:, usecols])
+
+
+def _read_in_megabytes(text):
+    """Let the text wrapper ``text`` read its bytes 1 MiB at a time instead of 8 KiB (``_CHUNK_SIZE``, an attribute
+    of CPython's io implementations; without it, the same text in smaller reads): a 2e6-row gzip log's seven
+    columns read in 4% less time, and the delimiters are counted in megabyte chunks (one-off timing)."""
+    try:
+        text._CHUNK_SIZE = 1 << 20
+    except AttributeError:
+        pass
 
 
 def _parse_pandas(path, fmt, usecols, progress):
@@ -461,10 +509,12 @@ def csv_options(fmt, usecols):
 
 
 class _Counting(io.RawIOBase):
-    """Byte stream that advances a progress bar by the compressed bytes consumed."""
+    """Byte stream that advances a progress bar by the compressed bytes consumed, and counts the byte
+    ``delimiter`` (an ASCII code) in what it passes on (:attr:`delimiters`) when given one."""
 
-    def __init__(self, stream, raw, bar):
+    def __init__(self, stream, raw, bar, delimiter=None):
         self._stream, self._raw, self._bar, self._seen = stream, raw, bar, 0
+        self._delimiter, self.delimiters = delimiter, 0
 
     def readable(self):
         return True
@@ -472,6 +522,8 @@ class _Counting(io.RawIOBase):
     def readinto(self, buffer):
         data = self._stream.read(len(buffer))
         buffer[: len(data)] = data
+        if self._delimiter is not None:  # numpy's comparison: 3-4x bytes.count's speed on megabyte chunks
+            self.delimiters += int(np.count_nonzero(np.frombuffer(data, np.uint8) == self._delimiter))
         position = self._raw.tell()
         self._bar.update(position - self._seen)
         self._seen = position
