@@ -392,6 +392,14 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
     out.mkdir(exist_ok=True)
     result = fit_allan(allan, terms=terms, likelihood=args.likelihood, rng=args.seed, discrepancy=args.discrepancy,
                        progress=args.progress)
+    # the figures first, the longer first: the output process draws one while this process summarises and writes
+    # the rest, and the other beside it once this process waits (report.worker). The corner plot of four or more
+    # parameters takes longer than allan_fit.png (0.25-0.6 s against about 0.2-0.3 s, scripts/bench_fit.py's stages)
+    label = f"{Path(_log_label(args)).name}: {column}"
+    figures = [(plot_allan_fit, result, out / "allan_fit.png", {"label": label, "unit": unit, "rng": args.seed}),
+               (plot_corner, result, out / "corner.png", {"unit": unit})]
+    for plot, *arguments, options in (figures[::-1] if result.samples.shape[1] >= 4 else figures):
+        writer.submit(plot, *arguments, **options)
     summary = result.summary(unit=unit)
     summary.update(log=_log_label(args), column=column, unit=unit, input=info)
     _say(args, f"model: {' + '.join(result.model.terms)}  (converged: {result.diagnostics['converged']})")
@@ -415,15 +423,12 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
               f"{_ratio_text(steady.largest_ratio())} in Allan deviation at tau = {steady.worst_tau_s:g} s "
               f"(p = {steady.p_value:.2g}; warm-up?), with a spread of up to x{steady.spread_factor():.2g} (1 sigma) "
               "at longer tau; drift bands include that spread")
-    label = f"{Path(_log_label(args)).name}: {column}"
     if args.sensor:
         summary["drift"] = _write_drift(result, args, unit, out, writer)[0]
     _write_json(out / "summary.json", summary)
     save_fit(result, out / ARCHIVE_NAME)
-    # the figures in the output process (side by side once this process waits); posterior.nc here meanwhile: it
-    # needs only h5netcdf (h5py is loaded with emcee), and queued behind the figures it would end the run later
-    writer.submit(plot_allan_fit, result, out / "allan_fit.png", label=label, unit=unit, rng=args.seed)
-    writer.submit(plot_corner, result, out / "corner.png", unit=unit)
+    # posterior.nc here: it needs only h5netcdf (h5py is loaded with emcee), and queued behind the figures it would
+    # end the run later
     write_netcdf(result, out / "posterior.nc")
     return summary
 
