@@ -194,3 +194,37 @@ def test_two_bias_real_posterior_converges_with_the_relabel_move(seed):
     slow = result.samples[:, names.index("bias_variance_2")]
     switched_off = slow < 0.1 * np.median(slow)  # the slower bias's variance a tenth of its median or less
     assert 0.01 < switched_off.mean() < 0.10
+
+
+def test_a_pool_seeks_the_widened_modes_ahead_and_changes_no_number():
+    """fit_allan's pool: on a log that no candidate describes (white noise plus a 3 s sine: every candidate is
+    scored again with the discrepancy term), each candidate's widened mode is sent to the pool as it is scored
+    (a thread pool, and the command's output process), and the fit is the same, bit for bit, as without one."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from bayes_imu.inference.fit import fit, warm_up
+    from bayes_imu.report.worker import OutputWriter
+
+    rng = np.random.default_rng(3)
+    t = np.arange(30_000) / 100.0
+    y = 0.05 * rng.standard_normal(t.size) + 0.02 * np.sin(2.0 * np.pi * t / 3.0)
+    alone = fit(y, rate_hz=100.0, rng=0)
+    assert alone.widened
+
+    class Counting(ThreadPoolExecutor):
+        sent = 0
+
+        def submit(self, fn, *args, **kwargs):
+            Counting.sent += 1
+            return super().submit(fn, *args, **kwargs)
+
+    with Counting(1) as pool:
+        threads = fit(y, rate_hz=100.0, rng=0, pool=pool)
+    with OutputWriter(background=True, warm=(warm_up,)) as writer:
+        process = fit(y, rate_hz=100.0, rng=0, pool=writer.pool())
+    assert Counting.sent == len(alone.candidates)
+    for other in (threads, process):
+        assert other.widened and other.model.terms == alone.model.terms
+        assert other.samples.tobytes() == alone.samples.tobytes()
+        assert [(c.terms, c.log_evidence, c.log_evidence_se) for c in other.candidates] == \
+            [(c.terms, c.log_evidence, c.log_evidence_se) for c in alone.candidates]

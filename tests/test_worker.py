@@ -99,6 +99,43 @@ def test_an_error_in_the_worker_is_raised_here_with_its_type_and_stops_it(tmp_pa
     assert not _children()
 
 
+def _square(x):
+    return x * x, os.getpid()
+
+
+@pytest.mark.parametrize("background", [True, False])
+def test_computed_calls_come_back_with_their_values_or_errors_and_stop_nothing(tmp_path, background):
+    """compute(): each call's value comes back (from the worker, or at once here); a call that fails comes back
+    with its exception (exception(), and result() raises it) and the outputs sent after it are still written;
+    done() never waits."""
+    out = tmp_path / "log.txt"
+    with OutputWriter(background=background) as writer:
+        futures = [writer.compute(_square, i) for i in range(4)]
+        failed = writer.compute(_fail, "no mode")
+        writer.submit(_append, out, "written")
+        while not futures[-1].done():
+            time.sleep(0.01)
+        assert [f.result()[0] for f in futures] == [0, 1, 4, 9]
+        assert {f.result()[1] != os.getpid() for f in futures} == {background}
+        assert isinstance(failed.exception(), InputError) and "no mode" in str(failed.exception())
+        with pytest.raises(InputError, match="no mode"):
+            failed.result()
+    assert out.read_text().split()[0] == "written"
+    assert not _children()
+
+
+def test_a_computed_value_not_waited_for_does_not_hold_the_caller(tmp_path):
+    """Leaving the writer waits for the outputs only: a computed call still running (a speculative search that
+    was not needed) is stopped with the worker."""
+    start = time.perf_counter()
+    with OutputWriter(background=True) as writer:
+        writer.submit(_append, tmp_path / "out.txt", "written")
+        writer.wait()
+        pending = writer.compute(time.sleep, 30)
+    assert time.perf_counter() - start < 15
+    assert not pending.done() and (tmp_path / "out.txt").exists() and not _children()
+
+
 def test_leaving_by_an_exception_stops_the_worker_at_once(tmp_path):
     start = time.perf_counter()
     with pytest.raises(RuntimeError, match="caller failed"):

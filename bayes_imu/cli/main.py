@@ -45,7 +45,7 @@ from ..drift.closed_forms import DRIFT_BIAS_STARTS, QUANTITY_ORDER, SI_OUTPUT_UN
 from ..errors import BayesIMUError, InputError
 from ..io.readers import INCREMENT_UNITS, SI_UNITS, UNITS, read_json_object
 from ..inference.archive import write_netcdf
-from ..inference.fit import DISCREPANCY_MODES
+from ..inference.fit import DISCREPANCY_MODES, warm_up as warm_up_fit
 from ..inference.likelihood import LIKELIHOODS
 from ..inference.sampling import import_emcee
 from ..noise import BIAS_STARTS, TERMS
@@ -357,7 +357,7 @@ def _fit(args):
     # Python callers of main() do too, unless the environment asks (a spawned process re-runs the caller's
     # script, which without a __main__ guard would run the command again there)
     background = False if getattr(args, "in_batch", False) else background_default(automatic=_EXECUTABLE)
-    with OutputWriter(background=background, warm=(import_plotting,)) as writer:
+    with OutputWriter(background=background, warm=(import_plotting, warm_up_fit)) as writer:
         columns, results, unit, info = allan_results(SourceOptions.from_namespace(args), "fit")
         info["log"] = _log_label(args)
         terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
@@ -390,8 +390,9 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
     from ..inference.fit import fit_allan
 
     out.mkdir(exist_ok=True)
+    # the output process seeks modes ahead while this process fits (fit_allan's pool; the same numbers)
     result = fit_allan(allan, terms=terms, likelihood=args.likelihood, rng=args.seed, discrepancy=args.discrepancy,
-                       progress=args.progress)
+                       progress=args.progress, pool=writer.pool() if writer.background else None)
     # the figures first, the longer first: the output process draws one while this process summarises and writes
     # the rest, and the other beside it once this process waits (report.worker). The corner plot of four or more
     # parameters takes longer than allan_fit.png (0.25-0.6 s against about 0.2-0.3 s, scripts/bench_fit.py's stages)

@@ -15,6 +15,12 @@ The worker only writes where it is told (the command's staging folder,
 outputs are moved into place, and stops it when anything fails, so a failed run leaves
 nothing half-written. An error in the worker is raised again in the caller, with its type.
 
+The worker may also compute for the caller (:meth:`OutputWriter.compute`, a future as
+:mod:`concurrent.futures` gives): work the caller could do itself, sent ahead so that it runs on the
+other core while the caller goes on (a fit's speculative mode searches: the ``pool`` of
+:func:`bayes_imu.inference.fit.fit_allan`). Such a call comes back with its value or its exception
+and stops nothing.
+
 The environment variable :data:`WORKERS_ENV` (``0`` or ``1``) overrides the automatic choice.
 """
 
@@ -22,7 +28,7 @@ import os
 
 from ..errors import InputError
 
-__all__ = ["OutputWriter", "usable_cpus", "background_default", "WORKERS_ENV"]
+__all__ = ["OutputWriter", "Computed", "usable_cpus", "background_default", "WORKERS_ENV"]
 
 #: environment variable: "0" writes outputs in the calling process, "1" in a worker process
 WORKERS_ENV = "BAYES_IMU_OUTPUT_PROCESS"
@@ -79,6 +85,7 @@ class OutputWriter:
         self.background = background_default() if background is None else bool(background)
         self._pending = 0
         self._process = None
+        self._values, self._calls = {}, 0  # compute(): the values come back by call number
         if self.background:
             import multiprocessing
             import queue
@@ -105,16 +112,44 @@ class OutputWriter:
         self._outbox.put((fn, args, kwargs))
         self._pending += 1
 
+    def compute(self, fn, *args, **kwargs):
+        """``fn(*args, **kwargs)`` in the worker: a :class:`Computed` future. The worker runs such a call as it
+        arrives, ahead of the outputs queued and in its own process (no fork: it is meant to be short, a few
+        milliseconds, and the outputs wait for it); :meth:`wait` does not wait for it, and a call whose value is
+        not needed in the end is stopped with the worker. Here (no worker) the call runs at once."""
+        if not self.background:
+            call = _Call(0, fn, args, kwargs)
+            return Computed(None, 0, call())
+        self._calls += 1
+        self._outbox.put((_Call(self._calls, fn, args, kwargs), (), {}))
+        return Computed(self, self._calls)
+
+    def pool(self):
+        """This writer as an executor for :func:`~bayes_imu.inference.fit.fit_allan`'s ``pool`` (``submit`` is
+        :meth:`compute`)."""
+        return _Pool(self)
+
+    def _receive(self, block):
+        """Take one message from the worker (``block``: wait for it); False where none has come. A finished
+        output counts down :meth:`wait`'s calls, a computed value is kept, an output's error is raised."""
+        if self._process is None or (not block and not self._results.poll(0)):
+            return False
+        outcome = self._next_result()
+        if isinstance(outcome, _Value):
+            self._values[outcome.number] = outcome
+            return True
+        self._pending -= 1
+        if outcome is not None:
+            self.stop()
+            raise outcome
+        return True
+
     def wait(self):
-        """Block until every queued call is done; raise the first error one of them raised."""
+        """Block until every queued output is done; raise the first error one of them raised."""
         if self._pending:
             self._outbox.put(_DRAIN)  # this process now waits: the worker may use every CPU
         while self._pending:
-            error = self._next_result()
-            self._pending -= 1
-            if error is not None:
-                self.stop()
-                raise error
+            self._receive(block=True)
 
     def _next_result(self):
         while not self._results.poll(0.5):
@@ -151,6 +186,65 @@ class OutputWriter:
         else:
             self.stop()
         return False
+
+
+class Computed:
+    """The future of :meth:`OutputWriter.compute`: ``done()`` (without waiting), ``exception()`` and ``result()``
+    (waiting), as :class:`concurrent.futures.Future` has them. A call whose worker was stopped before it finished
+    is never done."""
+
+    def __init__(self, writer, number, value=None):
+        self._writer, self._number, self._value = writer, number, value
+
+    def done(self):
+        if self._value is None:
+            while self._writer._receive(block=False):
+                pass
+            self._value = self._writer._values.pop(self._number, None)
+        return self._value is not None
+
+    def exception(self):
+        self._wait()
+        return self._value.error
+
+    def result(self):
+        self._wait()
+        if self._value.error is not None:
+            raise self._value.error
+        return self._value.value
+
+    def _wait(self):
+        while not self.done():
+            if not self._writer._receive(block=True):
+                raise RuntimeError("the output process was stopped before it computed this value")
+
+
+class _Pool:
+    """An :class:`OutputWriter` seen as an executor: ``submit(fn, *args, **kwargs)`` is its ``compute``."""
+
+    def __init__(self, writer):
+        self.submit = writer.compute
+
+
+class _Value:
+    """What a computed call sends back: its number, and its value or its exception."""
+
+    def __init__(self, number, value, error):
+        self.number, self.value, self.error = number, value, error
+
+
+class _Call:
+    """A computed call as the worker runs it: its value or its exception, returned (never raised: a computation
+    the caller can do itself stops no output)."""
+
+    def __init__(self, number, fn, args, kwargs):
+        self.number, self.fn, self.args, self.kwargs = number, fn, args, kwargs
+
+    def __call__(self):
+        try:
+            return _Value(self.number, self.fn(*self.args, **self.kwargs), None)
+        except Exception as exc:
+            return _Value(self.number, None, _picklable(exc))
 
 
 def _send_all(outbox, conn):
@@ -202,7 +296,7 @@ def _serve(jobs, results, warm):
             continue
         outcome = _call(job)
         results.send(outcome)
-        if outcome is not None:  # sent back, raised again by the caller; nothing more is run
+        if isinstance(outcome, BaseException):  # sent back, raised again by the caller; nothing more is run
             return
 
 
@@ -211,13 +305,14 @@ _DRAIN = "drain"
 
 
 def _call(job):
-    """Run one ``(fn, args, kwargs)``: ``None``, or the exception it raised (picklable)."""
+    """Run one ``(fn, args, kwargs)``: ``None``, the exception it raised (picklable), or a computed call's
+    :class:`_Value`."""
     fn, args, kwargs = job
     try:
-        fn(*args, **kwargs)
+        value = fn(*args, **kwargs)
     except BaseException as exc:
         return _picklable(exc)
-    return None
+    return value if isinstance(value, _Value) else None
 
 
 def _can_fork():
@@ -229,7 +324,9 @@ def _can_fork():
 
 
 def _serve_forking(jobs, results):
-    """:func:`_serve`'s loop with each call in a forked child (at most one while the caller is busy)."""
+    """:func:`_serve`'s loop with each output in a forked child (at most one while the caller is busy); a computed
+    call (:meth:`OutputWriter.compute`) runs here at once, ahead of the outputs queued (it is short, and the
+    caller may be waiting for it)."""
     import collections
     import signal
     from multiprocessing.connection import wait
@@ -259,6 +356,9 @@ def _serve_forking(jobs, results):
                 except EOFError:  # the caller is gone: nothing more to send results to
                     stop_children()
                     return
+                if isinstance(job, tuple) and isinstance(job[0], _Call):  # the caller may be waiting for it
+                    results.send(_call(job))
+                    continue
                 caller_waits = job == _DRAIN
                 if not caller_waits:
                     queued.append(job)
@@ -270,7 +370,7 @@ def _serve_forking(jobs, results):
             os.waitpid(running.pop(conn), 0)
             conn.close()
             results.send(outcome)
-            if outcome is not None:  # raised again by the caller; nothing more is run
+            if isinstance(outcome, BaseException):  # raised again by the caller; nothing more is run
                 stop_children()
                 return
         while queued and len(running) < (cpus if caller_waits else max(1, cpus - 1)):
