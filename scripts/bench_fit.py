@@ -12,7 +12,7 @@ Prints one row per run, the median ratio, and the stages of the last run (Python
 process). The issue's goal is a ratio of at most 2.
 
     python scripts/bench_fit.py [--runs 3] [--samples 1000000]
-    python scripts/bench_fit.py --real     # the six ADIS16405 gyro x logs (../shared), one run each
+    python scripts/bench_fit.py --real [--runs 1]   # the six ADIS16405 gyro x logs (../shared), one run each
 """
 
 import argparse
@@ -29,11 +29,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # validate_real's DATA
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--runs", type=int, default=None, help="runs of each tool on each log (default 3; 1 with --real)")
     parser.add_argument("--samples", type=int, default=1_000_000)
     parser.add_argument("--real", action="store_true",
                         help="instead, the real ADIS16405 logs' gyro x axes (../shared, read as given: gzip CSV, "
-                             "deg/s, 100 Hz), one run each")
+                             "deg/s, 100 Hz), one run each unless --runs says otherwise")
     args = parser.parse_args(argv)
     if args.real:
         from validate_real import DATA
@@ -42,7 +42,7 @@ def main(argv=None):
             print(f"skipped: {DATA} not found")
             return
         logs = [(DATA / f"adis_16405_imu{i}.csv.gz", "gyro_x_dps", 100.0) for i in range(1, 7)]
-        _compare(logs, 1)
+        _compare(logs, args.runs or 1)
         return
     from bayes_imu.noise.avar_forms import NoiseModel
     from bayes_imu.noise.simulate import simulate_log
@@ -52,7 +52,7 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         log = Path(tmp) / "gyro.csv"
         np.savetxt(log, y, fmt="%.9g", header="gyro_x_dps", comments="")
-        _compare([(log, "gyro_x_dps", 100.0)], args.runs)
+        _compare([(log, "gyro_x_dps", 100.0)], args.runs or 3)
         stages(log)
 
 
