@@ -2,6 +2,7 @@
 (same seed, same chain; no global state), the stopping rule and the burn-in / thinning."""
 
 import numpy as np
+import pytest
 
 from bayes_imu.inference.sampling import AUTOCORR_MULTIPLE, burn_and_thin, ensemble_sampler, long_enough
 
@@ -209,3 +210,25 @@ def test_ensemble_sampler_adds_the_relabel_move_only_for_exchangeable_biases():
     assert np.all(chain[:, 2] < chain[:, 4])
     t_weak = np.where(chain[:, 1] < chain[:, 3], chain[:, 2], chain[:, 4])
     assert abs(t_weak.mean() - (1.0 - 3.0 * np.exp(-3.0) / -np.expm1(-3.0))) < 0.1
+
+
+@pytest.mark.parametrize("coords, density, message", [
+    ([[0.0, np.inf], [0.0, 1.0]], None, "infinite"), ([[0.0, -np.inf], [np.nan, 1.0]], None, "infinite"),
+    ([[0.0, np.nan], [0.0, 1.0]], None, "NaN"), ([[0.0, 1.0], [0.0, 1.0]], np.nan, "returned NaN")])
+def test_lean_sampler_refuses_what_emcee_refuses_with_its_message(coords, density, message):
+    """The lean sampler's vectorised log-probability check raises emcee's own ValueError, with its message, for
+    infinite and NaN coordinates (infinite first, as emcee checks) and a NaN density."""
+    from bayes_imu.inference.sampling import _lean_classes, import_emcee
+
+    emcee = import_emcee()
+    sampler_class = _lean_classes(emcee)[0]
+
+    def log_prob(x):
+        return np.full(len(x), 0.0 if density is None else density)
+
+    coords = np.array(coords)
+    with pytest.raises(ValueError) as ours:
+        sampler_class(4, 2, log_prob, vectorize=True).compute_log_prob(coords)
+    with pytest.raises(ValueError) as theirs:
+        emcee.EnsembleSampler(4, 2, log_prob, vectorize=True).compute_log_prob(coords)
+    assert message in str(theirs.value) and str(ours.value) == str(theirs.value)

@@ -142,8 +142,10 @@ class LogPosterior:
         if not self.order and len(self.model.ordered) > 1:
             object.__setattr__(self, "order", self.model.ordered)
             object.__setattr__(self, "log_order_mass", ordered_log_mass(self.bounds, self.model.ordered))
-        # the uniform prior's log density inside the box, computed once (not per call)
+        # the uniform prior's log density inside the box, and its edges, computed once (not per call)
         object.__setattr__(self, "_log_prior_inside", -float(np.sum(np.log(self.bounds[:, 1] - self.bounds[:, 0]))))
+        object.__setattr__(self, "_low", np.ascontiguousarray(self.bounds[:, 0]))
+        object.__setattr__(self, "_high", np.ascontiguousarray(self.bounds[:, 1]))
         n_model = len(self.model.parameter_names)
         if self.bounds.shape[0] != n_model + int(self.discrepancy):
             raise InputError(f"prior box has {self.bounds.shape[0]} rows: the model has {n_model} parameters"
@@ -244,10 +246,10 @@ class LogPosterior:
         if self.kind == "correlated" and self.discrepancy:
             var = self.eig_values + np.exp(2.0 * log_theta[..., -1:])
             r = (self.log_avar - mu - self.offset) @ self.eig_vectors
-            out = -0.5 * np.sum(r * r / var + np.log(var), axis=-1) - 0.5 * self.m.size * np.log(2.0 * np.pi)
+            out = -0.5 * (r * r / var + np.log(var)).sum(axis=-1) - 0.5 * self.m.size * np.log(2.0 * np.pi)
         elif self.kind == "correlated":
             r = (self.log_avar - mu - self.offset) @ self.whiten.T
-            out = self.norm - 0.5 * np.sum(r * r, axis=-1)
+            out = self.norm - 0.5 * (r * r).sum(axis=-1)
         else:
             # gamma(shape, scale = AVAR / shape) density of each observed avar
             with np.errstate(over="ignore", invalid="ignore"):
@@ -258,12 +260,12 @@ class LogPosterior:
                 out = out - 0.5 * np.sum((z @ self.whiten) * z, axis=-1)
         if self.order:
             phi = log_theta[..., list(self.order)]
-            increasing = np.all(np.diff(phi, axis=-1) > 0, axis=-1)
+            increasing = (np.diff(phi, axis=-1) > 0).all(axis=-1)
             out = np.where(increasing, out - self.log_order_mass, -np.inf)
         return np.where(np.isfinite(out), out, -np.inf)
 
     def in_prior(self, log_theta):
-        return np.all((log_theta >= self.bounds[:, 0]) & (log_theta <= self.bounds[:, 1]), axis=-1)
+        return ((log_theta >= self._low) & (log_theta <= self._high)).all(axis=-1)
 
     def log_prior(self, log_theta):
         """Uniform density on the box of log-parameters."""
@@ -276,7 +278,7 @@ class LogPosterior:
         if ok.all():  # the usual case: every point inside the box
             return self._log_prior_inside + self.log_likelihood(log_theta)
         out = np.full(ok.shape, -np.inf)
-        if np.any(ok):
+        if ok.any():
             out[ok] = self._log_prior_inside + self.log_likelihood(log_theta[ok])
         return out
 

@@ -128,12 +128,12 @@ def _lean_classes(emcee):
             emcee.EnsembleSampler.random_state.fset(self, state)
 
         def compute_log_prob(self, coords):
-            if np.any(np.isinf(coords)):
-                raise ValueError("At least one parameter value was infinite")
-            if np.any(np.isnan(coords)):
+            if not np.isfinite(coords).all():
+                if np.isinf(coords).any():
+                    raise ValueError("At least one parameter value was infinite")
                 raise ValueError("At least one parameter value was NaN")
             log_prob = np.asarray(self.log_prob_fn(coords), dtype=np.float64).reshape(-1)
-            if np.any(np.isnan(log_prob)):
+            if np.isnan(log_prob).any():
                 raise ValueError("Probability function returned NaN")
             return log_prob, None
 

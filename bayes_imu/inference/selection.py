@@ -257,7 +257,7 @@ def _log_density_u(post, u):
     # writes them, in a third of its time (importance sampling evaluates this for every draw)
     size = np.abs(u)
     tail = np.log1p(np.exp(-size))
-    log_jac = -np.sum((size + tail) + tail, axis=-1)
+    log_jac = -((size + tail) + tail).sum(axis=-1)
     return post.log_likelihood(to_phi(u, post.bounds)) + log_jac
 
 
