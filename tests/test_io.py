@@ -53,6 +53,34 @@ def test_unusual_but_valid_files_read_identically(tmp_path, samples, form):
     np.testing.assert_array_equal(got, _plain(tmp_path, samples))
 
 
+WIDE_VALID = {  # the same forms with a third column: numpy's wide path (the wanted columns and the last one)
+    "bom_crlf_spaces_blank_tail": lambda v: ("\ufeff gx , gy , gz \r\n" + "\r\n".join(
+        " " + r.replace(",", " , ") + " , 0.5 " for r in _rows(v)) + "\r\n\r\n\r\n").encode("utf-8"),
+    "semicolon": lambda v: ("gx;gy;gz\n" + "\n".join(r + ";7" for r in _rows(v, ";")) + "\n").encode(),
+    "tab": lambda v: ("gx\tgy\tgz\n" + "\n".join(r + "\t-1e3" for r in _rows(v, "\t")) + "\n").encode(),
+    "comments_everywhere": lambda v: ("# logger 1.2\n# rate 100 Hz\ngx,gy,gz\n" + "\n".join(
+        r + ",0" + ("  # note" if i % 7 == 0 else "") + ("\n# pause" if i == 50 else "") for i, r in enumerate(_rows(v)))
+        + "\n").encode(),
+    "gzip_without_gz_suffix": lambda v: gzip.compress(("gx,gy,gz\n" + "\n".join(r + ",1" for r in _rows(v)) + "\n").encode()),
+    "no_trailing_newline": lambda v: ("gx,gy,gz\n" + "\n".join(r + ",2" for r in _rows(v))).encode(),
+}
+
+
+@pytest.mark.parametrize("form", sorted(WIDE_VALID))
+def test_unusual_but_valid_wide_files_read_identically_by_numpy(tmp_path, samples, form):
+    """The valid forms above with a third column: read by numpy's wide path (except where a comment line comes
+    before the header: pandas' path), with the plain file's values."""
+    from bayes_imu._progress import progress_bar
+    from bayes_imu.io.readers import _parse_plain, sniff_file
+
+    path = tmp_path / "log.dat"
+    path.write_bytes(WIDE_VALID[form](samples))
+    np.testing.assert_array_equal(read_columns(path, columns=["gx", "gy"]).values, _plain(tmp_path, samples))
+    with progress_bar(total=1, enabled=False) as bar:
+        taken = _parse_plain(path, sniff_file(path), [0, 1], bar)
+    assert (taken is None) == (form == "comments_everywhere")
+
+
 def test_no_header_columns_by_index(tmp_path, samples):
     path = tmp_path / "nohead.csv"
     path.write_text("\n".join(_rows(samples)) + "\n")
