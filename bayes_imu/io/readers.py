@@ -470,8 +470,9 @@ def _parse_plain(path, fmt, usecols, bar):
 
 def _read_in_megabytes(text):
     """Let the text wrapper ``text`` read its bytes 1 MiB at a time instead of 8 KiB (``_CHUNK_SIZE``, an attribute
-    of CPython's io implementations; without it, the same text in smaller reads): a 2e6-row gzip log's seven
-    columns read in 4% less time, and the delimiters are counted in megabyte chunks (one-off timing)."""
+    of CPython's io implementations; without it, the same text in smaller reads): two columns of a 2e6-row,
+    seven-column CSV read in 0.51 s instead of 0.55 s (one-off timing), and the delimiters are counted in megabyte
+    chunks."""
     try:
         text._CHUNK_SIZE = 1 << 20
     except AttributeError:
