@@ -395,7 +395,8 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
                        progress=args.progress, pool=writer.pool() if writer.background else None)
     # the figures first, the longer first: the output process draws one while this process summarises and writes
     # the rest, and the other beside it once this process waits (report.worker). The corner plot of four or more
-    # parameters takes longer than allan_fit.png (0.25-0.6 s against about 0.2-0.3 s, scripts/bench_fit.py's stages)
+    # parameters takes longer than allan_fit.png (corner.png of 3, 5 and 7 parameters 0.14-0.16, 0.33 and 0.57-0.59 s,
+    # allan_fit.png 0.17-0.20 s: scripts/study_speed_options.py --figures)
     label = f"{Path(_log_label(args)).name}: {column}"
     figures = [(plot_allan_fit, result, out / "allan_fit.png", {"label": label, "unit": unit, "rng": args.seed}),
                (plot_corner, result, out / "corner.png", {"unit": unit})]
