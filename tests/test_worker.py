@@ -193,6 +193,29 @@ def test_fit_outputs_are_the_same_from_the_worker_and_in_process(tmp_path, rng, 
     assert not _children()
 
 
+def test_a_widened_fit_command_is_the_same_with_modes_sought_ahead(tmp_path, monkeypatch):
+    """A fit command whose candidates all fail the adequacy check (white noise plus a 3 s sine: every candidate
+    scored again with the discrepancy term) writes the same summary.json and fit.npz whether its output process
+    seeks the widened modes ahead (fit_allan's pool) or the command seeks them all itself."""
+    t = np.arange(30_000) / 100.0
+    y = 0.05 * np.random.default_rng(3).standard_normal(t.size) + 0.02 * np.sin(2.0 * np.pi * t / 3.0)
+    log = tmp_path / "log.csv"
+    log.write_text("gyro\n" + "\n".join(f"{v:.9g}" for v in y) + "\n")
+    outs = {}
+    for workers in ("1", "0"):
+        monkeypatch.setenv(WORKERS_ENV, workers)
+        outs[workers] = tmp_path / f"out{workers}"
+        assert main(["fit", str(log), "--column", "gyro", "--rate", "100", "--out", str(outs[workers]), "--seed", "1",
+                     "--quiet"]) == 0
+    ahead, alone = (json.loads((outs[w] / "summary.json").read_text()) for w in ("1", "0"))
+    assert ahead["adequacy"]["widened"] and ahead == alone
+    with np.load(outs["1"] / "fit.npz") as a, np.load(outs["0"] / "fit.npz") as b:
+        assert sorted(a.files) == sorted(b.files)
+        for name in a.files:
+            assert a[name].tobytes() == b[name].tobytes(), name
+    assert not _children()
+
+
 def test_command_exits_with_its_status_and_flushed_output(tmp_path):
     """The executable leaves without the interpreter's teardown: its status and every line it printed
     arrive (a user error: one line, status 2; a run: its summary lines, status 0)."""
