@@ -124,6 +124,23 @@ def test_computed_calls_come_back_with_their_values_or_errors_and_stop_nothing(t
     assert not _children()
 
 
+def test_a_worker_that_dies_is_reported_in_one_line_by_a_computed_call(tmp_path):
+    """The output process killed while the caller waits for a computed value (say, by the kernel's out-of-memory
+    killer): the caller gets the same RuntimeError as when it waits for its outputs, not a bare EOFError."""
+    import signal
+
+    writer = OutputWriter(background=True)
+    try:
+        pending = writer.compute(time.sleep, 30)
+        time.sleep(0.5)
+        os.kill(writer._process.pid, signal.SIGKILL)
+        with pytest.raises(RuntimeError, match="output process stopped"):
+            pending.result()
+    finally:
+        writer.stop()
+    assert not _children()
+
+
 def test_a_computed_value_not_waited_for_does_not_hold_the_caller(tmp_path):
     """Leaving the writer waits for the outputs only: a computed call still running (a speculative search that
     was not needed) is stopped with the worker."""

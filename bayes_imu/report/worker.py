@@ -154,10 +154,17 @@ class OutputWriter:
     def _next_result(self):
         while not self._results.poll(0.5):
             if not self._process.is_alive() and not self._results.poll():
-                code = self._process.exitcode
-                self.stop()
-                raise RuntimeError(f"the output process stopped (exit code {code}) before writing its outputs")
-        return self._results.recv()
+                self._stopped_early()
+        try:
+            return self._results.recv()
+        except (EOFError, OSError):  # the worker died (its end of the pipe closed): poll saw the end, not a result
+            self._process.join(5.0)
+            self._stopped_early()
+
+    def _stopped_early(self):
+        code = self._process.exitcode
+        self.stop()
+        raise RuntimeError(f"the output process stopped (exit code {code}) before writing its outputs")
 
     def stop(self):
         """Stop the worker at once (calls not yet done are dropped); it writes nothing more."""
