@@ -13,6 +13,15 @@ same threads, compiled (``floor_s``); ``values/floor`` is how far the Allan vari
 cluster size) is from it. ``per_size_s`` is one pass per cluster size instead (the running sum
 plus, for every size, the compiled sum of as many terms from one stream): what summing the
 sizes one by one would cost at best (``values/per_size``).
+
+``--stages`` adds a second table: where the values' time goes, each stage timed alone (best of
+``--repeat``; use 7 or more, a stage takes milliseconds) and as a multiple of the floor. ``mean`` (the exact mean, one read of the samples);
+``block_sums`` (the 256-sample sums about it, one more read; records the JIT kernels sum, at least
+2**21 samples: a shorter record's running sum is one sequential pass); ``running_sum`` (block
+sums, their compensated bases and the fill: one more read and the write of a new array, page
+zeroing included); ``sums_small`` (the cluster sizes below one block of start indices, 65536,
+summed in cache from one read of the running sum) and ``sums_large`` (what the sizes from 65536
+up add to the sums of every size: their streams lie beyond the caches).
 """
 
 import argparse
@@ -35,6 +44,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--sizes", default="1e5,1e6,1e7", help="comma-separated record lengths")
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--stages", action="store_true", help="also time each stage of the values alone")
     args = parser.parse_args(argv)
     import allantools
 
@@ -49,6 +59,7 @@ def main(argv=None):
     print(f"{'samples':>10s} {'threads':>7s} {'allantools_s':>12s} {'values_s':>9s} {'full_s':>7s} {'speedup_values':>14s} "
           f"{'speedup_full':>12s} {'floor_s':>8s} {'values/floor':>12s} {'per_size_s':>10s} {'values/per_size':>15s} "
           f"{'max_rel_diff':>12s} {'peak_mem_x_input':>16s}")
+    stages = []
     for n in (int(float(s)) for s in args.sizes.split(",")):
         y = rng.standard_normal(n) + np.cumsum(rng.standard_normal(n)) * 1e-3
         t_at, (taus, adev_at, _, _) = best_time(lambda: allantools.oadev(y, rate=100.0, data_type="freq", taus="octave"), args.repeat)
@@ -91,6 +102,47 @@ def main(argv=None):
         print(f"{n:10d} {threads_for(n):7d} {t_at:12.3f} {t_values:9.3f} {t_full:7.3f} {t_at / t_values:14.1f} "
               f"{t_at / t_full:12.1f} {t_floor:8.3f} {t_values / t_floor:12.2f} {t_per_size:10.3f} {t_values / t_per_size:15.2f} "
               f"{diff:12.1e} {peak / y.nbytes:16.2f}")
+        if args.stages:
+            stages.append((n, _stage_times(y, ms, args.repeat), t_values, t_floor))
+    if stages:
+        print(f"\n{'samples':>10s} {'mean_s':>8s} {'block_sums_s':>12s} {'running_sum_s':>13s} {'sums_small_s':>12s} "
+              f"{'sums_large_s':>12s} {'values_s':>9s} {'floor_s':>8s}   per floor: {'mean':>5s} {'block':>5s} "
+              f"{'run':>5s} {'small':>5s} {'large':>5s}")
+        for n, (mean, block_sums, running, small, large), t_values, t_floor in stages:
+            parts = (mean, block_sums, running, small, large)
+            print(f"{n:10d} {mean:8.4f} {_or_dash(block_sums, 12)} {running:13.4f} {small:12.4f} {_or_dash(large, 12)} "
+                  f"{t_values:9.4f} {t_floor:8.4f}   {'':10s} " + " ".join(_or_dash(p / t_floor if p == p else p, 5, 2)
+                                                                   for p in parts))
+
+
+def _or_dash(value, width, digits=4):
+    """``value`` right-aligned in ``width`` characters, or a dash where it is NaN (a stage the record does not run)."""
+    return f"{'-':>{width}s}" if value != value else f"{value:{width}.{digits}f}"
+
+
+def _stage_times(y, ms, repeat):
+    """Best times (s) of the values' stages alone: mean, block sums (NaN where the record's running sum is one
+    sequential pass), running sum, sums of the sizes below a block, and what the larger sizes add to the sums (NaN
+    where there are none; a difference of two best times)."""
+    from bayes_imu.allan import kernels
+
+    mean, mu = best_time(lambda: kernels.record_mean(y), repeat)
+    block_sums = np.nan
+    if kernels._precompiled_for(y.size) is None and kernels.threads_for(y.size) > 1:  # phase_from_rate's choice
+        totals = kernels._compile()["chunk_totals"]
+
+        def sums_of_blocks():
+            with kernels.threads_for_pass(y.size):
+                return totals(y, mu, kernels._PHASE_BLOCK)
+
+        block_sums, _ = best_time(sums_of_blocks, repeat)
+    running, x = best_time(lambda: kernels.phase_from_rate(y, mu), repeat)
+    small_ms = ms[ms < kernels._BLOCK_ALL]
+    small, _ = best_time(lambda: kernels.second_difference_sums(x, small_ms), repeat)
+    if small_ms.size == ms.size:
+        return mean, block_sums, running, small, np.nan
+    every, _ = best_time(lambda: kernels.second_difference_sums(x, ms), repeat)
+    return mean, block_sums, running, small, every - small
 
 
 def _one_pass_kernel():

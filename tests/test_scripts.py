@@ -85,3 +85,27 @@ def test_validate_population_quick(tmp_path):
         pytest.skip(out.strip())
     share = float(re.search(r"drift: \d+ of \d+ \(unit, axis, horizon\) points = ([\d.]+)%", out).group(1))
     assert share >= 75.0  # 12 points; the full run's table is in docs/validation/population.md
+
+
+def test_bench_allan_stage_times_follow_the_kernels_path(rng):
+    """bench_allan --stages times the stages the values run: no block sums below 2**21 samples (one sequential
+    pass) and no large-size column without a size from 65536 up; every timed stage positive and the running sum
+    (which includes the block sums) no faster than them alone by more than timing noise."""
+    import importlib.util
+
+    import numpy as np
+
+    from bayes_imu.allan import kernels
+
+    spec = importlib.util.spec_from_file_location("bench_allan", SCRIPTS / "bench_allan.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    short = bench._stage_times(rng.standard_normal(5000), 2 ** np.arange(11), 1)
+    assert np.isnan(short[1]) and np.isnan(short[4])
+    assert all(t > 0 for t in (short[0], short[2], short[3]))
+    n = kernels.PRECOMPILED_BELOW + 4096
+    ms = 2 ** np.arange(19)
+    mean, block_sums, running, small, large = bench._stage_times(rng.standard_normal(n) + 3.0, ms, 3)
+    assert all(np.isfinite(t) and t > 0 for t in (mean, block_sums, running, small))
+    assert np.isfinite(large)
+    assert running > 0.5 * block_sums
