@@ -13,9 +13,11 @@ Two builds of one source (:mod:`bayes_imu.allan._sources`):
   the sources. Where the extension was not built (a numba without its AOT compiler), every
   record takes this path.
 
-The path depends on the record's length alone, never on the machine, so one log gives the same
-numbers everywhere; the precompiled sums target any x86-64 CPU and agree with the JIT ones to
-about 1e-15 (the running sums and lag sums bit for bit).
+The path depends on the record's length alone, never on the machine or the thread count. A record
+the precompiled kernels sum gives the same numbers on every x86-64 CPU; the JIT build's sums of
+squares are vectorised for the CPU at hand (fast-math reductions), so on another CPU family a long
+record's sums may differ in the last bits (about 1e-15, as between the two builds; the running sums
+and lag sums are strict IEEE and agree bit for bit).
 
 Why compiled code: the fully overlapping Allan variance sums over the whole phase record for every
 cluster size. In numpy each size is three temporaries and a dot product (about 3.5x faster
