@@ -108,16 +108,15 @@ def main(argv=None):
         print(f"\n{'samples':>10s} {'mean_s':>8s} {'block_sums_s':>12s} {'running_sum_s':>13s} {'sums_small_s':>12s} "
               f"{'sums_large_s':>12s} {'values_s':>9s} {'floor_s':>8s}   per floor: {'mean':>5s} {'block':>5s} "
               f"{'run':>5s} {'small':>5s} {'large':>5s}")
-        for n, (mean, block_sums, running, small, large), t_values, t_floor in stages:
-            parts = (mean, block_sums, running, small, large)
+        for n, parts, t_values, t_floor in stages:
+            mean, block_sums, running, small, large = parts
             print(f"{n:10d} {mean:8.4f} {_or_dash(block_sums, 12)} {running:13.4f} {small:12.4f} {_or_dash(large, 12)} "
-                  f"{t_values:9.4f} {t_floor:8.4f}   {'':10s} " + " ".join(_or_dash(p / t_floor if p == p else p, 5, 2)
-                                                                   for p in parts))
+                  f"{t_values:9.4f} {t_floor:8.4f}   {'':10s} " + " ".join(_or_dash(p / t_floor, 5, 2) for p in parts))
 
 
 def _or_dash(value, width, digits=4):
     """``value`` right-aligned in ``width`` characters, or a dash where it is NaN (a stage the record does not run)."""
-    return f"{'-':>{width}s}" if value != value else f"{value:{width}.{digits}f}"
+    return f"{'-':>{width}s}" if np.isnan(value) else f"{value:{width}.{digits}f}"
 
 
 def _stage_times(y, ms, repeat):
