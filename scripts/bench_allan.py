@@ -15,13 +15,16 @@ plus, for every size, the compiled sum of as many terms from one stream): what s
 sizes one by one would cost at best (``values/per_size``).
 
 ``--stages`` adds a second table: where the values' time goes, each stage timed alone (best of
-``--repeat``; use 7 or more, a stage takes milliseconds) and as a multiple of the floor. ``mean`` (the exact mean, one read of the samples);
-``block_sums`` (the 256-sample sums about it, one more read; records the JIT kernels sum, at least
-2**21 samples: a shorter record's running sum is one sequential pass); ``running_sum`` (block
-sums, their compensated bases and the fill: one more read and the write of a new array, page
-zeroing included); ``sums_small`` (the cluster sizes below one block of start indices, 65536,
-summed in cache from one read of the running sum) and ``sums_large`` (what the sizes from 65536
-up add to the sums of every size: their streams lie beyond the caches).
+``--repeat``; use 7 or more, a stage takes milliseconds) and as a multiple of the floor: ``mean``
+(``record_mean``: one read of the samples); ``running_sum`` (``phase_from_rate`` about that mean:
+on a record the JIT kernels sum, at least 2**21 samples, the block sums' read, their bases and the
+fill, page zeroing included; a shorter record's is one sequential pass); ``sums_small`` (the cluster
+sizes below one block of start indices, 65536, summed in cache from one read of the running sum)
+and ``sums_large`` (the sizes from 65536 up: their streams lie beyond the caches; on a long record
+summed by residues, one read for all of them). ``added`` is the four stages' sum; the values
+(``allan_sums``) cost less than that on a long record, whose single read of the samples gives
+both the mean and the block sums, and whose small sizes are summed tile by tile behind the fill
+while the running sum is in cache.
 """
 
 import argparse
@@ -49,8 +52,7 @@ def main(argv=None):
     import allantools
 
     from bayes_imu.allan.estimator import allan_variance
-    from bayes_imu.allan.kernels import (phase_from_rate, record_mean, second_difference_sum, second_difference_sums,
-                                         threads_for)
+    from bayes_imu.allan.kernels import allan_sums, phase_from_rate, record_mean, second_difference_sum, threads_for
 
     one_pass = _one_pass_kernel()
 
@@ -66,8 +68,8 @@ def main(argv=None):
         ms = np.round(taus * 100).astype(np.int64)
 
         def values_only():
-            x = phase_from_rate(y, record_mean(y))
-            return second_difference_sums(x, ms) / (2.0 * (x.size - 2 * ms) * ms.astype(float) ** 2)
+            x, sums = allan_sums(y, ms)
+            return sums / (2.0 * (x.size - 2 * ms) * ms.astype(float) ** 2)
 
         t_values, avar = best_time(values_only, args.repeat)
 
@@ -105,13 +107,15 @@ def main(argv=None):
         if args.stages:
             stages.append((n, _stage_times(y, ms, args.repeat), t_values, t_floor))
     if stages:
-        print(f"\n{'samples':>10s} {'mean_s':>8s} {'block_sums_s':>12s} {'running_sum_s':>13s} {'sums_small_s':>12s} "
-              f"{'sums_large_s':>12s} {'values_s':>9s} {'floor_s':>8s}   per floor: {'mean':>5s} {'block':>5s} "
-              f"{'run':>5s} {'small':>5s} {'large':>5s}")
+        print(f"\n{'samples':>10s} {'mean_s':>8s} {'running_sum_s':>13s} {'sums_small_s':>12s} {'sums_large_s':>12s} "
+              f"{'added_s':>8s} {'values_s':>9s} {'floor_s':>8s}   per floor: {'mean':>5s} {'run':>5s} {'small':>5s} "
+              f"{'large':>5s} {'added':>5s} {'values':>6s}")
         for n, parts, t_values, t_floor in stages:
-            mean, block_sums, running, small, large = parts
-            print(f"{n:10d} {mean:8.4f} {_or_dash(block_sums, 12)} {running:13.4f} {small:12.4f} {_or_dash(large, 12)} "
-                  f"{t_values:9.4f} {t_floor:8.4f}   {'':10s} " + " ".join(_or_dash(p / t_floor, 5, 2) for p in parts))
+            mean, running, small, large = parts
+            added = float(np.nansum(parts))
+            print(f"{n:10d} {mean:8.4f} {running:13.4f} {small:12.4f} {_or_dash(large, 12)} {added:8.4f} {t_values:9.4f} "
+                  f"{t_floor:8.4f}   {'':10s} " + " ".join(_or_dash(p / t_floor, 5, 2) for p in parts)
+                  + f" {added / t_floor:5.2f} {t_values / t_floor:6.2f}")
 
 
 def _or_dash(value, width, digits=4):
@@ -120,28 +124,18 @@ def _or_dash(value, width, digits=4):
 
 
 def _stage_times(y, ms, repeat):
-    """Best times (s) of the values' stages alone: mean, block sums (NaN where the record's running sum is one
-    sequential pass), running sum, sums of the sizes below a block, and what the larger sizes add to the sums (NaN
-    where there are none; a difference of two best times)."""
+    """Best times (s) of the values' stages, each alone: mean, running sum, sums of the sizes below a block,
+    and sums of the sizes from a block up (NaN where there are none)."""
     from bayes_imu.allan import kernels
 
     mean, mu = best_time(lambda: kernels.record_mean(y), repeat)
-    block_sums = np.nan
-    if kernels._precompiled_for(y.size) is None and kernels.threads_for(y.size) > 1:  # phase_from_rate's choice
-        totals = kernels._compile()["chunk_totals"]
-
-        def sums_of_blocks():
-            with kernels.threads_for_pass(y.size):
-                return totals(y, mu, kernels._PHASE_BLOCK)
-
-        block_sums, _ = best_time(sums_of_blocks, repeat)
     running, x = best_time(lambda: kernels.phase_from_rate(y, mu), repeat)
-    small_ms = ms[ms < kernels._BLOCK_ALL]
-    small, _ = best_time(lambda: kernels.second_difference_sums(x, small_ms), repeat)
-    if small_ms.size == ms.size:
-        return mean, block_sums, running, small, np.nan
-    every, _ = best_time(lambda: kernels.second_difference_sums(x, ms), repeat)
-    return mean, block_sums, running, small, every - small
+    small = ms < kernels._BLOCK_ALL
+    t_small, _ = best_time(lambda: kernels.second_difference_sums(x, ms[small]), repeat)
+    t_large = np.nan
+    if not small.all():
+        t_large, _ = best_time(lambda: kernels.second_difference_sums(x, ms[~small]), repeat)
+    return mean, running, t_small, t_large
 
 
 def _one_pass_kernel():

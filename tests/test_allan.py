@@ -224,7 +224,7 @@ def test_thread_count_follows_the_record_and_changes_no_bit(rng, monkeypatch):
     assert kernels.threads_for(10**12) == numba.config.NUMBA_NUM_THREADS
     # a record the JIT kernels sum (shorter ones go to the precompiled kernels, on one thread)
     x = kernels.phase_from_rate(rng.standard_normal(kernels.PRECOMPILED_BELOW + 1000), 0.0)
-    ms = np.array([1, 4, 16, 1000, 40_000])
+    ms = np.array([1, 4, 16, 1000, 40_000, 65_536, 131_072, 196_608])  # whole blocks summed by residues
     one = kernels.second_difference_sums(x, ms)
     before = numba.get_num_threads()
     for n in range(2, numba.config.NUMBA_NUM_THREADS + 1):
@@ -250,38 +250,109 @@ def test_one_pass_sums_of_every_size_against_exact_sums(rng):
         assert value == pytest.approx(math.fsum(d * d), rel=1e-13)
 
 
-def test_parallel_running_sum_equals_the_sequential_pass(rng, monkeypatch):
-    """phase_from_rate fills its blocks on several threads from the compensated total of the block sums:
-    the numbers of the one sequential pass (phase_chunk over the whole record), bit for bit, on any
-    number of threads; and within a few ulp of the exact prefix sums."""
+def test_long_record_running_sum_is_near_exact_on_any_number_of_threads(rng, monkeypatch):
+    """The running sum of a record the JIT kernels sum (block sums about each block's first sample, their
+    compensated bases, the blocks filled on threads): the same bits on any number of threads, allan_sums'
+    own running sum bit for bit, within a few ulp of the exact prefix sums all along the record (a large
+    offset; data exact multiples of 2**-20, so the prefix sums are exact integers and one rational), and
+    within a few ulp of the sequential pass's (phase_chunk, which rounds the block totals differently)."""
     from fractions import Fraction
 
     import numba
 
     from bayes_imu.allan import kernels
 
-    # a large offset, a length not a block multiple, long enough for the JIT kernels' parallel pass
-    y = rng.standard_normal(kernels.PRECOMPILED_BELOW + 12_345) * 1e3 + 5e6
-    offset = float(np.mean(y))
+    n = kernels.PRECOMPILED_BELOW + 12_345  # not a block multiple
+    counts = np.round(rng.standard_normal(n) * 2**30).astype(np.int64)
+    y = counts * 2.0**-20 + 5e6
+    offset = kernels.record_mean(y)
+    x = kernels.phase_from_rate(y, offset)
+    assert x[0] == 0.0
+    for threads in range(1, numba.config.NUMBA_NUM_THREADS + 1):
+        monkeypatch.setattr(kernels, "threads_for", lambda n_samples, t=threads: t)
+        np.testing.assert_array_equal(kernels.phase_from_rate(y, offset), x)
+        np.testing.assert_array_equal(kernels.allan_sums(y, [1, 2, 4])[0], x)
+    prefix = np.concatenate([[0], np.cumsum(counts)])
+    step = Fraction(5e6) - Fraction(offset)
+    for i in list(range(0, n + 1, 9_973)) + [n]:
+        exact = Fraction(int(prefix[i]), 2**20) + i * step
+        assert abs(Fraction(float(x[i])) - exact) <= 4 * abs(exact) * Fraction(2) ** -52 + Fraction(2) ** -40, i
     sequential = kernels.phase_chunk(y, offset, np.zeros(2))
-    for n in range(1, numba.config.NUMBA_NUM_THREADS + 1):
-        monkeypatch.setattr(kernels, "threads_for", lambda n_samples, n=n: n)
-        x = kernels.phase_from_rate(y, offset)
-        assert x[0] == 0.0
-        np.testing.assert_array_equal(x[1:], sequential)
-    exact, checked = Fraction(0), 0
-    for i, v in enumerate(y[:20_000]):
-        exact += Fraction(v) - Fraction(offset)
-        if i % 997 == 0:
-            assert abs(Fraction(x[i + 1]) - exact) <= 4 * abs(exact) * Fraction(2) ** -52 + Fraction(2) ** -40
-            checked += 1
-    assert checked > 10
+    np.testing.assert_allclose(x[1:], sequential, rtol=0, atol=8 * np.finfo(float).eps * np.max(np.abs(x)))
+
+
+def test_fused_fill_and_sums_on_any_number_of_runs(rng):
+    """phase_and_sums (each thread fills a run of tiles and sums the sizes below a tile behind its fill) gives
+    phase_blocks' running sum and sums_all's sums of the same sizes bit for bit, on 1 to 7 runs, whichever
+    tiles are summed behind the fill and which after it (a run's first and last tiles), on a record that is
+    not a whole number of tiles; one to two tiles of lag (the largest size's reach)."""
+    from bayes_imu.allan import kernels
+
+    jit = kernels._compile()
+    y = rng.standard_normal(23 * kernels._BLOCK_ALL + 4_321) + 0.25
+    block, tile = kernels._PHASE_BLOCK, kernels._BLOCK_ALL
+    sums = jit["centred_sums"](y, block)
+    mean = jit["centred_mean"](y, sums, block)
+    bases = jit["centred_bases"](y, sums, mean, block)
+    reference = np.empty(y.size + 1)
+    reference[0] = 0.0
+    jit["phase_blocks"](y, mean, bases, block, reference[1:])
+    for ms in (np.array([1, 2, 4, 8, 16, 3, 1000, 32_768]), np.array([5, 10, 20, 40_000])):
+        expected = jit["sums_all"](reference, ms, tile)
+        lag = (2 * int(ms.max()) + tile - 2) // tile
+        assert lag == (1 if ms.max() <= tile // 2 else 2)
+        for runs in (1, 2, 3, 7):
+            x = np.full(y.size + 1, np.nan)
+            got = jit["phase_and_sums"](y, mean, bases, block, x, ms, tile, lag, runs)
+            np.testing.assert_array_equal(x, reference)
+            np.testing.assert_array_equal(got, expected)
+
+
+@pytest.mark.parametrize("extra", [0, 1, 200, 65_535])
+def test_residue_sums_of_whole_block_sizes_are_exact_on_any_number_of_threads(rng, extra):
+    """residue_sums (the sizes that are whole blocks, from a buffer of residue rows) equal each size's sum of
+    squared second differences added exactly (math.fsum) to 1e-13, the largest size reaching the record's last
+    sample, records ending anywhere in a row (the last, partial row), octave runs and odd multiples; the same
+    bits on 1, 2 and 5 threads."""
+    import math
+
+    from bayes_imu.allan import kernels
+
+    period = kernels._BLOCK_ALL
+    x = np.cumsum(rng.standard_normal(12 * period + extra))
+    ms = np.array([1, 2, 3, 4, 5], dtype=np.int64) * period
+    ms = ms[2 * ms <= x.size - 1]
+    got = kernels._compile()["residue_sums"](x, ms, period, kernels._RESIDUES, 2)
+    for m, value in zip(ms, got):
+        d = x[2 * m:] - 2.0 * x[m:x.size - m] + x[:x.size - 2 * m]
+        assert value == pytest.approx(math.fsum(d * d), rel=1e-13)
+    for threads in (1, 5):
+        np.testing.assert_array_equal(kernels._compile()["residue_sums"](x, ms, period, kernels._RESIDUES, threads), got)
+
+
+def test_allan_sums_is_the_running_sum_and_its_sums(rng):
+    """allan_sums is phase_from_rate(y, record_mean(y)) and second_difference_sums of it: bit for bit on a
+    record the precompiled kernels sum (the same three calls) and on a long one (one read for the mean and the
+    block sums, the small sizes fused with the fill, the whole-block sizes by residues), on an octave grid with
+    sizes on both sides of a block, and with progress reported for every size."""
+    from bayes_imu.allan import kernels
+
+    for n in (300_000, kernels.PRECOMPILED_BELOW + 777):
+        y = rng.standard_normal(n) * 0.01 + 9.81 + np.cumsum(rng.standard_normal(n)) * 1e-5
+        ms = 2 ** np.arange(int(np.log2(n // 2)) + 1)
+        done = []
+        x, sums = kernels.allan_sums(y, ms, progress=done.append)
+        np.testing.assert_array_equal(x, kernels.phase_from_rate(y, kernels.record_mean(y)))
+        np.testing.assert_array_equal(sums, kernels.second_difference_sums(x, ms))
+        assert sum(done) == ms.size
+        x, sums = kernels.allan_sums(y, [70_001])  # no size below a block, none a whole block
+        np.testing.assert_array_equal(sums, kernels.second_difference_sums(x, [70_001]))
 
 
 @pytest.mark.parametrize("extra", [0, 12_345])
 def test_record_mean_is_the_exact_mean_on_any_number_of_threads(rng, monkeypatch, extra):
-    """record_mean of a record the JIT kernels sum (block sums on threads, added by math.fsum) is within
-    4 ulp of the exact rational mean, on a large offset with noise, the same bits on 1 or more threads;
+    """record_mean of a record the JIT kernels sum (block sums about each block's first sample on threads,
+    added with those samples in a compensated sum) is within 4 ulp of the exact rational mean, on a large offset with noise, the same bits on 1 or more threads;
     a short record's mean is numpy's."""
     from fractions import Fraction
 
@@ -368,7 +439,9 @@ def test_precompiled_kernels_agree_with_the_jit_build(rng):
     aot.avar_rows(*rows, out_aot)
     numba.njit(avar_rows)(*rows, out_jit)
     np.testing.assert_array_equal(out_aot, out_jit)
-    assert set(_sources.FASTMATH) == {"sum3", "sums_all"}
+    # the running sums are strict IEEE (fast-math would optimise their compensation away), the fused fill too
+    running = {"phase_chunk", "centred_sums", "centred_mean", "centred_bases", "fill_blocks", "phase_blocks"}
+    assert not running & set(_sources.FASTMATH) and not _sources.fill_blocks_compiled.targetoptions.get("fastmath")
     from bayes_imu.noise import _sources as noise_sources
     from bayes_imu.noise.euler_sums import SWITCH, _random_walk, series_coefficients
 

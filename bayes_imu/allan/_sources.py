@@ -4,20 +4,28 @@ Imported only to compile (it imports numba): :mod:`bayes_imu.allan.kernels` JIT-
 functions on first use (``parallel=True`` where they use ``numba.prange``, cached on disk), and
 the package build compiles the same functions ahead of time, one thread each (``prange`` is
 ``range`` there), into the extension ``bayes_imu._compiled`` (``setup.py``), which loads without
-numba. :data:`FASTMATH` names the kernels compiled with reassociation (a vectorised sum of
-squares); the running sums never are (their Kahan-Babuska compensation would be optimised away).
+numba. The precompiled build has the kernels of a record shorter than 2**21 samples (``setup.py``'s
+``KERNELS``); the kernels of longer records' parallel passes (``centred_sums`` to ``residue_sums``)
+are JIT-compiled only. :data:`FASTMATH` names the kernels compiled with reassociation (a vectorised
+sum of squares); the running sums never are (their Kahan-Babuska compensation would be optimised
+away): ``phase_and_sums`` fills through ``fill_blocks``, compiled apart with strict arithmetic.
+Helpers inlined into their callers (``inline="always"``: numba's IR, so they take the caller's
+fast-math flags and the precompiled ``sums_all`` compiles to the same code as before they were
+split out) are module globals, as a kernel's callees must be for numba's cache.
 """
 
 import numba
 import numpy as np
 
-__all__ = ["pair_sum", "pair_sums", "phase_chunk", "sum3", "chunk_totals", "chunk_bases", "phase_blocks", "sums_all",
-           "FASTMATH", "PARALLEL"]
+__all__ = ["pair_sum", "pair_sums", "phase_chunk", "sum3", "centred_sums", "compensated_add", "centred_mean",
+           "centred_bases", "fill_blocks", "phase_blocks", "phase_and_sums", "residue_sums", "tile_sums", "sums_all",
+           "block_totals", "FASTMATH", "PARALLEL"]
 
 #: LLVM fast-math flags of the sum-of-squares kernels
-FASTMATH = {"sum3": {"reassoc", "contract", "nsz", "arcp"}, "sums_all": {"reassoc", "contract", "nsz", "arcp"}}
+_SQUARES = {"reassoc", "contract", "nsz", "arcp"}
+FASTMATH = {"sum3": _SQUARES, "sums_all": _SQUARES, "phase_and_sums": _SQUARES, "residue_sums": _SQUARES}
 #: kernels whose ``prange`` loops run on numba's threads when JIT-compiled
-PARALLEL = {"pair_sums", "sum3", "chunk_totals", "phase_blocks", "sums_all"}
+PARALLEL = {"pair_sums", "sum3", "centred_sums", "phase_blocks", "phase_and_sums", "residue_sums", "sums_all"}
 
 
 def pair_sum(table, a, b, n, h, s2, x):
@@ -154,119 +162,237 @@ def sum3(a0, a1, a2, block):
     return total
 
 
-def chunk_totals(y, offset, block):
-    # the plain sum of (y - offset) over each block, in the order phase_chunk adds it (the
-    # threads take 256 blocks at a time)
+def centred_sums(y, block):
+    # out[b] = the plain sum over block b of (y[i] - y[b * block]), the block's first sample: one
+    # read of the record gives its exact mean (centred_mean) and the blocks' sums about any offset
+    # (centred_bases) as precisely as summing about that offset would (the terms stay small where the
+    # record is locally smooth, whatever its offset); the threads take 256 blocks at a time
     n_blocks = (y.size + block - 1) // block
     out = np.empty(n_blocks)
     for g in numba.prange((n_blocks + 255) // 256):
         for b in range(g * 256, min(g * 256 + 256, n_blocks)):
+            lo = b * block
+            first = y[lo]
             acc = 0.0
-            for i in range(b * block, min(b * block + block, y.size)):
-                acc += y[i] - offset
+            for i in range(lo, min(lo + block, y.size)):
+                acc += y[i] - first
             out[b] = acc
     return out
 
 
-def chunk_bases(totals):
-    # phase_chunk's compensated running total (s + c) before each block, from the block sums
+def compensated_add(s, c, v):
+    # Kahan-Babuska (Neumaier) step: s + c + v as a new (s, c)
+    t = s + v
+    if abs(s) >= abs(v):
+        c += (s - t) + v
+    else:
+        c += (v - t) + s
+    return t, c
+
+
+def centred_mean(y, sums, block):
+    # the record's mean from its centred block sums: sum_b sums[b] + L_b y[b * block], compensated
     s = 0.0
     c = 0.0
-    out = np.empty(totals.size)
-    for b in range(totals.size):
+    for b in range(sums.size):
+        lo = b * block
+        s, c = compensated_add_compiled(s, c, sums[b])
+        s, c = compensated_add_compiled(s, c, (min(lo + block, y.size) - lo) * y[lo])
+    return (s + c) / y.size
+
+
+def centred_bases(y, sums, offset, block):
+    # the compensated running total of (y - offset) before each block, from the centred block sums:
+    # block b adds sums[b] + L_b (y[b * block] - offset)
+    s = 0.0
+    c = 0.0
+    out = np.empty(sums.size)
+    for b in range(sums.size):
         out[b] = s + c
-        acc = totals[b]
-        t = s + acc
-        if abs(s) >= abs(acc):
-            c += (s - t) + acc
-        else:
-            c += (acc - t) + s
-        s = t
+        lo = b * block
+        s, c = compensated_add_compiled(s, c, sums[b] + (min(lo + block, y.size) - lo) * (y[lo] - offset))
     return out
+
+
+def fill_blocks(y, offset, bases, block, first, last, out):
+    # out[i] = base of the block + the plain sum within the block of (y - offset) up to y[i], for the
+    # blocks first <= b < last (strict IEEE: never compiled with fast-math)
+    for b in range(first, last):
+        base = bases[b]
+        acc = 0.0
+        for i in range(b * block, min(b * block + block, y.size)):
+            acc += y[i] - offset
+            out[i] = base + acc
 
 
 def phase_blocks(y, offset, bases, block, out):
-    # out[i] = base of the block + the plain sum within the block after y[i]: phase_chunk's
-    # numbers, 256 blocks at a time per thread
+    # the running sum from the bases of its blocks, 256 blocks at a time per thread
     n_blocks = bases.size
     for g in numba.prange((n_blocks + 255) // 256):
-        for b in range(g * 256, min(g * 256 + 256, n_blocks)):
-            base = bases[b]
-            acc = 0.0
-            for i in range(b * block, min(b * block + block, y.size)):
-                acc += y[i] - offset
-                out[i] = base + acc
+        fill_blocks_compiled(y, offset, bases, block, g * 256, min(g * 256 + 256, n_blocks), out)
     return out
 
 
+def phase_and_sums(y, offset, bases, block, x, ms, tile, lag, n_chunks):
+    # x[0] = 0 and x[1:] = phase_blocks' running sum, filled tile by tile (tile samples, a multiple of
+    # block) on n_chunks runs of tiles, one per thread; each run sums the sizes ms over its tiles of
+    # start indices (tile_sums) lag tiles behind its fill, while the tiles are in cache (lag tiles
+    # cover the reach of the largest size, 2 max(ms)). A run's first tile (it reads the sample the
+    # run before writes) and its last lag tiles are summed after every fill. Tile sums added in
+    # tile order: the same bits as sums_all(x, ms, tile), on any number of runs.
+    x[0] = 0.0
+    out = x[1:]
+    per_tile = tile // block
+    n_fill = (y.size + tile - 1) // tile
+    n_tiles = (x.size - 2 * ms.min() + tile - 1) // tile
+    partial = np.zeros((n_tiles, ms.size))
+    done = np.zeros(n_tiles, dtype=np.bool_)
+    run = (n_fill + n_chunks - 1) // n_chunks
+    for c in numba.prange(n_chunks):
+        first = c * run
+        for t in range(first, min(first + run, n_fill)):
+            fill_blocks_compiled(y, offset, bases, block, t * per_tile, min(t * per_tile + per_tile, bases.size), out)
+            s = t - lag
+            if first < s < n_tiles:
+                tile_sums_compiled(x, ms, s * tile, tile, partial[s])
+                done[s] = True
+    for s in numba.prange(n_tiles):
+        if not done[s]:
+            tile_sums_compiled(x, ms, s * tile, tile, partial[s])
+    return block_totals_compiled(x, ms, tile, partial)
+
+
+def residue_sums(x, ms, period, width, n_chunks):
+    # the sums of sizes m that are multiples of period (each a whole number of periods, increasing)
+    # by residues: for each run of width residues r0 <= r < r0 + width (mod period), the record's
+    # samples x[q period + r] are gathered into a buffer of rows q (in cache: len(x) / period rows
+    # of width), where a size m is a shift by m / period rows; every size is then summed from the
+    # buffer (tile_sums over it in sub-blocks of 16 rows, the rows reading the last, partial row
+    # apart). The record is read once for all these sizes instead of once per size (their streams
+    # lie further apart than the caches hold). Residue runs split over n_chunks threads; their sums
+    # added in residue order, so the bits do not depend on the threads.
+    n = x.size
+    rows = (n + period - 1) // period
+    k = ms.size
+    n_runs = period // width
+    shifts = ms // period * width
+    sub = 16 * width
+    partial = np.zeros((n_runs, k))
+    per = (n_runs + n_chunks - 1) // n_chunks
+    for c in numba.prange(n_chunks):
+        buf = np.empty(rows * width)
+        row = np.empty(k)
+        for rb in range(c * per, min(c * per + per, n_runs)):
+            r0 = rb * width
+            for q in range(rows):
+                lo = q * period + r0
+                cnt = min(width, n - lo)
+                if cnt > 0:
+                    buf[q * width:q * width + cnt] = x[lo:lo + cnt]
+            full = buf[:(rows - 1) * width]  # rows 0 .. rows - 2 are complete
+            for lo in range(0, full.size, sub):
+                row[:] = 0.0
+                tile_sums_compiled(full, shifts, lo, min(sub, full.size - lo), row)
+                for j in range(k):
+                    partial[rb, j] += row[j]
+            # the row whose furthest sample lies in the last row: start indices with i + 2 m < len(x)
+            last = min(width, n - (rows - 1) * period - r0)
+            for j in range(k):
+                start = (rows - 1) * width - 2 * shifts[j]
+                s = 0.0
+                for r in range(max(last, 0)):
+                    d = buf[start + 2 * shifts[j] + r] - 2.0 * buf[start + shifts[j] + r] + buf[start + r]
+                    s += d * d
+                partial[rb, j] += s
+    out = np.empty(k)
+    for j in range(k):
+        total = 0.0
+        for rb in range(n_runs):
+            total += partial[rb, j]
+        out[j] = total
+    return out
+
+
+def tile_sums(x, ms, lo, block, row):
+    # the sums of every size over the start indices lo <= i < lo + block (and i < len(x) - 2 m), into
+    # row[j] (a size with no start index there is left as it is): the sizes in the order given, so
+    # on an octave grid a size's stream at x[i + m] is the block the size before it read at
+    # x[i + 2 m'], still in cache, and the small sizes share one block of x. Four sizes m, 2m, 4m,
+    # 8m in a row (an octave run) are summed in one loop over the block: six streams x[i],
+    # x[i + m], ..., x[i + 16 m] for four sizes instead of twelve (the loop is bound by loads from
+    # cache: 1.4-1.5x faster on an octave grid; eight sizes a loop gained nothing more); two sizes
+    # m, 2m in one loop where four do not fit. The furthest sample read is x[lo + block - 1 + 2 M],
+    # M the largest size (16 m = 2 x 8m in a run of four). Within about 1e-15 of sum3 on the same
+    # size (LLVM vectorises the loops differently), not bit for bit.
+    k = ms.size
+    j = 0
+    while j < k:
+        m = ms[j]
+        hi = min(lo + block, x.size - 2 * m)
+        if j + 1 < k and ms[j + 1] == 2 * m and lo + block <= x.size - 4 * m:
+            a0 = x[lo:lo + block]
+            a1 = x[lo + m:lo + block + m]
+            a2 = x[lo + 2 * m:lo + block + 2 * m]
+            a4 = x[lo + 4 * m:lo + block + 4 * m]
+            s1 = 0.0
+            s2 = 0.0
+            if j + 3 < k and ms[j + 2] == 4 * m and ms[j + 3] == 8 * m and lo + block <= x.size - 16 * m:
+                a8 = x[lo + 8 * m:lo + block + 8 * m]
+                a16 = x[lo + 16 * m:lo + block + 16 * m]
+                s4 = 0.0
+                s8 = 0.0
+                for i in range(block):
+                    z = a0[i]
+                    d1 = a2[i] - 2.0 * a1[i] + z
+                    d2 = a4[i] - 2.0 * a2[i] + z
+                    d4 = a8[i] - 2.0 * a4[i] + z
+                    d8 = a16[i] - 2.0 * a8[i] + z
+                    s1 += d1 * d1
+                    s2 += d2 * d2
+                    s4 += d4 * d4
+                    s8 += d8 * d8
+                row[j + 2] = s4
+                row[j + 3] = s8
+                width = 4
+            else:
+                for i in range(block):
+                    z = a0[i]
+                    d1 = a2[i] - 2.0 * a1[i] + z
+                    d2 = a4[i] - 2.0 * a2[i] + z
+                    s1 += d1 * d1
+                    s2 += d2 * d2
+                width = 2
+            row[j] = s1
+            row[j + 1] = s2
+            j += width
+            continue
+        if hi > lo:
+            x0 = x[lo:hi]
+            x1 = x[lo + m:hi + m]
+            x2 = x[lo + 2 * m:hi + 2 * m]
+            s = 0.0
+            for i in range(hi - lo):
+                d = x2[i] - 2.0 * x1[i] + x0[i]
+                s += d * d
+            row[j] = s
+        j += 1
+
+
 def sums_all(x, ms, block):
-    # every cluster size in one pass over the record: for each block of start indices the
-    # sizes are summed in the order given, so on an octave grid a size's stream at x[i + m] is
-    # the block the size before it read at x[i + 2 m'], still in cache, and the small sizes
-    # share one block of x. Four sizes m, 2m, 4m, 8m in a row (an octave run) are summed in one
-    # loop over the block: six streams x[i], x[i + m], ..., x[i + 16 m] for four sizes instead of
-    # twelve (the loop is bound by loads from cache: 1.4-1.5x faster on an octave grid; eight
-    # sizes a loop gained nothing more); two sizes m, 2m in one loop where four do not fit. Block sums
-    # added in a fixed order (no dependence on the threads); within about 1e-15 of sum3 on the
-    # same size (LLVM vectorises the loops differently), not bit for bit.
+    # every cluster size in one pass over the record, block by block of start indices
+    # (tile_sums); block sums added in a fixed order (no dependence on the threads)
     k = ms.size
     n_blocks = (x.size - 2 * ms.min() + block - 1) // block
     partial = np.zeros((n_blocks, k))
     for b in numba.prange(n_blocks):
-        lo = b * block
-        j = 0
-        while j < k:
-            m = ms[j]
-            hi = min(lo + block, x.size - 2 * m)
-            if j + 1 < k and ms[j + 1] == 2 * m and lo + block <= x.size - 4 * m:
-                a0 = x[lo:lo + block]
-                a1 = x[lo + m:lo + block + m]
-                a2 = x[lo + 2 * m:lo + block + 2 * m]
-                a4 = x[lo + 4 * m:lo + block + 4 * m]
-                s1 = 0.0
-                s2 = 0.0
-                if j + 3 < k and ms[j + 2] == 4 * m and ms[j + 3] == 8 * m and lo + block <= x.size - 16 * m:
-                    a8 = x[lo + 8 * m:lo + block + 8 * m]
-                    a16 = x[lo + 16 * m:lo + block + 16 * m]
-                    s4 = 0.0
-                    s8 = 0.0
-                    for i in range(block):
-                        z = a0[i]
-                        d1 = a2[i] - 2.0 * a1[i] + z
-                        d2 = a4[i] - 2.0 * a2[i] + z
-                        d4 = a8[i] - 2.0 * a4[i] + z
-                        d8 = a16[i] - 2.0 * a8[i] + z
-                        s1 += d1 * d1
-                        s2 += d2 * d2
-                        s4 += d4 * d4
-                        s8 += d8 * d8
-                    partial[b, j + 2] = s4
-                    partial[b, j + 3] = s8
-                    width = 4
-                else:
-                    for i in range(block):
-                        z = a0[i]
-                        d1 = a2[i] - 2.0 * a1[i] + z
-                        d2 = a4[i] - 2.0 * a2[i] + z
-                        s1 += d1 * d1
-                        s2 += d2 * d2
-                    width = 2
-                partial[b, j] = s1
-                partial[b, j + 1] = s2
-                j += width
-                continue
-            if hi > lo:
-                x0 = x[lo:hi]
-                x1 = x[lo + m:hi + m]
-                x2 = x[lo + 2 * m:hi + 2 * m]
-                s = 0.0
-                for i in range(hi - lo):
-                    d = x2[i] - 2.0 * x1[i] + x0[i]
-                    s += d * d
-                partial[b, j] = s
-            j += 1
-    out = np.empty(k)
-    for j in range(k):
+        tile_sums_compiled(x, ms, b * block, block, partial[b])
+    return block_totals_compiled(x, ms, block, partial)
+
+
+def block_totals(x, ms, block, partial):
+    # each size's sum of its blocks' sums, in block order
+    out = np.empty(ms.size)
+    for j in range(ms.size):
         total = 0.0
         for b in range((x.size - 2 * ms[j] + block - 1) // block):
             total += partial[b, j]
@@ -274,6 +400,10 @@ def sums_all(x, ms, block):
     return out
 
 
-# a module global, not a closure variable: numba's cache keys a closure's captured dispatcher by
+# module globals, not closure variables: numba's cache keys a closure's captured dispatcher by
 # identity, so a kernel calling one would be recompiled in every process
 pair_sum_compiled = numba.njit(cache=True)(pair_sum)
+tile_sums_compiled = numba.njit(inline="always")(tile_sums)
+block_totals_compiled = numba.njit(inline="always")(block_totals)
+compensated_add_compiled = numba.njit(inline="always")(compensated_add)
+fill_blocks_compiled = numba.njit(cache=True)(fill_blocks)

@@ -17,7 +17,7 @@ from .._lazy import LazyModule
 
 special = LazyModule("scipy.special")  # chi-squared quantiles without scipy.stats (0.3 s to import)
 
-from .kernels import phase_from_rate, record_mean, second_difference_sums
+from .kernels import allan_sums
 from .._progress import progress_bar
 from ..errors import InputError
 from ..io.readers import positive_number
@@ -198,13 +198,9 @@ def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, inte
     y = _as_samples(y)
     rate_hz = check_options(rate_hz, confidence, interval)
     ms = cluster_sizes(m, y.size)
-    x = phase_from_rate(y, record_mean(y))  # mean removed before the running sum (precision)
-    sums = np.empty(ms.size)
-    groups = np.array_split(np.arange(ms.size), min(ms.size, 8)) if progress else [np.arange(ms.size)]
     with progress_bar(total=ms.size, desc="Allan variance", unit="tau", enabled=progress) as bar:
-        for group in groups:  # each cluster size is summed independently: grouping changes no bit
-            sums[group] = second_difference_sums(x, ms[group])
-            bar.update(group.size)
+        # the running sum of y about its mean (precision) and the sums of every size, in one call
+        x, sums = allan_sums(y, ms, progress=bar.update)
     alphas = identify_noise(x, ms) if alpha is None else alpha
     result = assemble_result(ms, sums, alphas, y.size, rate_hz, confidence, interval)
     return replace(result, segments=segment_allan(y, ms, segments))
@@ -227,7 +223,7 @@ def segment_allan(y, m, n_segments=DEFAULT_SEGMENTS):
     avar = np.empty((n_segments, ms.size))
     for k in range(n_segments):
         part = y[k * length:(k + 1) * length]
-        avar[k] = avar_from_sums(second_difference_sums(phase_from_rate(part, record_mean(part)), ms), ms, length)
+        avar[k] = avar_from_sums(allan_sums(part, ms)[1], ms, length)
     return SegmentAllan(ms, avar, length)
 
 

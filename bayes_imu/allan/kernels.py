@@ -29,7 +29,7 @@ import contextlib
 
 import numpy as np
 
-__all__ = ["record_mean", "phase_from_rate", "phase_chunk", "second_difference_sum", "second_difference_sums",
+__all__ = ["record_mean", "phase_from_rate", "allan_sums", "phase_chunk", "second_difference_sum", "second_difference_sums",
            "avar_pair_sums", "threads_for", "threads_for_pass", "precompiled", "compiled_kernel", "SAMPLES_PER_THREAD",
            "PRECOMPILED_BELOW"]
 
@@ -38,8 +38,8 @@ _BLOCK = 1 << 14
 _BLOCK_ALL = 1 << 16
 #: samples per plain sum of the compensated running sum
 _PHASE_BLOCK = 256
-#: samples per plain sum of :func:`record_mean` (the sums are then added exactly)
-_MEAN_BLOCK = 4096
+#: residues per run of the residue sums of the sizes that are whole blocks (:func:`_far_sums`)
+_RESIDUES = 256
 #: samples per thread of the Allan variance sums (8 MiB of phase: ~1 ms of work per cluster size)
 SAMPLES_PER_THREAD = 1 << 20
 #: records shorter than this are summed by the precompiled kernels, on one thread (:func:`threads_for`
@@ -66,7 +66,8 @@ def _compile():
 
     from . import _sources
 
-    for name in ("pair_sums", "phase_chunk", "sum3", "chunk_totals", "chunk_bases", "phase_blocks", "sums_all"):
+    for name in ("pair_sums", "phase_chunk", "sum3", "centred_sums", "centred_mean", "centred_bases", "phase_blocks",
+                 "phase_and_sums", "residue_sums", "sums_all"):
         _compiled[name] = numba.njit(parallel=name in _sources.PARALLEL, cache=True,
                                      fastmath=_sources.FASTMATH.get(name, False))(getattr(_sources, name))
     return _compiled
@@ -98,18 +99,19 @@ def record_mean(y):
     """Mean of a record, the offset removed before its running sum (:func:`phase_from_rate`).
 
     A record the JIT kernels sum (:func:`_precompiled_for`) is read once on :func:`threads_for`
-    threads: plain sums of 4096 samples, added exactly (``math.fsum``), the same bits on any number
-    of threads (within 4 ulp of the exact mean in the test against rationals); at 1e7 samples 2.8 ms
-    instead of numpy's 4.4 ms on one thread. A shorter record takes ``numpy.mean`` (pairwise
-    sums). Which one depends on the length alone, as the kernels' build does.
+    threads: the plain sums of its 256-sample blocks about each block's first sample, added with
+    their first samples in a compensated (Kahan-Babuska) sum: within 4 ulp of the exact mean in the
+    test against rationals, the same bits on any number of threads; that pass also gives the block
+    sums of the running sum (:func:`allan_sums` reads the record once for both). A shorter record
+    takes ``numpy.mean`` (pairwise sums). Which one depends on the length alone, as the kernels'
+    build does.
     """
-    import math
-
     y = np.ascontiguousarray(y, dtype=float)
     if y.size == 0 or _precompiled_for(y.size) is not None:
         return float(np.mean(y))
+    kernels = _compile()
     with threads_for_pass(y.size):
-        return math.fsum(_compile()["chunk_totals"](y, 0.0, _MEAN_BLOCK)) / y.size
+        return float(kernels["centred_mean"](y, kernels["centred_sums"](y, _PHASE_BLOCK), _PHASE_BLOCK))
 
 
 def phase_from_rate(y, offset):
@@ -117,24 +119,26 @@ def phase_from_rate(y, offset):
 
     Sums of at most 256 terms are added to a compensated running total, so each ``x[i]``
     is within a few ulp of the exact prefix sum however long the record: the second
-    differences of ``x`` keep their precision on long records. The 256-sample sums are
-    formed on :func:`threads_for` threads, the compensated total of them in order, then the
-    blocks filled in parallel: the numbers of one sequential pass (:func:`phase_chunk`), bit
-    for bit, on any number of threads.
+    differences of ``x`` keep their precision on long records. A record the precompiled kernels
+    sum takes one sequential pass (:func:`phase_chunk`). A longer one is read twice on
+    :func:`threads_for` threads: the sums of its 256-sample blocks about each block's first sample
+    (as precise as sums about ``offset``, :func:`record_mean`), their compensated total about
+    ``offset`` before each block in order, then the blocks filled in parallel: the same bits on any
+    number of threads, and :func:`allan_sums`' running sum bit for bit (not the sequential pass's:
+    the block totals are rounded differently, within a few ulp of the exact prefix sums either way).
     """
     y = np.ascontiguousarray(y, dtype=float)
     out = np.empty(y.size + 1)
     out[0] = 0.0
     aot = _precompiled_for(y.size)
-    if aot is not None or threads_for(y.size) == 1:
-        # one thread: the sequential pass itself, reading the record once instead of twice
-        (_compile()["phase_chunk"] if aot is None else aot.phase_chunk)(y, float(offset), out[1:], _PHASE_BLOCK,
-                                                                         np.zeros(2))
+    if aot is not None:
+        aot.phase_chunk(y, float(offset), out[1:], _PHASE_BLOCK, np.zeros(2))
         return out
     kernels = _compile()
     with threads_for_pass(y.size):
-        bases = kernels["chunk_bases"](kernels["chunk_totals"](y, float(offset), _PHASE_BLOCK))
-        kernels["phase_blocks"](y, float(offset), bases, _PHASE_BLOCK, out[1:])
+        sums = kernels["centred_sums"](y, _PHASE_BLOCK)
+        kernels["phase_blocks"](y, float(offset), kernels["centred_bases"](y, sums, float(offset), _PHASE_BLOCK),
+                                _PHASE_BLOCK, out[1:])
     return out
 
 
@@ -142,7 +146,9 @@ def phase_chunk(y, offset, state):
     """Running sums of one chunk of a record, continuing ``state = [s, c]`` (updated in place).
 
     Returns ``x`` after each sample of the chunk; with chunks of a multiple of 256 samples
-    the concatenation equals :func:`phase_from_rate` (without its leading 0) bit for bit.
+    the concatenation is the sequential pass over the whole record: :func:`phase_from_rate` (without
+    its leading 0) bit for bit for a record shorter than :data:`PRECOMPILED_BELOW`, within a few ulp
+    of it for a longer one (whose block totals are rounded differently).
     """
     out = np.empty(y.size)
     return _compile()["phase_chunk"](np.ascontiguousarray(y, dtype=float), float(offset), out, _PHASE_BLOCK, state)
@@ -184,8 +190,10 @@ def second_difference_sums(x, ms):
     small sizes share one block of ``x`` in cache and, on an octave grid, a size's middle
     stream ``x[i + m]`` is the block the size before it has just read as ``x[i + 2m']``; the
     record is read about once plus once per size larger than a block, instead of three times
-    per size. Block sums are added in a fixed order, so the result does not depend on the
-    number of threads (:func:`threads_for`).
+    per size. On a record the JIT kernels sum, the sizes that are whole multiples of a block
+    (an octave grid's from 65536 up) are summed by residues instead (:func:`_far_sums`): one
+    read of the record for all of them. Block sums are added in a fixed order, so the result
+    does not depend on the number of threads (:func:`threads_for`).
     """
     ms = np.ascontiguousarray(ms, dtype=np.int64)
     if ms.size == 0:
@@ -195,7 +203,78 @@ def second_difference_sums(x, ms):
     if aot is not None:
         return aot.sums_all(x, ms, _BLOCK_ALL)
     with threads_for_pass(x.size):
-        return _compile()["sums_all"](x, ms, _BLOCK_ALL)
+        return _far_sums(x, ms)
+
+
+def _far_sums(x, ms):
+    """JIT sums of the sizes ``ms`` (at least one) of a long record, inside :func:`threads_for_pass`: the
+    whole multiples of :data:`_BLOCK_ALL` by residue runs of :data:`_RESIDUES` (``residue_sums``: the
+    record gathered once, a run at a time, into a buffer of ``len(x) / 32`` bytes a thread), the others block by block
+    (``sums_all``)."""
+    kernels = _compile()
+    by_residue = ms % _BLOCK_ALL == 0
+    sums = np.empty(ms.size)
+    if by_residue.any():
+        sums[by_residue] = kernels["residue_sums"](x, ms[by_residue], _BLOCK_ALL, _RESIDUES, threads_for(x.size))
+    if not by_residue.all():
+        sums[~by_residue] = kernels["sums_all"](x, ms[~by_residue], _BLOCK_ALL)
+    return sums
+
+
+def allan_sums(y, ms, progress=None):
+    """The running sum ``x = phase_from_rate(y, record_mean(y))`` and its ``second_difference_sums(x, ms)``.
+
+    A record the precompiled kernels sum takes exactly those three calls. A longer one is read
+    twice instead of four times: once on :func:`threads_for` threads for the block sums that give
+    both the mean and the running sum's block bases (:func:`record_mean`); then each thread fills a
+    run of tiles of :data:`_BLOCK_ALL` samples and sums the sizes below a block over each tile of
+    start indices one or two tiles behind its fill, while the running sum is still in cache
+    (``phase_and_sums``); the sizes from a block up follow (:func:`_far_sums`). The same ``x`` as
+    :func:`phase_from_rate` (bit for bit), the same sums as :func:`second_difference_sums` (bit for
+    bit where no octave run of sizes straddles 65536), the same bits on any number of threads.
+
+    Parameters
+    ----------
+    y : array_like, shape (n_samples,)
+        Rate samples.
+    ms : array_like of int
+        Cluster sizes, ``2 m <= n_samples``, increasing (octave runs are detected in this order).
+    progress : callable or None
+        Called with the number of sizes just summed (a progress bar's ``update``).
+
+    Returns
+    -------
+    x : ndarray, shape (n_samples + 1,)
+    sums : ndarray, shape (len(ms),)
+    """
+    y = np.ascontiguousarray(y, dtype=float)
+    ms = np.ascontiguousarray(ms, dtype=np.int64)
+    report = progress if progress is not None else (lambda done: None)
+    if _precompiled_for(y.size) is not None or ms.size == 0:
+        x = phase_from_rate(y, record_mean(y))
+        sums = second_difference_sums(x, ms)
+        report(ms.size)
+        return x, sums
+    kernels = _compile()
+    near = ms < _BLOCK_ALL
+    sums = np.empty(ms.size)
+    with threads_for_pass(y.size):
+        centred = kernels["centred_sums"](y, _PHASE_BLOCK)
+        mean = kernels["centred_mean"](y, centred, _PHASE_BLOCK)
+        bases = kernels["centred_bases"](y, centred, mean, _PHASE_BLOCK)
+        x = np.empty(y.size + 1)
+        if near.any():
+            lag = (2 * int(ms[near].max()) + _BLOCK_ALL - 2) // _BLOCK_ALL  # tiles the largest size reaches ahead
+            sums[near] = kernels["phase_and_sums"](y, mean, bases, _PHASE_BLOCK, x, ms[near], _BLOCK_ALL, lag,
+                                                   threads_for(y.size))
+        else:
+            x[0] = 0.0
+            kernels["phase_blocks"](y, mean, bases, _PHASE_BLOCK, x[1:])
+        report(int(near.sum()))
+        if not near.all():
+            sums[~near] = _far_sums(x, ms[~near])
+            report(int((~near).sum()))
+    return x, sums
 
 
 def avar_pair_sums(table, ms, n, h, s2, x):

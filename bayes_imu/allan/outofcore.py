@@ -5,8 +5,9 @@
 1. count, mean and validation of the samples (as :func:`bayes_imu.io.readers.check_signal`);
 2. the compensated running sum (phase) of the mean-removed samples, written to a
    temporary float64 file; chunks are multiples of 256 samples and the compensation
-   state is carried between them, so the phase equals the in-memory one bit for bit
-   (up to the last bits of the mean). The phase values that the noise identification
+   state is carried between them, so the phase is the in-memory sequential pass's bit for bit
+   (up to the last bits of the mean): that of a log shorter than 2**21 samples; a longer log's
+   in-memory running sum rounds its block totals differently, within a few ulp. The phase values that the noise identification
    needs (at most 2**18 + 1 per cluster size) are collected on the way;
 3. per cluster size ``m``, the second differences ``x[i+2m] - 2 x[i+m] + x[i]`` from three
    chunk-sized reads of the phase file.
