@@ -126,12 +126,7 @@ def phase_chunk(y, offset, out, block, state):
         for i in range(lo, hi):
             acc += y[i] - offset
             out[i] = base + acc
-        t = s + acc
-        if abs(s) >= abs(acc):
-            c += (s - t) + acc
-        else:
-            c += (acc - t) + s
-        s = t
+        s, c = compensated_add_compiled(s, c, acc)
     state[0] = s
     state[1] = c
     return out
