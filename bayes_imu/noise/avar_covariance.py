@@ -14,8 +14,13 @@ freedom ``2 AVAR^2 / Var``, which for pure power-law noise is Greenhall & Riley'
 (the tests check this) and for a model with several terms is the exact generalisation.
 
 The sum runs exactly over every lag where the two second-difference windows overlap or touch
-(from a table of ``D``). Outside the overlap only the Gauss-Markov and flicker terms
-correlate: the Gauss-Markov part is exactly geometric there (closed form per lag, no
+(from a table of ``D``). Outside the overlap each term declares how it correlates
+(:meth:`bayes_imu.noise.Term.covariance_tail`, one of :data:`~bayes_imu.noise._base.TAIL_KINDS`):
+``"none"`` (white, quantization, filtered white, random walk, ramp), ``"gauss_markov"`` and
+``"flicker"``, which the compiled kernel sums, or ``"generic"``, for which every lag is summed
+exactly from a table of ``D`` as long as the record (slower, :func:`exact_pair_sums`). A kind
+outside that list, or a term that declares none, raises :class:`~bayes_imu.errors.ModelError`:
+a correlation is never dropped in silence. In the kernel's tails: the Gauss-Markov part is exactly geometric there (closed form per lag, no
 cancellation); the flicker part uses its asymptotic ``-h a^2 b^2 / l_c^2`` (``l_c`` the
 distance between window centres; neglected terms ``O((b/l_c)^2)`` of a tail below 1% of
 the total). Both tails are smooth, so they are summed by the midpoint rule with steps of
@@ -26,9 +31,11 @@ of an octave grid on 1e6 samples at ~0.1 s.
 import numpy as np
 
 from ..allan.kernels import avar_pair_sums
-from ..noise import NoiseModel
+from ..errors import ModelError
+from ._base import TAIL_KINDS
+from .model import NoiseModel
 
-__all__ = ["avar_covariance", "equivalent_dof"]
+__all__ = ["avar_covariance", "equivalent_dof", "exact_pair_sums", "model_tails"]
 
 
 def avar_covariance(model, params, m, n_samples):
@@ -53,18 +60,71 @@ def avar_covariance(model, params, m, n_samples):
         raise TypeError("model must be a NoiseModel")
     ms = np.asarray(m, dtype=np.int64)
     n = int(n_samples)
-    kmax = int(4 * ms.max() + 2)
-    table = np.asarray(model.structure_function(np.arange(kmax + 1), params), dtype=float)
-    h = sum(t.flicker_level(params) for t in model.components)
-    gm = [c for t in model.components for c in t.gm_components(params, model.dt) if c[0] > 0.0]
-    s2 = np.array([c[0] for c in gm])
-    x = np.array([c[1] for c in gm])
-    sums = avar_pair_sums(table, ms, n, h, s2, x)
+    tails = model_tails(model, params)
+    if any(tail.kind == "generic" for tail in tails):
+        table = np.asarray(model.structure_function(np.arange(n + 4 * ms.max() + 1), params), dtype=float)
+        sums = exact_pair_sums(table, ms, n)
+    else:
+        kmax = int(4 * ms.max() + 2)
+        table = np.asarray(model.structure_function(np.arange(kmax + 1), params), dtype=float)
+        h = sum(tail.flicker for tail in tails)
+        gm = [c for tail in tails for c in tail.gauss_markov if c[0] > 0.0]
+        s2 = np.array([c[0] for c in gm])
+        x = np.array([c[1] for c in gm])
+        sums = avar_pair_sums(table, ms, n, h, s2, x)
     mf = ms.astype(float)
     terms = (n - 2 * mf + 1).astype(float)
     norm = 2.0 * np.outer(mf * mf * terms, mf * mf * terms)
     cov = sums / norm
     return 0.5 * (cov + cov.T)
+
+
+def model_tails(model, params):
+    """The :class:`~bayes_imu.noise._base.CovarianceTail` of each term of ``model`` at ``params``,
+    checked: :class:`~bayes_imu.errors.ModelError` for a kind the covariance code does not serve,
+    or parts that do not match the kind."""
+    tails = []
+    for term in model.components:
+        tail = term.covariance_tail(params, model.dt)
+        kind = getattr(tail, "kind", None)
+        if kind not in TAIL_KINDS:
+            raise ModelError(f"term {term.name!r}: covariance tail kind {kind!r} is not one the AVAR covariance "
+                             f"serves ({', '.join(TAIL_KINDS)})")
+        if (tail.gauss_markov and kind != "gauss_markov") or (tail.flicker != 0.0 and kind != "flicker"):
+            raise ModelError(f"term {term.name!r}: covariance tail of kind {kind!r} carries parts of another kind")
+        tails.append(tail)
+    return tails
+
+
+def exact_pair_sums(table, ms, n):
+    """``sum_l n(l) c(l)^2`` for every pair of cluster sizes, exactly over every lag of the record.
+
+    The path of a term whose correlation beyond the overlap window has no kernel form (kind
+    ``"generic"``): ``c(l)`` from the table of ``D`` at every lag where the two estimates share
+    index pairs, ``-M_a < l < M_b``. ``table`` must reach ``n + 4 max(m)``.
+
+    Returns
+    -------
+    (n_tau, n_tau) ndarray
+    """
+    weights = (1.0, -2.0, 1.0)
+    k = ms.size
+    out = np.zeros((k, k))
+    for ia in range(k):
+        a = int(ms[ia])
+        ma = n - 2 * a + 1
+        for ib in range(ia, k):
+            b = int(ms[ib])
+            mb = n - 2 * b + 1
+            lag = np.arange(-(ma - 1), mb, dtype=np.int64)
+            count = np.minimum(ma, mb - lag) - np.maximum(0, -lag)
+            c = np.zeros(lag.size)
+            for p in range(3):
+                for q in range(3):
+                    c += weights[p] * weights[q] * table[np.abs(p * a - q * b - lag)]
+            c *= -0.5
+            out[ia, ib] = out[ib, ia] = np.dot(count.astype(float), c * c)
+    return out
 
 
 def equivalent_dof(avar, cov):

@@ -82,14 +82,11 @@ def axis_densities(fit, factor=1.0):
     draws = {n: fit.draws(n) for n in model.parameter_names}
     density = np.sqrt(model.short_term_variance(draws) * dt) * factor
     rw2 = np.zeros_like(density)
-    if "rate_random_walk" in draws:
-        rw2 += draws["rate_random_walk"] ** 2
-    for variance, time_constant in (("bias_variance", "time_constant"), ("bias_variance_2", "time_constant_2")):
-        if variance in draws:
-            rw2 += 2.0 * draws[variance] / draws[time_constant]
-    if "bias_instability" in draws:
-        tau_max = 2.0 ** math.floor(math.log2(fit.allan.n_samples / 4.0)) * dt
-        rw2 += draws["bias_instability"] ** 2 * 6.0 * math.log(2.0) / (math.pi * tau_max)
+    allan = getattr(fit, "allan", None)  # the longest averaging time of the log, where it is known
+    tau_max = 2.0 ** math.floor(math.log2(allan.n_samples / 4.0)) * dt if allan is not None else math.nan
+    for term in model.components:  # each term's Kalibr role (:attr:`bayes_imu.noise.Term.kalibr`)
+        if term.kalibr == "random_walk":
+            rw2 += term.kalibr_random_walk2(draws, tau_max)
     return density, np.sqrt(rw2) * factor
 
 
