@@ -12,6 +12,7 @@ from .gauss_markov import GAUSS_MARKOV, GAUSS_MARKOV_2, HF_CORRELATED
 from .quantization import QUANTIZATION
 from .ramp import RAMP
 from .random_walk import RANDOM_WALK
+from .vibration import VIBRATION
 from .white import WHITE
 
 __all__ = ["REGISTRY", "check_declarations", "TERMS", "TERM_PARAMETERS", "PARAMETER_UNITS", "NoiseModel", "m_array"]
@@ -55,7 +56,7 @@ def check_declarations(term, *, known=None):
 
 #: every term, in canonical order (Gauss-Markov kinds from fastest to slowest)
 REGISTRY = _registered(WHITE, QUANTIZATION, FILTERED_WHITE, HF_CORRELATED, BIAS_INSTABILITY, GAUSS_MARKOV,
-                       GAUSS_MARKOV_2, RANDOM_WALK, RAMP)
+                       GAUSS_MARKOV_2, RANDOM_WALK, RAMP, VIBRATION)
 TERMS = tuple(REGISTRY)
 TERM_PARAMETERS = {name: t.parameters for name, t in REGISTRY.items()}
 #: unit of each parameter, given the unit ``u`` of the rate samples
