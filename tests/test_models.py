@@ -175,3 +175,41 @@ def test_bias_instability_avar_is_flat_at_its_definition():
 
     m = np.array([1, 2, 10, 1000])
     np.testing.assert_allclose(bias_instability_avar(m, 0.5), 2 * np.log(2) * 0.25 / np.pi, rtol=1e-12)
+
+
+def test_quantities_are_one_table_and_unsupported_orders_raise():
+    """Sensor kinds and drift quantities from one module: attitude from a gyro (order 1), velocity
+    (1) and position (2) from an accelerometer; the drift tables are built from it; an order
+    other than 1 or 2 raises."""
+    from bayes_imu.drift.bands import SENSOR_QUANTITIES
+    from bayes_imu.drift.closed_forms import QUANTITY_ORDER
+    from bayes_imu.errors import ModelError
+    from bayes_imu.noise import check_order
+    from bayes_imu.noise.quantities import QUANTITIES, SENSORS, order_of, quantity, si_sensor
+
+    assert {n: (q.sensor, q.order) for n, q in QUANTITIES.items()} == {
+        "attitude": ("gyro", 1), "velocity": ("accel", 1), "position": ("accel", 2)}
+    assert QUANTITY_ORDER == {"attitude": 1, "velocity": 1, "position": 2}
+    assert SENSOR_QUANTITIES == {"gyro": ("attitude",), "accel": ("velocity", "position")}
+    assert all(QUANTITIES[q].sensor == s for s, qs in SENSOR_QUANTITIES.items() for q in qs)
+    assert SENSORS["gyro"].si_unit == "rad/s" and order_of("position") == 2
+    with pytest.raises(InputError, match="quantity"):
+        quantity("jerk")
+    for bad in (0, 3, 2.5, True):
+        with pytest.raises(ModelError, match="integration order"):
+            check_order(bad)
+    assert si_sensor(None, "m/s^2") == "accel" and si_sensor("gyro", "deg/s") is None
+    with pytest.raises(InputError, match="accelerometer"):
+        si_sensor("gyro", "m/s^2")
+
+
+def test_allan_result_carries_its_sensor_kind(rng):
+    """The sensor kind travels on the Allan result (and so on a fit) instead of a unit string."""
+    from bayes_imu.allan.estimator import allan_variance
+
+    y = rng.standard_normal(2000)
+    a = allan_variance(y, rate_hz=100.0, sensor="gyro", segments=0)
+    assert a.sensor == "gyro" and a.scaled(2.0).sensor == "gyro" and a.with_sensor("accel").sensor == "accel"
+    assert allan_variance(y, rate_hz=100.0, segments=0).sensor is None
+    with pytest.raises(InputError, match="sensor"):
+        allan_variance(y, rate_hz=100.0, sensor="magnetometer")

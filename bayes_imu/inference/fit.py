@@ -180,6 +180,12 @@ class FitResult:
         return self.chains.to_inference_data(self.parameter_names, self.allan, attrs)
 
     @property
+    def sensor(self):
+        """Sensor kind of the fitted samples (``"gyro"``, ``"accel"``), carried from :attr:`allan`; ``None``
+        when not known."""
+        return getattr(self.allan, "sensor", None)
+
+    @property
     def parameter_names(self):
         return self.model.parameter_names + (("model_discrepancy",) if self.widened else ())
 
@@ -253,12 +259,14 @@ class FitResult:
         if adequacy is not None:
             adequacy["widened"] = bool(self.widened)
             adequacy["stationarity"] = self.stationarity.to_dict() if self.stationarity is not None else None
-        from ..noise.datasheet import KIND_OF_UNIT, datasheet
+        from ..noise.datasheet import datasheet
+        from ..noise.quantities import si_sensor
 
+        kind = si_sensor(self.sensor, unit)
         return {
             "model": list(self.model.terms),
             "parameters": parameters,
-            "datasheet": datasheet(self, KIND_OF_UNIT[unit]) if unit in KIND_OF_UNIT else None,
+            "datasheet": datasheet(self, kind) if kind is not None else None,
             "adequacy": adequacy,
             "diagnostics": {k: (bool(v) if k == "converged" else int(v) if k in ("n_steps", "n_walkers") else float(v))
                             for k, v in self.diagnostics.items()},

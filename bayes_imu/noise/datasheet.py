@@ -15,14 +15,13 @@ use the white-equivalent short-term ``noise_density`` (what ADEV(1 s) reads).
 
 import numpy as np
 
-from ..io.readers import SI_UNITS
 from .model import REGISTRY
-from .quantities import G
+from .quantities import G, SENSORS
 
 __all__ = ["datasheet", "KIND_OF_UNIT", "G", "rows"]
 
-#: kind of sensor of an SI rate unit
-KIND_OF_UNIT = {unit: kind for kind, unit in SI_UNITS.items()}
+#: kind of sensor of an SI rate unit (:mod:`bayes_imu.noise.quantities` holds the sensor kinds)
+KIND_OF_UNIT = {s.si_unit: name for name, s in SENSORS.items()}
 
 
 def rows(kind):

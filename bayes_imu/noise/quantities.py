@@ -16,7 +16,8 @@ from ..errors import InputError, ModelError
 from ..io.readers import SI_UNITS, UNITS
 
 __all__ = ["Sensor", "Quantity", "SENSORS", "QUANTITIES", "G", "DEG", "UG", "sensor", "quantity",
-           "sensor_of_unit", "order_of"]
+           "sensor_of_unit", "sensor_of_si_unit", "si_sensor",
+           "order_of"]
 
 #: standard gravity [m/s^2]
 G = 9.80665
@@ -92,6 +93,30 @@ def quantity(name):
     if name not in QUANTITIES:
         raise InputError(f"quantity={name!r}: expected one of {', '.join(QUANTITIES)}")
     return QUANTITIES[name]
+
+
+def sensor_of_si_unit(unit):
+    """Sensor kind name of an SI rate unit (``"rad/s"`` -> ``"gyro"``, ``"m/s^2"`` -> ``"accel"``), else ``None``:
+    what a result fitted in ``unit`` is, when it does not carry its sensor kind."""
+    return next((name for name, s in SENSORS.items() if s.si_unit == unit), None)
+
+
+def si_sensor(sensor, unit):
+    """The sensor kind of a result in ``unit`` whose own kind is ``sensor`` (or ``None``), when ``unit`` is
+    that kind's SI unit (what datasheet units are converted from), else ``None``.
+
+    Raises
+    ------
+    InputError
+        When ``unit`` is the SI unit of another kind than ``sensor``.
+    """
+    kind = sensor_of_si_unit(unit)
+    if sensor is None or kind is None:
+        return kind
+    if kind != sensor:
+        raise InputError(f"unit {unit!r} is an {SENSORS[kind].long_name}'s, but the result is a "
+                         f"{SENSORS[sensor].long_name}'s ({SENSORS[sensor].si_unit})")
+    return kind
 
 
 def sensor_of_unit(unit):

@@ -34,11 +34,12 @@ import numpy as np
 
 from ..errors import InputError
 from ..io.readers import UNITS
+from ..noise.quantities import SENSORS
 
 __all__ = ["KalibrAxis", "KalibrValues", "kalibr_values", "kalibr_values_from_folders", "write_kalibr_yaml",
            "axis_densities", "fit_folders"]
 
-_KINDS = {"gyro": "gyroscope", "accel": "accelerometer"}
+_KINDS = {name: s.long_name for name, s in SENSORS.items()}
 
 
 @dataclass(frozen=True)
