@@ -62,7 +62,8 @@ def test_matches_brute_force_isserlis(terms, rtol):
     np.testing.assert_allclose(np.diag(got), np.diag(ref), rtol=max(rtol, 1e-10) * 5)
 
 
-@pytest.mark.parametrize("terms", [("white", "quantization", "gauss_markov", "random_walk"), ("bias_instability",)])
+@pytest.mark.parametrize("terms", [("white", "quantization", "gauss_markov", "random_walk"),
+                                   ("bias_instability",)])
 def test_exact_lag_sums_match_brute_force_isserlis(terms):
     """The path of a ``"generic"`` covariance tail (every lag summed from the table of D) is exact
     for every term, flicker included (the kernel's flicker tail is asymptotic): 1e-9."""

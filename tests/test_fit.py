@@ -199,8 +199,8 @@ def test_two_bias_real_posterior_converges_with_the_relabel_move(seed):
 def test_a_pool_seeks_the_widened_modes_ahead_and_changes_no_number():
     """fit_allan's pool: on a log that no candidate describes (white noise plus a 3 s sine: every candidate is
     scored again with the discrepancy term), each candidate's widened mode is sent to the pool as it is scored
-    (a thread pool, and the command's output process), and the fit is the same, bit for bit, as without one.
-    Two sines of 3 s and 0.25 s: one vibration line does not describe them either."""
+    (a thread pool, and the command's output process), and the fit is the same, bit for bit, as
+    without one. Two sines of 3 s and 0.25 s: one vibration line does not describe them either."""
     from concurrent.futures import ThreadPoolExecutor
 
     from bayes_imu.inference.fit import fit, warm_up

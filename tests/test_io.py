@@ -224,8 +224,9 @@ def test_fast_path_reads_the_shipped_and_real_logs_as_pandas_does():
             np.testing.assert_array_equal(one.view(np.int64), pandas[:, [2]].view(np.int64))
 
 
-#: fields the fast path takes (same value as pandas); fields it leaves to pandas, which reads them
-#: (quotes, an empty field, a decimal comma) or refuses them (underscores, hex, Fortran exponents, text)
+#: fields the fast path takes (same value as pandas); fields it leaves to pandas, which reads
+#: them (quotes, an empty field, a decimal comma) or refuses them (underscores, hex, Fortran
+#: exponents, text)
 _FAST_FIELDS = ["1.0 ", " 2.5", "+1", ".5", "5.", "1e5", "-0", "4.9e-325", "1E+400", "Infinity",
                 "0.1000000000000000055511151231257827"]
 _PANDAS_READS = ['"1.5"', "", "1,5"]
@@ -234,9 +235,10 @@ _REFUSED = ["1_000", "0x10", "1.0d0", "1.0abc"]
 
 @pytest.mark.parametrize("field", _FAST_FIELDS + _PANDAS_READS + _REFUSED)
 def test_fast_path_agrees_with_pandas_or_leaves_the_file_to_it(tmp_path, field):
-    """A field numpy reads has pandas' value; one it refuses (underscores, hex, quotes, an empty field, a
-    decimal comma, text) sends the whole file to pandas' path, so nothing is read differently than before;
-    each field's outcome is stated, so no case passes without an assertion."""
+    """A field numpy reads has pandas' value; one it refuses (underscores, hex, quotes, an empty
+    field, a decimal comma, text) sends the whole file to pandas' path, so nothing is read
+    differently than before; each field's outcome is stated, so no case passes without an
+    assertion."""
     from bayes_imu._progress import progress_bar
     from bayes_imu.io.readers import _parse_pandas, _parse_plain, sniff_file
 

@@ -32,10 +32,11 @@ def _sources():
 
 
 def _imports(source, parts):
-    """(target parts under bayes_imu, imported names, line) of every import of the package in ``source``
-    (a module at ``parts`` under bayes_imu), at any depth: relative imports, absolute ``import bayes_imu.x``
-    and ``from bayes_imu.x import y``, and ``importlib.import_module("bayes_imu.x")`` with a string literal
-    (also ``import_module(".x", package="bayes_imu.y")``)."""
+    """(target parts under bayes_imu, imported names, line) of every import of the package in
+    ``source`` (a module at ``parts`` under bayes_imu), at any depth: relative imports, absolute
+    ``import bayes_imu.x`` and ``from bayes_imu.x import y``, and
+    ``importlib.import_module("bayes_imu.x")`` with a string literal (also
+    ``import_module(".x", package="bayes_imu.y")``)."""
     tree = ast.parse(source)
     package = list(parts[:-1])
     for node in ast.walk(tree):
@@ -43,8 +44,9 @@ def _imports(source, parts):
             base = package[: len(package) - (node.level - 1)]
             target = base + (node.module.split(".") if node.module else [])
             yield from _targets(target, [a.name for a in node.names], node.lineno)
-        elif isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] == "bayes_imu":
-            yield from _targets(node.module.split(".")[1:], [a.name for a in node.names], node.lineno)
+        elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "bayes_imu":
+            names = [a.name for a in node.names]
+            yield from _targets(node.module.split(".")[1:], names, node.lineno)
         elif isinstance(node, ast.Import):
             for alias in node.names:
                 dotted = alias.name.split(".")
@@ -62,7 +64,8 @@ def _imports(source, parts):
                     continue
                 level = len(name.value) - len(name.value.lstrip("."))
                 base = anchor.value.split(".")
-                dotted = base[: len(base) - (level - 1)] + [p for p in name.value[level:].split(".") if p]
+                rest = [p for p in name.value[level:].split(".") if p]
+                dotted = base[: len(base) - (level - 1)] + rest
             else:
                 dotted = name.value.split(".")
             if dotted[0] == "bayes_imu" and len(dotted) > 1:
@@ -133,7 +136,8 @@ def test_no_private_names_across_stages():
 
 def test_the_check_sees_a_backward_import(tmp_path):
     """The AST walk resolves a relative import two levels up to its stage (the test can fail)."""
-    found = list(_imports("from ..report.plots import pyplot\nfrom .._lazy import LazyModule\n", ("allan", "fake")))
+    source = "from ..report.plots import pyplot\nfrom .._lazy import LazyModule\n"
+    found = list(_imports(source, ("allan", "fake")))
     assert found[0][0] == ["report", "plots"] and STAGE[found[0][0][0]] > STAGE["allan"]
     assert found[1][0] == ["_lazy"] and STAGE["_lazy"] == 0
 
@@ -147,7 +151,8 @@ PLANTED = [
     ("from bayes_imu import cli\n", backward_imports),
     ("import importlib\nimportlib.import_module('bayes_imu.report.plots')\n", backward_imports),
     ("from importlib import import_module\nimport_module('bayes_imu.cli')\n", backward_imports),
-    ("import importlib\nimportlib.import_module('.report', package='bayes_imu')\n", backward_imports),
+    ("import importlib\nimportlib.import_module('.report', package='bayes_imu')\n",
+     backward_imports),
     ("def f():\n    from bayes_imu.inference.fit import fit_allan\n", backward_imports),
     ("from bayes_imu.io.readers import _parse_plain\n", private_imports),
     ("from bayes_imu.allan import _sources\n", private_imports),
@@ -155,24 +160,27 @@ PLANTED = [
 ]
 
 
-@pytest.mark.parametrize("source, checker", PLANTED, ids=[p[0].splitlines()[-1].strip() for p in PLANTED])
+@pytest.mark.parametrize("source, checker", PLANTED,
+                         ids=[p[0].splitlines()[-1].strip() for p in PLANTED])
 def test_planted_violation_fails_the_rule(source, checker):
-    """The rule checkers themselves (not only the parser) flag each planted import in a library module,
-    and pass the same module without it."""
+    """The rule checkers themselves (not only the parser) flag each planted import in a library
+    module, and pass the same module without it."""
     planted = [("bayes_imu/noise/fake.py", "noise", ("noise", "fake"), source)]
     assert checker(planted), source
-    clean = [("bayes_imu/noise/fake.py", "noise", ("noise", "fake"), "from ..allan import estimator\nimport numpy\n")]
+    clean_source = "from ..allan import estimator\nimport numpy\n"
+    clean = [("bayes_imu/noise/fake.py", "noise", ("noise", "fake"), clean_source)]
     assert not checker(clean)
 
 
 def test_a_planted_module_in_a_copy_of_the_package_fails_the_layering_test(tmp_path):
-    """The whole check over a copy of the package, with one absolute import of the command line added
-    to a library module: the same functions the layering test runs report it."""
+    """The whole check over a copy of the package, with one absolute import of the command line
+    added to a library module: the same functions the layering test runs report it."""
     import shutil
 
     copy = tmp_path / "bayes_imu"
     shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("*.so", "__pycache__"))
-    (copy / "drift" / "planted.py").write_text('"""Planted."""\n\nfrom bayes_imu.cli.main import main\n')
+    planted = '"""Planted."""\n\nfrom bayes_imu.cli.main import main\n'
+    (copy / "drift" / "planted.py").write_text(planted)
     parts = {p: p.relative_to(copy).with_suffix("").parts for p in sorted(copy.rglob("*.py"))}
     sources = [(str(p), part[0], part, p.read_text()) for p, part in parts.items()]
     found = backward_imports(sources)

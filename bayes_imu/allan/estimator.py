@@ -22,7 +22,8 @@ from .._progress import progress_bar
 from ..errors import InputError
 from ..io.readers import SI_UNITS, positive_number
 
-__all__ = ["AllanResult", "SegmentAllan", "allan_variance", "check_sensor", "cluster_sizes", "greenhall_edf", "identify_noise",
+__all__ = ["AllanResult", "SegmentAllan", "allan_variance", "check_sensor",
+           "cluster_sizes", "greenhall_edf", "identify_noise",
            "segment_allan", "DEFAULT_SEGMENTS"]
 
 #: consecutive equal segments whose Allan variances the stationarity check compares
@@ -178,7 +179,8 @@ def cluster_sizes(m, n_samples):
 
 
 def check_sensor(sensor):
-    """``sensor`` if it is ``None`` or a sensor kind of :data:`bayes_imu.io.readers.SI_UNITS`, else InputError."""
+    """``sensor`` if it is ``None`` or a sensor kind of :data:`bayes_imu.io.readers.SI_UNITS`,
+    else :class:`InputError`."""
     if sensor is not None and sensor not in SI_UNITS:
         raise InputError(f"sensor={sensor!r}: expected one of {', '.join(SI_UNITS)} or None")
     return sensor

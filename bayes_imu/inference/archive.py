@@ -94,8 +94,8 @@ def load_fit(path):
     seg = meta.get("segments")
     segments = None if seg is None else SegmentAllan(data["segments_m"], data["segments_avar"], seg["n_samples"])
     allan = AllanResult(**{k: data[f"allan_{k}"] for k in _ALLAN_ARRAYS}, confidence=meta["allan"]["confidence"],
-                        rate_hz=meta["allan"]["rate_hz"], n_samples=meta["allan"]["n_samples"], segments=segments,
-                        sensor=meta["allan"].get("sensor"))
+                        rate_hz=meta["allan"]["rate_hz"], n_samples=meta["allan"]["n_samples"],
+                        segments=segments, sensor=meta["allan"].get("sensor"))
     st = meta.get("stationarity")
     steady = None if st is None else Stationarity(st["stationary"], st["p_value"], st["worst_tau_s"],
                                                   data["stationarity_tau"], data["stationarity_adev"],

@@ -181,8 +181,8 @@ class FitResult:
 
     @property
     def sensor(self):
-        """Sensor kind of the fitted samples (``"gyro"``, ``"accel"``), carried from :attr:`allan`; ``None``
-        when not known."""
+        """Sensor kind of the fitted samples (``"gyro"``, ``"accel"``), carried from :attr:`allan`;
+        ``None`` when not known."""
         return getattr(self.allan, "sensor", None)
 
     @property
@@ -664,7 +664,7 @@ def _starts(model, allan, reference):
     tau, avar = allan.tau, allan.avar
     dt = 1.0 / allan.rate_hz
     guess = {}
-    for term in model.components:  # each term's own guess (:meth:`bayes_imu.noise.Term.starting_guess`)
+    for term in model.components:  # each term's own (:meth:`bayes_imu.noise.Term.starting_guess`)
         guess.update(term.starting_guess(tau, avar, allan.m, dt))
     bounds = default_bounds(model, allan)
     out = []

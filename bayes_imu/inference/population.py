@@ -177,6 +177,8 @@ class PopulationResult:
         from ..noise.datasheet import datasheet
         from ..noise.quantities import sensor_of_si_unit
 
+        kind = sensor_of_si_unit(unit)
+
         def stats(draws, name):
             return {"median": float(np.median(draws)), "q05": float(np.quantile(draws, 0.05)),
                     "q95": float(np.quantile(draws, 0.95)), "unit": PARAMETER_UNITS.get(name, "1").format(u=unit)}
@@ -200,7 +202,7 @@ class PopulationResult:
             "model": list(self.model.terms),
             "what": "posterior predictive for a new unit of this sensor model (unit-to-unit spread included)",
             "new_unit": block(self.new_unit),
-            "new_unit_datasheet": datasheet(self.new_unit, kind) if (kind := sensor_of_si_unit(unit)) else None,
+            "new_unit_datasheet": datasheet(self.new_unit, kind) if kind else None,
             "population": population,
             "units": units,
             "structures": [{"model": list(s.terms), "log_evidence": s.log_evidence, "log_evidence_se": s.log_evidence_se,

@@ -21,10 +21,11 @@ term                  parameters (units, rate in ``u``)            role
 ====================  ===========================================  =============
 """
 
-from ._base import (BIAS_STARTS, KALIBR_ROLES, ORDERS, ROLES, SELECTION_ROLES, TAIL_KINDS, CovarianceTail,
-                    PriorScale, Term, calibrated_contrast, check_order)
+from ._base import (BIAS_STARTS, KALIBR_ROLES, ORDERS, ROLES, SELECTION_ROLES, TAIL_KINDS,
+                    CovarianceTail, PriorScale, Term, calibrated_contrast, check_order)
 from .model import PARAMETER_UNITS, REGISTRY, TERM_PARAMETERS, TERMS, NoiseModel, check_declarations
 
-__all__ = ["Term", "PriorScale", "CovarianceTail", "NoiseModel", "REGISTRY", "TERMS", "TERM_PARAMETERS",
-           "PARAMETER_UNITS", "BIAS_STARTS", "ROLES", "ORDERS", "TAIL_KINDS", "SELECTION_ROLES", "KALIBR_ROLES",
-           "calibrated_contrast", "check_order", "check_declarations"]
+__all__ = ["Term", "PriorScale", "CovarianceTail", "NoiseModel", "REGISTRY", "TERMS",
+           "TERM_PARAMETERS", "PARAMETER_UNITS", "BIAS_STARTS", "ROLES", "ORDERS", "TAIL_KINDS",
+           "SELECTION_ROLES", "KALIBR_ROLES", "calibrated_contrast", "check_order",
+           "check_declarations"]

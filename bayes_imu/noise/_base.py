@@ -49,8 +49,8 @@ import numpy as np
 
 from ..errors import InputError, ModelError
 
-__all__ = ["Term", "PriorScale", "CovarianceTail", "calibrated_contrast", "check_order", "BIAS_STARTS", "ROLES",
-           "ORDERS", "TAIL_KINDS", "SELECTION_ROLES", "KALIBR_ROLES"]
+__all__ = ["Term", "PriorScale", "CovarianceTail", "calibrated_contrast", "check_order",
+           "BIAS_STARTS", "ROLES", "ORDERS", "TAIL_KINDS", "SELECTION_ROLES", "KALIBR_ROLES"]
 
 #: drift semantics (see the module docstring)
 BIAS_STARTS = ("zero", "stationary", "calibrated")
@@ -72,10 +72,10 @@ KALIBR_ROLES = ("noise_density", "random_walk", "none")
 
 
 def check_order(order):
-    """``order`` if it is a supported integration order (:data:`ORDERS`), else :class:`ModelError`."""
+    """``order`` if it is a supported integration order (:data:`ORDERS`), else ModelError."""
     if isinstance(order, bool) or order not in ORDERS:
-        raise ModelError(f"integration order {order!r}: expected one of {ORDERS} (1: attitude/velocity, "
-                         "2: position)")
+        raise ModelError(f"integration order {order!r}: expected one of {ORDERS} "
+                         "(1: attitude/velocity, 2: position)")
     return int(order)
 
 
@@ -210,6 +210,8 @@ class Term:
         Terms a model must have to have this one (``gauss_markov_2`` needs ``gauss_markov``).
     kalibr : str
         One of :data:`KALIBR_ROLES`.
+    short_label : str
+        What figures call it (its :attr:`label` when empty).
     """
 
     name: str
@@ -220,6 +222,7 @@ class Term:
     selection: tuple = ()
     requires: tuple = ()
     kalibr: str = ""
+    short_label: str = ""
 
     #: kind of :meth:`covariance_tail` (one of :data:`TAIL_KINDS`); a term whose tail carries
     #: parameters (Gauss-Markov, flicker) overrides :meth:`covariance_tail` as well
@@ -263,14 +266,15 @@ class Term:
         """Squared bias random-walk density [u^2/s] per draw, for a term whose :attr:`kalibr` is
         ``"random_walk"``; ``draws``: parameter name -> ``(n_draws,)``, ``tau_max`` [s] the
         longest averaging time of the log."""
-        raise NotImplementedError(f"term {self.name!r} has no Kalibr random walk")  # pragma: no cover
+        raise NotImplementedError(  # pragma: no cover
+            f"term {self.name!r} has no Kalibr random walk")
 
     def covariance_tail(self, params, dt):
         """:class:`CovarianceTail` of this term at one parameter point (scalars)."""
         if self.tail_kind in ("none", "generic"):
             return CovarianceTail(self.tail_kind)
-        raise ModelError(f"term {self.name!r} declares no supported covariance tail (tail_kind={self.tail_kind!r},"
-                         f" expected one of {TAIL_KINDS})")
+        raise ModelError(f"term {self.name!r} declares no supported covariance tail "
+                         f"(tail_kind={self.tail_kind!r}, expected one of {TAIL_KINDS})")
 
     def drift_variance(self, order, k, params, dt, *, bias_start="zero", n_cal=None):
         """Mean-square drift ``(..., n_t)`` [u^2 s^(2 order)] for parameters ``(...)`` and steps ``k`` ``(n_t,)``.
@@ -294,7 +298,8 @@ class Term:
         if bias_start not in BIAS_STARTS:
             raise InputError(f"bias_start={bias_start!r}: expected one of {', '.join(BIAS_STARTS)}")
         if bias_start == "calibrated" and n_cal is None:
-            raise InputError("bias_start='calibrated' needs n_cal, the calibration window in samples")
+            raise InputError("bias_start='calibrated' needs n_cal, the calibration window in "
+                             "samples")
         return self._drift_variance(order, k, params, dt, bias_start, n_cal)
 
     def _drift_variance(self, order, k, params, dt, bias_start, n_cal):
@@ -313,6 +318,11 @@ class Term:
         unit = {p: 1.0 for p in self.parameters}
         return dt ** (2 * order) * calibrated_contrast(lambda lag: self.structure(lag, unit, dt) / self.amplitude2(unit),
                                                        order, k, n_cal)
+
+    @property
+    def plot_label(self):
+        """What figures call it: :attr:`short_label`, else :attr:`label`."""
+        return self.short_label or self.label
 
     def parameter_units(self, unit):
         return {p: self.units[p].format(u=unit) for p in self.parameters}

@@ -20,11 +20,11 @@ The sum runs exactly over every lag where the two second-difference windows over
 ``"flicker"``, which the compiled kernel sums, or ``"generic"``, for which every lag is summed
 exactly from a table of ``D`` as long as the record (slower, :func:`exact_pair_sums`). A kind
 outside that list, or a term that declares none, raises :class:`~bayes_imu.errors.ModelError`:
-a correlation is never dropped in silence. In the kernel's tails: the Gauss-Markov part is exactly geometric there (closed form per lag, no
-cancellation); the flicker part uses its asymptotic ``-h a^2 b^2 / l_c^2`` (``l_c`` the
-distance between window centres; neglected terms ``O((b/l_c)^2)`` of a tail below 1% of
-the total). Both tails are smooth, so they are summed by the midpoint rule with steps of
-at most ``l_c/64`` and ``0.1 T/dt`` (relative error ~1e-4), which keeps a full covariance
+a correlation is never dropped in silence. In the kernel's tails: the Gauss-Markov part is exactly
+geometric there (closed form per lag, no cancellation); the flicker part uses its asymptotic ``-h
+a^2 b^2 / l_c^2`` (``l_c`` the distance between window centres; neglected terms ``O((b/l_c)^2)`` of
+a tail below 1% of the total). Both tails are smooth, so they are summed by the midpoint rule with
+steps of at most ``l_c/64`` and ``0.1 T/dt`` (relative error ~1e-4), which keeps a full covariance
 of an octave grid on 1e6 samples at ~0.1 s.
 """
 
@@ -62,7 +62,8 @@ def avar_covariance(model, params, m, n_samples):
     n = int(n_samples)
     tails = model_tails(model, params)
     if any(tail.kind == "generic" for tail in tails):
-        table = np.asarray(model.structure_function(np.arange(n + 4 * ms.max() + 1), params), dtype=float)
+        lags = np.arange(n + 4 * ms.max() + 1)
+        table = np.asarray(model.structure_function(lags, params), dtype=float)
         sums = exact_pair_sums(table, ms, n)
     else:
         kmax = int(4 * ms.max() + 2)
@@ -88,10 +89,12 @@ def model_tails(model, params):
         tail = term.covariance_tail(params, model.dt)
         kind = getattr(tail, "kind", None)
         if kind not in TAIL_KINDS:
-            raise ModelError(f"term {term.name!r}: covariance tail kind {kind!r} is not one the AVAR covariance "
-                             f"serves ({', '.join(TAIL_KINDS)})")
-        if (tail.gauss_markov and kind != "gauss_markov") or (tail.flicker != 0.0 and kind != "flicker"):
-            raise ModelError(f"term {term.name!r}: covariance tail of kind {kind!r} carries parts of another kind")
+            raise ModelError(f"term {term.name!r}: covariance tail kind {kind!r} is not one the "
+                             f"AVAR covariance serves ({', '.join(TAIL_KINDS)})")
+        stray_gm = tail.gauss_markov and kind != "gauss_markov"
+        if stray_gm or (tail.flicker != 0.0 and kind != "flicker"):
+            raise ModelError(f"term {term.name!r}: covariance tail of kind {kind!r} carries parts "
+                             "of another kind")
         tails.append(tail)
     return tails
 

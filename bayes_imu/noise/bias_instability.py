@@ -59,7 +59,8 @@ class _BiasInstability(Term):
     def datasheet_rows(self, sensor):
         what = "flicker coefficient B (ADEV floor 0.664 B)"
         if sensor == "gyro":
-            return {"bias_instability": ("bias_instability", lambda v: v * DEG * 3600.0, "deg/h", what)}
+            return {"bias_instability": ("bias_instability", lambda v: v * DEG * 3600.0, "deg/h",
+                                         what)}
         return {"bias_instability": ("bias_instability", lambda v: v * UG, "ug", what)}
 
     def kalibr_random_walk2(self, draws, tau_max):
@@ -92,4 +93,5 @@ class _BiasInstability(Term):
 
 
 BIAS_INSTABILITY = _BiasInstability("bias_instability", ("bias_instability",), {"bias_instability": "{u}"},
-                                    "bias instability", "bias", selection=("optional",), kalibr="random_walk")
+                                    "bias instability", "bias", selection=("optional",),
+                                    kalibr="random_walk", short_label="bias instability")

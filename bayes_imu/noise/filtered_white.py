@@ -60,5 +60,6 @@ class _FilteredWhite(Term):
 
 
 FILTERED_WHITE = _FilteredWhite("filtered_white", ("filtered_variance",), {"filtered_variance": "({u})^2"},
-                                "filtered (moving-average) white noise", "short_term", selection=("extension",),
-                                kalibr="noise_density")
+                                "filtered (moving-average) white noise", "short_term",
+                                selection=("extension",), kalibr="noise_density",
+                                short_label="filtered white noise")

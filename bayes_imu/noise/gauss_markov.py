@@ -164,8 +164,8 @@ class _GaussMarkov(Term):
         return gm_structure(k, params[self.variance_name], dt / params[self.time_constant_name])
 
     def covariance_tail(self, params, dt):
-        return CovarianceTail("gauss_markov", gauss_markov=((float(params[self.variance_name]),
-                                                             dt / float(params[self.time_constant_name])),))
+        part = (float(params[self.variance_name]), dt / float(params[self.time_constant_name]))
+        return CovarianceTail("gauss_markov", gauss_markov=(part,))
 
     def starting_guess(self, tau, avar, m, dt):
         if self.start == "fast":
@@ -179,7 +179,8 @@ class _GaussMarkov(Term):
     def datasheet_rows(self, sensor):
         prefix, what, when = self.sheet
         if sensor == "gyro":
-            sigma = (self.variance_name, lambda v: np.sqrt(v) * DEG * 3600.0, "deg/h", f"{what}, 1-sigma")
+            sigma = (self.variance_name, lambda v: np.sqrt(v) * DEG * 3600.0, "deg/h",
+                     f"{what}, 1-sigma")
         else:
             sigma = (self.variance_name, lambda v: np.sqrt(v) * UG, "ug", f"{what}, 1-sigma")
         return {f"{prefix}_sigma": sigma,
@@ -230,14 +231,19 @@ class _GaussMarkov(Term):
 
 HF_CORRELATED = _GaussMarkov("hf_correlated", ("correlated_variance", "correlated_time_constant"),
                              {"correlated_variance": "({u})^2", "correlated_time_constant": "s"},
-                             "high-frequency correlated noise (bandwidth)", "short_term", selection=("extension",),
-                             kalibr="noise_density", start="fast",
-                             sheet=("fast_correlated", "fast correlated noise (sensor bandwidth)", "its correlation time"))
+                             "high-frequency correlated noise (bandwidth)", "short_term",
+                             selection=("extension",), kalibr="noise_density", start="fast",
+                             sheet=("fast_correlated", "fast correlated noise (sensor bandwidth)",
+                                    "its correlation time"),
+                             short_label="fast correlated noise")
 GAUSS_MARKOV = _GaussMarkov("gauss_markov", ("bias_variance", "time_constant"),
                             {"bias_variance": "({u})^2", "time_constant": "s"}, "correlated (Gauss-Markov) bias",
-                            "bias", selection=("optional", "extension"), kalibr="random_walk")
+                            "bias", selection=("optional", "extension"), kalibr="random_walk",
+                            short_label="Gauss-Markov bias")
 GAUSS_MARKOV_2 = _GaussMarkov("gauss_markov_2", ("bias_variance_2", "time_constant_2"),
                               {"bias_variance_2": "({u})^2", "time_constant_2": "s"},
                               "second, slower Gauss-Markov bias", "bias", selection=("extension",),
                               requires=("gauss_markov",), kalibr="random_walk", start="slow",
-                              sheet=("gauss_markov_2", "second (slower) Gauss-Markov bias", "its correlation time"))
+                              sheet=("gauss_markov_2", "second (slower) Gauss-Markov bias",
+                                     "its correlation time"),
+                              short_label="second Gauss-Markov bias")

@@ -15,7 +15,8 @@ from .random_walk import RANDOM_WALK
 from .vibration import VIBRATION
 from .white import WHITE
 
-__all__ = ["REGISTRY", "check_declarations", "TERMS", "TERM_PARAMETERS", "PARAMETER_UNITS", "NoiseModel", "m_array"]
+__all__ = ["REGISTRY", "check_declarations", "TERMS", "TERM_PARAMETERS", "PARAMETER_UNITS",
+           "NoiseModel", "m_array"]
 
 
 
@@ -55,8 +56,8 @@ def check_declarations(term, *, known=None):
 
 
 #: every term, in canonical order (Gauss-Markov kinds from fastest to slowest)
-REGISTRY = _registered(WHITE, QUANTIZATION, FILTERED_WHITE, HF_CORRELATED, BIAS_INSTABILITY, GAUSS_MARKOV,
-                       GAUSS_MARKOV_2, RANDOM_WALK, RAMP, VIBRATION)
+REGISTRY = _registered(WHITE, QUANTIZATION, FILTERED_WHITE, HF_CORRELATED, BIAS_INSTABILITY,
+                       GAUSS_MARKOV, GAUSS_MARKOV_2, RANDOM_WALK, RAMP, VIBRATION)
 TERMS = tuple(REGISTRY)
 TERM_PARAMETERS = {name: t.parameters for name, t in REGISTRY.items()}
 #: unit of each parameter, given the unit ``u`` of the rate samples
@@ -97,7 +98,8 @@ class NoiseModel:
         for name in self.terms:
             missing = [t for t in REGISTRY[name].requires if t not in self.terms]
             if missing:
-                raise InputError(f"model terms: {name} ({REGISTRY[name].label}) needs {', '.join(missing)}")
+                raise InputError(f"model terms: {name} ({REGISTRY[name].label}) needs "
+                                 f"{', '.join(missing)}")
         object.__setattr__(self, "terms", tuple(t for t in TERMS if t in self.terms))
 
     @property

@@ -37,7 +37,8 @@ class _Quantization(Term):
 
     def datasheet_rows(self, sensor):
         if sensor == "gyro":
-            return {"quantization": ("quantization", lambda v: v * DEG * 3600.0, "arcsec", "angle quantization")}
+            return {"quantization": ("quantization", lambda v: v * DEG * 3600.0, "arcsec",
+                                     "angle quantization")}
         return {"quantization": ("quantization", lambda v: v, "m/s", "velocity quantization")}
 
     def amplitude2(self, params):
@@ -50,4 +51,5 @@ class _Quantization(Term):
 
 
 QUANTIZATION = _Quantization("quantization", ("quantization",), {"quantization": "{u} s"}, "quantization noise",
-                             "short_term", selection=("optional",), kalibr="none")
+                             "short_term", selection=("optional",), kalibr="none",
+                             short_label="quantization")

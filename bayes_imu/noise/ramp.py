@@ -39,7 +39,8 @@ class _Ramp(Term):
 
     def datasheet_rows(self, sensor):
         if sensor == "gyro":
-            return {"rate_ramp": ("rate_ramp", lambda v: v * DEG * 3600.0**2, "deg/h^2", "rate ramp")}
+            return {"rate_ramp": ("rate_ramp", lambda v: v * DEG * 3600.0**2, "deg/h^2",
+                                  "rate ramp")}
         return {"rate_ramp": ("rate_ramp", lambda v: v * UG * 3600.0, "ug/h", "acceleration ramp")}
 
     def amplitude2(self, params):
@@ -54,5 +55,5 @@ class _Ramp(Term):
         return (dt ** (order + 1) * err) ** 2
 
 
-RAMP = _Ramp("ramp", ("rate_ramp",), {"rate_ramp": "{u}/s"}, "rate ramp", "slow", selection=("extension",),
-             kalibr="none")
+RAMP = _Ramp("ramp", ("rate_ramp",), {"rate_ramp": "{u}/s"}, "rate ramp", "slow",
+             selection=("extension",), kalibr="none", short_label="rate ramp")

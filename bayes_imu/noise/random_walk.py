@@ -18,7 +18,8 @@ __all__ = ["RANDOM_WALK"]
 
 class _RandomWalk(Term):
     tail_kind = "none"
-    simulated_start = None  # a simulated walk holds one increment at its first sample, a zero start none
+    # a simulated walk holds one increment at its first sample, a walk from a zero start none
+    simulated_start = None
 
     def avar(self, mf, params, dt):
         q = np.asarray(params["rate_random_walk"], float)[..., None] ** 2 * dt
@@ -39,9 +40,10 @@ class _RandomWalk(Term):
 
     def datasheet_rows(self, sensor):
         if sensor == "gyro":
-            return {"rate_random_walk": ("rate_random_walk", lambda v: v * DEG * 3600.0**1.5, "deg/h/sqrt(h)", "RRW")}
-        return {"acceleration_random_walk": ("rate_random_walk", lambda v: v * 3600.0**1.5, "m/s/h/sqrt(h)",
-                                             "AcRW")}
+            return {"rate_random_walk": ("rate_random_walk", lambda v: v * DEG * 3600.0**1.5,
+                                         "deg/h/sqrt(h)", "RRW")}
+        return {"acceleration_random_walk": ("rate_random_walk", lambda v: v * 3600.0**1.5,
+                                             "m/s/h/sqrt(h)", "AcRW")}
 
     def kalibr_random_walk2(self, draws, tau_max):
         return draws["rate_random_walk"] ** 2
@@ -56,4 +58,5 @@ class _RandomWalk(Term):
 
 
 RANDOM_WALK = _RandomWalk("random_walk", ("rate_random_walk",), {"rate_random_walk": "{u}/sqrt(s)"},
-                          "rate random walk", "slow", selection=("optional",), kalibr="random_walk")
+                          "rate random walk", "slow", selection=("optional",), kalibr="random_walk",
+                          short_label="rate random walk")

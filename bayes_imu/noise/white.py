@@ -51,5 +51,6 @@ class _White(Term):
         return dt ** (2 * order) * np.where(k > 0, shape, 0.0)
 
 
-WHITE = _White("white", ("noise_variance",), {"noise_variance": "({u})^2"}, "angle/velocity random walk", "short_term",
-               selection=("base",), kalibr="noise_density")
+WHITE = _White("white", ("noise_variance",), {"noise_variance": "({u})^2"},
+               "angle/velocity random walk", "short_term", selection=("base",),
+               kalibr="noise_density", short_label="white noise")

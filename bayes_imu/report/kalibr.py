@@ -84,7 +84,8 @@ def axis_densities(fit, factor=1.0):
     density = np.sqrt(model.short_term_variance(draws) * dt) * factor
     rw2 = np.zeros_like(density)
     allan = getattr(fit, "allan", None)  # the longest averaging time of the log, where it is known
-    tau_max = 2.0 ** math.floor(math.log2(allan.n_samples / 4.0)) * dt if allan is not None else math.nan
+    octave = None if allan is None else 2.0 ** math.floor(math.log2(allan.n_samples / 4.0))
+    tau_max = math.nan if octave is None else octave * dt
     for term in model.components:  # each term's Kalibr role (:attr:`bayes_imu.noise.Term.kalibr`)
         if term.kalibr == "random_walk":
             rw2 += term.kalibr_random_walk2(draws, tau_max)
