@@ -4,7 +4,10 @@ Stage ``noise`` of the data flow ``io -> allan -> noise -> inference -> drift ->
 It owns, for every term, its exact sampled-data Allan variance, its phase structure function
 (the AVAR-covariance structure), its simulator, its drift contribution and its prior box;
 :class:`NoiseModel` sums terms. Adding a term is one module here and its entry in
-:data:`~bayes_imu.noise.model.REGISTRY`.
+:data:`~bayes_imu.noise.model.REGISTRY`; the registry checks its declarations
+(:func:`~bayes_imu.noise.model.check_declarations`) and ``tests/test_term_contract.py`` runs it
+through the contract every term meets. Sensor kinds and drift quantities live in
+:mod:`bayes_imu.noise.quantities`.
 
 ====================  ===========================================  =============
 term                  parameters (units, rate in ``u``)            role
@@ -18,6 +21,7 @@ term                  parameters (units, rate in ``u``)            role
 ``gauss_markov_2``    ``bias_variance_2`` [u^2], ``time_constant_2`` [s]  bias
 ``random_walk``       ``rate_random_walk`` K [u/sqrt(s)]           slow
 ``ramp``              ``rate_ramp`` R [u/s]                        slow
+``vibration``         ``vibration_frequency`` [Hz], ``..._amplitude`` [u]  short term
 ====================  ===========================================  =============
 """
 

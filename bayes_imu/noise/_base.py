@@ -60,9 +60,11 @@ ROLES = ("short_term", "bias", "slow")
 #: integration orders of the drift: 1 (attitude, velocity), 2 (position)
 ORDERS = (1, 2)
 #: how a term correlates second differences beyond the overlap window of two AVAR estimates:
-#: not at all, geometrically (Gauss-Markov parts), as flicker (``~ lag^-2``), or in a way only
-#: the exact sum over every lag serves (:func:`bayes_imu.noise.avar_covariance.avar_covariance`)
-TAIL_KINDS = ("none", "gauss_markov", "flicker", "generic")
+#: not at all, geometrically (Gauss-Markov parts), as flicker (``~ lag^-2``), in a way only the
+#: exact sum over every lag serves (a Gaussian process), or as a signal of fixed amplitude and
+#: random phase (``"deterministic"``: only its cross terms with the noise spread the estimates,
+#: summed over every lag; :func:`bayes_imu.noise.avar_covariance.avar_covariance`)
+TAIL_KINDS = ("none", "gauss_markov", "flicker", "generic", "deterministic")
 #: roles in the automatic model search (:mod:`bayes_imu.inference.selection`): always in the
 #: model, in the exhaustive first round, or added by the stepwise search
 SELECTION_ROLES = ("base", "optional", "extension")
@@ -271,7 +273,7 @@ class Term:
 
     def covariance_tail(self, params, dt):
         """:class:`CovarianceTail` of this term at one parameter point (scalars)."""
-        if self.tail_kind in ("none", "generic"):
+        if self.tail_kind in ("none", "generic", "deterministic"):
             return CovarianceTail(self.tail_kind)
         raise ModelError(f"term {self.name!r} declares no supported covariance tail "
                          f"(tail_kind={self.tail_kind!r}, expected one of {TAIL_KINDS})")

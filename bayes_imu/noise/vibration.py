@@ -30,10 +30,13 @@ sampled data:
   C(x)) / (1 - C(x))`` and the calibrated ``Im = n (n+1) x [S(2Nx) S(x) - S(nx) S((n+1)x)] / S(x)``
   with ``S = 1 - C`` expanded so that only differences of the small ``C`` remain.
 
-Covariance of the AVAR estimates: the line's correlation never decays, so its tail is of the
-``"generic"`` kind (every lag summed exactly, :func:`bayes_imu.noise.avar_covariance.exact_pair_sums`),
-under the Gaussian fourth moments the covariance code assumes (a line of Rayleigh amplitude;
-a line of fixed amplitude scatters its estimates less).
+Covariance of the AVAR estimates: the line's correlation never decays, and its amplitude is
+fixed, so its tail is of the ``"deterministic"`` kind: the estimates spread through the line's
+cross terms with the noise, summed over every lag of the record, and not through the line's own
+fourth moments (:func:`bayes_imu.noise.avar_covariance.exact_pair_sums`). Treated as a Gaussian
+process of the same covariance (a line of Rayleigh amplitude, kind ``"generic"``) its estimates
+would have about two degrees of freedom where it dominates, and a fit would not pin the line
+(a real ADIS16405 gyro z log: the sampler wandered over the whole frequency box).
 """
 
 from math import factorial
@@ -71,7 +74,7 @@ def _half_phase(params, dt):
 
 
 class _Vibration(Term):
-    tail_kind = "generic"
+    tail_kind = "deterministic"
     simulated_start = "stationary"
 
     def avar(self, mf, params, dt):
