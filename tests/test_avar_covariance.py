@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from bayes_imu.allan.estimator import greenhall_edf
-from bayes_imu.noise.avar_covariance import avar_covariance, equivalent_dof
+from bayes_imu.noise.avar_covariance import avar_covariance, equivalent_dof, exact_pair_sums
 from bayes_imu.noise.avar_forms import NoiseModel
 from bayes_imu.noise.simulate import flicker_difference_acov
 from test_models import PARAMS
@@ -60,6 +60,22 @@ def test_matches_brute_force_isserlis(terms, rtol):
     got = avar_covariance(model, params, MS, N)
     assert np.max(np.abs(got - ref)) <= rtol * np.max(np.abs(ref))
     np.testing.assert_allclose(np.diag(got), np.diag(ref), rtol=max(rtol, 1e-10) * 5)
+
+
+@pytest.mark.parametrize("terms", [("white", "quantization", "gauss_markov", "random_walk"),
+                                   ("bias_instability",)])
+def test_exact_lag_sums_match_brute_force_isserlis(terms):
+    """The path of a ``"generic"`` covariance tail (every lag summed from the table of D) is exact
+    for every term, flicker included (the kernel's flicker tail is asymptotic): 1e-9."""
+    params = {k: v for t in terms for k, v in PARAMS[t].items()}
+    params["time_constant"] = 3.0
+    model = NoiseModel(terms, DT)
+    ref = brute_force(sum(rate_covariance(t, params) for t in terms))
+    table = model.structure_function(np.arange(N + 4 * MS.max() + 1), params)
+    mf = MS.astype(float)
+    norm = 2.0 * np.outer(mf * mf * (N - 2 * mf + 1), mf * mf * (N - 2 * mf + 1))
+    got = exact_pair_sums(np.asarray(table, float), MS, N) / norm
+    np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-12 * np.abs(ref).max())
 
 
 def test_gauss_markov_near_random_walk_limit_stays_accurate():

@@ -3,8 +3,10 @@
 import mpmath as mp
 import numpy as np
 import pytest
+from test_term_contract import params_of
 
 from bayes_imu.errors import InputError
+from bayes_imu.noise import REGISTRY
 from bayes_imu.noise.avar_forms import TERMS, NoiseModel, gauss_markov_avar, random_walk_avar, structure_function
 
 PARAMS = {
@@ -16,8 +18,6 @@ PARAMS = {
     "hf_correlated": {"correlated_variance": 3.0, "correlated_time_constant": 0.7},
     "filtered_white": {"filtered_variance": 0.4},
 }
-#: stochastic terms that stand alone (the ramp is deterministic; gauss_markov_2 needs gauss_markov)
-SINGLE = tuple(PARAMS)
 
 
 def gm_avar_mpmath(m, x):
@@ -63,13 +63,20 @@ def test_gauss_markov_tends_to_random_walk():
     np.testing.assert_allclose(gm, random_walk_avar(m, np.sqrt(2.0), dt=1.0), rtol=1e-10)
 
 
-@pytest.mark.parametrize("term", SINGLE)
+@pytest.mark.parametrize("term", sorted(REGISTRY))
 def test_avar_equals_structure_function_form(term):
-    """AVAR(m) = (4 D(m) - D(2m)) / (2 m^2): the two descriptions of each term agree."""
-    model = NoiseModel((term,), 0.5)
+    """AVAR(m) = (4 D(m) - D(2m)) / (2 m^2) through :class:`NoiseModel`, every registered term
+    alone or with what it requires, at the centre of its prior box; a deterministic term (no
+    structure function, the ramp) has D = 0 and a positive AVAR instead."""
+    terms = REGISTRY[term].requires + (term,)
+    model = NoiseModel(terms, 0.1)
+    p = {k: v for t in terms for k, v in params_of(REGISTRY[t]).items()}
     m = np.array([1, 2, 5, 16, 100])
-    d = lambda k: model.structure_function(np.asarray(k), PARAMS[term])  # noqa: E731
-    np.testing.assert_allclose((4 * d(m) - d(2 * m)) / (2.0 * m * m), model.avar(m, PARAMS[term]), rtol=1e-10)
+    d = lambda k: model.structure_function(np.asarray(k), p)  # noqa: E731
+    if np.all(d(np.arange(300)) == 0):
+        assert np.all(model.avar(m, p) > 0)
+        return
+    np.testing.assert_allclose((4 * d(m) - d(2 * m)) / (2.0 * m * m), model.avar(m, p), rtol=1e-10)
 
 
 def test_gauss_markov_structure_function_mpmath():
@@ -114,7 +121,7 @@ def test_two_gauss_markov_terms_add_and_are_ordered():
 def test_broadcasting_equals_loop(rng):
     model = NoiseModel(TERMS, 0.01)
     theta = np.exp(rng.uniform(-3, 3, size=(4, 5, len(model.parameter_names))))
-    assert len(model.parameter_names) == 12
+    assert len(model.parameter_names) == sum(len(t.parameters) for t in REGISTRY.values())
     m = np.array([1, 3, 10, 300])
     batch = model.avar(m, theta)
     assert batch.shape == (4, 5, 4)
@@ -168,3 +175,42 @@ def test_bias_instability_avar_is_flat_at_its_definition():
 
     m = np.array([1, 2, 10, 1000])
     np.testing.assert_allclose(bias_instability_avar(m, 0.5), 2 * np.log(2) * 0.25 / np.pi, rtol=1e-12)
+
+
+def test_quantities_are_one_table_and_unsupported_orders_raise():
+    """Sensor kinds and drift quantities from one module: attitude from a gyro (order 1), velocity
+    (1) and position (2) from an accelerometer; the drift tables are built from it; an order
+    other than 1 or 2 raises."""
+    from bayes_imu.drift.bands import SENSOR_QUANTITIES
+    from bayes_imu.drift.closed_forms import QUANTITY_ORDER
+    from bayes_imu.errors import ModelError
+    from bayes_imu.noise import check_order
+    from bayes_imu.noise.quantities import QUANTITIES, SENSORS, order_of, quantity, si_sensor
+
+    assert {n: (q.sensor, q.order) for n, q in QUANTITIES.items()} == {
+        "attitude": ("gyro", 1), "velocity": ("accel", 1), "position": ("accel", 2)}
+    assert QUANTITY_ORDER == {"attitude": 1, "velocity": 1, "position": 2}
+    assert SENSOR_QUANTITIES == {"gyro": ("attitude",), "accel": ("velocity", "position")}
+    assert all(QUANTITIES[q].sensor == s for s, qs in SENSOR_QUANTITIES.items() for q in qs)
+    assert SENSORS["gyro"].si_unit == "rad/s" and order_of("position") == 2
+    with pytest.raises(InputError, match="quantity"):
+        quantity("jerk")
+    for bad in (0, 3, 2.5, True):
+        with pytest.raises(ModelError, match="integration order"):
+            check_order(bad)
+    assert si_sensor(None, "m/s^2") == "accel" and si_sensor("gyro", "deg/s") is None
+    with pytest.raises(InputError, match="accelerometer"):
+        si_sensor("gyro", "m/s^2")
+
+
+def test_allan_result_carries_its_sensor_kind(rng):
+    """The sensor kind travels on the Allan result (and so on a fit) instead of a unit string."""
+    from bayes_imu.allan.estimator import allan_variance
+
+    y = rng.standard_normal(2000)
+    a = allan_variance(y, rate_hz=100.0, sensor="gyro", segments=0)
+    assert a.sensor == "gyro" and a.scaled(2.0).sensor == "gyro"
+    assert a.with_sensor("accel").sensor == "accel"
+    assert allan_variance(y, rate_hz=100.0, segments=0).sensor is None
+    with pytest.raises(InputError, match="sensor"):
+        allan_variance(y, rate_hz=100.0, sensor="magnetometer")

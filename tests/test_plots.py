@@ -151,7 +151,7 @@ def test_drift_plot_labels_terms_with_probability(tmp_path, figures, fit):
     assert "white noise" in text and "credible band" in text
     assert "bias calibrated over 60 s" in text
     for name, p in bands.term_probability.items():
-        label = plots._TERM_LABEL[name]
+        label = plots._term_label(name)
         assert (label in text) == (p >= 0.1), name
 
 

@@ -52,7 +52,8 @@ def test_real_data_quick(tmp_path):
 
 
 @pytest.mark.parametrize("script", ["paper_figures.py", "bench_speed_vs_error.py", "real_data.py",
-                                    "validate_real.py", "validate_population.py", "bench_population.py"])
+                                    "validate_real.py", "validate_population.py",
+                                    "bench_population.py", "study_vibration.py"])
 def test_scripts_offer_a_quick_run(script):
     """Each script's own --help (its argument parser, run) offers --quick."""
     import subprocess

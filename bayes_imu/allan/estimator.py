@@ -20,9 +20,10 @@ special = LazyModule("scipy.special")  # chi-squared quantiles without scipy.sta
 from .kernels import allan_sums
 from .._progress import progress_bar
 from ..errors import InputError
-from ..io.readers import positive_number
+from ..io.readers import SI_UNITS, positive_number
 
-__all__ = ["AllanResult", "SegmentAllan", "allan_variance", "cluster_sizes", "greenhall_edf", "identify_noise",
+__all__ = ["AllanResult", "SegmentAllan", "allan_variance", "check_sensor",
+           "cluster_sizes", "greenhall_edf", "identify_noise",
            "segment_allan", "DEFAULT_SEGMENTS"]
 
 #: consecutive equal segments whose Allan variances the stationarity check compares
@@ -92,6 +93,10 @@ class AllanResult:
     segments : SegmentAllan or None
         The Allan variance of consecutive parts of the log (``None`` when not computed: Allan
         tables, out-of-core runs, ``segments=0``, logs too short).
+    sensor : {"gyro", "accel"} or None
+        The sensor kind of the samples, when known (:mod:`bayes_imu.noise.quantities`); set by
+        :func:`allan_variance`'s ``sensor`` or :meth:`with_sensor`, carried by every result
+        built on this one instead of being read back from a unit string.
     """
 
     tau: np.ndarray
@@ -107,6 +112,14 @@ class AllanResult:
     rate_hz: float
     n_samples: int
     segments: SegmentAllan = None
+    sensor: str = None
+
+    def __post_init__(self):
+        check_sensor(self.sensor)
+
+    def with_sensor(self, sensor):
+        """The same result with its sensor kind set (``"gyro"``, ``"accel"`` or ``None``)."""
+        return replace(self, sensor=check_sensor(sensor))
 
     def scaled(self, factor):
         """The Allan variance of ``factor * y`` (a unit conversion): every variance, the segments'
@@ -165,8 +178,16 @@ def cluster_sizes(m, n_samples):
     return grid.astype(np.int64)
 
 
+def check_sensor(sensor):
+    """``sensor`` if it is ``None`` or a sensor kind of :data:`bayes_imu.io.readers.SI_UNITS`,
+    else :class:`InputError`."""
+    if sensor is not None and sensor not in SI_UNITS:
+        raise InputError(f"sensor={sensor!r}: expected one of {', '.join(SI_UNITS)} or None")
+    return sensor
+
+
 def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, interval="exact", progress=False,
-                   segments=DEFAULT_SEGMENTS):
+                   segments=DEFAULT_SEGMENTS, sensor=None):
     """Fully overlapping Allan variance of uniformly sampled rate data (SP1065 eq 14).
 
     Parameters
@@ -190,11 +211,14 @@ def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, inte
     segments : int
         Also compute the Allan variance of this many consecutive parts of the log
         (:class:`SegmentAllan`, for the stationarity check); 0 or 1 skips it.
+    sensor : {"gyro", "accel"} or None
+        Sensor kind of the samples, recorded on the result (:attr:`AllanResult.sensor`).
 
     Returns
     -------
     AllanResult
     """
+    check_sensor(sensor)
     y = _as_samples(y)
     rate_hz = check_options(rate_hz, confidence, interval)
     ms = cluster_sizes(m, y.size)
@@ -203,7 +227,7 @@ def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, inte
         x, sums = allan_sums(y, ms, progress=bar.update)
     alphas = identify_noise(x, ms) if alpha is None else alpha
     result = assemble_result(ms, sums, alphas, y.size, rate_hz, confidence, interval)
-    return replace(result, segments=segment_allan(y, ms, segments))
+    return replace(result, segments=segment_allan(y, ms, segments), sensor=sensor)
 
 
 def segment_allan(y, m, n_segments=DEFAULT_SEGMENTS):

@@ -27,11 +27,12 @@ import numpy as np
 from .closed_forms import QUANTITY_ORDER
 from ..errors import InputError
 from ..noise import BIAS_STARTS, TERMS, NoiseModel
+from ..noise.quantities import SENSORS
 
 __all__ = ["SENSOR_QUANTITIES", "MODEL_CHOICES", "DEFAULT_CALIBRATION_S", "DriftBands", "drift_bands", "drift_draws",
            "default_times", "integrated_unit", "model_draws"]
 
-SENSOR_QUANTITIES = {"gyro": ("attitude",), "accel": ("velocity", "position")}
+SENSOR_QUANTITIES = {name: s.quantities for name, s in SENSORS.items()}
 MODEL_CHOICES = ("averaged", "selected")
 #: default calibration window of the calibrated bias start [s]
 DEFAULT_CALIBRATION_S = 60.0

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..noise.quantities import QUANTITIES
 from ..noise.euler_sums import gm_coefficient, gm_sum, gm_sum_broadcast
 from ..errors import InputError, ModelError
 
@@ -34,13 +35,13 @@ __all__ = [
 
 #: integration order of each navigation quantity (attitude from a gyro; velocity and
 #: position from an accelerometer)
-QUANTITY_ORDER = {"attitude": 1, "velocity": 1, "position": 2}
+QUANTITY_ORDER = {name: q.order for name, q in QUANTITIES.items()}
 _SOURCES = ("white", "gauss_markov")
 _BIAS_STARTS = ("zero", "stationary")
 #: bias starts of the closed forms (the noise terms add "calibrated")
 DRIFT_BIAS_STARTS = _BIAS_STARTS
 #: SI unit of each integrated quantity
-SI_OUTPUT_UNITS = {"attitude": "rad", "velocity": "m/s", "position": "m"}
+SI_OUTPUT_UNITS = {name: q.si_unit for name, q in QUANTITIES.items()}
 _DISCRETIZATIONS = ("exact", "euler")
 _MAX_STEPS = 2.0**53
 

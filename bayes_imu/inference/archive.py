@@ -34,7 +34,8 @@ def save_fit(fit, path):
         "format": _FORMAT, "terms": list(fit.model.terms), "dt": fit.model.dt, "likelihood": fit.likelihood,
         "selected": int(fit.selected), "widened": bool(fit.widened), "diagnostics": fit.diagnostics,
         "seed": fit.seed if isinstance(fit.seed, (int, type(None))) else str(fit.seed),
-        "allan": {"confidence": a.confidence, "rate_hz": a.rate_hz, "n_samples": int(a.n_samples)},
+        "allan": {"confidence": a.confidence, "rate_hz": a.rate_hz, "n_samples": int(a.n_samples),
+                  "sensor": getattr(a, "sensor", None)},
         "candidates": [{"terms": list(c.terms), "log_evidence": c.log_evidence, "se": c.log_evidence_se,
                         "ess": c.ess, "method": c.method} for c in fit.candidates],
         "mixture": [{"terms": list(c.terms), "probability": c.probability} for c in fit.mixture],
@@ -93,7 +94,8 @@ def load_fit(path):
     seg = meta.get("segments")
     segments = None if seg is None else SegmentAllan(data["segments_m"], data["segments_avar"], seg["n_samples"])
     allan = AllanResult(**{k: data[f"allan_{k}"] for k in _ALLAN_ARRAYS}, confidence=meta["allan"]["confidence"],
-                        rate_hz=meta["allan"]["rate_hz"], n_samples=meta["allan"]["n_samples"], segments=segments)
+                        rate_hz=meta["allan"]["rate_hz"], n_samples=meta["allan"]["n_samples"],
+                        segments=segments, sensor=meta["allan"].get("sensor"))
     st = meta.get("stationarity")
     steady = None if st is None else Stationarity(st["stationary"], st["p_value"], st["worst_tau_s"],
                                                   data["stationarity_tau"], data["stationarity_adev"],

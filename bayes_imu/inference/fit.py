@@ -180,6 +180,12 @@ class FitResult:
         return self.chains.to_inference_data(self.parameter_names, self.allan, attrs)
 
     @property
+    def sensor(self):
+        """Sensor kind of the fitted samples (``"gyro"``, ``"accel"``), carried from :attr:`allan`;
+        ``None`` when not known."""
+        return getattr(self.allan, "sensor", None)
+
+    @property
     def parameter_names(self):
         return self.model.parameter_names + (("model_discrepancy",) if self.widened else ())
 
@@ -202,7 +208,7 @@ class FitResult:
 
     def _derived_names(self):
         names = list(self.parameter_names)
-        short = [t.name for t in self.model.components if t.role == "short_term" and t.name != "quantization"]
+        short = [t.name for t in self.model.components if t.kalibr == "noise_density"]
         if short:
             names.append("noise_density")
         if "white" in short and len(short) > 1:
@@ -253,12 +259,14 @@ class FitResult:
         if adequacy is not None:
             adequacy["widened"] = bool(self.widened)
             adequacy["stationarity"] = self.stationarity.to_dict() if self.stationarity is not None else None
-        from ..noise.datasheet import KIND_OF_UNIT, datasheet
+        from ..noise.datasheet import datasheet
+        from ..noise.quantities import si_sensor
 
+        kind = si_sensor(self.sensor, unit)
         return {
             "model": list(self.model.terms),
             "parameters": parameters,
-            "datasheet": datasheet(self, KIND_OF_UNIT[unit]) if unit in KIND_OF_UNIT else None,
+            "datasheet": datasheet(self, kind) if kind is not None else None,
             "adequacy": adequacy,
             "diagnostics": {k: (bool(v) if k == "converged" else int(v) if k in ("n_steps", "n_walkers") else float(v))
                             for k, v in self.diagnostics.items()},
@@ -655,20 +663,9 @@ def _starts(model, allan, reference):
     """
     tau, avar = allan.tau, allan.avar
     dt = 1.0 / allan.rate_hz
-    guess = {
-        "noise_variance": avar[0] * allan.m[0],
-        "quantization": np.sqrt(0.1 * avar[0] * tau[0] ** 2 / 3.0),
-        "bias_instability": np.sqrt(0.5 * avar.min() * np.pi / (2.0 * np.log(2.0))),
-        "bias_variance": avar.min(),
-        "time_constant": tau[np.argmin(avar)],
-        "rate_random_walk": np.sqrt(1.5 * avar[-1] / tau[-1]),
-        "correlated_variance": 0.5 * avar[0],
-        "correlated_time_constant": 2.0 * dt,
-        "bias_variance_2": avar.min(),
-        "time_constant_2": 0.5 * tau[-1],
-        "rate_ramp": 0.3 * np.sqrt(2.0 * avar[-1]) / tau[-1],
-        "filtered_variance": 0.1 * avar[0] * allan.m[0],
-    }
+    guess = {}
+    for term in model.components:  # each term's own (:meth:`bayes_imu.noise.Term.starting_guess`)
+        guess.update(term.starting_guess(tau, avar, allan.m, dt))
     bounds = default_bounds(model, allan)
     out = []
     if "gauss_markov" not in model.terms:

@@ -174,7 +174,10 @@ class PopulationResult:
 
     def summary(self, *, unit="u"):
         """JSON-ready summary (``bayes-imu fit-population``'s ``summary.json``)."""
-        from ..noise.datasheet import KIND_OF_UNIT, datasheet
+        from ..noise.datasheet import datasheet
+        from ..noise.quantities import sensor_of_si_unit
+
+        kind = sensor_of_si_unit(unit)
 
         def stats(draws, name):
             return {"median": float(np.median(draws)), "q05": float(np.quantile(draws, 0.05)),
@@ -199,7 +202,7 @@ class PopulationResult:
             "model": list(self.model.terms),
             "what": "posterior predictive for a new unit of this sensor model (unit-to-unit spread included)",
             "new_unit": block(self.new_unit),
-            "new_unit_datasheet": datasheet(self.new_unit, KIND_OF_UNIT[unit]) if unit in KIND_OF_UNIT else None,
+            "new_unit_datasheet": datasheet(self.new_unit, kind) if kind else None,
             "population": population,
             "units": units,
             "structures": [{"model": list(s.terms), "log_evidence": s.log_evidence, "log_evidence_se": s.log_evidence_se,

@@ -53,6 +53,7 @@ from itertools import combinations
 
 import numpy as np
 from .._lazy import LazyModule
+from ..noise import REGISTRY
 
 optimize = LazyModule("scipy.optimize")
 special = LazyModule("scipy.special")
@@ -63,9 +64,12 @@ __all__ = ["CandidateScore", "Adequacy", "ModeResult", "EvidenceResult", "candid
            "model_probabilities", "adequacy", "at_prior_bound", "negative_hessian", "to_phi", "can_skip",
            "LAPLACE_SCREEN"]
 
-OPTIONAL_TERMS = ("quantization", "bias_instability", "gauss_markov", "random_walk")
-#: terms added by the stepwise search
-EXTENSION_TERMS = ("filtered_white", "hf_correlated", "gauss_markov", "gauss_markov_2", "ramp")
+#: terms of the exhaustive first round and terms added by the stepwise search, in registry
+#: order, from each term's declared :attr:`~bayes_imu.noise.Term.selection`
+OPTIONAL_TERMS = tuple(name for name, t in REGISTRY.items() if "optional" in t.selection)
+EXTENSION_TERMS = tuple(name for name, t in REGISTRY.items() if "extension" in t.selection)
+#: terms every candidate has
+BASE_MODEL = tuple(name for name, t in REGISTRY.items() if "base" in t.selection)
 #: p-value below which a fit is inadequate
 ADEQUACY_ALPHA = 0.01
 #: a parameter is "at a prior bound" when this fraction of draws lies in the outer BOUND_EDGE of its box
@@ -180,7 +184,7 @@ def candidate_terms(optional=OPTIONAL_TERMS):
     """All models ``white + any subset of optional``, simplest first."""
     out = []
     for k in range(len(optional) + 1):
-        out += [("white",) + c for c in combinations(optional, k)]
+        out += [BASE_MODEL + c for c in combinations(optional, k)]
     return out
 
 
@@ -188,17 +192,18 @@ def extensions(terms):
     """Candidates one stepwise addition away from ``terms`` (module docstring), in a fixed order."""
     out = []
     for term in EXTENSION_TERMS:
-        if term in terms or (term == "gauss_markov_2" and "gauss_markov" not in terms):
+        if term in terms or not set(REGISTRY[term].requires) <= set(terms):
             continue
         out.append(tuple(terms) + (term,))
     return out
 
 
 def reductions(terms):
-    """Candidates one removal away from ``terms`` (white stays; gauss_markov goes with gauss_markov_2)."""
+    """Candidates one removal away from ``terms`` (base terms stay; a term another one requires,
+    gauss_markov for gauss_markov_2, goes only with it)."""
     out = []
     for term in terms:
-        if term == "white" or (term == "gauss_markov" and "gauss_markov_2" in terms):
+        if "base" in REGISTRY[term].selection or any(term in REGISTRY[t].requires for t in terms):
             continue
         out.append(tuple(t for t in terms if t != term))
     return out

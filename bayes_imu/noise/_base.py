@@ -8,12 +8,26 @@ A term is a stochastic (or, for the ramp, deterministic) component of the rate s
   cluster sizes ``m`` (``tau = m dt``), broadcast ``(...,) x (n_tau,) -> (..., n_tau)``;
 * ``structure(k, params, dt)``: the phase structure function ``D(k)`` (a generalised
   covariance of ``x_k = sum_{t<k} y_t``, in ``u^2``) from which the covariance of the AVAR
-  estimates is built (:mod:`bayes_imu.noise.avar_covariance`), plus ``gm_components`` and
-  ``flicker_level`` for the exact tails of that covariance;
+  estimates is built (:mod:`bayes_imu.noise.avar_covariance`);
+* ``covariance_tail(params, dt)``: a :class:`CovarianceTail` saying how its correlation of
+  second differences behaves beyond the overlap window of two AVAR estimates, one of
+  :data:`TAIL_KINDS` (the covariance code refuses any other kind);
 * ``simulate(params, n, dt, rng)``: an exact draw of the discrete process;
 * ``drift_variance(order, k, params, dt, bias_start, n_cal)``: the exact variance (mean
-  square) of its Euler-integrated error (attitude or velocity ``r = 1``, position ``r = 2``);
-* ``bounds(scale)``: its prior box in log-parameters.
+  square) of its Euler-integrated error (attitude or velocity ``r = 1``, position ``r = 2``;
+  any other order raises :class:`~bayes_imu.errors.ModelError`);
+* ``bounds(scale)``: its prior box in log-parameters;
+* ``starting_guess(tau, avar, m, dt)``: a rough value of each parameter read off an Allan
+  variance curve, where the mode search of a fit starts;
+* ``datasheet_rows(sensor)``: the rows it adds to a datasheet table
+  (:func:`bayes_imu.noise.datasheet.datasheet`);
+* ``kalibr``: what it is to Kalibr (:data:`KALIBR_ROLES`), with
+  ``kalibr_random_walk2(draws, tau_max)`` for a ``"random_walk"`` term
+  (:mod:`bayes_imu.report.kalibr`);
+* ``selection``: its roles in the automatic model search (:data:`SELECTION_ROLES`) and
+  ``requires``, the terms a model needs before it may have this one.
+
+``tests/test_term_contract.py`` runs every term of the registry through one contract.
 
 Drift semantics (``bias_start``), with the paper's Euler integral of ``e_i = y_i - b_hat``
 (``v_k = dt sum_{i<k} e_i``, ``p_k = dt sum_{j<k} v_j``):
@@ -33,13 +47,57 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Term", "PriorScale", "calibrated_contrast", "BIAS_STARTS", "ROLES"]
+from ..errors import InputError, ModelError
+
+__all__ = ["Term", "PriorScale", "CovarianceTail", "calibrated_contrast", "check_order",
+           "BIAS_STARTS", "ROLES", "ORDERS", "TAIL_KINDS", "SELECTION_ROLES", "KALIBR_ROLES"]
 
 #: drift semantics (see the module docstring)
 BIAS_STARTS = ("zero", "stationary", "calibrated")
 #: what a term means to a navigation engineer: short-term noise (sets the noise density),
 #: a bias that wanders, or a slow drift of the rate
 ROLES = ("short_term", "bias", "slow")
+#: integration orders of the drift: 1 (attitude, velocity), 2 (position)
+ORDERS = (1, 2)
+#: how a term correlates second differences beyond the overlap window of two AVAR estimates:
+#: not at all, geometrically (Gauss-Markov parts), as flicker (``~ lag^-2``), in a way only the
+#: exact sum over every lag serves (a Gaussian process), or as a signal of fixed amplitude and
+#: random phase (``"deterministic"``: only its cross terms with the noise spread the estimates,
+#: summed over every lag; :func:`bayes_imu.noise.avar_covariance.avar_covariance`)
+TAIL_KINDS = ("none", "gauss_markov", "flicker", "generic", "deterministic")
+#: roles in the automatic model search (:mod:`bayes_imu.inference.selection`): always in the
+#: model, in the exhaustive first round, or added by the stepwise search
+SELECTION_ROLES = ("base", "optional", "extension")
+#: what a term is to Kalibr (:mod:`bayes_imu.report.kalibr`): part of the white noise density,
+#: part of the bias random walk, or left out (a deterministic or sub-sample term)
+KALIBR_ROLES = ("noise_density", "random_walk", "none")
+
+
+def check_order(order):
+    """``order`` if it is a supported integration order (:data:`ORDERS`), else ModelError."""
+    if isinstance(order, bool) or order not in ORDERS:
+        raise ModelError(f"integration order {order!r}: expected one of {ORDERS} "
+                         "(1: attitude/velocity, 2: position)")
+    return int(order)
+
+
+@dataclass(frozen=True)
+class CovarianceTail:
+    """How one term correlates AVAR second differences beyond their overlap window.
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`TAIL_KINDS`.
+    gauss_markov : tuple of (float, float)
+        ``(sigma^2, dt/T)`` of each Gauss-Markov part (kind ``"gauss_markov"``).
+    flicker : float
+        ``h = B^2 / pi`` of a flicker part [u^2] (kind ``"flicker"``).
+    """
+
+    kind: str
+    gauss_markov: tuple = ()
+    flicker: float = 0.0
 
 
 def calibrated_contrast(structure, order, k, n_cal):
@@ -59,6 +117,11 @@ def calibrated_contrast(structure, order, k, n_cal):
     -------
     (n_t,) ndarray
 
+    Raises
+    ------
+    ModelError
+        For an order other than 1 or 2.
+
     Notes
     -----
     Order 1 (``v_k / dt = x_k - x_0 - (k/N)(x_0 - x_{-N})``, three phase points)::
@@ -73,6 +136,7 @@ def calibrated_contrast(structure, order, k, n_cal):
     with ``F(n) = sum_{l=1}^n D(l)`` and ``G(n) = sum_{l=1}^n F(l)``, accumulated in
     extended precision from one table of ``D``.
     """
+    order = check_order(order)
     k = np.asarray(k, dtype=float)
     n = np.broadcast_to(np.asarray(n_cal, dtype=float), k.shape)
     if order == 1:
@@ -142,6 +206,14 @@ class Term:
         IEEE Std 952 / navigation name.
     role : str
         One of :data:`ROLES`.
+    selection : tuple of str
+        Its roles in the automatic model search, from :data:`SELECTION_ROLES` (at least one).
+    requires : tuple of str
+        Terms a model must have to have this one (``gauss_markov_2`` needs ``gauss_markov``).
+    kalibr : str
+        One of :data:`KALIBR_ROLES`.
+    short_label : str
+        What figures call it (its :attr:`label` when empty).
     """
 
     name: str
@@ -149,6 +221,18 @@ class Term:
     units: dict
     label: str
     role: str
+    selection: tuple = ()
+    requires: tuple = ()
+    kalibr: str = ""
+    short_label: str = ""
+
+    #: kind of :meth:`covariance_tail` (one of :data:`TAIL_KINDS`); a term whose tail carries
+    #: parameters (Gauss-Markov, flicker) overrides :meth:`covariance_tail` as well
+    tail_kind = None
+    #: the bias start (:data:`BIAS_STARTS`) a record drawn by :meth:`simulate` realises at its
+    #: first sample, or ``None`` for none (flicker has no start); the contract tests check the
+    #: drift of that start by Monte Carlo
+    simulated_start = None
 
     # --- interface, overridden by each term ---------------------------------------------
     def avar(self, mf, params, dt):  # pragma: no cover - abstract
@@ -163,24 +247,70 @@ class Term:
     def bounds(self, scale):  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def starting_guess(self, tau, avar, m, dt):
+        """Rough parameter values read off an Allan variance curve: dict name -> value.
+
+        Parameters
+        ----------
+        tau, avar, m : (n_tau,) ndarray
+            Averaging times [s], Allan variance [u^2] and cluster sizes of the curve.
+        dt : float
+            Sample period [s].
+        """
+        raise NotImplementedError(f"term {self.name!r} has no starting guess")  # pragma: no cover
+
+    def datasheet_rows(self, sensor):
+        """Datasheet rows of this term for a sensor kind (``"gyro"`` or ``"accel"``, SI fits):
+        dict row name -> ``(parameter, transform to the datasheet unit, unit, what it is)``."""
+        raise NotImplementedError(f"term {self.name!r} has no datasheet rows")  # pragma: no cover
+
+    def kalibr_random_walk2(self, draws, tau_max):
+        """Squared bias random-walk density [u^2/s] per draw, for a term whose :attr:`kalibr` is
+        ``"random_walk"``; ``draws``: parameter name -> ``(n_draws,)``, ``tau_max`` [s] the
+        longest averaging time of the log."""
+        raise NotImplementedError(  # pragma: no cover
+            f"term {self.name!r} has no Kalibr random walk")
+
+    def covariance_tail(self, params, dt):
+        """:class:`CovarianceTail` of this term at one parameter point (scalars)."""
+        if self.tail_kind in ("none", "generic", "deterministic"):
+            return CovarianceTail(self.tail_kind)
+        raise ModelError(f"term {self.name!r} declares no supported covariance tail "
+                         f"(tail_kind={self.tail_kind!r}, expected one of {TAIL_KINDS})")
+
     def drift_variance(self, order, k, params, dt, *, bias_start="zero", n_cal=None):
         """Mean-square drift ``(..., n_t)`` [u^2 s^(2 order)] for parameters ``(...)`` and steps ``k`` ``(n_t,)``.
 
-        The default serves terms whose drift is linear in one squared amplitude
-        (:meth:`unit_drift`); the Gauss-Markov terms override it.
+        Parameters
+        ----------
+        order : {1, 2}
+            Integration order (1: attitude / velocity, 2: position); any other raises
+            :class:`~bayes_imu.errors.ModelError`.
+        k : (n_t,) float
+            Outage lengths in samples.
+        params : dict
+            Parameter name -> ``(...)``.
+        dt : float
+            Sample period [s].
+        bias_start : {"zero", "stationary", "calibrated"}
+        n_cal : float or (n_t,) float
+            Calibration window in samples (``bias_start="calibrated"``).
         """
+        order = check_order(order)
+        if bias_start not in BIAS_STARTS:
+            raise InputError(f"bias_start={bias_start!r}: expected one of {', '.join(BIAS_STARTS)}")
+        if bias_start == "calibrated" and n_cal is None:
+            raise InputError("bias_start='calibrated' needs n_cal, the calibration window in "
+                             "samples")
+        return self._drift_variance(order, k, params, dt, bias_start, n_cal)
+
+    def _drift_variance(self, order, k, params, dt, bias_start, n_cal):
+        """:meth:`drift_variance` after its checks. The default serves terms whose drift is
+        linear in one squared amplitude (:meth:`unit_drift`)."""
         amplitude = self.amplitude2(params)
         return np.asarray(amplitude, float)[..., None] * self.unit_drift(order, k, dt, bias_start, n_cal)
 
     # --- helpers of terms linear in a squared amplitude ---------------------------------
-    def gm_components(self, params, dt):
-        """``[(sigma^2, dt/T), ...]`` of the Gauss-Markov parts (scalar parameters), for covariance tails."""
-        return []
-
-    def flicker_level(self, params):
-        """``h = B^2 / pi`` of a flicker part (scalar parameters), for covariance tails."""
-        return 0.0
-
     def amplitude2(self, params):
         """The squared amplitude the drift is proportional to."""
         raise NotImplementedError  # pragma: no cover
@@ -190,6 +320,11 @@ class Term:
         unit = {p: 1.0 for p in self.parameters}
         return dt ** (2 * order) * calibrated_contrast(lambda lag: self.structure(lag, unit, dt) / self.amplitude2(unit),
                                                        order, k, n_cal)
+
+    @property
+    def plot_label(self):
+        """What figures call it: :attr:`short_label`, else :attr:`label`."""
+        return self.short_label or self.label
 
     def parameter_units(self, unit):
         return {p: self.units[p].format(u=unit) for p in self.parameters}

@@ -14,21 +14,30 @@ freedom ``2 AVAR^2 / Var``, which for pure power-law noise is Greenhall & Riley'
 (the tests check this) and for a model with several terms is the exact generalisation.
 
 The sum runs exactly over every lag where the two second-difference windows overlap or touch
-(from a table of ``D``). Outside the overlap only the Gauss-Markov and flicker terms
-correlate: the Gauss-Markov part is exactly geometric there (closed form per lag, no
-cancellation); the flicker part uses its asymptotic ``-h a^2 b^2 / l_c^2`` (``l_c`` the
-distance between window centres; neglected terms ``O((b/l_c)^2)`` of a tail below 1% of
-the total). Both tails are smooth, so they are summed by the midpoint rule with steps of
-at most ``l_c/64`` and ``0.1 T/dt`` (relative error ~1e-4), which keeps a full covariance
+(from a table of ``D``). Outside the overlap each term declares how it correlates
+(:meth:`bayes_imu.noise.Term.covariance_tail`, one of :data:`~bayes_imu.noise._base.TAIL_KINDS`):
+``"none"`` (white, quantization, filtered white, random walk, ramp), ``"gauss_markov"`` and
+``"flicker"``, which the compiled kernel sums, ``"generic"``, for which every lag is summed
+exactly from a table of ``D`` as long as the record (slower, :func:`exact_pair_sums`), or
+``"deterministic"`` (a signal of fixed amplitude and random phase: its cross terms with the noise,
+every lag, without its own fourth moments, :func:`exact_pair_sums`). A kind
+outside that list, or a term that declares none, raises :class:`~bayes_imu.errors.ModelError`:
+a correlation is never dropped in silence. In the kernel's tails: the Gauss-Markov part is exactly
+geometric there (closed form per lag, no cancellation); the flicker part uses its asymptotic ``-h
+a^2 b^2 / l_c^2`` (``l_c`` the distance between window centres; neglected terms ``O((b/l_c)^2)`` of
+a tail below 1% of the total). Both tails are smooth, so they are summed by the midpoint rule with
+steps of at most ``l_c/64`` and ``0.1 T/dt`` (relative error ~1e-4), which keeps a full covariance
 of an octave grid on 1e6 samples at ~0.1 s.
 """
 
 import numpy as np
 
 from ..allan.kernels import avar_pair_sums
-from ..noise import NoiseModel
+from ..errors import ModelError
+from ._base import TAIL_KINDS
+from .model import NoiseModel
 
-__all__ = ["avar_covariance", "equivalent_dof"]
+__all__ = ["avar_covariance", "equivalent_dof", "exact_pair_sums", "model_tails"]
 
 
 def avar_covariance(model, params, m, n_samples):
@@ -53,18 +62,110 @@ def avar_covariance(model, params, m, n_samples):
         raise TypeError("model must be a NoiseModel")
     ms = np.asarray(m, dtype=np.int64)
     n = int(n_samples)
-    kmax = int(4 * ms.max() + 2)
-    table = np.asarray(model.structure_function(np.arange(kmax + 1), params), dtype=float)
-    h = sum(t.flicker_level(params) for t in model.components)
-    gm = [c for t in model.components for c in t.gm_components(params, model.dt) if c[0] > 0.0]
-    s2 = np.array([c[0] for c in gm])
-    x = np.array([c[1] for c in gm])
-    sums = avar_pair_sums(table, ms, n, h, s2, x)
+    tails = model_tails(model, params)
+    kinds = {tail.kind for tail in tails}
+    if "deterministic" in kinds:
+        lags = np.arange(n + 4 * ms.max() + 1)
+        split = {True: 0.0, False: 0.0}
+        for term, tail in zip(model.components, tails):
+            split[tail.kind == "deterministic"] = split[tail.kind == "deterministic"] + term.structure(
+                lags, params, model.dt)
+        table = np.broadcast_to(np.asarray(split[False], dtype=float), lags.shape)
+        sums = exact_pair_sums(table, ms, n, deterministic=np.asarray(split[True], dtype=float))
+    elif "generic" in kinds:
+        lags = np.arange(n + 4 * ms.max() + 1)
+        table = np.asarray(model.structure_function(lags, params), dtype=float)
+        sums = exact_pair_sums(table, ms, n)
+    else:
+        kmax = int(4 * ms.max() + 2)
+        table = np.asarray(model.structure_function(np.arange(kmax + 1), params), dtype=float)
+        h = sum(tail.flicker for tail in tails)
+        gm = [c for tail in tails for c in tail.gauss_markov if c[0] > 0.0]
+        s2 = np.array([c[0] for c in gm])
+        x = np.array([c[1] for c in gm])
+        sums = avar_pair_sums(table, ms, n, h, s2, x)
     mf = ms.astype(float)
     terms = (n - 2 * mf + 1).astype(float)
     norm = 2.0 * np.outer(mf * mf * terms, mf * mf * terms)
     cov = sums / norm
     return 0.5 * (cov + cov.T)
+
+
+def model_tails(model, params):
+    """The :class:`~bayes_imu.noise._base.CovarianceTail` of each term of ``model`` at ``params``,
+    checked: :class:`~bayes_imu.errors.ModelError` for a kind the covariance code does not serve,
+    or parts that do not match the kind."""
+    tails = []
+    for term in model.components:
+        tail = term.covariance_tail(params, model.dt)
+        kind = getattr(tail, "kind", None)
+        if kind not in TAIL_KINDS:
+            raise ModelError(f"term {term.name!r}: covariance tail kind {kind!r} is not one the "
+                             f"AVAR covariance serves ({', '.join(TAIL_KINDS)})")
+        stray_gm = tail.gauss_markov and kind != "gauss_markov"
+        if stray_gm or (tail.flicker != 0.0 and kind != "flicker"):
+            raise ModelError(f"term {term.name!r}: covariance tail of kind {kind!r} carries parts "
+                             "of another kind")
+        tails.append(tail)
+    return tails
+
+
+def exact_pair_sums(table, ms, n, *, deterministic=None):
+    """``sum_l n(l) c(l)^2`` for every pair of cluster sizes, exactly over every lag of the record.
+
+    The path of a term whose correlation beyond the overlap window has no kernel form (kind
+    ``"generic"``): ``c(l)`` from the table of ``D`` at every lag where the two estimates share
+    index pairs, ``-M_a < l < M_b``. ``table`` must reach ``n + 4 max(m)``.
+
+    With ``deterministic``, the table of ``D`` of the terms of fixed amplitude and random phase
+    (kind ``"deterministic"``, a vibration line), the sum is ``sum_l n(l) c(l) (c(l) + 2 e(l))``
+    with ``e`` from that table: the noise's own part and its cross terms with the signal. The
+    signal's own fourth moments are left out: the mean square of a fixed-amplitude sinusoid over
+    the ``M`` second differences of one estimate varies with its phase only as ``O(1/M)`` (where
+    a Gaussian process of the same covariance would give the estimate about two degrees of
+    freedom).
+
+    Returns
+    -------
+    (n_tau, n_tau) ndarray
+    """
+    reach = n + 2 * int(ms.max())  # |pa - l| <= reach for every pair and lag
+    k = ms.size
+    out = np.zeros((k, k))
+    for ib in range(k):
+        b = int(ms[ib])
+        mb = n - 2 * b + 1
+        g = _second_differences(table, b, reach)
+        h = None if deterministic is None else _second_differences(deterministic, b, reach)
+        for ia in range(ib + 1):
+            a = int(ms[ia])
+            ma = n - 2 * a + 1
+            lag = np.arange(-(ma - 1), mb, dtype=np.int64)
+            count = (np.minimum(ma, mb - lag) - np.maximum(0, -lag)).astype(float)
+            c = _lag_covariance(g, a, mb, reach, lag.size)
+            if h is None:
+                out[ia, ib] = out[ib, ia] = np.dot(count, c * c)
+            else:
+                e = _lag_covariance(h, a, mb, reach, lag.size)
+                out[ia, ib] = out[ib, ia] = np.dot(count, c * (c + 2.0 * e))
+    return out
+
+
+def _second_differences(table, b, reach):
+    """``g[j + reach] = sum_q w_q D(|j - q b|)`` for ``|j| <= reach``: D's second difference at step b."""
+    top = table.size - 1  # the table holds D(0..top), top >= n + 4 max(m)
+    ext = np.concatenate([table[:0:-1], table])  # ext[j + top] = D(|j|)
+    lo, size = top - reach, 2 * reach + 1
+    return ext[lo:lo + size] - 2.0 * ext[lo - b:lo - b + size] + ext[lo - 2 * b:lo - 2 * b + size]
+
+
+def _lag_covariance(g, a, mb, reach, size):
+    """``c(l) = -1/2 sum_p w_p g(p a - l)`` for ``l = -(M_a - 1) .. M_b - 1``: reversed slices of g."""
+    c = np.zeros(size)
+    for p, w in ((0, 1.0), (1, -2.0), (2, 1.0)):
+        first = p * a - (mb - 1) + reach
+        c += w * g[first:first + size][::-1]
+    return -0.5 * c
 
 
 def equivalent_dof(avar, cov):

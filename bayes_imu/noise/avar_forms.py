@@ -26,7 +26,7 @@ __all__ = [
 ]
 
 #: the five terms of IEEE Std 952 / the paper, the pilot model of a fit
-BASE_TERMS = ("white", "quantization", "bias_instability", "gauss_markov", "random_walk")
+BASE_TERMS = tuple(name for name, t in REGISTRY.items() if {"base", "optional"} & set(t.selection))
 
 
 def white_avar(m, noise_variance):

@@ -13,10 +13,13 @@ adjacent means, ``sqrt(2)`` times the Allan deviation, which is the least any wi
 at that horizon (shorter windows add white-like scatter, longer ones stale bias).
 """
 
+import math
+
 import numpy as np
 
 from ..errors import ModelError
-from ._base import Term
+from ._base import CovarianceTail, Term
+from .quantities import DEG, UG
 
 __all__ = ["BIAS_INSTABILITY", "flicker_difference_acov"]
 
@@ -36,6 +39,8 @@ def flicker_difference_acov(n, bias_instability):
 
 
 class _BiasInstability(Term):
+    tail_kind = "flicker"
+
     def avar(self, mf, params, dt):
         return FLAT * np.asarray(params["bias_instability"], float)[..., None] ** 2 * np.ones_like(mf)
 
@@ -45,8 +50,22 @@ class _BiasInstability(Term):
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(k > 0, -h * k * k * np.log(np.where(k > 0, k, 1.0)), 0.0)
 
-    def flicker_level(self, params):
-        return params["bias_instability"] ** 2 / np.pi
+    def covariance_tail(self, params, dt):
+        return CovarianceTail("flicker", flicker=params["bias_instability"] ** 2 / np.pi)
+
+    def starting_guess(self, tau, avar, m, dt):
+        return {"bias_instability": np.sqrt(0.5 * avar.min() * np.pi / (2.0 * np.log(2.0)))}
+
+    def datasheet_rows(self, sensor):
+        what = "flicker coefficient B (ADEV floor 0.664 B)"
+        if sensor == "gyro":
+            return {"bias_instability": ("bias_instability", lambda v: v * DEG * 3600.0, "deg/h",
+                                         what)}
+        return {"bias_instability": ("bias_instability", lambda v: v * UG, "ug", what)}
+
+    def kalibr_random_walk2(self, draws, tau_max):
+        # the random walk with the same Allan variance at the longest averaging time of the log
+        return draws["bias_instability"] ** 2 * 6.0 * math.log(2.0) / (math.pi * tau_max)
 
     def simulate(self, params, n, dt, rng):
         if params["bias_instability"] == 0:
@@ -74,4 +93,5 @@ class _BiasInstability(Term):
 
 
 BIAS_INSTABILITY = _BiasInstability("bias_instability", ("bias_instability",), {"bias_instability": "{u}"},
-                                    "bias instability", "bias")
+                                    "bias instability", "bias", selection=("optional",),
+                                    kalibr="random_walk", short_label="bias instability")

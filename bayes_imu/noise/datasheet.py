@@ -15,50 +15,22 @@ use the white-equivalent short-term ``noise_density`` (what ADEV(1 s) reads).
 
 import numpy as np
 
-from ..io.readers import SI_UNITS
+from .model import REGISTRY
+from .quantities import G, SENSORS
 
-__all__ = ["datasheet", "KIND_OF_UNIT", "G"]
+__all__ = ["datasheet", "KIND_OF_UNIT", "G", "rows"]
 
-#: standard gravity (m/s^2)
-G = 9.80665
-#: kind of sensor of an SI rate unit
-KIND_OF_UNIT = {unit: kind for kind, unit in SI_UNITS.items()}
-_DEG = 180.0 / np.pi
-_UG = 1.0 / (G * 1e-6)
+#: kind of sensor of an SI rate unit (:mod:`bayes_imu.noise.quantities` holds the sensor kinds)
+KIND_OF_UNIT = {s.si_unit: name for name, s in SENSORS.items()}
 
-# name -> (parameter the draws come from, transform to the datasheet unit, unit, what it is)
-_GYRO = {
-    "angle_random_walk": ("noise_density", lambda v: v * _DEG * 60.0, "deg/sqrt(h)", "ARW (white + short-term terms)"),
-    "bias_instability": ("bias_instability", lambda v: v * _DEG * 3600.0, "deg/h",
-                         "flicker coefficient B (ADEV floor 0.664 B)"),
-    "rate_random_walk": ("rate_random_walk", lambda v: v * _DEG * 3600.0**1.5, "deg/h/sqrt(h)", "RRW"),
-    "gauss_markov_sigma": ("bias_variance", lambda v: np.sqrt(v) * _DEG * 3600.0, "deg/h",
-                           "Gauss-Markov bias, 1-sigma"),
-    "gauss_markov_time_constant": ("time_constant", lambda v: v, "s", "Gauss-Markov correlation time"),
-    "gauss_markov_2_sigma": ("bias_variance_2", lambda v: np.sqrt(v) * _DEG * 3600.0, "deg/h",
-                             "second (slower) Gauss-Markov bias, 1-sigma"),
-    "gauss_markov_2_time_constant": ("time_constant_2", lambda v: v, "s", "its correlation time"),
-    "fast_correlated_sigma": ("correlated_variance", lambda v: np.sqrt(v) * _DEG * 3600.0, "deg/h",
-                              "fast correlated noise (sensor bandwidth), 1-sigma"),
-    "fast_correlated_time_constant": ("correlated_time_constant", lambda v: v, "s", "its correlation time"),
-    "quantization": ("quantization", lambda v: v * _DEG * 3600.0, "arcsec", "angle quantization"),
-    "rate_ramp": ("rate_ramp", lambda v: v * _DEG * 3600.0**2, "deg/h^2", "rate ramp"),
-}
-_ACCEL = {
-    "velocity_random_walk": ("noise_density", lambda v: v * 60.0, "m/s/sqrt(h)", "VRW (white + short-term terms)"),
-    "bias_instability": ("bias_instability", lambda v: v * _UG, "ug", "flicker coefficient B (ADEV floor 0.664 B)"),
-    "acceleration_random_walk": ("rate_random_walk", lambda v: v * 3600.0**1.5, "m/s/h/sqrt(h)", "AcRW"),
-    "gauss_markov_sigma": ("bias_variance", lambda v: np.sqrt(v) * _UG, "ug", "Gauss-Markov bias, 1-sigma"),
-    "gauss_markov_time_constant": ("time_constant", lambda v: v, "s", "Gauss-Markov correlation time"),
-    "gauss_markov_2_sigma": ("bias_variance_2", lambda v: np.sqrt(v) * _UG, "ug",
-                             "second (slower) Gauss-Markov bias, 1-sigma"),
-    "gauss_markov_2_time_constant": ("time_constant_2", lambda v: v, "s", "its correlation time"),
-    "fast_correlated_sigma": ("correlated_variance", lambda v: np.sqrt(v) * _UG, "ug",
-                              "fast correlated noise (sensor bandwidth), 1-sigma"),
-    "fast_correlated_time_constant": ("correlated_time_constant", lambda v: v, "s", "its correlation time"),
-    "quantization": ("quantization", lambda v: v, "m/s", "velocity quantization"),
-    "rate_ramp": ("rate_ramp", lambda v: v * _UG * 3600.0, "ug/h", "acceleration ramp"),
-}
+
+def rows(kind):
+    """Every term's datasheet rows for a sensor kind (:meth:`bayes_imu.noise.Term.datasheet_rows`),
+    in registry order: dict name -> ``(parameter, transform, unit, what)``."""
+    out = {}
+    for term in REGISTRY.values():
+        out.update(term.datasheet_rows(kind))
+    return out
 
 
 def datasheet(posterior, kind):
@@ -70,7 +42,7 @@ def datasheet(posterior, kind):
         Fitted in SI (rad/s for a gyro, m/s^2 for an accelerometer).
     kind : {"gyro", "accel"}
     """
-    table = _GYRO if kind == "gyro" else _ACCEL
+    table = rows("gyro" if kind == "gyro" else "accel")
     names = set(posterior.parameter_names) | {"noise_density"}
     out = {}
     for name, (source, convert, unit, what) in table.items():

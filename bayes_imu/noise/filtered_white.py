@@ -21,6 +21,9 @@ __all__ = ["FILTERED_WHITE"]
 
 
 class _FilteredWhite(Term):
+    tail_kind = "none"
+    simulated_start = "stationary"
+
     def avar(self, mf, params, dt):
         return np.asarray(params["filtered_variance"], float)[..., None] * (4.0 * mf - 3.0) / (mf * mf)
 
@@ -34,6 +37,12 @@ class _FilteredWhite(Term):
 
     def bounds(self, scale):
         return [scale.amplitude(0.0, 1.0)]
+
+    def starting_guess(self, tau, avar, m, dt):
+        return {"filtered_variance": 0.1 * avar[0] * m[0]}
+
+    def datasheet_rows(self, sensor):
+        return {}  # part of the noise density (the white term's row)
 
     def amplitude2(self, params):
         return np.asarray(params["filtered_variance"], float)
@@ -51,4 +60,6 @@ class _FilteredWhite(Term):
 
 
 FILTERED_WHITE = _FilteredWhite("filtered_white", ("filtered_variance",), {"filtered_variance": "({u})^2"},
-                                "filtered (moving-average) white noise", "short_term")
+                                "filtered (moving-average) white noise", "short_term",
+                                selection=("extension",), kalibr="noise_density",
+                                short_label="filtered white noise")

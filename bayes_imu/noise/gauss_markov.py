@@ -46,8 +46,11 @@ from math import factorial
 
 import numpy as np
 
+from dataclasses import dataclass
+
 from .euler_sums import gm_terms_broadcast
-from ._base import Term
+from ._base import CovarianceTail, Term
+from .quantities import DEG, UG
 
 __all__ = ["HF_CORRELATED", "GAUSS_MARKOV", "GAUSS_MARKOV_2", "gm_avar", "gm_structure"]
 
@@ -135,7 +138,17 @@ def gm_structure(k, s2, x):
     return s2 * out
 
 
+@dataclass(frozen=True)
 class _GaussMarkov(Term):
+    #: where its starting guess sits on the Allan variance curve: ``"fast"`` (a few samples),
+    #: ``"minimum"`` (the curve's minimum) or ``"slow"`` (half the longest averaging time)
+    start: str = "minimum"
+    #: datasheet row prefix and description
+    sheet: tuple = ("gauss_markov", "Gauss-Markov bias", "Gauss-Markov correlation time")
+
+    tail_kind = "gauss_markov"
+    simulated_start = "stationary"
+
     @property
     def variance_name(self):
         return self.parameters[0]
@@ -150,8 +163,32 @@ class _GaussMarkov(Term):
     def structure(self, k, params, dt):
         return gm_structure(k, params[self.variance_name], dt / params[self.time_constant_name])
 
-    def gm_components(self, params, dt):
-        return [(float(params[self.variance_name]), dt / float(params[self.time_constant_name]))]
+    def covariance_tail(self, params, dt):
+        part = (float(params[self.variance_name]), dt / float(params[self.time_constant_name]))
+        return CovarianceTail("gauss_markov", gauss_markov=(part,))
+
+    def starting_guess(self, tau, avar, m, dt):
+        if self.start == "fast":
+            values = (0.5 * avar[0], 2.0 * dt)
+        elif self.start == "slow":
+            values = (avar.min(), 0.5 * tau[-1])
+        else:
+            values = (avar.min(), tau[np.argmin(avar)])
+        return dict(zip(self.parameters, values))
+
+    def datasheet_rows(self, sensor):
+        prefix, what, when = self.sheet
+        if sensor == "gyro":
+            sigma = (self.variance_name, lambda v: np.sqrt(v) * DEG * 3600.0, "deg/h",
+                     f"{what}, 1-sigma")
+        else:
+            sigma = (self.variance_name, lambda v: np.sqrt(v) * UG, "ug", f"{what}, 1-sigma")
+        return {f"{prefix}_sigma": sigma,
+                f"{prefix}_time_constant": (self.time_constant_name, lambda v: v, "s", when)}
+
+    def kalibr_random_walk2(self, draws, tau_max):
+        # the driving-noise density sqrt(2 sigma^2 / T): the random walk it behaves like for t << T
+        return 2.0 * draws[self.variance_name] / draws[self.time_constant_name]
 
     def simulate(self, params, n, dt, rng):
         from scipy.signal import lfilter
@@ -176,7 +213,7 @@ class _GaussMarkov(Term):
         x = dt / np.asarray(params[self.time_constant_name], float)
         return np.asarray(params[self.variance_name], float) * (2.0 + np.expm1(-x)) / -np.expm1(-x)
 
-    def drift_variance(self, order, k, params, dt, *, bias_start="zero", n_cal=None):
+    def _drift_variance(self, order, k, params, dt, bias_start, n_cal):
         s2 = np.asarray(params[self.variance_name], float)[..., None]
         x = dt / np.asarray(params[self.time_constant_name], float)[..., None]
         a = -np.expm1(-x)
@@ -194,10 +231,19 @@ class _GaussMarkov(Term):
 
 HF_CORRELATED = _GaussMarkov("hf_correlated", ("correlated_variance", "correlated_time_constant"),
                              {"correlated_variance": "({u})^2", "correlated_time_constant": "s"},
-                             "high-frequency correlated noise (bandwidth)", "short_term")
+                             "high-frequency correlated noise (bandwidth)", "short_term",
+                             selection=("extension",), kalibr="noise_density", start="fast",
+                             sheet=("fast_correlated", "fast correlated noise (sensor bandwidth)",
+                                    "its correlation time"),
+                             short_label="fast correlated noise")
 GAUSS_MARKOV = _GaussMarkov("gauss_markov", ("bias_variance", "time_constant"),
                             {"bias_variance": "({u})^2", "time_constant": "s"}, "correlated (Gauss-Markov) bias",
-                            "bias")
+                            "bias", selection=("optional", "extension"), kalibr="random_walk",
+                            short_label="Gauss-Markov bias")
 GAUSS_MARKOV_2 = _GaussMarkov("gauss_markov_2", ("bias_variance_2", "time_constant_2"),
                               {"bias_variance_2": "({u})^2", "time_constant_2": "s"},
-                              "second, slower Gauss-Markov bias", "bias")
+                              "second, slower Gauss-Markov bias", "bias", selection=("extension",),
+                              requires=("gauss_markov",), kalibr="random_walk", start="slow",
+                              sheet=("gauss_markov_2", "second (slower) Gauss-Markov bias",
+                                     "its correlation time"),
+                              short_label="second Gauss-Markov bias")

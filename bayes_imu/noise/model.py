@@ -4,20 +4,60 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, ModelError
+from ._base import KALIBR_ROLES, ROLES, SELECTION_ROLES, TAIL_KINDS, Term
 from .bias_instability import BIAS_INSTABILITY
 from .filtered_white import FILTERED_WHITE
 from .gauss_markov import GAUSS_MARKOV, GAUSS_MARKOV_2, HF_CORRELATED
 from .quantization import QUANTIZATION
 from .ramp import RAMP
 from .random_walk import RANDOM_WALK
+from .vibration import VIBRATION
 from .white import WHITE
 
-__all__ = ["REGISTRY", "TERMS", "TERM_PARAMETERS", "PARAMETER_UNITS", "NoiseModel", "m_array"]
+__all__ = ["REGISTRY", "check_declarations", "TERMS", "TERM_PARAMETERS", "PARAMETER_UNITS",
+           "NoiseModel", "m_array"]
+
+
+
+def _registered(*terms):
+    """``name -> term`` after checking each term's declarations (:func:`check_declarations`)."""
+    out = {}
+    for term in terms:
+        check_declarations(term, known=tuple(out))
+        out[term.name] = term
+    return out
+
+
+def check_declarations(term, *, known=None):
+    """:class:`~bayes_imu.errors.ModelError` unless ``term`` declares what the pipeline looks up:
+    a role, selection roles, a Kalibr role and a covariance-tail kind from their allowed sets,
+    units for every parameter, and required terms among ``known`` (the registry by default)."""
+    known = tuple(REGISTRY) if known is None else known
+    problems = []
+    if not isinstance(term, Term):
+        raise ModelError(f"{term!r} is not a Term")
+    if term.role not in ROLES:
+        problems.append(f"role {term.role!r} not in {ROLES}")
+    if not term.selection or not set(term.selection) <= set(SELECTION_ROLES):
+        problems.append(f"selection {term.selection!r}: expected roles from {SELECTION_ROLES}")
+    if term.kalibr not in KALIBR_ROLES:
+        problems.append(f"kalibr {term.kalibr!r} not in {KALIBR_ROLES}")
+    if term.tail_kind not in TAIL_KINDS:
+        problems.append(f"covariance tail kind {term.tail_kind!r} not in {TAIL_KINDS}")
+    if set(term.units) != set(term.parameters) or not term.parameters:
+        problems.append(f"units {sorted(term.units)} do not match parameters {term.parameters}")
+    missing = [t for t in term.requires if t not in known]
+    if missing:
+        problems.append(f"requires unknown terms {missing}")
+    if problems:
+        raise ModelError(f"term {term.name!r}: " + "; ".join(problems))
+    return term
+
 
 #: every term, in canonical order (Gauss-Markov kinds from fastest to slowest)
-REGISTRY = {t.name: t for t in (WHITE, QUANTIZATION, FILTERED_WHITE, HF_CORRELATED, BIAS_INSTABILITY, GAUSS_MARKOV, GAUSS_MARKOV_2,
-                                RANDOM_WALK, RAMP)}
+REGISTRY = _registered(WHITE, QUANTIZATION, FILTERED_WHITE, HF_CORRELATED, BIAS_INSTABILITY,
+                       GAUSS_MARKOV, GAUSS_MARKOV_2, RANDOM_WALK, RAMP, VIBRATION)
 TERMS = tuple(REGISTRY)
 TERM_PARAMETERS = {name: t.parameters for name, t in REGISTRY.items()}
 #: unit of each parameter, given the unit ``u`` of the rate samples
@@ -55,8 +95,11 @@ class NoiseModel:
             raise InputError(f"model terms {self.terms!r}: expected distinct names from {', '.join(TERMS)}")
         if not (np.isfinite(self.dt) and self.dt > 0):
             raise InputError(f"dt={self.dt!r}: expected a positive sample period in seconds")
-        if "gauss_markov_2" in self.terms and "gauss_markov" not in self.terms:
-            raise InputError("model terms: gauss_markov_2 (the slower of two biases) needs gauss_markov")
+        for name in self.terms:
+            missing = [t for t in REGISTRY[name].requires if t not in self.terms]
+            if missing:
+                raise InputError(f"model terms: {name} ({REGISTRY[name].label}) needs "
+                                 f"{', '.join(missing)}")
         object.__setattr__(self, "terms", tuple(t for t in TERMS if t in self.terms))
 
     @property

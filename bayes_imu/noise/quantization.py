@@ -11,11 +11,15 @@ whatever the start; calibrated start from the contrast of :mod:`._base`.
 import numpy as np
 
 from ._base import Term
+from .quantities import DEG
 
 __all__ = ["QUANTIZATION"]
 
 
 class _Quantization(Term):
+    tail_kind = "none"
+    simulated_start = "stationary"
+
     def avar(self, mf, params, dt):
         return 3.0 * np.asarray(params["quantization"], float)[..., None] ** 2 / (mf * dt) ** 2
 
@@ -28,6 +32,15 @@ class _Quantization(Term):
     def bounds(self, scale):
         return [scale.amplitude(np.log(scale.tau_min**2 / 3.0), 0.5)]
 
+    def starting_guess(self, tau, avar, m, dt):
+        return {"quantization": np.sqrt(0.1 * avar[0] * tau[0] ** 2 / 3.0)}
+
+    def datasheet_rows(self, sensor):
+        if sensor == "gyro":
+            return {"quantization": ("quantization", lambda v: v * DEG * 3600.0, "arcsec",
+                                     "angle quantization")}
+        return {"quantization": ("quantization", lambda v: v, "m/s", "velocity quantization")}
+
     def amplitude2(self, params):
         return np.asarray(params["quantization"], float) ** 2
 
@@ -38,4 +51,5 @@ class _Quantization(Term):
 
 
 QUANTIZATION = _Quantization("quantization", ("quantization",), {"quantization": "{u} s"}, "quantization noise",
-                             "short_term")
+                             "short_term", selection=("optional",), kalibr="none",
+                             short_label="quantization")

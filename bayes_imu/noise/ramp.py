@@ -13,11 +13,15 @@ calibrated start (the mean of the ``N`` previous samples, ``-R dt (N+1)/2``, rem
 import numpy as np
 
 from ._base import Term
+from .quantities import DEG, UG
 
 __all__ = ["RAMP"]
 
 
 class _Ramp(Term):
+    tail_kind = "none"  # deterministic: no structure function (module docstring)
+    simulated_start = "zero"
+
     def avar(self, mf, params, dt):
         return 0.5 * (np.asarray(params["rate_ramp"], float)[..., None] * mf * dt) ** 2
 
@@ -29,6 +33,15 @@ class _Ramp(Term):
 
     def bounds(self, scale):
         return [scale.amplitude(np.log(2.0 / scale.tau_max**2), 0.5)]
+
+    def starting_guess(self, tau, avar, m, dt):
+        return {"rate_ramp": 0.3 * np.sqrt(2.0 * avar[-1]) / tau[-1]}
+
+    def datasheet_rows(self, sensor):
+        if sensor == "gyro":
+            return {"rate_ramp": ("rate_ramp", lambda v: v * DEG * 3600.0**2, "deg/h^2",
+                                  "rate ramp")}
+        return {"rate_ramp": ("rate_ramp", lambda v: v * UG * 3600.0, "ug/h", "acceleration ramp")}
 
     def amplitude2(self, params):
         return np.asarray(params["rate_ramp"], float) ** 2
@@ -42,4 +55,5 @@ class _Ramp(Term):
         return (dt ** (order + 1) * err) ** 2
 
 
-RAMP = _Ramp("ramp", ("rate_ramp",), {"rate_ramp": "{u}/s"}, "rate ramp", "slow")
+RAMP = _Ramp("ramp", ("rate_ramp",), {"rate_ramp": "{u}/s"}, "rate ramp", "slow",
+             selection=("extension",), kalibr="none", short_label="rate ramp")

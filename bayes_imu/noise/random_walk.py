@@ -11,11 +11,16 @@ import numpy as np
 
 from .euler_sums import gm_sum
 from ._base import Term
+from .quantities import DEG
 
 __all__ = ["RANDOM_WALK"]
 
 
 class _RandomWalk(Term):
+    tail_kind = "none"
+    # a simulated walk holds one increment at its first sample, a walk from a zero start none
+    simulated_start = None
+
     def avar(self, mf, params, dt):
         q = np.asarray(params["rate_random_walk"], float)[..., None] ** 2 * dt
         return q * (2.0 * mf * mf + 1.0) / (6.0 * mf)
@@ -30,6 +35,19 @@ class _RandomWalk(Term):
     def bounds(self, scale):
         return [scale.amplitude(np.log(3.0 / scale.tau_max), 0.5)]
 
+    def starting_guess(self, tau, avar, m, dt):
+        return {"rate_random_walk": np.sqrt(1.5 * avar[-1] / tau[-1])}
+
+    def datasheet_rows(self, sensor):
+        if sensor == "gyro":
+            return {"rate_random_walk": ("rate_random_walk", lambda v: v * DEG * 3600.0**1.5,
+                                         "deg/h/sqrt(h)", "RRW")}
+        return {"acceleration_random_walk": ("rate_random_walk", lambda v: v * 3600.0**1.5,
+                                             "m/s/h/sqrt(h)", "AcRW")}
+
+    def kalibr_random_walk2(self, draws, tau_max):
+        return draws["rate_random_walk"] ** 2
+
     def amplitude2(self, params):
         return np.asarray(params["rate_random_walk"], float) ** 2
 
@@ -40,4 +58,5 @@ class _RandomWalk(Term):
 
 
 RANDOM_WALK = _RandomWalk("random_walk", ("rate_random_walk",), {"rate_random_walk": "{u}/sqrt(s)"},
-                          "rate random walk", "slow")
+                          "rate random walk", "slow", selection=("optional",), kalibr="random_walk",
+                          short_label="rate random walk")

@@ -9,11 +9,15 @@ zero or stationary start; calibrated start from the contrast of :mod:`._base`.
 import numpy as np
 
 from ._base import Term, calibrated_contrast
+from .quantities import DEG
 
 __all__ = ["WHITE"]
 
 
 class _White(Term):
+    tail_kind = "none"
+    simulated_start = "stationary"
+
     def avar(self, mf, params, dt):
         return np.asarray(params["noise_variance"], float)[..., None] / mf
 
@@ -26,6 +30,17 @@ class _White(Term):
     def bounds(self, scale):
         return [scale.amplitude(np.log(scale.m_min), 1.0)]
 
+    def starting_guess(self, tau, avar, m, dt):
+        return {"noise_variance": avar[0] * m[0]}
+
+    def datasheet_rows(self, sensor):
+        # the noise density is the white term's with the short-term terms' white equivalents
+        if sensor == "gyro":
+            return {"angle_random_walk": ("noise_density", lambda v: v * DEG * 60.0, "deg/sqrt(h)",
+                                          "ARW (white + short-term terms)")}
+        return {"velocity_random_walk": ("noise_density", lambda v: v * 60.0, "m/s/sqrt(h)",
+                                         "VRW (white + short-term terms)")}
+
     def amplitude2(self, params):
         return params["noise_variance"]
 
@@ -36,4 +51,6 @@ class _White(Term):
         return dt ** (2 * order) * np.where(k > 0, shape, 0.0)
 
 
-WHITE = _White("white", ("noise_variance",), {"noise_variance": "({u})^2"}, "angle/velocity random walk", "short_term")
+WHITE = _White("white", ("noise_variance",), {"noise_variance": "({u})^2"},
+               "angle/velocity random walk", "short_term", selection=("base",),
+               kalibr="noise_density", short_label="white noise")

@@ -34,11 +34,12 @@ import numpy as np
 
 from ..errors import InputError
 from ..io.readers import UNITS
+from ..noise.quantities import SENSORS
 
 __all__ = ["KalibrAxis", "KalibrValues", "kalibr_values", "kalibr_values_from_folders", "write_kalibr_yaml",
            "axis_densities", "fit_folders"]
 
-_KINDS = {"gyro": "gyroscope", "accel": "accelerometer"}
+_KINDS = {name: s.long_name for name, s in SENSORS.items()}
 
 
 @dataclass(frozen=True)
@@ -82,14 +83,12 @@ def axis_densities(fit, factor=1.0):
     draws = {n: fit.draws(n) for n in model.parameter_names}
     density = np.sqrt(model.short_term_variance(draws) * dt) * factor
     rw2 = np.zeros_like(density)
-    if "rate_random_walk" in draws:
-        rw2 += draws["rate_random_walk"] ** 2
-    for variance, time_constant in (("bias_variance", "time_constant"), ("bias_variance_2", "time_constant_2")):
-        if variance in draws:
-            rw2 += 2.0 * draws[variance] / draws[time_constant]
-    if "bias_instability" in draws:
-        tau_max = 2.0 ** math.floor(math.log2(fit.allan.n_samples / 4.0)) * dt
-        rw2 += draws["bias_instability"] ** 2 * 6.0 * math.log(2.0) / (math.pi * tau_max)
+    allan = getattr(fit, "allan", None)  # the longest averaging time of the log, where it is known
+    octave = None if allan is None else 2.0 ** math.floor(math.log2(allan.n_samples / 4.0))
+    tau_max = math.nan if octave is None else octave * dt
+    for term in model.components:  # each term's Kalibr role (:attr:`bayes_imu.noise.Term.kalibr`)
+        if term.kalibr == "random_walk":
+            rw2 += term.kalibr_random_walk2(draws, tau_max)
     return density, np.sqrt(rw2) * factor
 
 

@@ -176,7 +176,7 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None):
     ax.plot(tau_f, med, color="C0", lw=1.5, label=_wrapped("model: " + " + ".join(fit.model.terms)))
     for i, term in enumerate(fit.model.terms):
         part = np.median(np.sqrt(fit.predictive_avar(m_f, rng=rng, term=term)), axis=0)
-        ax.plot(tau_f, part, "--", color=f"C{i + 1}", lw=1, label=_TERM_LABEL.get(term, term))
+        ax.plot(tau_f, part, "--", color=f"C{i + 1}", lw=1, label=_term_label(term))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_ylim(allan.adev.min() / 5, allan.adev.max() * 2)
@@ -464,10 +464,13 @@ def plain_log_formatter(**kwargs):
     return PlainLogFormatter(**kwargs)
 
 
-_TERM_LABEL = {"white": "white noise", "quantization": "quantization", "filtered_white": "filtered white noise",
-               "hf_correlated": "fast correlated noise", "bias_instability": "bias instability",
-               "gauss_markov": "Gauss-Markov bias", "gauss_markov_2": "second Gauss-Markov bias",
-               "random_walk": "rate random walk", "ramp": "rate ramp"}
+def _term_label(name):
+    """What a figure calls a term (:attr:`bayes_imu.noise.Term.plot_label`; else its name)."""
+    from ..noise import REGISTRY
+
+    return REGISTRY[name].plot_label if name in REGISTRY else name
+
+
 _QUANTITY_LABEL = {"attitude": "attitude error", "velocity": "velocity error", "position": "position error"}
 
 
@@ -497,12 +500,12 @@ def plot_drift(bands_list, path, *, units, title="", min_probability=0.1):
             positive = part[keep] > 0
             p = bands.term_probability.get(name, 1.0)
             if p < min_probability:
-                hidden.append(_TERM_LABEL.get(name, name))
+                hidden.append(_term_label(name))
                 continue
             if np.any(positive):
                 where = f", median where modelled, P = {p:.2f}" if p < 0.995 else ", median"
                 ax.plot(t[positive], part[keep][positive], "--", lw=1, color=f"C{i + 1}",
-                        label=f"{_TERM_LABEL.get(name, name)}{where}")
+                        label=f"{_term_label(name)}{where}")
         if hidden:
             import textwrap
 

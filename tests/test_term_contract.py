@@ -1,0 +1,319 @@
+"""One contract for every registered noise term (as emcee runs every move through one suite).
+
+Each check is a plain function of a :class:`~bayes_imu.noise.Term` (``check_*``), run by a test
+parametrised over :data:`~bayes_imu.noise.REGISTRY`, and run again on planted incomplete terms,
+which must fail it: a term added to the registry is checked without editing this file, and a
+term that misses a method or declares what the pipeline cannot serve is caught. A check for one
+more method is one more ``check_*`` function and one more line in :data:`CHECKS`.
+
+References (independent of the term's own closed forms):
+
+* AVAR: the exact quadratic form ``w' G w / (2 m^2)`` over the ``2m`` rate samples of one
+  second difference, with the rate autocovariance ``G(l) = (D(l+1) - 2 D(l) + D(l-1)) / 2``
+  from the term's structure function (a sum over ``(2m)^2`` sample pairs, not the three-point
+  form the terms use);
+* structure function: Monte Carlo of the second differences of the term's simulator, within
+  5 standard errors (relative standard error ``sqrt(2 / R)`` of a Gaussian mean square, ``R``
+  draws);
+* drift: the brute-force quadratic form ``w' G w`` of the calibrated Euler error (weights over
+  ``y_{-N} .. y_{k-1}`` written out from the paper's sums; they annihilate constants, so the
+  generalised covariance serves non-stationary terms too) and Monte Carlo of the same error on
+  simulated records (5 standard errors), orders 1 and 2; for the start a simulated record
+  realises (:attr:`Term.simulated_start`) the uncalibrated error as well;
+* covariance tail: the declared tail, through the covariance kernel, against the exact sum over
+  every lag of the record (:func:`bayes_imu.noise.avar_covariance.exact_pair_sums`).
+
+Parameters come from each term's own prior box (its centre, on a fixed curve), so no table of
+values is kept by hand here.
+"""
+
+import numpy as np
+import pytest
+
+from bayes_imu.errors import InputError, ModelError
+from bayes_imu.noise import BIAS_STARTS, KALIBR_ROLES, REGISTRY, ROLES, SELECTION_ROLES, TAIL_KINDS, NoiseModel, Term
+from bayes_imu.noise._base import PriorScale
+from bayes_imu.noise.avar_covariance import avar_covariance, exact_pair_sums, model_tails
+from bayes_imu.noise.model import check_declarations
+
+DT = 0.1
+#: a curve with AVAR between 1e-2 and 1 over 0.1-10 s of a 200 s record
+SCALE = PriorScale(log_lo=np.log(1e-2), log_hi=np.log(1.0), dt=DT, tau_min=DT, tau_max=10.0, m_min=1.0,
+                   record_s=200.0)
+N_MC = 3000
+#: how closely the covariance code's tail of each kind follows the exact sum over every lag on
+#: 400 samples: exact, the Gauss-Markov midpoint rule (~1e-4), the flicker asymptote
+#: ``-h a^2 b^2 / l_c^2`` (neglects ``O((b/l_c)^2)``, 4% off at m = 1 against m = 32 here)
+TAIL_TOLERANCE = {"none": 1e-9, "gauss_markov": 1e-3, "flicker": 6e-2, "generic": 1e-9,
+                  "deterministic": 0.0}
+SIGMAS = 5.0
+
+
+def params_of(term):
+    """The centre of the term's prior box on :data:`SCALE` (scalars)."""
+    box = np.asarray(term.bounds(SCALE), float)
+    assert box.shape == (len(term.parameters), 2) and np.all(box[:, 0] < box[:, 1]), term.name
+    return {name: float(np.exp(box[i].mean())) for i, name in enumerate(term.parameters)}
+
+
+def rate_autocovariance(term, p, n):
+    """``(n, n)`` generalised covariance of rate samples from the term's structure function."""
+    lag = np.abs(np.arange(n)[:, None] - np.arange(n)[None, :]).astype(float)
+    d = lambda k: term.structure(k, p, DT)  # noqa: E731
+    return 0.5 * (d(lag + 1.0) - 2.0 * d(lag) + d(np.abs(lag - 1.0)))
+
+
+def second_difference_weights(m):
+    """``d = x_{2m} - 2 x_m + x_0`` as weights on ``y_0 .. y_{2m-1}``."""
+    return np.concatenate([-np.ones(m), np.ones(m)])
+
+
+def drift_weights(order, k, n_cal, calibrated=True):
+    """``e = w' y`` over ``y_{-N} .. y_{k-1}``: ``v_k = dt sum_{i<k} e_i``, ``p_k = dt sum_{j<k} v_j``,
+    ``e_i = y_i - mean(y_{-N..-1})`` (or ``- 0`` uncalibrated)."""
+    outage = DT * np.ones(k) if order == 1 else DT**2 * (k - 1 - np.arange(k, dtype=float))
+    cal = -outage.sum() / n_cal * np.ones(n_cal) if calibrated else np.zeros(n_cal)
+    return np.concatenate([cal, outage])
+
+
+def simulate_many(term, p, n, rng, count=N_MC):
+    return np.array([term.simulate(p, n, DT, rng) for _ in range(count)])
+
+
+# --- the contract: each check raises (AssertionError, NotImplementedError, ModelError) on a bad term
+
+
+def check_declarations_(term):
+    """Roles, selection, Kalibr role and tail kind from their allowed sets; units of every parameter."""
+    check_declarations(term, known=tuple(REGISTRY))
+    assert term.role in ROLES and set(term.selection) <= set(SELECTION_ROLES) and term.kalibr in KALIBR_ROLES
+    assert term.tail_kind in TAIL_KINDS
+
+
+def check_avar(term):
+    """AVAR equals the sample-level quadratic form of its structure function; broadcasts."""
+    p = params_of(term)
+    m = np.array([1.0, 2.0, 3.0, 5.0, 8.0, 21.0])
+    got = term.avar(m, {k: np.asarray(v) for k, v in p.items()}, DT)
+    ref = []
+    for mi in m.astype(int):
+        w = second_difference_weights(mi)
+        ref.append(w @ rate_autocovariance(term, p, 2 * mi) @ w / (2.0 * mi * mi))
+    if np.all(np.asarray(term.structure(np.arange(50.0), p, DT)) == 0):  # deterministic: no structure
+        assert np.all(got > 0)
+    else:
+        np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-14 * np.max(np.abs(got)))
+    batch = {k: np.full((2, 3), v) for k, v in p.items()}
+    out = term.avar(m, batch, DT)
+    assert out.shape == (2, 3, m.size) and np.array_equal(out[1, 2], got)
+
+
+def check_structure_vs_simulation(term, rng):
+    """Mean square of the simulator's second differences equals ``2 m^2 AVAR(m)`` within 5 sigma."""
+    p = params_of(term)
+    m = np.array([1, 3, 8])
+    y = simulate_many(term, p, 2 * int(m.max()), rng)
+    assert y.shape == (N_MC, 2 * m.max()) and np.all(np.isfinite(y))
+    x = np.concatenate([np.zeros((N_MC, 1)), np.cumsum(y, axis=1)], axis=1)
+    expected = 2.0 * m * m * term.avar(m.astype(float), {k: np.asarray(v) for k, v in p.items()}, DT)
+    for mi, e in zip(m, expected):
+        d = x[:, 2 * mi] - 2.0 * x[:, mi] + x[:, 0]
+        assert abs(np.mean(d * d) / e - 1.0) < SIGMAS * np.sqrt(2.0 / N_MC), (term.name, mi)
+
+
+def check_drift_brute_force(term):
+    """Calibrated drift, orders 1 and 2, against ``w' G w`` (stochastic terms; a deterministic
+    term is checked by Monte Carlo, which is exact for it)."""
+    p = params_of(term)
+    if np.all(np.asarray(term.structure(np.arange(50.0), p, DT)) == 0):
+        return
+    for order in (1, 2):
+        for k, n_cal in ((1, 1), (2, 5), (9, 4), (30, 30)):
+            w = drift_weights(order, k, n_cal)
+            g = rate_autocovariance(term, p, n_cal + k)
+            ref = w @ g @ w
+            got = term.drift_variance(order, np.array([float(k)]), {n: np.asarray(v) for n, v in p.items()}, DT,
+                                      bias_start="calibrated", n_cal=float(n_cal))
+            np.testing.assert_allclose(got[0], ref, rtol=1e-8, atol=1e-12 * (np.abs(w) @ np.abs(g) @ np.abs(w)))
+
+
+def check_drift_monte_carlo(term, rng):
+    """Calibrated drift (orders 1, 2) and the start a simulated record realises, by Monte Carlo."""
+    p = params_of(term)
+    k, n_cal = 12, 8
+    pp = {n: np.asarray(v) for n, v in p.items()}
+    y = simulate_many(term, p, n_cal + k, rng)
+    cases = [(order, "calibrated", y @ drift_weights(order, k, n_cal)) for order in (1, 2)]
+    start = getattr(term, "simulated_start", None)
+    assert start is None or start in BIAS_STARTS
+    if start is not None and start != "calibrated":  # the outage starts at the record's first sample
+        cases += [(order, start, y[:, :k] @ drift_weights(order, k, 1, False)[1:]) for order in (1, 2)]
+    for order, bias_start, e in cases:
+        got = term.drift_variance(order, np.array([float(k)]), pp, DT, bias_start=bias_start, n_cal=float(n_cal))[0]
+        assert abs(np.mean(e * e) / got - 1.0) < SIGMAS * np.sqrt(2.0 / N_MC), (term.name, order, bias_start)
+
+
+def check_drift_orders_and_starts(term):
+    """Every bias start at orders 1 and 2 is finite, non-negative and zero at ``k = 0``; other
+    orders raise ModelError; an unknown start raises InputError."""
+    pp = {n: np.full(3, v) for n, v in params_of(term).items()}
+    k = np.array([0.0, 1.0, 2.0, 17.0, 400.0])
+    for order in (1, 2):
+        for start in BIAS_STARTS:
+            v = term.drift_variance(order, k, pp, DT, bias_start=start, n_cal=50.0)
+            assert v.shape == (3, k.size) and np.all(np.isfinite(v)) and np.all(v >= 0), (order, start)
+            assert np.all(v[:, 0] == 0)
+    for order in (0, 3, 1.5, True, -1):
+        with pytest.raises(ModelError, match="integration order"):
+            term.drift_variance(order, k, pp, DT)
+    with pytest.raises(InputError, match="bias_start"):
+        term.drift_variance(1, k, pp, DT, bias_start="warm")
+
+
+def check_covariance_tail(term):
+    """The declared tail through the covariance code equals the exact sum over every lag (a term
+    correlating beyond the overlap window under a ``"none"`` declaration would fail here)."""
+    p = params_of(term)
+    model = NoiseModel(tuple(dict.fromkeys(("white",) + term.requires + (term.name,))), DT)
+    full = dict(p)
+    for other in model.components:
+        if other is not term:
+            full.update(params_of(other))
+    tails = model_tails(model, full)
+    assert [t.kind for t in tails] == [t.tail_kind for t in model.components]
+    m = np.array([1, 2, 4, 8, 16, 32])
+    n = 400
+    cov = avar_covariance(model, full, m, n)
+    table = np.asarray(model.structure_function(np.arange(n + 4 * m.max() + 1), full), float)
+    mf = m.astype(float)
+    norm = 2.0 * np.outer(mf * mf * (n - 2 * mf + 1), mf * mf * (n - 2 * mf + 1))
+    exact = exact_pair_sums(table, m, n) / norm
+    assert np.all(np.diag(cov) > 0) and np.array_equal(cov, cov.T)
+    if any(t.kind == "deterministic" for t in tails):
+        # a fixed-amplitude signal spreads the estimates less than a Gaussian process of its
+        # covariance (its own fourth moments left out, a sum of squares); Monte Carlo in its tests
+        assert np.all(np.diag(cov) <= np.diag(exact) * (1 + 1e-9))
+        return
+    rtol = max(TAIL_TOLERANCE[t.kind] for t in tails)
+    np.testing.assert_allclose(cov, exact, rtol=rtol, atol=1e-3 * rtol * np.max(np.abs(exact)))
+
+
+def check_selection_and_start(term):
+    """A selection role, and a starting guess for every parameter, finite and positive."""
+    assert term.selection and set(term.selection) <= set(SELECTION_ROLES)
+    tau = DT * 2.0 ** np.arange(8)
+    avar = 0.5 / (tau / DT) + 0.01
+    guess = term.starting_guess(tau, avar, tau / DT, DT)
+    assert set(guess) == set(term.parameters)
+    assert all(np.isfinite(v) and v > 0 for v in guess.values())
+
+
+def check_datasheet_and_kalibr(term):
+    """Datasheet rows for both sensors, drawn from its parameters (or the noise density); a
+    Kalibr random-walk term gives a non-negative density per draw."""
+    names = set(term.parameters) | {"noise_density"}
+    p = params_of(term)
+    for sensor in ("gyro", "accel"):
+        rows = term.datasheet_rows(sensor)
+        assert isinstance(rows, dict)
+        for name, (source, convert, unit, what) in rows.items():
+            assert source in names and unit and what, name
+            if source in p:
+                assert np.isfinite(convert(np.array([p[source]]))).all()
+    if term.kalibr == "random_walk":
+        draws = {n: np.full(4, v) for n, v in p.items()}
+        rw2 = term.kalibr_random_walk2(draws, 10.0)
+        assert rw2.shape == (4,) and np.all(rw2 >= 0)
+    if term.kalibr == "noise_density":
+        assert term.role == "short_term"
+
+
+CHECKS = (check_declarations_, check_avar, check_structure_vs_simulation, check_drift_brute_force,
+          check_drift_monte_carlo, check_drift_orders_and_starts, check_covariance_tail, check_selection_and_start,
+          check_datasheet_and_kalibr)
+_NEEDS_RNG = {check_structure_vs_simulation, check_drift_monte_carlo}
+
+
+def run_check(check, term, rng):
+    return check(term, rng) if check in _NEEDS_RNG else check(term)
+
+
+@pytest.mark.parametrize("name", list(REGISTRY))
+@pytest.mark.parametrize("check", CHECKS, ids=lambda c: c.__name__)
+def test_every_term_meets_the_contract(check, name, rng):
+    run_check(check, REGISTRY[name], rng)
+
+
+# --- planted incomplete terms fail the contract
+
+
+class _HalfWhite(Term):
+    """White noise with its AVAR and simulator only: no structure, guess, rows or drift."""
+
+    tail_kind = "none"
+
+    def avar(self, mf, params, dt):
+        return np.asarray(params["noise_variance"], float)[..., None] / mf
+
+    def simulate(self, params, n, dt, rng):
+        return np.sqrt(params["noise_variance"]) * rng.standard_normal(n)
+
+    def bounds(self, scale):
+        return [scale.amplitude(0.0, 1.0)]
+
+
+class _PeriodicTail(_HalfWhite):
+    """Complete but for a covariance tail of a kind the covariance code does not serve."""
+
+    tail_kind = "periodic"
+
+    def structure(self, k, params, dt):
+        return params["noise_variance"] * np.asarray(k, float)
+
+
+class _WrongAvar(_PeriodicTail):
+    """A declared tail, but an AVAR twice its structure function's."""
+
+    tail_kind = "none"
+
+    def avar(self, mf, params, dt):
+        return 2.0 * super().avar(mf, params, dt)
+
+
+_UNITS = {"noise_variance": "({u})^2"}
+PLANTED = {
+    "half": _HalfWhite("half", ("noise_variance",), _UNITS, "half white", "short_term", selection=("extension",),
+                       kalibr="noise_density"),
+    "periodic": _PeriodicTail("periodic", ("noise_variance",), _UNITS, "periodic", "short_term",
+                              selection=("extension",), kalibr="none"),
+    "wrong_avar": _WrongAvar("wrong_avar", ("noise_variance",), _UNITS, "wrong", "short_term",
+                             selection=("extension",), kalibr="none"),
+    "no_role": _WrongAvar("no_role", ("noise_variance",), _UNITS, "no role", "short_term"),
+}
+#: (planted term, the checks it must fail)
+FAILURES = [
+    ("half", check_avar), ("half", check_drift_brute_force), ("half", check_selection_and_start),
+    ("half", check_datasheet_and_kalibr), ("half", check_drift_orders_and_starts),
+    ("periodic", check_declarations_), ("wrong_avar", check_avar), ("wrong_avar", check_structure_vs_simulation),
+    ("no_role", check_declarations_), ("no_role", check_selection_and_start),
+]
+
+
+@pytest.mark.parametrize("planted, check", FAILURES, ids=[f"{p}-{c.__name__}" for p, c in FAILURES])
+def test_planted_incomplete_term_fails_the_contract(planted, check, rng):
+    with pytest.raises((AssertionError, NotImplementedError, ModelError)):
+        run_check(check, PLANTED[planted], rng)
+
+
+def test_undeclared_tail_kind_is_refused_by_the_covariance_code(monkeypatch):
+    """A model holding a term of an unknown tail kind raises ModelError rather than dropping its
+    correlation (the registry itself refuses such a term, :func:`check_declarations`)."""
+    import bayes_imu.noise.model as model_module
+
+    monkeypatch.setitem(model_module.REGISTRY, "periodic", PLANTED["periodic"])
+    monkeypatch.setattr(model_module, "TERMS", model_module.TERMS + ("periodic",))
+    model = NoiseModel(("white", "periodic"), DT)
+    with pytest.raises(ModelError, match="periodic"):
+        avar_covariance(model, {"noise_variance": 1.0}, np.array([1, 2]), 100)
+    with pytest.raises(ModelError, match="covariance tail kind"):
+        check_declarations(PLANTED["periodic"])
