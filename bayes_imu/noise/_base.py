@@ -193,3 +193,26 @@ class Term:
 
     def parameter_units(self, unit):
         return {p: self.units[p].format(u=unit) for p in self.parameters}
+
+    # --- navigation channel (:mod:`bayes_imu.drift.navigation`) --------------------------
+    def nav_filter(self, params, dt, *, n_cal=None):  # pragma: no cover - abstract
+        """The sampled output as a linear state-space system driven by i.i.d. standard normals.
+
+        ``s_{i+1} = F s_i + G eps_i``, ``y_i = H s_i + D eps_i``; a dict of ``F (..., s, s)``,
+        ``G (..., s, e)``, ``H (..., s)``, ``D (..., e)`` and the state covariances at the
+        start: ``P_zero``, ``P_stationary`` (at the outage) and ``P_calibration`` (``n_cal``
+        samples before it), with the same semantics as :meth:`drift_variance`.
+        """
+        raise NotImplementedError
+
+    def nav_variance(self, loop, k, params, dt, *, bias_start="calibrated", n_cal=None):
+        """Variance ``(..., n_t, 3)`` of (tilt [rad^2], velocity [(m/s)^2], position [m^2]) of
+        a navigation channel (``loop``, a :class:`bayes_imu.drift.navigation.NavLoop`) driven by
+        this term after ``k`` ``(n_t,)`` samples; ``n_cal`` is the calibration window in samples.
+
+        The default serves terms linear in one squared amplitude: the exact propagation of
+        :meth:`nav_filter` at unit amplitude, scaled.
+        """
+        unit = {p: 1.0 for p in self.parameters}
+        v = loop.linear_variance(self.nav_filter(unit, dt, n_cal=n_cal), k, dt, bias_start=bias_start, n_cal=n_cal)
+        return np.asarray(self.amplitude2(params), float)[..., None, None] * v

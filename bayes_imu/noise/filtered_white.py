@@ -49,6 +49,13 @@ class _FilteredWhite(Term):
             return dt**2 * np.where(k > 0, 4.0 * k - 2.0, 0.0)
         return dt**4 * np.where(k > 0, (k - 1.0) ** 2 + (k - 1.0) * (2.0 * k - 1.0) * (2.0 * k - 3.0) / 3.0, 0.0)
 
+    def nav_filter(self, params, dt, *, n_cal=None):
+        """State ``w_{i-1}``: ``y_i = sqrt(c) (w_{i-1} + eps_i)``, ``w_i = eps_i``."""
+        c = np.sqrt(float(params["filtered_variance"]))
+        one = np.ones((1, 1))
+        return {"F": np.zeros((1, 1)), "G": one, "H": np.array([c]), "D": np.array([c]),
+                "P_zero": one, "P_stationary": one, "P_calibration": one}
+
 
 FILTERED_WHITE = _FilteredWhite("filtered_white", ("filtered_variance",), {"filtered_variance": "({u})^2"},
                                 "filtered (moving-average) white noise", "short_term")

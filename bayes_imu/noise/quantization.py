@@ -36,6 +36,13 @@ class _Quantization(Term):
             return super().unit_drift(order, k, dt, bias_start, n_cal)
         return 2.0 * (k > 0) if order == 1 else dt**2 * np.where(k > 0, (k - 1.0) * k, 0.0)
 
+    def nav_filter(self, params, dt, *, n_cal=None):
+        """State ``e_i`` (the angle noise): ``y_i = (Q eps_i - e_i)/dt``, ``e_{i+1} = Q eps_i``."""
+        q = float(params["quantization"])
+        p = np.array([[q * q]])
+        return {"F": np.zeros((1, 1)), "G": np.array([[q]]), "H": np.array([-1.0 / dt]), "D": np.array([q / dt]),
+                "P_zero": p, "P_stationary": p, "P_calibration": p}
+
 
 QUANTIZATION = _Quantization("quantization", ("quantization",), {"quantization": "{u} s"}, "quantization noise",
                              "short_term")

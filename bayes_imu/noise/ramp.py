@@ -41,5 +41,15 @@ class _Ramp(Term):
             err = k * (k - 1.0) / 2.0 if order == 1 else k * (k - 1.0) * (k - 2.0) / 6.0
         return (dt ** (order + 1) * err) ** 2
 
+    def nav_filter(self, params, dt, *, n_cal=None):
+        """Deterministic state (level, step) ``(R dt i, R dt)``: its "covariance" is the outer
+        product of the start, so the variance is the squared error, as :meth:`drift_variance`."""
+        step = float(params["rate_ramp"]) * dt
+        start = np.array([0.0, step])
+        cal = np.array([-float(n_cal or 0) * step, step])
+        return {"F": np.array([[1.0, 1.0], [0.0, 1.0]]), "G": np.zeros((2, 1)), "H": np.array([1.0, 0.0]),
+                "D": np.zeros(1), "P_zero": np.outer(start, start), "P_stationary": np.outer(start, start),
+                "P_calibration": np.outer(cal, cal)}
+
 
 RAMP = _Ramp("ramp", ("rate_ramp",), {"rate_ramp": "{u}/s"}, "rate ramp", "slow")

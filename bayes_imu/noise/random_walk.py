@@ -38,6 +38,13 @@ class _RandomWalk(Term):
             return super().unit_drift(order, k, dt, bias_start, n_cal)
         return dt ** (2 * order + 1) * gm_sum(order, k, np.zeros_like(k))
 
+    def nav_filter(self, params, dt, *, n_cal=None):
+        """State ``y_i`` itself, zero at the start (``y_0 = 0``, as :meth:`drift_variance`); a
+        calibrated error annihilates the walk's level, so starting the window at zero is exact."""
+        zero = np.zeros((1, 1))
+        return {"F": np.ones((1, 1)), "G": np.array([[float(params["rate_random_walk"]) * np.sqrt(dt)]]),
+                "H": np.ones(1), "D": np.zeros(1), "P_zero": zero, "P_stationary": zero, "P_calibration": zero}
+
 
 RANDOM_WALK = _RandomWalk("random_walk", ("rate_random_walk",), {"rate_random_walk": "{u}/sqrt(s)"},
                           "rate random walk", "slow")

@@ -35,5 +35,11 @@ class _White(Term):
         shape = k if order == 1 else (k - 1.0) * k * (2.0 * k - 1.0) / 6.0
         return dt ** (2 * order) * np.where(k > 0, shape, 0.0)
 
+    def nav_filter(self, params, dt, *, n_cal=None):
+        """No state: ``y_i = sqrt(q) eps_i``."""
+        zero = np.zeros((1, 1))
+        return {"F": zero, "G": zero, "H": np.zeros(1), "D": np.sqrt([float(params["noise_variance"])]),
+                "P_zero": zero, "P_stationary": zero, "P_calibration": zero}
+
 
 WHITE = _White("white", ("noise_variance",), {"noise_variance": "({u})^2"}, "angle/velocity random walk", "short_term")
