@@ -36,7 +36,7 @@ flicker (bias-instability) term has no finite state: :meth:`NavLoop.increment_va
 evaluates its exact quadratic form over the stationary rate increments by FFT.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -106,6 +106,7 @@ class NavLoop:
     schuler: bool = True
     g: float = GRAVITY
     radius: float = EARTH_RADIUS
+    _cache: dict = field(default_factory=dict, init=False, repr=False, compare=False, hash=False)
 
     def __post_init__(self):
         if self.sensor not in SENSORS:
@@ -131,6 +132,17 @@ class NavLoop:
         c = np.cos(w * dt)
         phi = np.array([[c, w * w / g * s, 0.0], [-g * s, c, 0.0], [-g * k, s, 1.0]])
         return phi, self.response(dt).astype(float)
+
+    def unit_variance(self, key, compute, k, dt, bias_start, n_cal):
+        """``compute()`` memoised on ``(key, k, dt, bias_start, n_cal)``: a term's variance at unit
+        amplitude does not depend on its parameters, so the candidate models of a model-averaged
+        fit share it (a copy is returned)."""
+        k = np.asarray(k, float)
+        n_cal = np.asarray(n_cal, float)
+        full = (key, k.tobytes(), float(dt), bias_start, n_cal.tobytes())
+        if full not in self._cache:
+            self._cache[full] = compute()
+        return self._cache[full].copy()
 
     # --- finite-state terms --------------------------------------------------------------
     def linear_variance(self, filt, k, dt, *, bias_start="calibrated", n_cal=None):
@@ -203,6 +215,8 @@ class NavLoop:
         (:meth:`increment_tails`) is exact; it is evaluated by FFT (circulant embedding), whose
         rounding error is a few ``1e-16 n`` of ``gamma(0) |t|^2``.
         """
+        from scipy import fft
+
         k = np.atleast_1d(np.asarray(k, float))
         n_cal = np.broadcast_to(np.asarray(n_cal, float), k.shape)
         out = np.zeros(k.shape + (3,))
@@ -211,13 +225,13 @@ class NavLoop:
                 continue
             tails = self.increment_tails(ki, dt, ni)
             n = tails.shape[1]
+            size = fft.next_fast_len(2 * n - 1, real=True)
             gamma = acov(n)
-            size = 1 << int(np.ceil(np.log2(2 * n)))
             circ = np.zeros(size)
             circ[:n] = gamma
             circ[size - n + 1:] = gamma[1:][::-1]
-            spec = np.fft.rfft(circ)
-            conv = np.fft.irfft(np.fft.rfft(tails, size, axis=1) * spec, size, axis=1)[:, :n]
+            spec = fft.rfft(circ)
+            conv = fft.irfft(fft.rfft(tails, size, axis=1) * spec, size, axis=1)[:, :n]
             out[i] = np.maximum(np.einsum("qn,qn->q", tails, conv), 0.0)
         return out
 

@@ -214,5 +214,10 @@ class Term:
         :meth:`nav_filter` at unit amplitude, scaled.
         """
         unit = {p: 1.0 for p in self.parameters}
-        v = loop.linear_variance(self.nav_filter(unit, dt, n_cal=n_cal), k, dt, bias_start=bias_start, n_cal=n_cal)
+
+        def compute():
+            return loop.linear_variance(self.nav_filter(unit, dt, n_cal=n_cal), k, dt, bias_start=bias_start,
+                                        n_cal=n_cal)
+
+        v = loop.unit_variance(self.name, compute, k, dt, bias_start, n_cal)
         return np.asarray(self.amplitude2(params), float)[..., None, None] * v

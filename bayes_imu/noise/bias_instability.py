@@ -78,7 +78,8 @@ class _BiasInstability(Term):
         (a calibration window as long as the outage)."""
         k = np.asarray(k, float)
         n = np.broadcast_to(n_cal, k.shape) if bias_start == "calibrated" else np.maximum(k, 1.0)
-        unit = loop.increment_variance(k, dt, n, lambda size: flicker_increment_acov(size, 1.0))
+        unit = loop.unit_variance(self.name, lambda: loop.increment_variance(
+            k, dt, n, lambda size: flicker_increment_acov(size, 1.0)), k, dt, bias_start, n)
         return np.asarray(self.amplitude2(params), float)[..., None, None] * unit
 
 
