@@ -215,8 +215,9 @@ def _check(gyro, accel, bias_start, models, calibration_s, speed):
         raise InputError(f"models={models!r}: expected one of {', '.join(MODEL_CHOICES)}")
     dts = {f.model.dt for f in gyro + accel}
     if max(dts) > min(dts) * (1.0 + 1e-9):
-        raise InputError("gyro and accelerometer fits: mismatched sample rates "
-                         f"({', '.join(f'{1.0 / d:g} Hz' for d in sorted(dts))}); expected one IMU's logs at one rate")
+        rates = [", ".join(sorted({f"{1.0 / f.model.dt:g} Hz" for f in fits})) for fits in (gyro, accel)]
+        raise InputError(f"gyro and accelerometer fits: mismatched sample rates (gyro {rates[0]}, accelerometer "
+                         f"{rates[1]}); expected one IMU's logs at one rate")
     dt = gyro[0].model.dt
     if not (np.isfinite(calibration_s) and calibration_s >= dt):
         raise InputError(f"calibration={calibration_s!r} s: expected at least one sample ({dt:g} s)")
