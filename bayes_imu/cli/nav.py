@@ -5,6 +5,7 @@ Parsing and printing only; the work is :func:`bayes_imu.report.nav.run_nav`.
 
 import argparse
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -86,11 +87,16 @@ def add_nav_parser(sub):
 
 
 def _cmd_nav(args):
+    from ..errors import InputError
     from ..report.nav import NavRequest, run_nav
 
     request = NavRequest(args.gyro, args.accel, args.out, args.times, args.bias_start, args.calibration,
                          not args.no_schuler, args.models, args.speed, args.horizon, args.seed, args.force)
-    bands = run_nav(request)
+    try:
+        bands = run_nav(request)
+    except InputError as exc:  # the library names its parameters; say the flags
+        text = re.sub(r"^(gyro|accel)=(\S+):", r"--\1 \2:", str(exc))
+        raise InputError(text.replace("gyro and accel swapped?", "swap --gyro and --accel?")) from None
     if not args.quiet:
         position = bands.quantities["position"]
         for t in args.times:

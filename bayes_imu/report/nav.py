@@ -43,7 +43,7 @@ class NavRequest:
     force: bool = False
 
 
-def load_nav_fits(folder, kind, flag):
+def load_nav_fits(folder, kind):
     """Fits of one sensor from a fit folder (one axis, or three of a several-column fit), unit checked.
 
     Raises
@@ -55,6 +55,7 @@ def load_nav_fits(folder, kind, flag):
     from ..inference.archive import fit_axes, load_fit
 
     unit, name = _KIND[kind]
+    flag = f"{kind}={folder}:"
     try:
         axes = fit_axes(folder)
     except InputError as exc:
@@ -64,24 +65,25 @@ def load_nav_fits(folder, kind, flag):
         got = summary.get("unit")
         if got != unit:
             other = _UNIT_KIND.get(got)
-            hint = (f"it is {_KIND[other][1]} fit; swap --gyro and --accel?" if other and other != kind
+            hint = (f"it is {_KIND[other][1]} fit; gyro and accel swapped?" if other and other != kind
                     else "run bayes-imu fit with --units to convert it")
-            raise InputError(f"{flag} {place}: fitted in {got!r}; expected {name} fit in {unit} ({hint})")
+            raise InputError(f"{kind}={place}: fitted in {got!r}; expected {name} fit in {unit} ({hint})")
         try:
             fits.append(load_fit(place))
         except InputError as exc:
             raise InputError(f"{flag} {exc}") from None
     if len(fits) not in (1, 3):
-        raise InputError(f"{flag} {folder}: {len(fits)} axes; expected one axis or three (x, y, z)")
+        raise InputError(f"{flag} {len(fits)} axes; expected one axis or three (x, y, z)")
     return fits
 
 
 def run_nav(request, *, progress=None):
     """Compute the bands of ``request`` and write its folder; return the :class:`NavigationBands`."""
-    gyro = load_nav_fits(request.gyro, "gyro", "--gyro")
-    accel = load_nav_fits(request.accel, "accel", "--accel")
+    gyro = load_nav_fits(request.gyro, "gyro")
+    accel = load_nav_fits(request.accel, "accel")
     if len(gyro) != len(accel):
-        raise InputError(f"--gyro has {len(gyro)} axes and --accel {len(accel)}; expected the same number (1 or 3)")
+        raise InputError(f"gyro and accelerometer fits: {len(gyro)} and {len(accel)} axes; expected the same "
+                         "number (1 or 3)")
     times = np.asarray(request.times, float)
     if times.size == 0 or not np.all(np.isfinite(times) & (times > 0)):
         raise InputError(f"times={list(request.times)!r}: expected positive outage lengths in seconds")
