@@ -59,7 +59,7 @@ def load_nav_fits(folder, kind):
     try:
         axes = fit_axes(folder)
     except InputError as exc:
-        raise InputError(f"{flag} {exc}") from None
+        raise _named(kind, folder, exc) from None
     fits = []
     for axis, place, summary in axes:
         got = summary.get("unit")
@@ -71,13 +71,18 @@ def load_nav_fits(folder, kind):
         try:
             fits.append(load_fit(place))
         except InputError as exc:
-            raise InputError(f"{flag} {exc}") from None
+            raise _named(kind, place, exc) from None
     if len(fits) not in (1, 3):
         raise InputError(f"{flag} {len(fits)} axes; expected one axis or three (x, y, z)")
     return fits
 
 
-def run_nav(request, *, progress=None):
+def _named(kind, path, exc):
+    text = str(exc)
+    return InputError(f"{kind}={text}" if text.startswith(str(path)) else f"{kind}={path}: {text}")
+
+
+def run_nav(request):
     """Compute the bands of ``request`` and write its folder; return the :class:`NavigationBands`."""
     gyro = load_nav_fits(request.gyro, "gyro")
     accel = load_nav_fits(request.accel, "accel")
