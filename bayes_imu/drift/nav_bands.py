@@ -173,6 +173,16 @@ def _pick(fit, models, n, rng):
     return [(m, s[keep[(keep >= lo) & (keep < hi)] - lo]) for (m, s), lo, hi in zip(parts, bounds[:-1], bounds[1:])]
 
 
+def _segment_spread(fit, variance, t, rng):
+    """A fit flagged non-stationary: each draw's variance times ``exp(2 z s(t))``, ``z ~ N(0, 1)`` per
+    draw (the between-segment spread of :func:`bayes_imu.drift.bands.drift_draws`)."""
+    steady = getattr(fit, "stationarity", None)
+    if steady is None or steady.stationary:
+        return variance
+    z = rng.standard_normal((variance.shape[0], 1, 1))
+    return variance * np.exp(2.0 * z * np.asarray(steady.drift_log_sd(t), float)[None, :, None])
+
+
 def _sensor_variance(parts, loop, k, bias_start, n_cal, factor=1.0):
     """``(total (n, n_t, 3), terms {name: (n, n_t, 3) with nan where absent})`` for one sensor."""
     n = sum(s.shape[0] for _, s in parts)
@@ -230,7 +240,8 @@ def _check(gyro, accel, bias_start, models, calibration_s, speed):
 
 def navigation_bands(gyro_fit, accel_fit, t=None, *, bias_start="calibrated", calibration_s=DEFAULT_CALIBRATION_S,
                      schuler=True, models="averaged", quantiles=(0.05, 0.5, 0.95), credibility=0.95,
-                     horizon_s=None, speed=None, max_draws=1000, g=GRAVITY, radius=EARTH_RADIUS, rng=None):
+                     horizon_s=None, speed=None, max_draws=1000, g=GRAVITY, radius=EARTH_RADIUS, rng=None,
+                     segment_spread=True):
     """Posterior of the horizontal navigation error during an outage (module docstring).
 
     Parameters
@@ -257,6 +268,9 @@ def navigation_bands(gyro_fit, accel_fit, t=None, *, bias_start="calibrated", ca
         Draw pairs used (a random subset of each posterior, ``rng``).
     g, radius : float
         Gravity [m/s^2] and Earth radius [m].
+    segment_spread : bool
+        Widen a sensor flagged non-stationary by the spread between the parts of its log, as
+        the drift bands do (:func:`bayes_imu.drift.bands.drift_draws`).
 
     Returns
     -------
@@ -277,21 +291,25 @@ def navigation_bands(gyro_fit, accel_fit, t=None, *, bias_start="calibrated", ca
     fits = gyro + accel
     n = min([max_draws] + [sum(s.shape[0] for _, s in model_draws(f, models)) for f in fits])
     picked = [_pick(f, models, n, rng) for f in fits]
+
+    def sensor(i, loop, factor=1.0):
+        total, terms = _sensor_variance(picked[i], loop, k, factor=factor, **kw)
+        return (_segment_spread(fits[i], total, k * dt, rng) if segment_spread else total), terms
+
     q = np.asarray(quantiles, float)
     kw = {"bias_start": bias_start, "n_cal": n_cal}
     loop_g = NavLoop("gyro", schuler, g, radius)
     loop_a = NavLoop("accel", schuler, g, radius)
     out = {}
     if len(gyro) == 1:
-        vg, tg = _sensor_variance(picked[0], loop_g, k, **kw)
-        va, ta = _sensor_variance(picked[1], loop_a, k, **kw)
+        vg, tg = sensor(0, loop_g)
+        va, ta = sensor(1, loop_a)
         for i, name in enumerate(QUANTITIES):
             out[name] = _quantity(name, QUANTITY_UNITS[name], vg, va, tg, ta, q, credibility, i)
     else:
         # channel x: accelerometer x with the tilt about y (gyro y); channel y: accelerometer y, gyro x
-        chans = {"x": (picked[1], picked[3]), "y": (picked[0], picked[4])}
-        var = {c: (_sensor_variance(pg, loop_g, k, **kw), _sensor_variance(pa, loop_a, k, **kw))
-               for c, (pg, pa) in chans.items()}
+        chans = {"x": (1, 3), "y": (0, 4)}
+        var = {c: (sensor(ig, loop_g), sensor(ia, loop_a)) for c, (ig, ia) in chans.items()}
         for i, name in enumerate(QUANTITIES):
             sd = {c: np.sqrt(vg[..., i] + va[..., i]) for c, ((vg, _), (va, _)) in var.items()}
             rms = np.hypot(sd["x"], sd["y"])
@@ -303,7 +321,7 @@ def navigation_bands(gyro_fit, accel_fit, t=None, *, bias_start="calibrated", ca
                 out[f"{name}_{c}"] = _quantity(f"{name}_{c}", QUANTITY_UNITS[name], vg, va, tg, ta, q, credibility, i)
         if speed is not None:
             heading = NavLoop("accel", False, g, radius)  # y' = V psi, psi' = w_z: V w_z integrated twice
-            vz, tz = _sensor_variance(picked[2], heading, k, factor=float(speed) ** 2, **kw)
+            vz, tz = sensor(2, heading, float(speed) ** 2)
             zero = np.zeros_like(vz)
             out["cross_track"] = _quantity("cross_track", "m", vz, zero, tz, {}, q, credibility, 2)
     cal = float(calibration_s) if bias_start == "calibrated" else float("nan")
