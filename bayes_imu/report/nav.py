@@ -139,49 +139,70 @@ def _summary(bands, request, rows, gyro, accel):
         "columns": {"q05, q50, q95": "posterior 5/50/95 % quantiles of the 1-sigma error (90 % credible band)",
                     "bound95": "posterior predictive 95 % bound of the error itself: P(|error| <= bound95) = 0.95 "
                                "(for the horizontal radius of three-axis sets: P(radius <= bound95))"},
+        "small_angle_valid_to_s": _small_angle_limit(bands),
         "rows": rows, "bayes_imu_version": __version__,
     }
 
 
+def _small_angle_limit(bands):
+    """Last listed time [s] before the median tilt exceeds :data:`SMALL_ANGLE_RAD` (``None``: never)."""
+    over = np.flatnonzero(bands.quantities["tilt"].sigma[1] > SMALL_ANGLE_RAD)
+    return None if not over.size else float(bands.t_s[max(over[0] - 1, 0)])
+
+
 _TERM_STYLE = {"gyro": "-", "accel": "--"}
+#: tilt beyond which the small-angle error model is marked as no longer valid [rad]
+SMALL_ANGLE_RAD = 0.1
 
 
-def plot_nav(bands, path, *, marks=(), title="", record_s=None, min_probability=0.1):
-    """Log-log navigation error: 90 % band of the 1-sigma error, median, 95 % bound, each term's
-    median contribution (gyro solid, accelerometer dashed; terms with posterior probability below
-    ``min_probability`` listed, not drawn), the Schuler period and the logs' length marked."""
+def plot_nav(bands, path, *, marks=(), title="", record_s=None, min_probability=0.1, min_share=0.1,
+             t_min=0.1):
+    """Log-log navigation error: 90 % band of the 1-sigma error, median, 95 % bound, each sensor's and
+    each term's median contribution (gyro solid, accelerometer dashed), the Schuler period and the
+    logs' length marked. Terms with posterior probability below ``min_probability``, or below
+    ``min_share`` of the median total at every time, are listed, not drawn; times from ``t_min`` [s]."""
     from .plots import pyplot
 
     plt = pyplot()
     names = ("tilt", "velocity", "position")
-    fig, axes = plt.subplots(1, 3, figsize=(18, 7.5), squeeze=False)
+    fig, axes = plt.subplots(1, 3, figsize=(18, 7.2), squeeze=False)
     period = schuler_period_s(bands.g, bands.radius)
     radial = "position_x" in bands.quantities
+    colours = plt.get_cmap("tab10")
+    tilted = np.flatnonzero(bands.quantities["tilt"].sigma[1] > SMALL_ANGLE_RAD)
     for ax, name in zip(axes[0], names):
         q = bands.quantities[name]
-        keep = q.sigma[0] > 0
-        t = bands.t_s[keep]
+        keep = (q.sigma[0] > 0) & (bands.t_s >= min(t_min, bands.t_s[-1]))
+        t, median = bands.t_s[keep], q.sigma[1][keep]
         ax.fill_between(t, q.sigma[0][keep], q.sigma[-1][keep], color="C0", alpha=0.3,
                         label="1-sigma error, 90 % credible band" + (" (rms radius)" if radial else ""))
-        ax.plot(t, q.sigma[1][keep], color="C0", lw=1.5, label="1-sigma error, median")
+        ax.plot(t, median, color="C0", lw=1.8, label="1-sigma error, median")
         ax.plot(t, q.bound[keep], color="C3", lw=1.8, ls="-.", label="95 % error bound (predictive)")
         marked = np.isin(bands.t_s, marks) & keep
         ax.plot(bands.t_s[marked], q.bound[marked], "o", color="C3", ms=4)
+        for sensor, style in _TERM_STYLE.items():
+            ax.plot(t, q.sensors[sensor][keep], style, color="black", lw=1.2, alpha=0.7,
+                    label=f"{'gyro' if sensor == 'gyro' else 'accelerometer'}: all its terms, median")
         source = bands.quantities[f"{name}_x"] if radial else q
-        hidden = []
-        for i, (label, part) in enumerate(source.terms.items()):
-            positive = part[keep] > 1e-6 * q.sigma[1][keep]
-            if source.term_probability.get(label, 1.0) < min_probability:
+        hidden, drawn = [], 0
+        for label, part in source.terms.items():
+            share = np.max(part[keep] / median) if median.size else 0.0
+            if source.term_probability.get(label, 1.0) < min_probability or not share >= min_share:
                 hidden.append(label)
-            elif np.any(positive):
-                sensor, term = label.split(":")
-                ax.plot(t[positive], part[keep][positive], _TERM_STYLE[sensor], lw=1, color=f"C{(i + 4) % 10}",
-                        label=f"{'gyro' if sensor == 'gyro' else 'accelerometer'} {term.replace('_', ' ')}"
-                              + (" (channel x)" if radial else ""))
+                continue
+            sensor, term = label.split(":")
+            ax.plot(t, part[keep], _TERM_STYLE[sensor], lw=1, color=colours((drawn + 4) % 10),
+                    label=f"{'gyro' if sensor == 'gyro' else 'accelerometer'} {term.replace('_', ' ')}"
+                          + (" (channel x)" if radial else ""))
+            drawn += 1
         if hidden:
             import textwrap
 
-            ax.plot([], [], " ", label=textwrap.fill(f"not drawn (P < {min_probability:g}): " + ", ".join(hidden), 70))
+            ax.plot([], [], " ", label=textwrap.fill(f"not drawn (P < {min_probability:g} or below "
+                                                     f"{min_share:.0%} of the total): " + ", ".join(hidden), 70))
+        if tilted.size and bands.t_s[tilted[0]] < t[-1]:
+            ax.axvspan(bands.t_s[tilted[0]], t[-1], facecolor="none", edgecolor="gray", hatch="//", lw=0,
+                       alpha=0.5, label=f"median tilt > {SMALL_ANGLE_RAD:g} rad: beyond the small-angle model")
         if record_s is not None and record_s < t[-1]:
             ax.axvspan(record_s, t[-1], color="gray", alpha=0.12,
                        label=f"beyond the shorter log ({record_s:.4g} s): extrapolation")
@@ -191,6 +212,7 @@ def plot_nav(bands, path, *, marks=(), title="", record_s=None, min_probability=
                         textcoords="offset points", xytext=(-4, 4), fontsize=7, color="dimgray", ha="right")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.set_ylim(max(median.min() * 0.05, 1e-300), q.bound[keep].max() * 3.0)
         ax.set_xlabel("time since GPS loss (s)")
         what = {"tilt": "tilt error", "velocity": "horizontal velocity error", "position": "horizontal position error"}
         ax.set_ylabel(f"{what[name]} ({q.unit})")
