@@ -59,6 +59,14 @@ def main(argv=None):
             top = sorted(r["terms"].items(), key=lambda kv: -kv[1])[:3]
             print(f"  position at {r['t_s']:g} s: dominant {r['dominant_sensor']}; largest terms "
                   + ", ".join(f"{k} {v:.3g} m" for k, v in top))
+    from bayes_imu.drift.nav_bands import navigation_bands
+    from bayes_imu.inference.archive import load_fit
+
+    fine = navigation_bands(load_fit(opts.work / "gyro_y"), load_fit(opts.work / "accel_x"),
+                            [t / 4 for t in range(4, 1201)], calibration_s=60.0, rng=0)
+    for limit in (1.0, 5.0, 10.0, 100.0):
+        print(f"  horizontal position within {limit:g} m at 95 % for {fine.within('position', limit):g} s "
+              "(0.25 s grid)")
     out = ROOT / "docs" / "navigation"
     out.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(opts.work / "nav" / "nav.png", out / "adis16405_nav.png")
