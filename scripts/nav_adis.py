@@ -33,7 +33,9 @@ def run(args, cwd):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--work", type=Path, default=ROOT / "walk_nav")
-    parser.add_argument("--shared", type=Path, default=SHARED, help="the shared data folder, default ../shared")
+    parser.add_argument(
+        "--shared", type=Path, default=SHARED, help="the shared data folder, default ../shared"
+    )
     opts = parser.parse_args(argv)
     log = opts.shared.joinpath(*LOG_PATH).resolve()
     if not log.exists():
@@ -42,31 +44,75 @@ def main(argv=None):
     opts.work.mkdir(parents=True, exist_ok=True)
     for name, (column, unit) in FITS.items():
         if not (opts.work / name / "fit.npz").exists():
-            took = run(["fit", str(log), "--column", column, "--rate", "100", "--units", unit, "--out", name,
-                        "--quiet", "--force"], opts.work)
+            took = run(
+                [
+                    "fit",
+                    str(log),
+                    "--column",
+                    column,
+                    "--rate",
+                    "100",
+                    "--units",
+                    unit,
+                    "--out",
+                    name,
+                    "--quiet",
+                    "--force",
+                ],
+                opts.work,
+            )
             print(f"fit {name}: {took:.1f} s")
-    took = run(["nav", "--gyro", "gyro_y", "--accel", "accel_x", "--times", ",".join(map(str, TIMES)),
-                "--calibration", "60", "--out", "nav", "--force", "--quiet"], opts.work)
+    took = run(
+        [
+            "nav",
+            "--gyro",
+            "gyro_y",
+            "--accel",
+            "accel_x",
+            "--times",
+            ",".join(map(str, TIMES)),
+            "--calibration",
+            "60",
+            "--out",
+            "nav",
+            "--force",
+            "--quiet",
+        ],
+        opts.work,
+    )
     print(f"nav: {took:.1f} s")
     with open(opts.work / "nav" / "nav.csv") as f:
         rows = list(csv.DictReader(f))
     for r in rows:
-        print(f"  {float(r['t_s']):6g} s  {r['quantity']:8s} 1-sigma {float(r['q50']):.3g} "
-              f"[{float(r['q05']):.3g}, {float(r['q95']):.3g}] {r['unit']:4s} 95% bound {float(r['bound95']):.3g}")
+        print(
+            f"  {float(r['t_s']):6g} s  {r['quantity']:8s} 1-sigma {float(r['q50']):.3g} "
+            f"[{float(r['q05']):.3g}, {float(r['q95']):.3g}] {r['unit']:4s} "
+            f"95% bound {float(r['bound95']):.3g}"
+        )
     summary = json.loads((opts.work / "nav" / "summary.json").read_text())
     for r in summary["rows"]:
         if r["quantity"] == "position":
             top = sorted(r["terms"].items(), key=lambda kv: -kv[1])[:3]
-            print(f"  position at {r['t_s']:g} s: dominant {r['dominant_sensor']}; largest terms "
-                  + ", ".join(f"{k} {v:.3g} m" for k, v in top))
+            print(
+                f"  position at {r['t_s']:g} s: dominant {r['dominant_sensor']}; largest terms "
+                + ", ".join(f"{k} {v:.3g} m" for k, v in top)
+            )
     from bayes_imu.drift.nav_bands import navigation_bands
     from bayes_imu.inference.archive import load_fit
 
-    fine = navigation_bands(load_fit(opts.work / "gyro_y"), load_fit(opts.work / "accel_x"),
-                            [t / 4 for t in range(4, 1201)], calibration_s=60.0, rng=0)
+    fine = navigation_bands(
+        load_fit(opts.work / "gyro_y"),
+        load_fit(opts.work / "accel_x"),
+        [t / 4 for t in range(4, 1201)],
+        calibration_s=60.0,
+        rng=0,
+    )
     for limit in (1.0, 5.0, 10.0, 100.0):
-        print(f"  horizontal position within {limit:g} m at 95 % for {fine.within('position', limit):g} s "
-              "(0.25 s grid)")
+        print(
+            f"  horizontal position within {limit:g} m at 95 % for "
+            f"{fine.within('position', limit):g} s "
+            "(0.25 s grid)"
+        )
     out = ROOT / "docs" / "navigation"
     out.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(opts.work / "nav" / "nav.png", out / "adis16405_nav.png")

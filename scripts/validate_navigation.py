@@ -38,7 +38,8 @@ from bayes_imu.noise.simulate import simulate_log
 MICRO_G = 9.80665e-6
 DEG_PER_ROOT_HOUR = np.pi / 180.0 / 60.0
 DEG_PER_HOUR = np.pi / 180.0 / 3600.0
-#: Groves' companion software, channel x: accelerometer x bias (micro-g), gyro y bias (deg/h), noise root PSDs
+#: Groves' companion software, channel x: accelerometer x bias (micro-g), gyro y bias (deg/h),
+#: noise root PSDs
 GRADES = {
     "aviation (Inertial_Demo_2)": {"b_a": 30.0, "b_g": 0.0013, "n_a": 20.0, "n_g": 0.002},
     "tactical (Inertial_Demo_1)": {"b_a": 900.0, "b_g": 13.0, "n_a": 100.0, "n_g": 0.01},
@@ -53,8 +54,18 @@ def grade_terms(grade, dt):
     """SI parameters: white per-sample variance (density^2 / dt) and the constant bias as a GM."""
     g = GRADES[grade]
     na, ng = g["n_a"] * MICRO_G, g["n_g"] * DEG_PER_ROOT_HOUR
-    return ({"noise_variance": ng**2 / dt, "bias_variance": (g["b_g"] * DEG_PER_HOUR) ** 2, "time_constant": LONG_T},
-            {"noise_variance": na**2 / dt, "bias_variance": (g["b_a"] * MICRO_G) ** 2, "time_constant": LONG_T})
+    return (
+        {
+            "noise_variance": ng**2 / dt,
+            "bias_variance": (g["b_g"] * DEG_PER_HOUR) ** 2,
+            "time_constant": LONG_T,
+        },
+        {
+            "noise_variance": na**2 / dt,
+            "bias_variance": (g["b_a"] * MICRO_G) ** 2,
+            "time_constant": LONG_T,
+        },
+    )
 
 
 def closed_form(grade, dt=1.0 / RATE):
@@ -84,7 +95,7 @@ def van_loan(grade, dt=1.0 / RATE):
     f[1, 0] = -GRAVITY  # v' = -g tilt + b_a + u_a
     f[1, 4] = f[1, 6] = 1.0
     f[2, 1] = 1.0
-    # Van Loan: expm of [[-F, Q], [0, F']] dt gives Phi = lower-right' (no continuous noise here: Q = 0)
+    # Van Loan: expm([[-F, Q], [0, F']] dt) gives Phi = lower-right' (no continuous noise: Q = 0)
     block = np.zeros((14, 14))
     block[:7, :7] = -f
     block[7:, 7:] = f.T
@@ -105,8 +116,10 @@ def van_loan(grade, dt=1.0 / RATE):
 
 
 def grades():
-    print("| grade (Groves 2nd ed. software) | b_a (ug) | b_g (deg/h) | VRW (ug/rtHz) | ARW (deg/rth) | "
-          + " | ".join(f"{t:g} s" for t in HORIZONS) + " | max rel. diff |")
+    print(
+        "| grade (Groves 2nd ed. software) | b_a (ug) | b_g (deg/h) | VRW (ug/rtHz) | "
+        "ARW (deg/rth) | " + " | ".join(f"{t:g} s" for t in HORIZONS) + " | max rel. diff |"
+    )
     print("|---" * (6 + len(HORIZONS)) + "|")
     worst = 0.0
     for grade, g in GRADES.items():
@@ -114,28 +127,42 @@ def grades():
         rel = float(np.max(np.abs(ours / ref - 1.0)))
         worst = max(worst, rel)
         cells = " | ".join(f"{o:.4g} ({r:.4g})" for o, r in zip(ours, ref))
-        print(f"| {grade} | {g['b_a']:g} | {g['b_g']:g} | {g['n_a']:g} | {g['n_g']:g} | {cells} | {rel:.1e} |")
-    print(f"\n1-sigma horizontal position error of one channel, m: nav_variance (Van Loan). Worst relative "
-          f"difference {worst:.2e}")
+        print(
+            f"| {grade} | {g['b_a']:g} | {g['b_g']:g} | {g['n_a']:g} | {g['n_g']:g} | {cells} "
+            f"| {rel:.1e} |"
+        )
+    print(
+        f"\n1-sigma horizontal position error of one channel, m: nav_variance (Van Loan). "
+        "Worst relative "
+        f"difference {worst:.2e}"
+    )
     return worst
 
 
 def draw_pair(rng):
-    """Gyro (rad/s) and accelerometer (m/s^2) parameters of white + Gauss-Markov + rate random walk."""
-    gyro = {"noise_variance": (10 ** rng.uniform(-3.5, -2.5)) ** 2,
-            "bias_variance": (10 ** rng.uniform(-4.5, -3.5)) ** 2, "time_constant": 10 ** rng.uniform(1.5, 2.7),
-            "rate_random_walk": 10 ** rng.uniform(-6.5, -5.5)}
-    accel = {"noise_variance": (10 ** rng.uniform(-2.5, -1.5)) ** 2,
-             "bias_variance": (10 ** rng.uniform(-3.5, -2.5)) ** 2, "time_constant": 10 ** rng.uniform(1.5, 2.7),
-             "rate_random_walk": 10 ** rng.uniform(-5.5, -4.5)}
+    """Gyro (rad/s) and accelerometer (m/s^2) parameters: white, Gauss-Markov, rate random walk."""
+    gyro = {
+        "noise_variance": (10 ** rng.uniform(-3.5, -2.5)) ** 2,
+        "bias_variance": (10 ** rng.uniform(-4.5, -3.5)) ** 2,
+        "time_constant": 10 ** rng.uniform(1.5, 2.7),
+        "rate_random_walk": 10 ** rng.uniform(-6.5, -5.5),
+    }
+    accel = {
+        "noise_variance": (10 ** rng.uniform(-2.5, -1.5)) ** 2,
+        "bias_variance": (10 ** rng.uniform(-3.5, -2.5)) ** 2,
+        "time_constant": 10 ** rng.uniform(1.5, 2.7),
+        "rate_random_walk": 10 ** rng.uniform(-5.5, -4.5),
+    }
     return gyro, accel
 
 
 def exact_sigma(params, sensor, k, dt, n_cal):
     loop = NavLoop(sensor)
     p = {key: np.asarray(v) for key, v in params.items()}
-    return sum(REGISTRY[name].nav_variance(loop, k, p, dt, n_cal=n_cal)
-               for name in ("white", "gauss_markov", "random_walk"))
+    return sum(
+        REGISTRY[name].nav_variance(loop, k, p, dt, n_cal=n_cal)
+        for name in ("white", "gauss_markov", "random_walk")
+    )
 
 
 def coverage(pairs, seed, hours):
@@ -151,22 +178,32 @@ def coverage(pairs, seed, hours):
     for s in range(seed, seed + pairs):
         rng = np.random.default_rng(s)
         gp, ap = draw_pair(rng)
-        fits = [fit(simulate_log(model, p, n, rng=rng), rate_hz=RATE, rng=s, progress=False) for p in (gp, ap)]
+        fits = [
+            fit(simulate_log(model, p, n, rng=rng), rate_hz=RATE, rng=s, progress=False)
+            for p in (gp, ap)
+        ]
         bands = navigation_bands(fits[0], fits[1], horizons, calibration_s=60.0, rng=s)
-        truth = np.sqrt(exact_sigma(gp, "gyro", k, dt, 6000) + exact_sigma(ap, "accel", k, dt, 6000))
+        truth = np.sqrt(
+            exact_sigma(gp, "gyro", k, dt, 6000) + exact_sigma(ap, "accel", k, dt, 6000)
+        )
         for i, name in ((1, "velocity"), (2, "position")):
             lo, hi = bands.quantities[name].sigma[0], bands.quantities[name].sigma[-1]
             inside = (lo <= truth[:, i]) & (truth[:, i] <= hi)
             hits[name].extend(inside.tolist())
-            cells = " | ".join(f"{'in' if ok else ('LOW' if tr < a else 'HIGH')} {tr / m:.2f}"
-                               for ok, tr, a, m in zip(inside, truth[:, i], lo, bands.quantities[name].sigma[1]))
+            cells = " | ".join(
+                f"{'in' if ok else ('LOW' if tr < a else 'HIGH')} {tr / m:.2f}"
+                for ok, tr, a, m in zip(inside, truth[:, i], lo, bands.quantities[name].sigma[1])
+            )
             print(f"| {s} | {name} | {cells} |")
         sys.stdout.flush()
     allhits = hits["velocity"] + hits["position"]
-    print(f"\ncoverage of the 90 % bands (truth / median in the cells; LOW: truth below the band): "
-          f"velocity {np.mean(hits['velocity']):.1%}, position {np.mean(hits['position']):.1%}, "
-          f"all {np.mean(allhits):.1%} of {len(allhits)} (pair, horizon) points; seeds {seed}-{seed + pairs - 1}, "
-          f"{hours:g} h logs at {RATE:g} Hz, {time.time() - start:.0f} s")
+    print(
+        f"\ncoverage of the 90 % bands (truth / median in the cells; LOW: truth below the band): "
+        f"velocity {np.mean(hits['velocity']):.1%}, position {np.mean(hits['position']):.1%}, "
+        f"all {np.mean(allhits):.1%} of {len(allhits)} (pair, horizon) points; "
+        f"seeds {seed}-{seed + pairs - 1}, "
+        f"{hours:g} h logs at {RATE:g} Hz, {time.time() - start:.0f} s"
+    )
     return float(np.mean(allhits))
 
 

@@ -34,19 +34,43 @@ def folders(tmp_path_factory):
 
 def test_nav_writes_the_three_files_matching_the_api(folders, tmp_path, capsys):
     out = tmp_path / "nav"
-    code = main(["nav", "--gyro", str(folders["gyro"]), "--accel", str(folders["accel"]), "--times", "10,60,300",
-                 "--calibration", "60", "--out", str(out)])
+    code = main(
+        [
+            "nav",
+            "--gyro",
+            str(folders["gyro"]),
+            "--accel",
+            str(folders["accel"]),
+            "--times",
+            "10,60,300",
+            "--calibration",
+            "60",
+            "--out",
+            str(out),
+        ]
+    )
     assert code == 0
     assert "horizontal position error <=" in capsys.readouterr().out
-    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == ["nav.csv", "nav.png",
-                                                                                    "summary.json"]
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
+        "nav.csv",
+        "nav.png",
+        "summary.json",
+    ]
     lines = (out / "nav.csv").read_text().splitlines()
     assert lines[0].split(",")[:6] == ["t_s", "quantity", "q05", "q50", "q95", "unit"]
     rows = [line.split(",") for line in lines[1:]]
-    assert [(float(r[0]), r[1], r[5]) for r in rows] == [(t, q, u) for t in (10.0, 60.0, 300.0) for q, u in
-                                                         (("tilt", "rad"), ("velocity", "m/s"), ("position", "m"))]
-    api = navigation_bands(load_fit(folders["gyro"]), load_fit(folders["accel"]), nav_times(0.01, (10, 60, 300)),
-                           calibration_s=60.0, rng=0)
+    assert [(float(r[0]), r[1], r[5]) for r in rows] == [
+        (t, q, u)
+        for t in (10.0, 60.0, 300.0)
+        for q, u in (("tilt", "rad"), ("velocity", "m/s"), ("position", "m"))
+    ]
+    api = navigation_bands(
+        load_fit(folders["gyro"]),
+        load_fit(folders["accel"]),
+        nav_times(0.01, (10, 60, 300)),
+        calibration_s=60.0,
+        rng=0,
+    )
     for r in rows:
         q = api.quantities[r[1]]
         i = int(np.argmin(abs(api.t_s - float(r[0]))))
@@ -58,12 +82,21 @@ def test_nav_writes_the_three_files_matching_the_api(folders, tmp_path, capsys):
     assert summary["bias_start"] == "calibrated" and summary["calibration_s"] == 60.0
 
 
-@pytest.mark.parametrize("swap, match", [
-    (("accel", "gyro"), "fitted in 'm/s^2'; expected a gyro fit in rad/s (it is an accelerometer fit; swap"),
-    (("raw", "accel"), "fitted in 'u'; expected a gyro fit in rad/s (run bayes-imu fit with --units"),
-    (("gyro", "fast"), "mismatched sample rates (gyro 100 Hz, accelerometer 200 Hz)"),
-    (("gyro", "missing"), "--accel"),
-])
+@pytest.mark.parametrize(
+    "swap, match",
+    [
+        (
+            ("accel", "gyro"),
+            "fitted in 'm/s^2'; expected a gyro fit in rad/s (it is an accelerometer fit; swap",
+        ),
+        (
+            ("raw", "accel"),
+            "fitted in 'u'; expected a gyro fit in rad/s (run bayes-imu fit with --units",
+        ),
+        (("gyro", "fast"), "mismatched sample rates (gyro 100 Hz, accelerometer 200 Hz)"),
+        (("gyro", "missing"), "--accel"),
+    ],
+)
 def test_bad_inputs_one_line_exit_2(folders, tmp_path, capsys, swap, match):
     gyro, accel = (str(folders["root"] / name) for name in swap)
     out = tmp_path / "nav"
@@ -76,14 +109,35 @@ def test_bad_inputs_one_line_exit_2(folders, tmp_path, capsys, swap, match):
 
 @pytest.mark.parametrize("args", [["--times", "10,-5"], ["--calibration", "0"], ["--speed", "nan"]])
 def test_bad_options_exit_2(folders, tmp_path, capsys, args):
-    code = main(["nav", "--gyro", str(folders["gyro"]), "--accel", str(folders["accel"]), "--out",
-                 str(tmp_path / "x")] + args)
+    code = main(
+        [
+            "nav",
+            "--gyro",
+            str(folders["gyro"]),
+            "--accel",
+            str(folders["accel"]),
+            "--out",
+            str(tmp_path / "x"),
+        ]
+        + args
+    )
     assert code == 2
     assert capsys.readouterr().err.count("\n") == 1
 
 
 def test_speed_needs_three_axes(folders, tmp_path, capsys):
-    code = main(["nav", "--gyro", str(folders["gyro"]), "--accel", str(folders["accel"]), "--speed", "10",
-                 "--out", str(tmp_path / "x")])
+    code = main(
+        [
+            "nav",
+            "--gyro",
+            str(folders["gyro"]),
+            "--accel",
+            str(folders["accel"]),
+            "--speed",
+            "10",
+            "--out",
+            str(tmp_path / "x"),
+        ]
+    )
     assert code == 2
     assert "three-axis gyro" in capsys.readouterr().err

@@ -1,4 +1,4 @@
-"""The navigation channel's exact variances (:mod:`bayes_imu.drift.navigation`, ``Term.nav_variance``).
+"""The navigation channel's exact variances (:mod:`bayes_imu.drift.navigation`, ``nav_variance``).
 
 References, each independent of the code under test:
 
@@ -17,7 +17,13 @@ import numpy as np
 import pytest
 import scipy.linalg as sl
 
-from bayes_imu.drift.navigation import EARTH_RADIUS, GRAVITY, NavLoop, loop_functions, schuler_period_s
+from bayes_imu.drift.navigation import (
+    EARTH_RADIUS,
+    GRAVITY,
+    NavLoop,
+    loop_functions,
+    schuler_period_s,
+)
 from bayes_imu.errors import InputError
 from bayes_imu.noise.model import REGISTRY
 
@@ -36,7 +42,7 @@ STRONG_R = 200.0  # a Schuler period of 28 s: the coupling matters within the br
 
 
 def expm_weights(sensor, k, dt, radius):
-    """``W[j]`` ``(k, 3)``: (tilt, velocity, position) after a unit sample held ``k-1-j`` samples before."""
+    """``W[j]`` ``(k, 3)``: (tilt, velocity, position) from a unit sample ``k-1-j`` steps back."""
     f = np.zeros((4, 4))
     f[0, 1] = 0.0 if radius is None else 1.0 / radius
     f[1, 0] = -GRAVITY
@@ -52,7 +58,7 @@ def expm_weights(sensor, k, dt, radius):
 
 
 def sample_cov(name, params, idx, dt, bias_start):
-    """Covariance (or, for the ramp, outer product of the values) of samples ``idx`` from the definitions."""
+    """Covariance (ramp: outer product of the values) of samples ``idx``, from the definitions."""
     i, j = np.meshgrid(idx, idx, indexing="ij")
     lag = np.abs(i - j)
     if name == "white":
@@ -112,10 +118,16 @@ def test_term_matches_brute_force(name, sensor, bias_start, radius):
     dt, n_cal = 0.5, 7
     k = np.array([1.0, 2.0, 9.0, 60.0])
     loop = NavLoop(sensor, schuler=radius is not None, radius=radius or EARTH_RADIUS)
-    got = REGISTRY[name].nav_variance(loop, k, arrays(PARAMS[name]), dt, bias_start=bias_start, n_cal=n_cal)
-    ref = np.array([brute(name, PARAMS[name], sensor, int(n), dt, bias_start, n_cal, radius) for n in k])
+    got = REGISTRY[name].nav_variance(
+        loop, k, arrays(PARAMS[name]), dt, bias_start=bias_start, n_cal=n_cal
+    )
+    ref = np.array(
+        [brute(name, PARAMS[name], sensor, int(n), dt, bias_start, n_cal, radius) for n in k]
+    )
     assert got.shape == (k.size, 3)
-    scale = np.max(np.abs(ref), axis=0, keepdims=True)  # tilt from an accelerometer is 0 without Schuler
+    scale = np.max(
+        np.abs(ref), axis=0, keepdims=True
+    )  # tilt from an accelerometer is 0 without Schuler
     np.testing.assert_allclose(got, ref, rtol=1e-11, atol=1e-13 * scale.max())
     np.testing.assert_array_less(np.abs(got - ref), 1e-11 * np.abs(ref) + 1e-14 * scale + 1e-300)
 
@@ -130,7 +142,9 @@ def test_batch_equals_loop(name):
     batch = REGISTRY[name].nav_variance(loop, k, params, 0.01, n_cal=100)
     assert batch.shape == (3, k.size, 3)
     for i in range(3):
-        one = REGISTRY[name].nav_variance(loop, k, {p: v[i] for p, v in params.items()}, 0.01, n_cal=100)
+        one = REGISTRY[name].nav_variance(
+            loop, k, {p: v[i] for p, v in params.items()}, 0.01, n_cal=100
+        )
         np.testing.assert_allclose(batch[i], one, rtol=1e-13)
 
 
@@ -146,7 +160,11 @@ def test_loop_functions_against_mpmath(w):
         if w == 0:
             ref = (tm, tm**2 / 2, tm**3 / 6)
         else:
-            ref = (mp.sin(wm * tm) / wm, (1 - mp.cos(wm * tm)) / wm**2, (wm * tm - mp.sin(wm * tm)) / wm**3)
+            ref = (
+                mp.sin(wm * tm) / wm,
+                (1 - mp.cos(wm * tm)) / wm**2,
+                (wm * tm - mp.sin(wm * tm)) / wm**3,
+            )
         for got, r in zip((si, ki, ji), ref):
             assert abs(got - float(r)) <= 1e-14 * abs(float(r)) + 1e-300  # a few ulp (sinc of z/pi)
 
@@ -186,23 +204,29 @@ def mp_white_sum(sensor, quantity, k, dt, n_cal, w):
     return total + prev**2 / n_cal
 
 
-@pytest.mark.parametrize("t, dt", [(0.01, 0.01), (0.05, 0.01), (10.0, 0.01), (600.0, 0.5), (21600.0, 10.0)])
+@pytest.mark.parametrize(
+    "t, dt", [(0.01, 0.01), (0.05, 0.01), (10.0, 0.01), (600.0, 0.5), (21600.0, 10.0)]
+)
 def test_white_against_mpmath_from_10ms_to_6h(t, dt):
     mp.mp.dps = 40
     w = mp.sqrt(mp.mpf(GRAVITY) / EARTH_RADIUS)
     k, n_cal = int(round(t / dt)), int(round(60.0 / dt))
     for sensor in ("gyro", "accel"):
-        got = REGISTRY["white"].nav_variance(NavLoop(sensor), np.array([float(k)]), {"noise_variance": 1.0}, dt,
-                                             n_cal=n_cal)[0]
+        got = REGISTRY["white"].nav_variance(
+            NavLoop(sensor), np.array([float(k)]), {"noise_variance": 1.0}, dt, n_cal=n_cal
+        )[0]
         for i, quantity in enumerate((0, 1, 2)):
             ref = float(mp_white_sum(sensor, quantity, k, dt, n_cal, w))
             assert got[i] == pytest.approx(ref, rel=2e-12)
 
 
-@pytest.mark.parametrize("horizons", [(0.02, 1.0, 300.0, 3600.0), pytest.param((21600.0,), marks=pytest.mark.slow)])
+@pytest.mark.parametrize(
+    "horizons", [(0.02, 1.0, 300.0, 3600.0), pytest.param((21600.0,), marks=pytest.mark.slow)]
+)
 def test_white_and_random_walk_stable_at_100hz_to_6h(horizons):
-    """At 100 Hz out to 6 h (2.16e6 samples; 6 h is ``slow``): white against ``sum c_i^2`` and random walk against
-    ``sum_n H(n)^2 + H(k)^2 (N-1)(2N-1)/(6N)``, both from product forms summed in extended precision."""
+    """At 100 Hz out to 6 h (2.16e6 samples; 6 h is ``slow``): white against ``sum c_i^2`` and
+    random walk against ``sum_n H(n)^2 + H(k)^2 (N-1)(2N-1)/(6N)``, both from product forms
+    summed in extended precision."""
     dt, n_cal = 0.01, 6000
     w = np.sqrt(GRAVITY / EARTH_RADIUS)
     ld = np.longdouble
@@ -213,12 +237,20 @@ def test_white_and_random_walk_stable_at_100hz_to_6h(horizons):
         s1 = np.sin(ld(w) * ld(dt) / 2) / ld(w)
         c_pos = 2 * s1 * np.sin(ld(w) * m) / ld(w)  # accelerometer -> position per sample
         n = np.arange(1, k + 1, dtype=ld) * ld(dt)
-        h_pos = 2 * (np.sin(ld(w) * n / 2) / ld(w)) ** 2  # accelerometer -> position, constant input
+        h_pos = (
+            2 * (np.sin(ld(w) * n / 2) / ld(w)) ** 2
+        )  # accelerometer -> position, constant input
         white_ref = float(np.sum(c_pos**2) + h_pos[-1] ** 2 / n_cal)
-        rw_ref = float(dt * (np.sum(h_pos**2) + h_pos[-1] ** 2 * (n_cal - 1) * (2 * n_cal - 1) / (6 * n_cal)))
+        rw_ref = float(
+            dt * (np.sum(h_pos**2) + h_pos[-1] ** 2 * (n_cal - 1) * (2 * n_cal - 1) / (6 * n_cal))
+        )
         kk = np.array([float(k)])
-        white = REGISTRY["white"].nav_variance(NavLoop("accel"), kk, {"noise_variance": 1.0}, dt, n_cal=n_cal)
-        walk = REGISTRY["random_walk"].nav_variance(NavLoop("accel"), kk, {"rate_random_walk": 1.0}, dt, n_cal=n_cal)
+        white = REGISTRY["white"].nav_variance(
+            NavLoop("accel"), kk, {"noise_variance": 1.0}, dt, n_cal=n_cal
+        )
+        walk = REGISTRY["random_walk"].nav_variance(
+            NavLoop("accel"), kk, {"rate_random_walk": 1.0}, dt, n_cal=n_cal
+        )
         assert white[0, 2] == pytest.approx(white_ref, rel=1e-10)
         assert walk[0, 2] == pytest.approx(rw_ref, rel=1e-10)
 
@@ -226,30 +258,33 @@ def test_white_and_random_walk_stable_at_100hz_to_6h(horizons):
 @pytest.mark.parametrize("name", sorted(REGISTRY))
 @pytest.mark.parametrize("bias_start", ["calibrated", "zero", "stationary"])
 def test_schuler_off_tilt_and_velocity_are_the_drift_of_order_one(name, bias_start):
-    """With the loop off, gyro -> tilt and accelerometer -> velocity are ``dt sum e_i``: the drift."""
+    """Loop off: gyro -> tilt and accelerometer -> velocity are ``dt sum e_i``, the drift."""
     k = np.array([1.0, 4.0, 33.0, 500.0])
     params, dt, n_cal = arrays(PARAMS[name]), 0.02, 40
     drift = REGISTRY[name].drift_variance(1, k, params, dt, bias_start=bias_start, n_cal=n_cal)
     for sensor, column in (("gyro", 0), ("accel", 1)):
-        nav = REGISTRY[name].nav_variance(NavLoop(sensor, schuler=False), k, params, dt, bias_start=bias_start,
-                                          n_cal=n_cal)
+        nav = REGISTRY[name].nav_variance(
+            NavLoop(sensor, schuler=False), k, params, dt, bias_start=bias_start, n_cal=n_cal
+        )
         np.testing.assert_allclose(nav[:, column], drift, rtol=1e-10, atol=1e-300)
 
 
 def test_textbook_uncoupled_forms():
-    """Constant gyro bias: position ``g b t^3/6``; angle random walk: ``g N sqrt(t^5/20)`` as dt -> 0."""
+    """Constant gyro bias: position ``g b t^3/6``; ARW ``g N sqrt(t^5/20)`` as dt -> 0."""
     loop = NavLoop("gyro", schuler=False)
     t = np.array([0.01, 10.0, 3600.0])
     np.testing.assert_allclose(-loop.response(t)[2], GRAVITY * t**3 / 6.0, rtol=1e-15)
     dt, q = 0.001, 1e-6  # N^2 = q dt
     for t in (1.0, 10.0):
-        var = REGISTRY["white"].nav_variance(loop, np.array([t / dt]), {"noise_variance": q}, dt, bias_start="zero")
+        var = REGISTRY["white"].nav_variance(
+            loop, np.array([t / dt]), {"noise_variance": q}, dt, bias_start="zero"
+        )
         textbook = GRAVITY**2 * q * dt * t**5 / 20.0
         assert var[0, 2] == pytest.approx(textbook, rel=3 * (dt / t) ** 2)
 
 
 def test_schuler_bounds_the_gyro_bias_error():
-    """A constant gyro bias with the loop on: position ``-(g/w^2)(t - sin(wt)/w)``, velocity oscillates."""
+    """Constant gyro bias, loop on: position ``-(g/w^2)(t - sin(wt)/w)``, velocity oscillates."""
     loop = NavLoop("gyro")
     w = loop.omega
     t = np.array([1.0, 600.0, schuler_period_s(), 6 * 3600.0])
@@ -277,12 +312,16 @@ def test_monte_carlo_of_an_independent_simulation(sensor, rng):
     err = y[:, n_cal:] - y[:, :n_cal].mean(axis=1, keepdims=True)
     x = np.zeros((n, 3))
     for i in range(k):
-        x = x @ e[:3, :3].T + err[:, i:i + 1] * e[:3, 3]
+        x = x @ e[:3, :3].T + err[:, i : i + 1] * e[:3, 3]
     loop = NavLoop(sensor, radius=radius)
-    exact = sum(REGISTRY[name].nav_variance(loop, np.array([float(k)]), arrays(PARAMS[name]), dt, n_cal=n_cal)[0]
-                for name in names)
+    exact = sum(
+        REGISTRY[name].nav_variance(
+            loop, np.array([float(k)]), arrays(PARAMS[name]), dt, n_cal=n_cal
+        )[0]
+        for name in names
+    )
     sample = x.var(axis=0)
-    for i in (range(3) if sensor == "gyro" else range(3)):
+    for i in range(3) if sensor == "gyro" else range(3):
         assert abs(sample[i] / exact[i] - 1.0) < 5 * np.sqrt(2.0 / n), (i, sample[i], exact[i])
 
 
@@ -303,10 +342,11 @@ def test_flicker_fft_at_long_outages(sensor):
     a[:-1] -= c
     lag = np.arange(a.shape[0], dtype=np.longdouble)
     d = np.zeros(lag.shape, dtype=np.longdouble)
-    d[1:] = -lag[1:] ** 2 * np.log(lag[1:]) / np.pi  # flicker D(l) at B = 1
+    d[1:] = -(lag[1:] ** 2) * np.log(lag[1:]) / np.pi  # flicker D(l) at B = 1
     idx = np.arange(a.shape[0])
     dmat = d[np.abs(idx[:, None] - idx[None, :])]
     ref = np.array([-0.5 * (a[:, i] @ dmat @ a[:, i]) for i in range(3)], dtype=float)
-    got = REGISTRY["bias_instability"].nav_variance(NavLoop(sensor), np.array([float(k)]),
-                                                    {"bias_instability": 1.0}, dt, n_cal=n_cal)[0]
+    got = REGISTRY["bias_instability"].nav_variance(
+        NavLoop(sensor), np.array([float(k)]), {"bias_instability": 1.0}, dt, n_cal=n_cal
+    )[0]
     np.testing.assert_allclose(got, ref, rtol=1e-10)

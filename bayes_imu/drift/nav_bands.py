@@ -108,7 +108,7 @@ class NavigationBands:
     n_draws: int = 0
 
     def within(self, name, max_error):
-        """Longest listed outage [s] up to which ``bound`` of ``name`` stays <= ``max_error`` (0 if none)."""
+        """Longest listed outage [s] whose ``bound`` of ``name`` is <= ``max_error`` (0: none)."""
         bound = self.quantities[name].bound
         bad = np.flatnonzero(bound > max_error)
         ok = self.t_s[: bad[0]] if bad.size else self.t_s
@@ -119,7 +119,9 @@ def nav_times(dt, times=(), horizon_s=None, n=30):
     """Log-spaced whole-sample times from one sample to the horizon (default 2 h, past the Schuler
     period, or twice the longest of ``times``), with ``times`` added."""
     times = np.asarray(times, float).ravel()
-    horizon = float(horizon_s if horizon_s is not None else max(np.max(times, initial=0.0) * 2.0, 2.0 * 3600.0))
+    horizon = float(
+        horizon_s if horizon_s is not None else max(np.max(times, initial=0.0) * 2.0, 2.0 * 3600.0)
+    )
     grid = default_times(dt, horizon, n)
     return np.unique(np.concatenate([grid, np.round(times / dt) * dt]))
 
@@ -137,17 +139,22 @@ def predictive_bound(sigma, credibility=0.95, *, sigma2=None):
 
     a = np.maximum(np.asarray(sigma, float), 1e-300)
     if sigma2 is None:
+
         def cdf(x):
             return np.mean(erf(x / (np.sqrt(2.0) * a)), axis=0)
+
         hi = 8.0 * a.max(axis=0)
     else:
         b = np.maximum(np.asarray(sigma2, float), 1e-300)
         theta = (np.arange(_ANGLES) + 0.5) * np.pi / _ANGLES
-        q = (np.cos(theta) ** 2 / a[..., None] ** 2 + np.sin(theta) ** 2 / b[..., None] ** 2)
+        q = np.cos(theta) ** 2 / a[..., None] ** 2 + np.sin(theta) ** 2 / b[..., None] ** 2
         norm = q * (a * b)[..., None]
 
         def cdf(x):
-            return np.mean(np.mean(-np.expm1(-0.5 * x[None, :, None] ** 2 * q) / norm, axis=-1), axis=0)
+            return np.mean(
+                np.mean(-np.expm1(-0.5 * x[None, :, None] ** 2 * q) / norm, axis=-1), axis=0
+            )
+
         hi = 8.0 * np.hypot(a, b).max(axis=0)
     lo = np.zeros_like(hi)
     for _ in range(_BISECTIONS):
@@ -170,12 +177,15 @@ def _pick(fit, models, n, rng):
     sizes = [s.shape[0] for _, s in parts]
     keep = np.sort(rng.choice(sum(sizes), size=n, replace=False))
     bounds = np.cumsum([0] + sizes)
-    return [(m, s[keep[(keep >= lo) & (keep < hi)] - lo]) for (m, s), lo, hi in zip(parts, bounds[:-1], bounds[1:])]
+    return [
+        (m, s[keep[(keep >= lo) & (keep < hi)] - lo])
+        for (m, s), lo, hi in zip(parts, bounds[:-1], bounds[1:])
+    ]
 
 
 def _segment_spread(fit, variance, t, rng):
-    """A fit flagged non-stationary: each draw's variance times ``exp(2 z s(t))``, ``z ~ N(0, 1)`` per
-    draw (the between-segment spread of :func:`bayes_imu.drift.bands.drift_draws`)."""
+    """A fit flagged non-stationary: each draw's variance times ``exp(2 z s(t))``, ``z ~ N(0, 1)``
+    per    draw (the between-segment spread of :func:`bayes_imu.drift.bands.drift_draws`)."""
     steady = getattr(fit, "stationarity", None)
     if steady is None or steady.stationary:
         return variance
@@ -194,7 +204,9 @@ def _sensor_variance(parts, loop, k, bias_start, n_cal, factor=1.0):
         if stop > start:
             params = model.unpack(samples)
             for term in model.components:
-                v = factor * term.nav_variance(loop, k, params, model.dt, bias_start=bias_start, n_cal=n_cal)
+                v = factor * term.nav_variance(
+                    loop, k, params, model.dt, bias_start=bias_start, n_cal=n_cal
+                )
                 total[start:stop] += v
                 terms.setdefault(term.name, np.full((n, k.size, 3), np.nan))[start:stop] = v
         start = stop
@@ -205,12 +217,24 @@ def _quantity(name, unit, var_g, var_a, terms_g, terms_a, q, credibility, column
     sd = np.sqrt(var_g[..., column] + var_a[..., column])
     terms = {f"gyro:{t}": _median(v[..., column]) for t, v in terms_g.items()}
     terms.update({f"accel:{t}": _median(v[..., column]) for t, v in terms_a.items()})
-    sensors = {"gyro": np.median(np.sqrt(var_g[..., column]), axis=0),
-               "accel": np.median(np.sqrt(var_a[..., column]), axis=0)}
-    probability = {f"{s}:{t}": float(np.mean(np.isfinite(v[:, 0, 0])))
-                   for s, part in (("gyro", terms_g), ("accel", terms_a)) for t, v in part.items()}
-    return NavQuantity(name, unit, np.quantile(sd, q, axis=0), predictive_bound(sd, credibility), terms, sensors,
-                       probability)
+    sensors = {
+        "gyro": np.median(np.sqrt(var_g[..., column]), axis=0),
+        "accel": np.median(np.sqrt(var_a[..., column]), axis=0),
+    }
+    probability = {
+        f"{s}:{t}": float(np.mean(np.isfinite(v[:, 0, 0])))
+        for s, part in (("gyro", terms_g), ("accel", terms_a))
+        for t, v in part.items()
+    }
+    return NavQuantity(
+        name,
+        unit,
+        np.quantile(sd, q, axis=0),
+        predictive_bound(sd, credibility),
+        terms,
+        sensors,
+        probability,
+    )
 
 
 def _median(v):
@@ -225,30 +249,54 @@ def _check(gyro, accel, bias_start, models, calibration_s, speed):
         raise InputError(f"models={models!r}: expected one of {', '.join(MODEL_CHOICES)}")
     dts = {f.model.dt for f in gyro + accel}
     if max(dts) > min(dts) * (1.0 + 1e-9):
-        rates = [", ".join(sorted({f"{1.0 / f.model.dt:g} Hz" for f in fits})) for fits in (gyro, accel)]
-        raise InputError(f"gyro and accelerometer fits: mismatched sample rates (gyro {rates[0]}, accelerometer "
-                         f"{rates[1]}); expected one IMU's logs at one rate")
+        rates = [
+            ", ".join(sorted({f"{1.0 / f.model.dt:g} Hz" for f in fits})) for fits in (gyro, accel)
+        ]
+        raise InputError(
+            f"gyro and accelerometer fits: mismatched sample rates (gyro {rates[0]}, accelerometer "
+            f"{rates[1]}); expected one IMU's logs at one rate"
+        )
     dt = gyro[0].model.dt
     if not (np.isfinite(calibration_s) and calibration_s >= dt):
-        raise InputError(f"calibration={calibration_s!r} s: expected at least one sample ({dt:g} s)")
+        raise InputError(
+            f"calibration={calibration_s!r} s: expected at least one sample ({dt:g} s)"
+        )
     if speed is not None and not (np.isfinite(speed) and speed >= 0):
         raise InputError(f"speed={speed!r} m/s: expected a finite speed >= 0")
     if speed is not None and len(gyro) != 3:
-        raise InputError("speed: the cross-track error needs the vertical gyro (a three-axis gyro fit)")
+        raise InputError(
+            "speed: the cross-track error needs the vertical gyro (a three-axis gyro fit)"
+        )
     return dt
 
 
-def navigation_bands(gyro_fit, accel_fit, t=None, *, bias_start="calibrated", calibration_s=DEFAULT_CALIBRATION_S,
-                     schuler=True, models="averaged", quantiles=(0.05, 0.5, 0.95), credibility=0.95,
-                     horizon_s=None, speed=None, max_draws=1000, g=GRAVITY, radius=EARTH_RADIUS, rng=None,
-                     segment_spread=True):
+def navigation_bands(
+    gyro_fit,
+    accel_fit,
+    t=None,
+    *,
+    bias_start="calibrated",
+    calibration_s=DEFAULT_CALIBRATION_S,
+    schuler=True,
+    models="averaged",
+    quantiles=(0.05, 0.5, 0.95),
+    credibility=0.95,
+    horizon_s=None,
+    speed=None,
+    max_draws=1000,
+    g=GRAVITY,
+    radius=EARTH_RADIUS,
+    rng=None,
+    segment_spread=True,
+):
     """Posterior of the horizontal navigation error during an outage (module docstring).
 
     Parameters
     ----------
     gyro_fit, accel_fit : FitResult or sequence of three
         Fits of the gyro in rad/s and the accelerometer in m/s^2 (SI, as ``bayes-imu fit
-        --units`` writes them; the API cannot check units: :func:`bayes_imu.report.nav.load_nav_fits`
+        --units`` writes them; the API cannot check units:
+        :func:`bayes_imu.report.nav.load_nav_fits`
         does for fit folders). Three fits each (axes x, y, z) give two channels and the radius.
     t : array_like, optional
         Outage lengths [s]; default :func:`nav_times` up to ``horizon_s``.
@@ -278,7 +326,10 @@ def navigation_bands(gyro_fit, accel_fit, t=None, *, bias_start="calibrated", ca
     """
     gyro, accel = _as_axes(gyro_fit, "gyro_fit"), _as_axes(accel_fit, "accel_fit")
     if len(gyro) != len(accel):
-        raise InputError(f"gyro and accelerometer fits: {len(gyro)} and {len(accel)} axes; expected the same number")
+        raise InputError(
+            f"gyro and accelerometer fits: {len(gyro)} and {len(accel)} axes; "
+            "expected the same number"
+        )
     dt = _check(gyro, accel, bias_start, models, calibration_s, speed)
     if not 0.0 < credibility < 1.0:
         raise InputError(f"credibility={credibility!r}: expected a probability in (0, 1)")
@@ -307,23 +358,47 @@ def navigation_bands(gyro_fit, accel_fit, t=None, *, bias_start="calibrated", ca
         for i, name in enumerate(QUANTITIES):
             out[name] = _quantity(name, QUANTITY_UNITS[name], vg, va, tg, ta, q, credibility, i)
     else:
-        # channel x: accelerometer x with the tilt about y (gyro y); channel y: accelerometer y, gyro x
+        # channel x: accelerometer x, tilt about y (gyro y); channel y: accelerometer y, gyro x
         chans = {"x": (1, 3), "y": (0, 4)}
         var = {c: (sensor(ig, loop_g), sensor(ia, loop_a)) for c, (ig, ia) in chans.items()}
         for i, name in enumerate(QUANTITIES):
             sd = {c: np.sqrt(vg[..., i] + va[..., i]) for c, ((vg, _), (va, _)) in var.items()}
             rms = np.hypot(sd["x"], sd["y"])
-            sensors = {s: np.median(np.sqrt(var["x"][j][0][..., i] + var["y"][j][0][..., i]), axis=0)
-                       for j, s in enumerate(("gyro", "accel"))}
-            out[name] = NavQuantity(name, QUANTITY_UNITS[name], np.quantile(rms, q, axis=0),
-                                    predictive_bound(sd["x"], credibility, sigma2=sd["y"]), {}, sensors)
+            sensors = {
+                s: np.median(np.sqrt(var["x"][j][0][..., i] + var["y"][j][0][..., i]), axis=0)
+                for j, s in enumerate(("gyro", "accel"))
+            }
+            out[name] = NavQuantity(
+                name,
+                QUANTITY_UNITS[name],
+                np.quantile(rms, q, axis=0),
+                predictive_bound(sd["x"], credibility, sigma2=sd["y"]),
+                {},
+                sensors,
+            )
             for c, ((vg, tg), (va, ta)) in var.items():
-                out[f"{name}_{c}"] = _quantity(f"{name}_{c}", QUANTITY_UNITS[name], vg, va, tg, ta, q, credibility, i)
+                out[f"{name}_{c}"] = _quantity(
+                    f"{name}_{c}", QUANTITY_UNITS[name], vg, va, tg, ta, q, credibility, i
+                )
         if speed is not None:
-            heading = NavLoop("accel", False, g, radius)  # y' = V psi, psi' = w_z: V w_z integrated twice
+            heading = NavLoop(
+                "accel", False, g, radius
+            )  # y' = V psi, psi' = w_z: V w_z integrated twice
             vz, tz = sensor(2, heading, float(speed) ** 2)
             zero = np.zeros_like(vz)
             out["cross_track"] = _quantity("cross_track", "m", vz, zero, tz, {}, q, credibility, 2)
     cal = float(calibration_s) if bias_start == "calibrated" else float("nan")
-    return NavigationBands(k * dt, q, out, float(credibility), bias_start, cal, bool(schuler), models, float(g),
-                           float(radius), float("nan") if speed is None else float(speed), int(n))
+    return NavigationBands(
+        k * dt,
+        q,
+        out,
+        float(credibility),
+        bias_start,
+        cal,
+        bool(schuler),
+        models,
+        float(g),
+        float(radius),
+        float("nan") if speed is None else float(speed),
+        int(n),
+    )

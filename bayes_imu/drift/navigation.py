@@ -42,8 +42,16 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["GRAVITY", "EARTH_RADIUS", "QUANTITIES", "QUANTITY_UNITS", "SENSORS", "NavLoop",
-           "loop_functions", "schuler_period_s"]
+__all__ = [
+    "GRAVITY",
+    "EARTH_RADIUS",
+    "QUANTITIES",
+    "QUANTITY_UNITS",
+    "SENSORS",
+    "NavLoop",
+    "loop_functions",
+    "schuler_period_s",
+]
 
 #: standard gravity [m/s^2]
 GRAVITY = 9.80665
@@ -173,26 +181,28 @@ class NavLoop:
         a2 = np.zeros(batch + (dim, dim))
         b2 = np.zeros(batch + (dim, ne))
         a2[..., :3, :3] = phi
-        a2[..., :3, 3:3 + ns] = gam[:, None] * h[..., None, :]
+        a2[..., :3, 3 : 3 + ns] = gam[:, None] * h[..., None, :]
         a2[..., :3, -1] = -gam
-        a2[..., 3:3 + ns, 3:3 + ns] = f
+        a2[..., 3 : 3 + ns, 3 : 3 + ns] = f
         a2[..., -1, -1] = 1.0
         b2[..., :3, :] = gam[:, None] * d[..., None, :]
-        b2[..., 3:3 + ns, :] = gmat
+        b2[..., 3 : 3 + ns, :] = gmat
         p0 = np.zeros(batch + (dim, dim))
         if bias_start == "calibrated":
             n_cal = int(n_cal)
             a1 = np.zeros(batch + (dim, dim))
             b1 = np.zeros(batch + (dim, ne))
-            a1[..., 3:3 + ns, 3:3 + ns] = f
-            a1[..., -1, 3:3 + ns] = h / n_cal
+            a1[..., 3 : 3 + ns, 3 : 3 + ns] = f
+            a1[..., -1, 3 : 3 + ns] = h / n_cal
             a1[..., -1, -1] = 1.0
-            b1[..., 3:3 + ns, :] = gmat
+            b1[..., 3 : 3 + ns, :] = gmat
             b1[..., -1, :] = d / n_cal
-            p0[..., 3:3 + ns, 3:3 + ns] = filt["P_calibration"]
+            p0[..., 3 : 3 + ns, 3 : 3 + ns] = filt["P_calibration"]
             p0 = _propagate(a1, b1, p0, np.array([float(n_cal)]))[..., 0, :, :]
         else:
-            p0[..., 3:3 + ns, 3:3 + ns] = filt["P_zero" if bias_start == "zero" else "P_stationary"]
+            p0[..., 3 : 3 + ns, 3 : 3 + ns] = filt[
+                "P_zero" if bias_start == "zero" else "P_stationary"
+            ]
         out = _propagate(a2, b2, p0, np.asarray(k, float))
         return np.maximum(np.diagonal(out[..., :3, :3], axis1=-2, axis2=-1), 0.0)
 
@@ -229,7 +239,7 @@ class NavLoop:
             gamma = acov(n)
             circ = np.zeros(size)
             circ[:n] = gamma
-            circ[size - n + 1:] = gamma[1:][::-1]
+            circ[size - n + 1 :] = gamma[1:][::-1]
             spec = fft.rfft(circ)
             conv = fft.irfft(fft.rfft(tails, size, axis=1) * spec, size, axis=1)[:, :n]
             out[i] = np.maximum(np.einsum("qn,qn->q", tails, conv), 0.0)

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Term", "PriorScale", "calibrated_contrast", "BIAS_STARTS", "ROLES"]
+__all__ = ["Term", "PriorScale", "calibrated_contrast", "BIAS_STARTS", "ROLES", "nav_system"]
 
 #: drift semantics (see the module docstring)
 BIAS_STARTS = ("zero", "stationary", "calibrated")
@@ -216,8 +216,17 @@ class Term:
         unit = {p: 1.0 for p in self.parameters}
 
         def compute():
-            return loop.linear_variance(self.nav_filter(unit, dt, n_cal=n_cal), k, dt, bias_start=bias_start,
-                                        n_cal=n_cal)
+            system = self.nav_filter(unit, dt, n_cal=n_cal)
+            return loop.linear_variance(system, k, dt, bias_start=bias_start, n_cal=n_cal)
 
         v = loop.unit_variance(self.name, compute, k, dt, bias_start, n_cal)
         return np.asarray(self.amplitude2(params), float)[..., None, None] * v
+
+
+def nav_system(f, g, h, d, p_zero, p_stationary=None, p_calibration=None):
+    """The dict :meth:`Term.nav_filter` returns (start covariances default to ``p_zero``)."""
+    p_stationary = p_zero if p_stationary is None else p_stationary
+    p_calibration = p_stationary if p_calibration is None else p_calibration
+    arrays = (f, g, h, d, p_zero, p_stationary, p_calibration)
+    keys = ("F", "G", "H", "D", "P_zero", "P_stationary", "P_calibration")
+    return {key: np.asarray(value, float) for key, value in zip(keys, arrays)}

@@ -15,7 +15,7 @@ calibrated start from the contrast of :mod:`._base`.
 
 import numpy as np
 
-from ._base import Term
+from ._base import Term, nav_system
 
 __all__ = ["FILTERED_WHITE"]
 
@@ -52,9 +52,7 @@ class _FilteredWhite(Term):
     def nav_filter(self, params, dt, *, n_cal=None):
         """State ``w_{i-1}``: ``y_i = sqrt(c) (w_{i-1} + eps_i)``, ``w_i = eps_i``."""
         c = np.sqrt(float(params["filtered_variance"]))
-        one = np.ones((1, 1))
-        return {"F": np.zeros((1, 1)), "G": one, "H": np.array([c]), "D": np.array([c]),
-                "P_zero": one, "P_stationary": one, "P_calibration": one}
+        return nav_system([[0.0]], [[1.0]], [c], [c], [[1.0]])
 
 
 FILTERED_WHITE = _FilteredWhite("filtered_white", ("filtered_variance",), {"filtered_variance": "({u})^2"},

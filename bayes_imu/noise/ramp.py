@@ -12,7 +12,7 @@ calibrated start (the mean of the ``N`` previous samples, ``-R dt (N+1)/2``, rem
 
 import numpy as np
 
-from ._base import Term
+from ._base import Term, nav_system
 
 __all__ = ["RAMP"]
 
@@ -47,9 +47,8 @@ class _Ramp(Term):
         step = float(params["rate_ramp"]) * dt
         start = np.array([0.0, step])
         cal = np.array([-float(n_cal or 0) * step, step])
-        return {"F": np.array([[1.0, 1.0], [0.0, 1.0]]), "G": np.zeros((2, 1)), "H": np.array([1.0, 0.0]),
-                "D": np.zeros(1), "P_zero": np.outer(start, start), "P_stationary": np.outer(start, start),
-                "P_calibration": np.outer(cal, cal)}
+        return nav_system([[1.0, 1.0], [0.0, 1.0]], np.zeros((2, 1)), [1.0, 0.0], [0.0],
+                          np.outer(start, start), p_calibration=np.outer(cal, cal))
 
 
 RAMP = _Ramp("ramp", ("rate_ramp",), {"rate_ramp": "{u}/s"}, "rate ramp", "slow")

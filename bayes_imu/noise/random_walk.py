@@ -10,7 +10,7 @@ calibrated start from the contrast of :mod:`._base`.
 import numpy as np
 
 from .euler_sums import gm_sum
-from ._base import Term
+from ._base import Term, nav_system
 
 __all__ = ["RANDOM_WALK"]
 
@@ -40,10 +40,9 @@ class _RandomWalk(Term):
 
     def nav_filter(self, params, dt, *, n_cal=None):
         """State ``y_i`` itself, zero at the start (``y_0 = 0``, as :meth:`drift_variance`); a
-        calibrated error annihilates the walk's level, so starting the window at zero is exact."""
-        zero = np.zeros((1, 1))
-        return {"F": np.ones((1, 1)), "G": np.array([[float(params["rate_random_walk"]) * np.sqrt(dt)]]),
-                "H": np.ones(1), "D": np.zeros(1), "P_zero": zero, "P_stationary": zero, "P_calibration": zero}
+        calibrated error annihilates the walk's level: starting the window at zero is exact."""
+        step = float(params["rate_random_walk"]) * np.sqrt(dt)
+        return nav_system([[1.0]], [[step]], [1.0], [0.0], [[0.0]])
 
 
 RANDOM_WALK = _RandomWalk("random_walk", ("rate_random_walk",), {"rate_random_walk": "{u}/sqrt(s)"},

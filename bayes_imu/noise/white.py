@@ -8,7 +8,7 @@ zero or stationary start; calibrated start from the contrast of :mod:`._base`.
 
 import numpy as np
 
-from ._base import Term, calibrated_contrast
+from ._base import Term, calibrated_contrast, nav_system
 
 __all__ = ["WHITE"]
 
@@ -37,9 +37,8 @@ class _White(Term):
 
     def nav_filter(self, params, dt, *, n_cal=None):
         """No state: ``y_i = sqrt(q) eps_i``."""
-        zero = np.zeros((1, 1))
-        return {"F": zero, "G": zero, "H": np.zeros(1), "D": np.sqrt([float(params["noise_variance"])]),
-                "P_zero": zero, "P_stationary": zero, "P_calibration": zero}
+        sd = np.sqrt(float(params["noise_variance"]))
+        return nav_system([[0.0]], [[0.0]], [0.0], [sd], [[0.0]])
 
 
 WHITE = _White("white", ("noise_variance",), {"noise_variance": "({u})^2"}, "angle/velocity random walk", "short_term")
