@@ -44,7 +44,7 @@ class NavRequest:
 
 
 def load_nav_fits(folder, kind):
-    """Fits of one sensor from a fit folder (one axis, or three of a several-column fit)."""
+    """Fits of one sensor from a fit folder (one axis, or three of a several-column fit).
 
     Raises
     ------
