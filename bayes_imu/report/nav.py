@@ -218,7 +218,7 @@ def plot_nav(
 
     plt = pyplot()
     names = ("tilt", "velocity", "position")
-    fig, axes = plt.subplots(1, 3, figsize=(18, 7.2), squeeze=False)
+    fig, axes = plt.subplots(1, 3, figsize=(19, 8), squeeze=False)
     period = schuler_period_s(bands.g, bands.radius)
     radial = "position_x" in bands.quantities
     colours = plt.get_cmap("tab10")
@@ -279,7 +279,7 @@ def plot_nav(
                 label=textwrap.fill(
                     f"not drawn (P < {min_probability:g} or below "
                     f"{min_share:.0%} of the total): " + ", ".join(hidden),
-                    70,
+                    48,
                 ),
             )
         if tilted.size and bands.t_s[tilted[0]] < t[-1]:
@@ -332,12 +332,14 @@ def plot_nav(
         ax.set_title(
             f"{name}{' (horizontal radius)' if radial else ''}: {start}, {loop}", fontsize=10
         )
-        ax.grid(True, which="both", alpha=0.3)
+        ax.grid(True, which="major", alpha=0.3)
         ax.legend(
-            fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=1, frameon=False
+            fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=2, frameon=False
         )
     if title:
         fig.suptitle(f"free-inertial navigation error: {title}")
-    fig.tight_layout()
+    # fixed margins (the legends hang below the axes): tight_layout measures every tick label of
+    # the many-decade log axes, a third of the figure's time
+    fig.subplots_adjust(left=0.045, right=0.99, top=0.91, bottom=0.35, wspace=0.2)
     fig.savefig(path, dpi=110)
     plt.close(fig)
