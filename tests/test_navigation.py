@@ -350,3 +350,20 @@ def test_flicker_fft_at_long_outages(sensor):
         NavLoop(sensor), np.array([float(k)]), {"bias_instability": 1.0}, dt, n_cal=n_cal
     )[0]
     np.testing.assert_allclose(got, ref, rtol=1e-10)
+
+
+@pytest.mark.slow  # ~20 s: the grade table's 3.6e5 covariance steps per grade
+def test_grade_table_matches_van_loan():
+    """scripts/validate_navigation.py grades: Groves' three grade models, nav_variance against the
+    step-by-step Van Loan propagation, within 1e-6 relative (exit status 0)."""
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[1] / "scripts" / "validate_navigation.py"
+    proc = subprocess.run([sys.executable, str(script), "grades"], capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    worst = float(re.search(r"Worst relative difference ([\d.e+-]+)", proc.stdout).group(1))
+    assert worst < 1e-6
