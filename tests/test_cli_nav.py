@@ -141,3 +141,60 @@ def test_speed_needs_three_axes(folders, tmp_path, capsys):
     )
     assert code == 2
     assert "three-axis gyro" in capsys.readouterr().err
+
+
+def test_three_axis_folders_give_the_radius_channels_and_cross_track(folders, tmp_path):
+    root = folders["root"]
+    for kind, unit in (("gyro", "rad/s"), ("accel", "m/s^2")):
+        three = root / f"{kind}3"
+        if not three.exists():
+            three.mkdir()
+            axes = {a: {"folder": f"../{kind}", "unit": unit} for a in ("x", "y", "z")}
+            (three / "summary.json").write_text(json.dumps({"axes": axes}))
+    out = tmp_path / "nav3"
+    code = main(
+        [
+            "nav",
+            "--gyro",
+            str(root / "gyro3"),
+            "--accel",
+            str(root / "accel3"),
+            "--times",
+            "10,60",
+            "--speed",
+            "15",
+            "--out",
+            str(out),
+            "--quiet",
+        ]
+    )
+    assert code == 0
+    rows = [line.split(",") for line in (out / "nav.csv").read_text().splitlines()[1:]]
+    names = [r[1] for r in rows if r[0] == "10"]
+    assert names == [
+        "tilt",
+        "tilt_x",
+        "tilt_y",
+        "velocity",
+        "velocity_x",
+        "velocity_y",
+        "position",
+        "position_x",
+        "position_y",
+        "cross_track",
+    ]
+    value = {r[1]: float(r[3]) for r in rows if r[0] == "60"}
+    # identical axes: the rms radius is sqrt(2) times one channel's median (same draws, same pairing)
+    assert value["position"] == pytest.approx(np.sqrt(2.0) * value["position_x"], rel=0.05)
+    main(
+        [
+            "nav",
+            "--gyro",
+            str(root / "gyro3"),
+            "--accel",
+            str(folders["accel"]),
+            "--out",
+            str(tmp_path / "mixed"),
+        ]
+    )
+    assert not (tmp_path / "mixed").exists()
