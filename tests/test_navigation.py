@@ -367,3 +367,20 @@ def test_grade_table_matches_van_loan():
     assert proc.returncode == 0, proc.stderr[-2000:]
     worst = float(re.search(r"Worst relative difference ([\d.e+-]+)", proc.stdout).group(1))
     assert worst < 1e-6
+
+
+def test_flicker_increment_acov_against_mpmath():
+    """``gamma(l) = (h/2) delta^4 (l^2 ln l)`` at 50 digits, both sides of the series switch (lag 16)."""
+    from bayes_imu.noise.bias_instability import flicker_increment_acov
+
+    mp.mp.dps = 50
+
+    def f(lag):
+        return mp.mpf(lag) ** 2 * mp.log(lag) if lag > 0 else mp.mpf(0)
+
+    lags = [0, 1, 2, 15, 16, 17, 100, 1000, 100000]
+    got = flicker_increment_acov(lags[-1] + 1, 1.0)
+    for lag in lags:
+        terms = 6 * f(lag) - 4 * f(lag + 1) - 4 * f(abs(lag - 1)) + f(lag + 2) + f(abs(lag - 2))
+        ref = float(terms / (2 * mp.pi))
+        assert got[lag] == pytest.approx(ref, rel=1e-14 if lag < 16 else 1e-15), lag
