@@ -20,6 +20,7 @@ from .inference.fit import FitResult, fit, fit_allan
 from .noise.avar_forms import TERMS, NoiseModel
 from .noise.simulate import simulate_log
 from .drift.bands import DriftBands, drift_bands, drift_draws
+from .drift.nav_bands import NavigationBands, navigation_bands
 from .inference.population import PopulationResult, UnitPosterior, fit_population
 from .report.scene import build_report, read_scene
 
@@ -43,6 +44,8 @@ __all__ = [
     "DriftBands",
     "drift_bands",
     "drift_draws",
+    "NavigationBands",
+    "navigation_bands",
     "fit_population",
     "PopulationResult",
     "UnitPosterior",

@@ -41,6 +41,7 @@ from .._progress import show_progress
 from .sources import SourceOptions, allan_results
 from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, SENSOR_QUANTITIES
 from ..drift.display import DISPLAY_CHOICES, display_unit
+from .nav import add_nav_parser
 from ..drift.closed_forms import DRIFT_BIAS_STARTS, QUANTITY_ORDER, SI_OUTPUT_UNITS, drift_sigma
 from ..errors import BayesIMUError, InputError
 from ..io.readers import INCREMENT_UNITS, SI_UNITS, UNITS, read_json_object
@@ -255,6 +256,7 @@ def _build_parser():
                        help="units of drift.csv and the printout: si (rad, m/s, m; default) or deg (attitude in degrees)")
     drift.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
     drift.set_defaults(handler=_cmd_drift)
+    add_nav_parser(sub)
     return parser
 
 

@@ -20,6 +20,8 @@ from .bands import (
     drift_bands,
     drift_draws,
 )
+from .navigation import NavLoop
+from .nav_bands import NavigationBands, NavQuantity, navigation_bands
 
 __all__ = [
     "QUANTITY_ORDER",
@@ -32,4 +34,8 @@ __all__ = [
     "DriftBands",
     "drift_bands",
     "drift_draws",
+    "NavLoop",
+    "NavigationBands",
+    "NavQuantity",
+    "navigation_bands",
 ]

@@ -50,7 +50,8 @@ import numpy as np
 from ..errors import InputError, ModelError
 
 __all__ = ["Term", "PriorScale", "CovarianceTail", "calibrated_contrast", "check_order",
-           "BIAS_STARTS", "ROLES", "ORDERS", "TAIL_KINDS", "SELECTION_ROLES", "KALIBR_ROLES"]
+           "BIAS_STARTS", "ROLES", "ORDERS", "TAIL_KINDS", "SELECTION_ROLES", "KALIBR_ROLES",
+           "nav_system"]
 
 #: drift semantics (see the module docstring)
 BIAS_STARTS = ("zero", "stationary", "calibrated")
@@ -328,3 +329,40 @@ class Term:
 
     def parameter_units(self, unit):
         return {p: self.units[p].format(u=unit) for p in self.parameters}
+
+    # --- navigation channel (:mod:`bayes_imu.drift.navigation`) --------------------------
+    def nav_filter(self, params, dt, *, n_cal=None):  # pragma: no cover - abstract
+        """The sampled output as a linear state-space system driven by i.i.d. standard normals.
+
+        ``s_{i+1} = F s_i + G eps_i``, ``y_i = H s_i + D eps_i``; a dict of ``F (..., s, s)``,
+        ``G (..., s, e)``, ``H (..., s)``, ``D (..., e)`` and the state covariances at the
+        start: ``P_zero``, ``P_stationary`` (at the outage) and ``P_calibration`` (``n_cal``
+        samples before it), with the same semantics as :meth:`drift_variance`.
+        """
+        raise NotImplementedError
+
+    def nav_variance(self, loop, k, params, dt, *, bias_start="calibrated", n_cal=None):
+        """Variance ``(..., n_t, 3)`` of (tilt [rad^2], velocity [(m/s)^2], position [m^2]) of
+        a navigation channel (``loop``, a :class:`bayes_imu.drift.navigation.NavLoop`) driven by
+        this term after ``k`` ``(n_t,)`` samples; ``n_cal`` is the calibration window in samples.
+
+        The default serves terms linear in one squared amplitude: the exact propagation of
+        :meth:`nav_filter` at unit amplitude, scaled.
+        """
+        unit = {p: 1.0 for p in self.parameters}
+
+        def compute():
+            system = self.nav_filter(unit, dt, n_cal=n_cal)
+            return loop.linear_variance(system, k, dt, bias_start=bias_start, n_cal=n_cal)
+
+        v = loop.unit_variance(self.name, compute, k, dt, bias_start, n_cal)
+        return np.asarray(self.amplitude2(params), float)[..., None, None] * v
+
+
+def nav_system(f, g, h, d, p_zero, p_stationary=None, p_calibration=None):
+    """The dict :meth:`Term.nav_filter` returns (start covariances default to ``p_zero``)."""
+    p_stationary = p_zero if p_stationary is None else p_stationary
+    p_calibration = p_stationary if p_calibration is None else p_calibration
+    arrays = (f, g, h, d, p_zero, p_stationary, p_calibration)
+    keys = ("F", "G", "H", "D", "P_zero", "P_stationary", "P_calibration")
+    return {key: np.asarray(value, float) for key, value in zip(keys, arrays)}

@@ -21,7 +21,7 @@ from ..errors import ModelError
 from ._base import CovarianceTail, Term
 from .quantities import DEG, UG
 
-__all__ = ["BIAS_INSTABILITY", "flicker_difference_acov"]
+__all__ = ["BIAS_INSTABILITY", "flicker_difference_acov", "flicker_increment_acov"]
 
 FLAT = 2.0 * np.log(2.0) / np.pi
 
@@ -91,7 +91,51 @@ class _BiasInstability(Term):
     def unit_drift(self, order, k, dt, bias_start, n_cal):
         return super().unit_drift(order, k, dt, "calibrated", n_cal if bias_start == "calibrated" else np.maximum(k, 1.0))
 
+    def nav_variance(self, loop, k, params, dt, *, bias_start="calibrated", n_cal=None):
+        """Exact quadratic form over the flicker's stationary rate increments
+        (:func:`flicker_increment_acov`); ``"zero"``/``"stationary"`` as :meth:`unit_drift`
+        (a calibration window as long as the outage)."""
+        k = np.asarray(k, float)
+        n = np.broadcast_to(n_cal, k.shape) if bias_start == "calibrated" else np.maximum(k, 1.0)
+        unit = loop.unit_variance(self.name, lambda: loop.increment_variance(
+            k, dt, n, lambda size: flicker_increment_acov(size, 1.0)), k, dt, bias_start, n)
+        return np.asarray(self.amplitude2(params), float)[..., None, None] * unit
+
 
 BIAS_INSTABILITY = _BiasInstability("bias_instability", ("bias_instability",), {"bias_instability": "{u}"},
                                     "bias instability", "bias", selection=("optional",),
                                     kalibr="random_walk", short_label="bias instability")
+
+
+_ASYMPTOTIC_FROM = 16  # lag from which flicker_increment_acov uses its asymptotic series
+_ASYMPTOTIC_TERMS = 14  # terms ~ (2/l)^(2n): (1/8)^26 < 1e-23 at l = 16
+
+
+def flicker_increment_acov(n, bias_instability):
+    """:func:`flicker_difference_acov` without cancellation at large lags.
+
+    ``gamma(l) = (h/2) delta^4 f(l)``, ``f(l) = l^2 ln l``, ``h = B^2/pi``. The fourth central
+    difference of ``f`` cancels ``~l^4 ln l`` relative at lag ``l``; from lag 16 it is summed as
+    ``delta^4 = (2 sinh(D/2))^4 = sum_{n>=2} 2 (4^n - 4) D^(2n) / (2n)!`` with
+    ``f^(2n)(l) = -2 (2n-3)! / l^(2n-2)`` (a series convergent for ``l > 2``), below from the
+    definition in extended precision.
+    """
+    h = bias_instability**2 / np.pi
+    from math import factorial
+
+    lag = np.arange(n, dtype=float)
+    small = lag < _ASYMPTOTIC_FROM
+    k = np.arange(_ASYMPTOTIC_FROM + 3, dtype=np.longdouble)
+    f = np.zeros(k.shape, dtype=np.longdouble)
+    f[1:] = k[1:] ** 2 * np.log(k[1:])
+    ls = np.arange(min(n, _ASYMPTOTIC_FROM))
+    delta4 = 6 * f[ls] - 4 * f[ls + 1] - 4 * f[np.abs(ls - 1)] + f[ls + 2] + f[np.abs(ls - 2)]
+    out = np.empty(n)
+    out[ls] = (0.5 * delta4).astype(float)
+    big = lag[~small]
+    inv2 = 1.0 / (big * big)
+    acc = np.zeros(big.shape)
+    for m in range(_ASYMPTOTIC_TERMS + 1, 1, -1):  # Horner in 1/l^2 (m is n of the docstring)
+        acc = acc * inv2 + -4.0 * (4.0**m - 4.0) * factorial(2 * m - 3) / factorial(2 * m)
+    out[~small] = 0.5 * acc * inv2
+    return h * out

@@ -15,7 +15,7 @@ calibrated start from the contrast of :mod:`._base`.
 
 import numpy as np
 
-from ._base import Term
+from ._base import Term, nav_system
 
 __all__ = ["FILTERED_WHITE"]
 
@@ -57,6 +57,11 @@ class _FilteredWhite(Term):
         if order == 1:
             return dt**2 * np.where(k > 0, 4.0 * k - 2.0, 0.0)
         return dt**4 * np.where(k > 0, (k - 1.0) ** 2 + (k - 1.0) * (2.0 * k - 1.0) * (2.0 * k - 3.0) / 3.0, 0.0)
+
+    def nav_filter(self, params, dt, *, n_cal=None):
+        """State ``w_{i-1}``: ``y_i = sqrt(c) (w_{i-1} + eps_i)``, ``w_i = eps_i``."""
+        c = np.sqrt(float(params["filtered_variance"]))
+        return nav_system([[0.0]], [[1.0]], [c], [c], [[1.0]])
 
 
 FILTERED_WHITE = _FilteredWhite("filtered_white", ("filtered_variance",), {"filtered_variance": "({u})^2"},

@@ -49,7 +49,7 @@ import numpy as np
 from dataclasses import dataclass
 
 from .euler_sums import gm_terms_broadcast
-from ._base import CovarianceTail, Term
+from ._base import CovarianceTail, Term, nav_system
 from .quantities import DEG, UG
 
 __all__ = ["HF_CORRELATED", "GAUSS_MARKOV", "GAUSS_MARKOV_2", "gm_avar", "gm_structure"]
@@ -227,6 +227,23 @@ class _GaussMarkov(Term):
             s_n = (1.0 - a) * -np.expm1(-n * x) / a  # sum_{j=1}^N phi^j
             out = np.maximum(out + weight**2 * gm_structure(n, 1.0, x) / n**2 - 2.0 * weight * c * s_n / n, 0.0)
         return s2 * dt ** (2 * order) * np.where(k >= order, out, 0.0)  # exactly 0 before the first full step
+
+    def nav_filter(self, params, dt, *, n_cal=None):
+        """``y_i = b_i``, ``b_{i+1} = phi b_i + s sqrt(1 - phi^2) eps_i``, batched over draws;
+        ``b_0 = 0`` from a zero start (as :meth:`drift_variance`), else ``N(0, s^2)``."""
+        s2 = np.asarray(params[self.variance_name], float)
+        x = dt / np.asarray(params[self.time_constant_name], float)
+        s2, x = np.broadcast_arrays(s2, x)
+        col = (...,) + (None, None)
+        stat = s2[col]
+        drive = np.sqrt(s2 * -np.expm1(-2.0 * x))[col]
+        ones = np.ones(s2.shape + (1,))
+        return nav_system(np.exp(-x)[col], drive, ones, 0.0 * ones, np.zeros_like(stat), stat)
+
+    def nav_variance(self, loop, k, params, dt, *, bias_start="calibrated", n_cal=None):
+        """Exact propagation of :meth:`nav_filter` for every draw at once."""
+        system = self.nav_filter(params, dt)
+        return loop.linear_variance(system, k, dt, bias_start=bias_start, n_cal=n_cal)
 
 
 HF_CORRELATED = _GaussMarkov("hf_correlated", ("correlated_variance", "correlated_time_constant"),

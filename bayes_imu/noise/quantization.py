@@ -10,7 +10,7 @@ whatever the start; calibrated start from the contrast of :mod:`._base`.
 
 import numpy as np
 
-from ._base import Term
+from ._base import Term, nav_system
 from .quantities import DEG
 
 __all__ = ["QUANTIZATION"]
@@ -48,6 +48,11 @@ class _Quantization(Term):
         if bias_start == "calibrated":
             return super().unit_drift(order, k, dt, bias_start, n_cal)
         return 2.0 * (k > 0) if order == 1 else dt**2 * np.where(k > 0, (k - 1.0) * k, 0.0)
+
+    def nav_filter(self, params, dt, *, n_cal=None):
+        """State ``e_i`` (angle noise): ``y_i = (Q eps_i - e_i)/dt``, ``e_{i+1} = Q eps_i``."""
+        q = float(params["quantization"])
+        return nav_system([[0.0]], [[q]], [-1.0 / dt], [q / dt], [[q * q]])
 
 
 QUANTIZATION = _Quantization("quantization", ("quantization",), {"quantization": "{u} s"}, "quantization noise",

@@ -12,7 +12,7 @@ calibrated start (the mean of the ``N`` previous samples, ``-R dt (N+1)/2``, rem
 
 import numpy as np
 
-from ._base import Term
+from ._base import Term, nav_system
 from .quantities import DEG, UG
 
 __all__ = ["RAMP"]
@@ -53,6 +53,15 @@ class _Ramp(Term):
         else:
             err = k * (k - 1.0) / 2.0 if order == 1 else k * (k - 1.0) * (k - 2.0) / 6.0
         return (dt ** (order + 1) * err) ** 2
+
+    def nav_filter(self, params, dt, *, n_cal=None):
+        """Deterministic state (level, step) ``(R dt i, R dt)``: its "covariance" is the outer
+        product of the start, so the variance is the squared error, as :meth:`drift_variance`."""
+        step = float(params["rate_ramp"]) * dt
+        start = np.array([0.0, step])
+        cal = np.array([-float(n_cal or 0) * step, step])
+        return nav_system([[1.0, 1.0], [0.0, 1.0]], np.zeros((2, 1)), [1.0, 0.0], [0.0],
+                          np.outer(start, start), p_calibration=np.outer(cal, cal))
 
 
 RAMP = _Ramp("ramp", ("rate_ramp",), {"rate_ramp": "{u}/s"}, "rate ramp", "slow",

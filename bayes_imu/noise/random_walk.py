@@ -10,7 +10,7 @@ calibrated start from the contrast of :mod:`._base`.
 import numpy as np
 
 from .euler_sums import gm_sum
-from ._base import Term
+from ._base import Term, nav_system
 from .quantities import DEG
 
 __all__ = ["RANDOM_WALK"]
@@ -55,6 +55,12 @@ class _RandomWalk(Term):
         if bias_start == "calibrated":
             return super().unit_drift(order, k, dt, bias_start, n_cal)
         return dt ** (2 * order + 1) * gm_sum(order, k, np.zeros_like(k))
+
+    def nav_filter(self, params, dt, *, n_cal=None):
+        """State ``y_i`` itself, zero at the start (``y_0 = 0``, as :meth:`drift_variance`); a
+        calibrated error annihilates the walk's level: starting the window at zero is exact."""
+        step = float(params["rate_random_walk"]) * np.sqrt(dt)
+        return nav_system([[1.0]], [[step]], [1.0], [0.0], [[0.0]])
 
 
 RANDOM_WALK = _RandomWalk("random_walk", ("rate_random_walk",), {"rate_random_walk": "{u}/sqrt(s)"},

@@ -8,7 +8,7 @@ zero or stationary start; calibrated start from the contrast of :mod:`._base`.
 
 import numpy as np
 
-from ._base import Term, calibrated_contrast
+from ._base import Term, calibrated_contrast, nav_system
 from .quantities import DEG
 
 __all__ = ["WHITE"]
@@ -49,6 +49,11 @@ class _White(Term):
             return dt ** (2 * order) * calibrated_contrast(lambda lag: np.asarray(lag, float), order, k, n_cal)
         shape = k if order == 1 else (k - 1.0) * k * (2.0 * k - 1.0) / 6.0
         return dt ** (2 * order) * np.where(k > 0, shape, 0.0)
+
+    def nav_filter(self, params, dt, *, n_cal=None):
+        """No state: ``y_i = sqrt(q) eps_i``."""
+        sd = np.sqrt(float(params["noise_variance"]))
+        return nav_system([[0.0]], [[0.0]], [0.0], [sd], [[0.0]])
 
 
 WHITE = _White("white", ("noise_variance",), {"noise_variance": "({u})^2"},

@@ -1,0 +1,174 @@
+"""``bayes-imu nav``: the navigation error of a gyro + accelerometer pair from their fit folders.
+
+Parsing and printing only; the work is :func:`bayes_imu.report.nav.run_nav`.
+"""
+
+import argparse
+import math
+import re
+import sys
+from pathlib import Path
+
+__all__ = ["add_nav_parser"]
+
+_EPILOG = """examples:
+  bayes-imu nav --gyro fit_gyro_y --accel fit_accel_x --times 10,60,300 --calibration 60 --out nav
+  bayes-imu nav --gyro fit_gyro_xyz --accel fit_accel_xyz --speed 15 --out nav_car  (three axes)
+
+nav.csv: t_s,quantity,q05,q50,q95,unit,bound95 -- q05..q95 the 90 % credible band of the
+1-sigma error, bound95 the 95 % error bound itself (posterior predictive); rows tilt (rad),
+velocity (m/s), position (m)."""
+
+
+def _times(text):
+    try:
+        values = tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated times in seconds, got {text!r}"
+        ) from None
+    if not values or not all(math.isfinite(v) and v > 0 for v in values):
+        raise argparse.ArgumentTypeError(f"expected positive times in seconds, got {text!r}")
+    return values
+
+
+def _positive(text):
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
+
+
+def _seed(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer seed, got {text!r}") from None
+    if not 0 <= value < 2**32:
+        raise argparse.ArgumentTypeError(f"expected a seed from 0 to 2**32 - 1, got {text!r}")
+    return value
+
+
+def add_nav_parser(sub):
+    """Add the ``nav`` sub-command to ``sub`` (an argparse sub-parsers object)."""
+    nav = sub.add_parser(
+        "nav",
+        help="horizontal navigation error in a GPS outage, from a gyro and an accelerometer fit",
+        description="Credible bands of the tilt, velocity and horizontal position error of a "
+        "free-inertial "
+        "navigator (one horizontal channel, Schuler loop) from bayes-imu fit folders of a gyro "
+        "(rad/s) and an accelerometer (m/s^2); three-axis fits give the horizontal radius. Writes "
+        "nav.csv, nav.png and summary.json.",
+        epilog=_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    nav.add_argument(
+        "--gyro",
+        type=Path,
+        required=True,
+        help="fit folder of the gyro about the perpendicular horizontal axis, fitted with --units "
+        "(rad/s after conversion); a three-axis fit for x, y, z",
+    )
+    nav.add_argument(
+        "--accel",
+        type=Path,
+        required=True,
+        help="fit folder of the accelerometer along the channel (m/s^2 after conversion); "
+        "three-axis "
+        "with a three-axis gyro",
+    )
+    nav.add_argument(
+        "--times",
+        type=_times,
+        default=(10.0, 60.0, 300.0),
+        metavar="T1,T2,...",
+        help="outage lengths (s) of the nav.csv rows, default 10,60,300",
+    )
+    nav.add_argument(
+        "--bias-start",
+        choices=("calibrated", "zero", "stationary"),
+        default="calibrated",
+        help="biases at the outage: calibrated (default: the mean of --calibration seconds before "
+        "removed from both sensors), zero, or stationary",
+    )
+    nav.add_argument(
+        "--calibration", type=_positive, default=60.0, help="calibration window (s), default 60"
+    )
+    nav.add_argument(
+        "--no-schuler", action="store_true", help="leave the Schuler loop out (short-term forms)"
+    )
+    nav.add_argument(
+        "--models",
+        choices=("averaged", "selected"),
+        default="averaged",
+        help="average over the candidate models (default) or use the selected one",
+    )
+    nav.add_argument(
+        "--speed",
+        type=_positive,
+        help="vehicle speed (m/s): adds the cross-track error from the "
+        "heading (gyro z) error; three-axis fits",
+    )
+    nav.add_argument(
+        "--horizon",
+        type=_positive,
+        help="longest time of nav.png (s), default 2x the longest --times and at least 1200",
+    )
+    nav.add_argument(
+        "--seed", type=_seed, default=0, help="random seed of the draw pairing, default 0"
+    )
+    nav.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help="output folder: new, empty, or a previous bayes_imu result with --force",
+    )
+    nav.add_argument(
+        "--force", action="store_true", help="replace a previous bayes_imu result in --out"
+    )
+    nav.add_argument("--quiet", action="store_true", help="no printout")
+    nav.set_defaults(handler=_cmd_nav)
+    return nav
+
+
+def _cmd_nav(args):
+    from ..errors import InputError
+    from ..report.nav import NavRequest, run_nav
+
+    request = NavRequest(
+        args.gyro,
+        args.accel,
+        args.out,
+        args.times,
+        args.bias_start,
+        args.calibration,
+        not args.no_schuler,
+        args.models,
+        args.speed,
+        args.horizon,
+        args.seed,
+        args.force,
+    )
+    try:
+        bands = run_nav(request)
+    except InputError as exc:  # the library names its parameters; say the flags
+        text = re.sub(r"^(gyro|accel)=(\S+):", r"--\1 \2:", str(exc))
+        raise InputError(
+            text.replace("gyro and accel swapped?", "swap --gyro and --accel?")
+        ) from None
+    if not args.quiet:
+        position = bands.quantities["position"]
+        for t in args.times:
+            i = int(abs(bands.t_s - t).argmin())
+            print(
+                f"after {bands.t_s[i]:g} s: horizontal position error <= "
+                f"{position.bound[i]:.4g} m at 95 % "
+                f"(1-sigma {position.sigma[1][i]:.3g} m, 90 % band {position.sigma[0][i]:.3g}-"
+                f"{position.sigma[-1][i]:.3g} m)",
+                file=sys.stdout,
+            )
+        print(f"wrote {args.out}/nav.csv, nav.png, summary.json", file=sys.stdout)
+    return 0

@@ -1,0 +1,404 @@
+"""Navigation bands: the posterior of a free-inertial navigator's error from a gyro's and an
+accelerometer's fits (the loop and the exact variances: :mod:`bayes_imu.drift.navigation`).
+
+Each posterior draw of the gyro (rad/s) is paired with one of the accelerometer (m/s^2), both
+model-averaged as drift bands are (:func:`bayes_imu.drift.bands.model_draws`); a pair gives the
+1-sigma error ``sigma(t)`` of tilt, velocity and position of one horizontal channel (the sum of
+every term's exact variance, both sensors; their noises are independent). Two numbers are
+reported per time, and they answer different questions:
+
+``sigma`` (``q05, q50, q95``)
+    the credible band of the 1-sigma error: what the data say about the navigator's spread;
+``bound`` (default 95 %)
+    the posterior predictive bound of the error itself, ``P(|error| <= bound) = 0.95`` under
+    the mixture of zero-mean normals over the draws: what a navigation engineer calls "the
+    95 % error" (about 1.96 sigma, wider when the draws disagree).
+
+Three-axis fits (gyro x, y, z and accelerometer x, y, z) give two channels: along x (the
+accelerometer x and the tilt about y, gyro y) and along y (accelerometer y, gyro x). Their
+``radial`` rows are the horizontal radius: ``sigma`` is the rms radius
+``sqrt(sigma_x^2 + sigma_y^2)`` and ``bound`` the predictive quantile of the radius of the
+two-dimensional normal mixture. ``speed`` adds the cross-track error of a vehicle moving at
+that speed from the heading error (the vertical gyro z, no Schuler coupling): ``V`` times the
+double integral of the gyro z error.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, default_times, model_draws
+from .navigation import EARTH_RADIUS, GRAVITY, QUANTITIES, QUANTITY_UNITS, NavLoop
+from ..errors import InputError
+from ..noise import BIAS_STARTS, TERMS
+
+__all__ = ["NavQuantity", "NavigationBands", "navigation_bands", "nav_times", "predictive_bound"]
+
+_BISECTIONS = 60
+_ANGLES = 64  # trapezoid points over the half period of the radial CDF's angle integral
+
+
+@dataclass(frozen=True)
+class NavQuantity:
+    """One row group of :class:`NavigationBands`.
+
+    Attributes
+    ----------
+    name : str
+        ``tilt``, ``velocity``, ``position`` (one channel, or the horizontal radius of two),
+        ``<q>_x`` / ``<q>_y`` (each channel of a three-axis set), ``cross_track``.
+    unit : str
+        ``rad``, ``m/s`` or ``m``.
+    sigma : (n_q, n_t) ndarray
+        Posterior quantiles of the 1-sigma error (rms radius for the radial rows).
+    bound : (n_t,) ndarray
+        Posterior predictive bound of the error at :attr:`NavigationBands.credibility`.
+    terms : dict
+        ``"gyro:<term>"`` / ``"accel:<term>"`` -> ``(n_t,)`` posterior median of that term's
+        1-sigma contribution, over the draws whose model has it.
+    sensors : dict
+        ``"gyro"``, ``"accel"`` -> ``(n_t,)`` posterior median of each sensor's 1-sigma part.
+    term_probability : dict
+        Same keys as ``terms`` -> posterior probability that the sensor has the term (share of
+        the draws whose model has it).
+    """
+
+    name: str
+    unit: str
+    sigma: np.ndarray
+    bound: np.ndarray
+    terms: dict = field(default_factory=dict)
+    sensors: dict = field(default_factory=dict)
+    term_probability: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class NavigationBands:
+    """Posterior of the navigation error of a gyro + accelerometer (module docstring).
+
+    Attributes
+    ----------
+    t_s : (n_t,) outage lengths [s] (whole samples).
+    quantiles : (n_q,) probabilities of ``sigma``.
+    quantities : dict
+        Name -> :class:`NavQuantity`, in order.
+    credibility : float
+        Probability of every ``bound``.
+    bias_start, calibration_s, schuler, models : the options used (``calibration_s`` is
+        ``nan`` unless ``bias_start="calibrated"``).
+    g, radius : float
+        Gravity [m/s^2] and Earth radius [m] of the loop.
+    speed : float
+        Vehicle speed of the cross-track rows [m/s] (``nan`` if none).
+    n_draws : int
+        Posterior draw pairs used.
+    """
+
+    t_s: np.ndarray
+    quantiles: np.ndarray
+    quantities: dict
+    credibility: float
+    bias_start: str
+    calibration_s: float
+    schuler: bool
+    models: str
+    g: float = GRAVITY
+    radius: float = EARTH_RADIUS
+    speed: float = float("nan")
+    n_draws: int = 0
+
+    def within(self, name, max_error):
+        """Longest listed outage [s] whose ``bound`` of ``name`` is <= ``max_error`` (0: none)."""
+        bound = self.quantities[name].bound
+        bad = np.flatnonzero(bound > max_error)
+        ok = self.t_s[: bad[0]] if bad.size else self.t_s
+        return float(ok[-1]) if ok.size else 0.0
+
+
+def nav_times(dt, times=(), horizon_s=None, n=30):
+    """Log-spaced whole-sample times from one sample to the horizon (default 2 h, past the Schuler
+    period, or twice the longest of ``times``), with ``times`` added."""
+    times = np.asarray(times, float).ravel()
+    horizon = float(
+        horizon_s if horizon_s is not None else max(np.max(times, initial=0.0) * 2.0, 2.0 * 3600.0)
+    )
+    grid = default_times(dt, horizon, n)
+    return np.unique(np.concatenate([grid, np.round(times / dt) * dt]))
+
+
+def predictive_bound(sigma, credibility=0.95, *, sigma2=None):
+    """Quantile of ``|e|`` (or the radius) under the mixture of zero-mean normals over axis 0.
+
+    ``sigma`` ``(n_draws, n_t)``: per-draw standard deviations. With ``sigma2`` (the second
+    channel's), the bound is on the radius of the 2-D normal of standard deviations
+    ``(sigma, sigma2)``, whose CDF is the trapezoid sum (exponentially convergent, periodic
+    integrand) of ``P(r <= x) = (1/pi) int_0^pi (1 - exp(-x^2 q/2)) / (q a b) d theta``,
+    ``q = cos^2/a^2 + sin^2/b^2``. Bisection to 2^-60 of the bracket.
+    """
+    from scipy.special import erf
+
+    a = np.maximum(np.asarray(sigma, float), 1e-300)
+    if sigma2 is None:
+
+        def cdf(x):
+            return np.mean(erf(x / (np.sqrt(2.0) * a)), axis=0)
+
+        hi = 8.0 * a.max(axis=0)
+    else:
+        b = np.maximum(np.asarray(sigma2, float), 1e-300)
+        theta = (np.arange(_ANGLES) + 0.5) * np.pi / _ANGLES
+        q = np.cos(theta) ** 2 / a[..., None] ** 2 + np.sin(theta) ** 2 / b[..., None] ** 2
+        norm = q * (a * b)[..., None]
+
+        def cdf(x):
+            return np.mean(
+                np.mean(-np.expm1(-0.5 * x[None, :, None] ** 2 * q) / norm, axis=-1), axis=0
+            )
+
+        hi = 8.0 * np.hypot(a, b).max(axis=0)
+    lo = np.zeros_like(hi)
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        below = cdf(mid) < credibility
+        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+    return 0.5 * (lo + hi)
+
+
+def _as_axes(fits, what):
+    fits = list(fits) if isinstance(fits, (list, tuple)) else [fits]
+    if len(fits) not in (1, 3):
+        raise InputError(f"{what}: expected one fit or three (axes x, y, z), got {len(fits)}")
+    return fits
+
+
+def _pick(fit, models, n, rng):
+    """``[(model, samples)]`` restricted to ``n`` draws chosen at random (``rng``)."""
+    parts = model_draws(fit, models)
+    sizes = [s.shape[0] for _, s in parts]
+    keep = np.sort(rng.choice(sum(sizes), size=n, replace=False))
+    bounds = np.cumsum([0] + sizes)
+    return [
+        (m, s[keep[(keep >= lo) & (keep < hi)] - lo])
+        for (m, s), lo, hi in zip(parts, bounds[:-1], bounds[1:])
+    ]
+
+
+def _segment_spread(fit, variance, t, rng):
+    """A fit flagged non-stationary: each draw's variance times ``exp(2 z s(t))``, ``z ~ N(0, 1)``
+    per    draw (the between-segment spread of :func:`bayes_imu.drift.bands.drift_draws`)."""
+    steady = getattr(fit, "stationarity", None)
+    if steady is None or steady.stationary:
+        return variance
+    z = rng.standard_normal((variance.shape[0], 1, 1))
+    return variance * np.exp(2.0 * z * np.asarray(steady.drift_log_sd(t), float)[None, :, None])
+
+
+def _sensor_variance(parts, loop, k, bias_start, n_cal, factor=1.0):
+    """``(total (n, n_t, 3), terms {name: (n, n_t, 3) with nan where absent})`` for one sensor."""
+    n = sum(s.shape[0] for _, s in parts)
+    total = np.zeros((n, k.size, 3))
+    terms = {}
+    start = 0
+    for model, samples in parts:
+        stop = start + samples.shape[0]
+        if stop > start:
+            params = model.unpack(samples)
+            for term in model.components:
+                v = factor * term.nav_variance(
+                    loop, k, params, model.dt, bias_start=bias_start, n_cal=n_cal
+                )
+                total[start:stop] += v
+                terms.setdefault(term.name, np.full((n, k.size, 3), np.nan))[start:stop] = v
+        start = stop
+    return total, {t: terms[t] for t in TERMS if t in terms}
+
+
+def _quantity(name, unit, var_g, var_a, terms_g, terms_a, q, credibility, column):
+    sd = np.sqrt(var_g[..., column] + var_a[..., column])
+    terms = {f"gyro:{t}": _median(v[..., column]) for t, v in terms_g.items()}
+    terms.update({f"accel:{t}": _median(v[..., column]) for t, v in terms_a.items()})
+    sensors = {
+        "gyro": np.median(np.sqrt(var_g[..., column]), axis=0),
+        "accel": np.median(np.sqrt(var_a[..., column]), axis=0),
+    }
+    probability = {
+        f"{s}:{t}": float(np.mean(np.isfinite(v[:, 0, 0])))
+        for s, part in (("gyro", terms_g), ("accel", terms_a))
+        for t, v in part.items()
+    }
+    return NavQuantity(
+        name,
+        unit,
+        np.quantile(sd, q, axis=0),
+        predictive_bound(sd, credibility),
+        terms,
+        sensors,
+        probability,
+    )
+
+
+def _median(v):
+    has = np.isfinite(v[:, 0])
+    return np.median(np.sqrt(v[has]), axis=0)
+
+
+def _check(gyro, accel, bias_start, models, calibration_s, speed):
+    if bias_start not in BIAS_STARTS:
+        raise InputError(f"bias_start={bias_start!r}: expected one of {', '.join(BIAS_STARTS)}")
+    if models not in MODEL_CHOICES:
+        raise InputError(f"models={models!r}: expected one of {', '.join(MODEL_CHOICES)}")
+    dts = {f.model.dt for f in gyro + accel}
+    if max(dts) > min(dts) * (1.0 + 1e-9):
+        rates = [
+            ", ".join(sorted({f"{1.0 / f.model.dt:g} Hz" for f in fits})) for fits in (gyro, accel)
+        ]
+        raise InputError(
+            f"gyro and accelerometer fits: mismatched sample rates (gyro {rates[0]}, accelerometer "
+            f"{rates[1]}); expected one IMU's logs at one rate"
+        )
+    dt = gyro[0].model.dt
+    if not (np.isfinite(calibration_s) and calibration_s >= dt):
+        raise InputError(
+            f"calibration={calibration_s!r} s: expected at least one sample ({dt:g} s)"
+        )
+    if speed is not None and not (np.isfinite(speed) and speed >= 0):
+        raise InputError(f"speed={speed!r} m/s: expected a finite speed >= 0")
+    if speed is not None and len(gyro) != 3:
+        raise InputError(
+            "speed: the cross-track error needs the vertical gyro (a three-axis gyro fit)"
+        )
+    return dt
+
+
+def navigation_bands(
+    gyro_fit,
+    accel_fit,
+    t=None,
+    *,
+    bias_start="calibrated",
+    calibration_s=DEFAULT_CALIBRATION_S,
+    schuler=True,
+    models="averaged",
+    quantiles=(0.05, 0.5, 0.95),
+    credibility=0.95,
+    horizon_s=None,
+    speed=None,
+    max_draws=1000,
+    g=GRAVITY,
+    radius=EARTH_RADIUS,
+    rng=None,
+    segment_spread=True,
+):
+    """Posterior of the horizontal navigation error during an outage (module docstring).
+
+    Parameters
+    ----------
+    gyro_fit, accel_fit : FitResult or sequence of three
+        Fits of the gyro in rad/s and the accelerometer in m/s^2 (SI, as ``bayes-imu fit
+        --units`` writes them; the API cannot check units:
+        :func:`bayes_imu.report.nav.load_nav_fits`
+        does for fit folders). Three fits each (axes x, y, z) give two channels and the radius.
+    t : array_like, optional
+        Outage lengths [s]; default :func:`nav_times` up to ``horizon_s``.
+    bias_start : {"calibrated", "zero", "stationary"}
+        As :func:`bayes_imu.drift.drift_bands`; ``"calibrated"`` removes the mean of the
+        ``calibration_s`` seconds before the outage from both sensors.
+    schuler : bool
+        Schuler loop on (default) or off (the uncoupled short-term forms).
+    models : {"averaged", "selected"}
+    quantiles : sequence of float
+        Probabilities of the 1-sigma band.
+    credibility : float
+        Probability of the predictive error bound.
+    speed : float, optional
+        Vehicle speed [m/s]: adds ``cross_track`` (three-axis gyro only).
+    max_draws : int
+        Draw pairs used (a random subset of each posterior, ``rng``).
+    g, radius : float
+        Gravity [m/s^2] and Earth radius [m].
+    segment_spread : bool
+        Widen a sensor flagged non-stationary by the spread between the parts of its log, as
+        the drift bands do (:func:`bayes_imu.drift.bands.drift_draws`).
+
+    Returns
+    -------
+    NavigationBands
+    """
+    gyro, accel = _as_axes(gyro_fit, "gyro_fit"), _as_axes(accel_fit, "accel_fit")
+    if len(gyro) != len(accel):
+        raise InputError(
+            f"gyro and accelerometer fits: {len(gyro)} and {len(accel)} axes; "
+            "expected the same number"
+        )
+    dt = _check(gyro, accel, bias_start, models, calibration_s, speed)
+    if not 0.0 < credibility < 1.0:
+        raise InputError(f"credibility={credibility!r}: expected a probability in (0, 1)")
+    t = nav_times(dt, (), horizon_s) if t is None else np.atleast_1d(np.asarray(t, float))
+    if t.ndim != 1 or not np.all(np.isfinite(t) & (t >= 0)):
+        raise InputError("t: expected a 1-D array of finite times >= 0 (s)")
+    k = np.round(t / dt)
+    n_cal = int(np.round(calibration_s / dt))
+    rng = np.random.default_rng(rng)
+    fits = gyro + accel
+    n = min([max_draws] + [sum(s.shape[0] for _, s in model_draws(f, models)) for f in fits])
+    picked = [_pick(f, models, n, rng) for f in fits]
+
+    def sensor(i, loop, factor=1.0):
+        total, terms = _sensor_variance(picked[i], loop, k, factor=factor, **kw)
+        return (_segment_spread(fits[i], total, k * dt, rng) if segment_spread else total), terms
+
+    q = np.asarray(quantiles, float)
+    kw = {"bias_start": bias_start, "n_cal": n_cal}
+    loop_g = NavLoop("gyro", schuler, g, radius)
+    loop_a = NavLoop("accel", schuler, g, radius)
+    out = {}
+    if len(gyro) == 1:
+        vg, tg = sensor(0, loop_g)
+        va, ta = sensor(1, loop_a)
+        for i, name in enumerate(QUANTITIES):
+            out[name] = _quantity(name, QUANTITY_UNITS[name], vg, va, tg, ta, q, credibility, i)
+    else:
+        # channel x: accelerometer x, tilt about y (gyro y); channel y: accelerometer y, gyro x
+        chans = {"x": (1, 3), "y": (0, 4)}
+        var = {c: (sensor(ig, loop_g), sensor(ia, loop_a)) for c, (ig, ia) in chans.items()}
+        for i, name in enumerate(QUANTITIES):
+            sd = {c: np.sqrt(vg[..., i] + va[..., i]) for c, ((vg, _), (va, _)) in var.items()}
+            rms = np.hypot(sd["x"], sd["y"])
+            sensors = {
+                s: np.median(np.sqrt(var["x"][j][0][..., i] + var["y"][j][0][..., i]), axis=0)
+                for j, s in enumerate(("gyro", "accel"))
+            }
+            out[name] = NavQuantity(
+                name,
+                QUANTITY_UNITS[name],
+                np.quantile(rms, q, axis=0),
+                predictive_bound(sd["x"], credibility, sigma2=sd["y"]),
+                {},
+                sensors,
+            )
+            for c, ((vg, tg), (va, ta)) in var.items():
+                out[f"{name}_{c}"] = _quantity(
+                    f"{name}_{c}", QUANTITY_UNITS[name], vg, va, tg, ta, q, credibility, i
+                )
+        if speed is not None:
+            heading = NavLoop(
+                "accel", False, g, radius
+            )  # y' = V psi, psi' = w_z: V w_z integrated twice
+            vz, tz = sensor(2, heading, float(speed) ** 2)
+            zero = np.zeros_like(vz)
+            out["cross_track"] = _quantity("cross_track", "m", vz, zero, tz, {}, q, credibility, 2)
+    cal = float(calibration_s) if bias_start == "calibrated" else float("nan")
+    return NavigationBands(
+        k * dt,
+        q,
+        out,
+        float(credibility),
+        bias_start,
+        cal,
+        bool(schuler),
+        models,
+        float(g),
+        float(radius),
+        float("nan") if speed is None else float(speed),
+        int(n),
+    )

@@ -1,0 +1,345 @@
+"""The ``nav`` outputs: fit folders in (units checked); nav.csv, nav.png, summary.json out.
+
+The computation is :func:`bayes_imu.drift.nav_bands.navigation_bands`; this module reads the
+fit folders (``bayes-imu fit --units`` writes their unit into ``summary.json``), writes the files
+through :func:`bayes_imu.report.output.staged_folder` and draws the figure.
+"""
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..drift.nav_bands import nav_times, navigation_bands
+from ..drift.navigation import schuler_period_s
+from ..errors import InputError
+from .._version import __version__
+from .output import staged_folder
+
+__all__ = ["NavRequest", "load_nav_fits", "run_nav", "plot_nav", "CSV_COLUMNS"]
+
+#: nav.csv: the 90 % band of the 1-sigma error, its unit, then the predictive 95 % error bound
+CSV_COLUMNS = ("t_s", "quantity", "q05", "q50", "q95", "unit", "bound95")
+_KIND = {"gyro": ("rad/s", "a gyro"), "accel": ("m/s^2", "an accelerometer")}
+_UNIT_KIND = {"rad/s": "gyro", "m/s^2": "accel"}
+
+
+@dataclass(frozen=True)
+class NavRequest:
+    """What ``bayes-imu nav`` was asked (the library options, paths and output folder)."""
+
+    gyro: Path
+    accel: Path
+    out: Path
+    times: tuple = (10.0, 60.0, 300.0)
+    bias_start: str = "calibrated"
+    calibration_s: float = 60.0
+    schuler: bool = True
+    models: str = "averaged"
+    speed: float = None
+    horizon_s: float = None
+    seed: int = 0
+    force: bool = False
+
+
+def load_nav_fits(folder, kind):
+    """Fits of one sensor from a fit folder (one axis, or three of a several-column fit).
+
+    Raises
+    ------
+    InputError
+        Not a fit folder, a fit in another unit (a gyro given as ``--accel``, a fit without
+        ``--units``), or neither one nor three axes.
+    """
+    from ..inference.archive import fit_axes, load_fit
+
+    unit, name = _KIND[kind]
+    flag = f"{kind}={folder}:"
+    try:
+        axes = fit_axes(folder)
+    except InputError as exc:
+        raise _named(kind, folder, exc) from None
+    fits = []
+    for axis, place, summary in axes:
+        got = summary.get("unit")
+        if got != unit:
+            other = _UNIT_KIND.get(got)
+            hint = (
+                f"it is {_KIND[other][1]} fit; gyro and accel swapped?"
+                if other and other != kind
+                else "run bayes-imu fit with --units to convert it"
+            )
+            raise InputError(
+                f"{kind}={place}: fitted in {got!r}; expected {name} fit in {unit} ({hint})"
+            )
+        try:
+            fits.append(load_fit(place))
+        except InputError as exc:
+            raise _named(kind, place, exc) from None
+    if len(fits) not in (1, 3):
+        raise InputError(f"{flag} {len(fits)} axes; expected one axis or three (x, y, z)")
+    return fits
+
+
+def _named(kind, path, exc):
+    text = str(exc)
+    return InputError(f"{kind}={text}" if text.startswith(str(path)) else f"{kind}={path}: {text}")
+
+
+def run_nav(request):
+    """Compute the bands of ``request``, write its folder; return the :class:`NavigationBands`."""
+    gyro = load_nav_fits(request.gyro, "gyro")
+    accel = load_nav_fits(request.accel, "accel")
+    if len(gyro) != len(accel):
+        raise InputError(
+            f"gyro and accelerometer fits: {len(gyro)} and {len(accel)} axes; expected the same "
+            "number (1 or 3)"
+        )
+    times = np.asarray(request.times, float)
+    if times.size == 0 or not np.all(np.isfinite(times) & (times > 0)):
+        raise InputError(
+            f"times={list(request.times)!r}: expected positive outage lengths in seconds"
+        )
+    dt = gyro[0].model.dt
+    grid = nav_times(dt, times, request.horizon_s)
+    bands = navigation_bands(
+        gyro if len(gyro) == 3 else gyro[0],
+        accel if len(accel) == 3 else accel[0],
+        grid,
+        bias_start=request.bias_start,
+        calibration_s=request.calibration_s,
+        schuler=request.schuler,
+        models=request.models,
+        speed=request.speed,
+        rng=request.seed,
+    )
+    picked = np.searchsorted(bands.t_s, np.round(times / dt) * dt - 0.25 * dt)
+    rows = _rows(bands, picked)
+    summary = _summary(bands, request, rows, gyro, accel)
+    with staged_folder(
+        request.out, force=request.force, inputs=[request.gyro, request.accel]
+    ) as tmp:
+        lines = [",".join(CSV_COLUMNS)]
+        lines += [
+            f"{r['t_s']:.9g},{r['quantity']},{r['q05']:.9g},{r['q50']:.9g},{r['q95']:.9g},"
+            f"{r['unit']},"
+            f"{r['bound95']:.9g}"
+            for r in rows
+        ]
+        (tmp / "nav.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+        (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+        plot_nav(
+            bands,
+            tmp / "nav.png",
+            marks=bands.t_s[picked],
+            title=f"{Path(request.gyro).name} + {Path(request.accel).name}",
+            record_s=min(f.record_s for f in gyro + accel),
+        )
+    return bands
+
+
+def _rows(bands, picked):
+    rows = []
+    for i in picked:
+        for name, q in bands.quantities.items():
+            dominant = max(q.sensors, key=lambda s: q.sensors[s][i]) if q.sensors else None
+            rows.append(
+                {
+                    "t_s": float(bands.t_s[i]),
+                    "quantity": name,
+                    "q05": float(q.sigma[0][i]),
+                    "q50": float(q.sigma[1][i]),
+                    "q95": float(q.sigma[-1][i]),
+                    "unit": q.unit,
+                    "bound95": float(q.bound[i]),
+                    "dominant_sensor": dominant,
+                    "terms": {t: float(v[i]) for t, v in q.terms.items()},
+                }
+            )
+    return rows
+
+
+def _summary(bands, request, rows, gyro, accel):
+    return {
+        "command": "nav",
+        "gyro": str(request.gyro),
+        "accel": str(request.accel),
+        "axes": len(gyro),
+        "rate_hz": 1.0 / gyro[0].model.dt,
+        "loop": {
+            "schuler": bands.schuler,
+            "g_m_s2": bands.g,
+            "earth_radius_m": bands.radius,
+            "schuler_period_s": schuler_period_s(bands.g, bands.radius),
+            "model": "one horizontal channel, local-level frame, small angles, stationary or "
+            "constant-velocity vehicle: p' = v, v' = -g phi + a_err, phi' = v/R + w_err; samples "
+            "held over each period",
+        },
+        "bias_start": bands.bias_start,
+        "calibration_s": bands.calibration_s if bands.bias_start == "calibrated" else None,
+        "models": bands.models,
+        "speed_m_s": None if request.speed is None else bands.speed,
+        "n_draws": bands.n_draws,
+        "seed": request.seed,
+        "columns": {
+            "q05, q50, q95": "posterior 5/50/95 % quantiles of the 1-sigma error "
+            "(90 % credible band)",
+            "bound95": "posterior predictive 95 % bound of the error itself: "
+            "P(|error| <= bound95) = 0.95 "
+            "(for the horizontal radius of three-axis sets: P(radius <= bound95))",
+        },
+        "small_angle_valid_to_s": _small_angle_limit(bands),
+        "rows": rows,
+        "bayes_imu_version": __version__,
+    }
+
+
+def _small_angle_limit(bands):
+    """Last listed time [s] before the median tilt exceeds :data:`SMALL_ANGLE_RAD` (or ``None``)."""
+    over = np.flatnonzero(bands.quantities["tilt"].sigma[1] > SMALL_ANGLE_RAD)
+    return None if not over.size else float(bands.t_s[max(over[0] - 1, 0)])
+
+
+_TERM_STYLE = {"gyro": "-", "accel": "--"}
+#: tilt beyond which the small-angle error model is marked as no longer valid [rad]
+SMALL_ANGLE_RAD = 0.1
+
+
+def plot_nav(
+    bands, path, *, marks=(), title="", record_s=None, min_probability=0.1, min_share=0.1, t_min=0.1
+):
+    """Log-log navigation error: 90 % band of the 1-sigma error, median, 95 % bound, each sensor's
+    and each term's median contribution (gyro solid, accelerometer dashed), the Schuler period and
+    the logs' length marked. Terms with posterior probability below ``min_probability``, or below
+    ``min_share`` of the median total at every time, are listed, not drawn; times from ``t_min``
+    [s]."""
+    from .plots import pyplot
+
+    plt = pyplot()
+    names = ("tilt", "velocity", "position")
+    fig, axes = plt.subplots(1, 3, figsize=(19, 8), squeeze=False)
+    period = schuler_period_s(bands.g, bands.radius)
+    radial = "position_x" in bands.quantities
+    colours = plt.get_cmap("tab10")
+    tilted = np.flatnonzero(bands.quantities["tilt"].sigma[1] > SMALL_ANGLE_RAD)
+    for ax, name in zip(axes[0], names):
+        q = bands.quantities[name]
+        keep = (q.sigma[0] > 0) & (bands.t_s >= min(t_min, bands.t_s[-1]))
+        t, median = bands.t_s[keep], q.sigma[1][keep]
+        ax.fill_between(
+            t,
+            q.sigma[0][keep],
+            q.sigma[-1][keep],
+            color="C0",
+            alpha=0.3,
+            label="1-sigma error, 90 % credible band" + (" (rms radius)" if radial else ""),
+        )
+        ax.plot(t, median, color="C0", lw=1.8, label="1-sigma error, median")
+        ax.plot(
+            t, q.bound[keep], color="C3", lw=1.8, ls="-.", label="95 % error bound (predictive)"
+        )
+        marked = np.isin(bands.t_s, marks) & keep
+        ax.plot(bands.t_s[marked], q.bound[marked], "o", color="C3", ms=4)
+        for sensor, style in _TERM_STYLE.items():
+            ax.plot(
+                t,
+                q.sensors[sensor][keep],
+                style,
+                color="black",
+                lw=1.2,
+                alpha=0.7,
+                label=f"{'gyro' if sensor == 'gyro' else 'accelerometer'}: all its terms, median",
+            )
+        source = bands.quantities[f"{name}_x"] if radial else q
+        hidden, drawn = [], 0
+        for label, part in source.terms.items():
+            share = np.max(part[keep] / median) if median.size else 0.0
+            if source.term_probability.get(label, 1.0) < min_probability or not share >= min_share:
+                hidden.append(label)
+                continue
+            sensor, term = label.split(":")
+            ax.plot(
+                t,
+                part[keep],
+                _TERM_STYLE[sensor],
+                lw=1,
+                color=colours((drawn + 4) % 10),
+                label=f"{'gyro' if sensor == 'gyro' else 'accelerometer'} {term.replace('_', ' ')}"
+                + (" (channel x)" if radial else ""),
+            )
+            drawn += 1
+        if hidden:
+            import textwrap
+
+            ax.plot(
+                [],
+                [],
+                " ",
+                label=textwrap.fill(
+                    f"not drawn (P < {min_probability:g} or below "
+                    f"{min_share:.0%} of the total): " + ", ".join(hidden),
+                    48,
+                ),
+            )
+        if tilted.size and bands.t_s[tilted[0]] < t[-1]:
+            ax.axvspan(
+                bands.t_s[tilted[0]],
+                t[-1],
+                facecolor="none",
+                edgecolor="gray",
+                hatch="//",
+                lw=0,
+                alpha=0.5,
+                label=f"median tilt > {SMALL_ANGLE_RAD:g} rad: beyond the small-angle model",
+            )
+        if record_s is not None and record_s < t[-1]:
+            ax.axvspan(
+                record_s,
+                t[-1],
+                color="gray",
+                alpha=0.12,
+                label=f"beyond the shorter log ({record_s:.4g} s): extrapolation",
+            )
+        if bands.schuler and period < t[-1]:
+            ax.axvline(period, color="gray", lw=1, ls=":")
+            ax.annotate(
+                "Schuler period\n84.4 min",
+                (period, 0.02),
+                xycoords=("data", "axes fraction"),
+                textcoords="offset points",
+                xytext=(-4, 4),
+                fontsize=7,
+                color="dimgray",
+                ha="right",
+            )
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_ylim(max(median.min() * 0.05, 1e-300), q.bound[keep].max() * 3.0)
+        ax.set_xlabel("time since GPS loss (s)")
+        what = {
+            "tilt": "tilt error",
+            "velocity": "horizontal velocity error",
+            "position": "horizontal position error",
+        }
+        ax.set_ylabel(f"{what[name]} ({q.unit})")
+        start = (
+            f"biases calibrated over {bands.calibration_s:g} s"
+            if bands.bias_start == "calibrated"
+            else f"bias start: {bands.bias_start}"
+        )
+        loop = "Schuler loop on" if bands.schuler else "Schuler loop off"
+        ax.set_title(
+            f"{name}{' (horizontal radius)' if radial else ''}: {start}, {loop}", fontsize=10
+        )
+        ax.grid(True, which="major", alpha=0.3)
+        ax.legend(
+            fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=2, frameon=False
+        )
+    if title:
+        fig.suptitle(f"free-inertial navigation error: {title}")
+    # fixed margins (the legends hang below the axes): tight_layout measures every tick label of
+    # the many-decade log axes, a third of the figure's time
+    fig.subplots_adjust(left=0.045, right=0.99, top=0.91, bottom=0.35, wspace=0.2)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

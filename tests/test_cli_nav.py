@@ -1,0 +1,200 @@
+"""``bayes-imu nav``: files and columns, agreement with the API, and one-line errors (exit 2)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from bayes_imu.cli.main import main
+from bayes_imu.drift.nav_bands import nav_times, navigation_bands
+from bayes_imu.inference.archive import load_fit, save_fit
+from bayes_imu.inference.fit import fit
+
+
+def _folder(path, y, unit, rate=100.0, rng=0):
+    path.mkdir()
+    result = fit(y, rate_hz=rate, terms=("white", "gauss_markov"), rng=rng, progress=False)
+    save_fit(result, path / "fit.npz")
+    (path / "summary.json").write_text(json.dumps({"unit": unit, "column": path.name}))
+    return path
+
+
+@pytest.fixture(scope="module")
+def folders(tmp_path_factory):
+    rng = np.random.default_rng(7)
+    root = tmp_path_factory.mktemp("nav")
+    n = 20000
+    gm = np.cumsum(rng.standard_normal(n)) * 1e-6
+    gyro = _folder(root / "gyro", 3e-3 * rng.standard_normal(n) + gm, "rad/s")
+    accel = _folder(root / "accel", 2e-2 * rng.standard_normal(n) + 10 * gm, "m/s^2")
+    raw = _folder(root / "raw", 3e-3 * rng.standard_normal(n), "u")
+    fast = _folder(root / "fast", 2e-2 * rng.standard_normal(n), "m/s^2", rate=200.0)
+    return {"gyro": gyro, "accel": accel, "raw": raw, "fast": fast, "root": root}
+
+
+def test_nav_writes_the_three_files_matching_the_api(folders, tmp_path, capsys):
+    out = tmp_path / "nav"
+    code = main(
+        [
+            "nav",
+            "--gyro",
+            str(folders["gyro"]),
+            "--accel",
+            str(folders["accel"]),
+            "--times",
+            "10,60,300",
+            "--calibration",
+            "60",
+            "--out",
+            str(out),
+        ]
+    )
+    assert code == 0
+    assert "horizontal position error <=" in capsys.readouterr().out
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
+        "nav.csv",
+        "nav.png",
+        "summary.json",
+    ]
+    lines = (out / "nav.csv").read_text().splitlines()
+    assert lines[0].split(",")[:6] == ["t_s", "quantity", "q05", "q50", "q95", "unit"]
+    rows = [line.split(",") for line in lines[1:]]
+    assert [(float(r[0]), r[1], r[5]) for r in rows] == [
+        (t, q, u)
+        for t in (10.0, 60.0, 300.0)
+        for q, u in (("tilt", "rad"), ("velocity", "m/s"), ("position", "m"))
+    ]
+    api = navigation_bands(
+        load_fit(folders["gyro"]),
+        load_fit(folders["accel"]),
+        nav_times(0.01, (10, 60, 300)),
+        calibration_s=60.0,
+        rng=0,
+    )
+    for r in rows:
+        q = api.quantities[r[1]]
+        i = int(np.argmin(abs(api.t_s - float(r[0]))))
+        np.testing.assert_allclose([float(v) for v in r[2:5]], q.sigma[:, i], rtol=1e-8)
+        assert float(r[6]) == pytest.approx(q.bound[i], rel=1e-8)
+        assert float(r[2]) <= float(r[3]) <= float(r[4]) < float(r[6])
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["loop"]["schuler_period_s"] == pytest.approx(5064.0, abs=1.0)
+    assert summary["bias_start"] == "calibrated" and summary["calibration_s"] == 60.0
+
+
+@pytest.mark.parametrize(
+    "swap, match",
+    [
+        (
+            ("accel", "gyro"),
+            "fitted in 'm/s^2'; expected a gyro fit in rad/s (it is an accelerometer fit; swap",
+        ),
+        (
+            ("raw", "accel"),
+            "fitted in 'u'; expected a gyro fit in rad/s (run bayes-imu fit with --units",
+        ),
+        (("gyro", "fast"), "mismatched sample rates (gyro 100 Hz, accelerometer 200 Hz)"),
+        (("gyro", "missing"), "--accel"),
+    ],
+)
+def test_bad_inputs_one_line_exit_2(folders, tmp_path, capsys, swap, match):
+    gyro, accel = (str(folders["root"] / name) for name in swap)
+    out = tmp_path / "nav"
+    code = main(["nav", "--gyro", gyro, "--accel", accel, "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert match in err and err.count("\n") == 1, err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("args", [["--times", "10,-5"], ["--calibration", "0"], ["--speed", "nan"]])
+def test_bad_options_exit_2(folders, tmp_path, capsys, args):
+    code = main(
+        [
+            "nav",
+            "--gyro",
+            str(folders["gyro"]),
+            "--accel",
+            str(folders["accel"]),
+            "--out",
+            str(tmp_path / "x"),
+        ]
+        + args
+    )
+    assert code == 2
+    assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_speed_needs_three_axes(folders, tmp_path, capsys):
+    code = main(
+        [
+            "nav",
+            "--gyro",
+            str(folders["gyro"]),
+            "--accel",
+            str(folders["accel"]),
+            "--speed",
+            "10",
+            "--out",
+            str(tmp_path / "x"),
+        ]
+    )
+    assert code == 2
+    assert "three-axis gyro" in capsys.readouterr().err
+
+
+def test_three_axis_folders_give_the_radius_channels_and_cross_track(folders, tmp_path):
+    root = folders["root"]
+    for kind, unit in (("gyro", "rad/s"), ("accel", "m/s^2")):
+        three = root / f"{kind}3"
+        if not three.exists():
+            three.mkdir()
+            axes = {a: {"folder": f"../{kind}", "unit": unit} for a in ("x", "y", "z")}
+            (three / "summary.json").write_text(json.dumps({"axes": axes}))
+    out = tmp_path / "nav3"
+    code = main(
+        [
+            "nav",
+            "--gyro",
+            str(root / "gyro3"),
+            "--accel",
+            str(root / "accel3"),
+            "--times",
+            "10,60",
+            "--speed",
+            "15",
+            "--out",
+            str(out),
+            "--quiet",
+        ]
+    )
+    assert code == 0
+    rows = [line.split(",") for line in (out / "nav.csv").read_text().splitlines()[1:]]
+    names = [r[1] for r in rows if r[0] == "10"]
+    assert names == [
+        "tilt",
+        "tilt_x",
+        "tilt_y",
+        "velocity",
+        "velocity_x",
+        "velocity_y",
+        "position",
+        "position_x",
+        "position_y",
+        "cross_track",
+    ]
+    value = {r[1]: float(r[3]) for r in rows if r[0] == "60"}
+    # identical axes: the rms radius is about sqrt(2) times one channel (draws picked apart)
+    assert value["position"] == pytest.approx(np.sqrt(2.0) * value["position_x"], rel=0.05)
+    main(
+        [
+            "nav",
+            "--gyro",
+            str(root / "gyro3"),
+            "--accel",
+            str(folders["accel"]),
+            "--out",
+            str(tmp_path / "mixed"),
+        ]
+    )
+    assert not (tmp_path / "mixed").exists()
