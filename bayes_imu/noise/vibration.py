@@ -43,7 +43,7 @@ from math import factorial
 
 import numpy as np
 
-from ._base import Term
+from ._base import Term, nav_system
 from .quantities import DEG, G
 
 __all__ = ["VIBRATION", "sinc_complement"]
@@ -145,6 +145,23 @@ class _Vibration(Term):
             ca, cc, cd = sinc_complement(2.0 * big_n * x), sinc_complement(n * x), sinc_complement((n + 1.0) * x)
             im = n * (n + 1.0) * x * ((cc + cd - cc * cd) - (ca + cx - ca * cx)) / (1.0 - cx)
         return np.where(k >= 2, a2 * dt**4 * (re * re + im * im) / (4.0 * sx * sx), 0.0)
+
+    def nav_filter(self, params, dt, *, n_cal=None):
+        """State ``A (sin theta_i, cos theta_i)``, ``theta_i = omega i + phi``, turned by ``omega``
+        each sample, undriven; ``y_i`` its first component. Random phase: the state covariance is
+        ``(A^2/2) I`` at every start (a line is not switched on by the outage), batched over draws."""
+        omega = 2.0 * np.pi * np.asarray(params["vibration_frequency"], float) * dt
+        a2 = 0.5 * np.asarray(params["vibration_amplitude"], float) ** 2
+        omega, a2 = np.broadcast_arrays(omega, a2)
+        c, s = np.cos(omega), np.sin(omega)
+        turn = np.stack([np.stack([c, s], -1), np.stack([-s, c], -1)], -2)
+        cov = a2[..., None, None] * np.eye(2)
+        h = np.broadcast_to(np.array([1.0, 0.0]), omega.shape + (2,))
+        return nav_system(turn, np.zeros(omega.shape + (2, 1)), h, np.zeros(omega.shape + (1,)), cov)
+
+    def nav_variance(self, loop, k, params, dt, *, bias_start="calibrated", n_cal=None):
+        """Exact propagation of :meth:`nav_filter` for every draw at once."""
+        return loop.linear_variance(self.nav_filter(params, dt), k, dt, bias_start=bias_start, n_cal=n_cal)
 
 
 VIBRATION = _Vibration("vibration", ("vibration_frequency", "vibration_amplitude"),
