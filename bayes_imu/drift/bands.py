@@ -15,9 +15,9 @@ Non-stationary logs: when the fit's between-segment check flags the record
 ``z ~ N(0, 1)`` one per draw, so that the bands allow a later outage to fall in a part of the
 sensor's life as different as the record's own parts are (``segment_spread=False`` leaves it out).
 
-Bias semantics (``bias_start``, :mod:`bayes_imu.noise._base`): ``"zero"`` (the paper),
-``"stationary"`` and ``"calibrated"`` (the bias estimated as the mean of the
-``calibration_s`` seconds before the outage; the conservative, actionable default of reports).
+Bias semantics (``bias_start``, :mod:`bayes_imu.noise._base`): ``"calibrated"`` (the default of
+every entry point, library and command line alike: the bias estimated as the mean of the
+``calibration_s`` = 60 s before the outage), ``"zero"`` (the paper) and ``"stationary"``.
 """
 
 from dataclasses import dataclass, field
@@ -140,7 +140,7 @@ def _check_times(t):
     return t
 
 
-def drift_draws(fit, t, *, quantity, bias_start="zero", calibration_s=DEFAULT_CALIBRATION_S, models="averaged",
+def drift_draws(fit, t, *, quantity, bias_start="calibrated", calibration_s=DEFAULT_CALIBRATION_S, models="averaged",
                 max_draws=None, rng=None, component_draws=slice(None), segment_spread=True):
     """Per-draw 1-sigma drift of ``quantity`` at times ``t`` [s].
 
@@ -206,7 +206,7 @@ def _term_order(parts):
     return [t for t in TERMS if t in present]
 
 
-def drift_bands(fit, t=None, *, quantity, bias_start="zero", calibration_s=DEFAULT_CALIBRATION_S, models="averaged",
+def drift_bands(fit, t=None, *, quantity, bias_start="calibrated", calibration_s=DEFAULT_CALIBRATION_S, models="averaged",
                 quantiles=(0.05, 0.5, 0.95), horizon_s=3600.0, max_draws=None, rng=None, segment_spread=True):
     """Posterior quantiles of the 1-sigma drift of ``quantity`` at times ``t`` (s).
 
@@ -217,9 +217,10 @@ def drift_bands(fit, t=None, *, quantity, bias_start="zero", calibration_s=DEFAU
         Times (s); default :func:`default_times` up to ``horizon_s``. Given times are kept
         exactly (rounded to whole samples).
     quantity : {"attitude", "velocity", "position"}
-    bias_start : {"zero", "stationary", "calibrated"}
+    bias_start : {"calibrated", "zero", "stationary"}
+        Default ``"calibrated"``, as the command line (module docstring).
     calibration_s : float
-        Calibration window of ``"calibrated"`` (s).
+        Calibration window of ``"calibrated"`` (s), default 60.
     models : {"averaged", "selected"}
     quantiles : sequence of float
     max_draws : int, optional
