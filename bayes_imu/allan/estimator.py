@@ -17,6 +17,7 @@ from .._lazy import LazyModule
 
 special = LazyModule("scipy.special")  # chi-squared quantiles without scipy.stats (0.3 s to import)
 
+from .contrast import DEFAULT_CONTRAST_SPAN_S, PhaseContrasts, phase_contrasts
 from .kernels import allan_sums
 from .._progress import progress_bar
 from ..errors import InputError
@@ -92,6 +93,10 @@ class AllanResult:
     segments : SegmentAllan or None
         The Allan variance of consecutive parts of the log (``None`` when not computed: Allan
         tables, out-of-core runs, ``segments=0``, logs too short).
+    contrasts : PhaseContrasts or None
+        The calibrated-outage error measured directly from the log
+        (:mod:`bayes_imu.allan.contrast`; ``None`` when not computed: Allan tables, out-of-core
+        runs, ``contrast_span_s=None``).
     """
 
     tau: np.ndarray
@@ -107,6 +112,7 @@ class AllanResult:
     rate_hz: float
     n_samples: int
     segments: SegmentAllan = None
+    contrasts: PhaseContrasts = None
 
     def scaled(self, factor):
         """The Allan variance of ``factor * y`` (a unit conversion): every variance, the segments'
@@ -115,8 +121,9 @@ class AllanResult:
             return self
         f2 = factor * factor
         segments = self.segments if self.segments is None else replace(self.segments, avar=self.segments.avar * f2)
+        contrasts = self.contrasts if self.contrasts is None else self.contrasts.scaled(factor)
         return replace(self, avar=self.avar * f2, adev=self.adev * abs(factor), avar_low=self.avar_low * f2,
-                       avar_high=self.avar_high * f2, segments=segments)
+                       avar_high=self.avar_high * f2, segments=segments, contrasts=contrasts)
 
     @property
     def duration_s(self):
@@ -166,7 +173,7 @@ def cluster_sizes(m, n_samples):
 
 
 def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, interval="exact", progress=False,
-                   segments=DEFAULT_SEGMENTS):
+                   segments=DEFAULT_SEGMENTS, contrast_span_s=DEFAULT_CONTRAST_SPAN_S):
     """Fully overlapping Allan variance of uniformly sampled rate data (SP1065 eq 14).
 
     Parameters
@@ -190,6 +197,10 @@ def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, inte
     segments : int
         Also compute the Allan variance of this many consecutive parts of the log
         (:class:`SegmentAllan`, for the stationarity check); 0 or 1 skips it.
+    contrast_span_s : float or None
+        Calibration window [s] of the calibrated-outage errors measured directly from the log
+        (:class:`~bayes_imu.allan.contrast.PhaseContrasts`, for the drift-space check); ``None``
+        skips them.
 
     Returns
     -------
@@ -203,7 +214,10 @@ def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, inte
         x, sums = allan_sums(y, ms, progress=bar.update)
     alphas = identify_noise(x, ms) if alpha is None else alpha
     result = assemble_result(ms, sums, alphas, y.size, rate_hz, confidence, interval)
-    return replace(result, segments=segment_allan(y, ms, segments))
+    contrasts = None
+    if contrast_span_s is not None and contrast_span_s * rate_hz >= 1.0:
+        contrasts = phase_contrasts(x=x, rate_hz=rate_hz, calibration_s=contrast_span_s)
+    return replace(result, segments=segment_allan(y, ms, segments), contrasts=contrasts)
 
 
 def segment_allan(y, m, n_segments=DEFAULT_SEGMENTS):
