@@ -26,6 +26,8 @@ from pathlib import Path
 import numpy as np
 
 HELD_OUT_START = 100000
+_FLOATS = ("t_s", "truth", "q05", "q95", "model_q05", "model_q95", "rate_hz", "calibration_s", "direct_q05",
+           "direct_q95", "p_value")
 
 
 def _scenegen(path):
@@ -54,12 +56,18 @@ def run_scene(sg, family, seed, max_log2n):
     bands = drift_bands(fit, t, quantity="attitude", calibration_s=scene.calibration_s, rng=seed)
     model = bands.model_total if bands.model_total is not None else bands.total
     check = bands.check
+    direct = {}
+    if check is not None:
+        direct = {float(t): (lo, hi, p) for t, lo, hi, p in zip(check.t_s, check.direct_low, check.direct_high,
+                                                                 check.p_value)}
     rows = []
     for i, (ti, tr) in enumerate(zip(bands.t_s, truth)):
+        lo, hi, p = direct.get(float(ti), (np.nan, np.nan, np.nan))
         rows.append({"family": family, "seed": seed, "n": scene.n, "rate_hz": scene.rate_hz,
                      "calibration_s": scene.calibration_s, "t_s": ti, "truth": tr,
                      "q05": bands.total[0, i], "q95": bands.total[-1, i], "model_q05": model[0, i],
                      "model_q95": model[-1, i], "measured": bool(not bands.extrapolated[i]),
+                     "direct_q05": lo, "direct_q95": hi, "p_value": p,
                      "check_rejects": None if check is None else (not check.adequate),
                      "model": "+".join(fit.model.terms)})
     return rows
@@ -95,7 +103,7 @@ def main(argv=None):
     parser.add_argument("--logs", type=int, default=12, help="scenes per family")
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--held-out", action="store_true", help=f"seeds from {HELD_OUT_START}")
-    parser.add_argument("--max-log2n", type=float, default=18.0, help="records of 2^16 to 2^this samples")
+    parser.add_argument("--max-log2n", type=float, default=20.0, help="records of 2^16 to 2^this samples")
     parser.add_argument("--families", default=None, help="comma-separated subset")
     parser.add_argument("--scenegen", type=Path, default=Path(__file__).resolve().parent)
     parser.add_argument("--csv", type=Path, default=None, help="per-horizon rows (appended, resumable)")
@@ -106,8 +114,7 @@ def main(argv=None):
     if args.csv is not None and args.csv.exists():
         with args.csv.open() as f:
             for r in csv.DictReader(f):
-                r = {k: (float(v) if k in ("t_s", "truth", "q05", "q95", "model_q05", "model_q95", "rate_hz",
-                                           "calibration_s") else v) for k, v in r.items()}
+                r = {k: (float(v) if k in _FLOATS else v) for k, v in r.items()}
                 r["seed"] = int(r["seed"])
                 r["check_rejects"] = None if r["check_rejects"] in ("", "None") else r["check_rejects"] == "True"
                 rows.append(r)

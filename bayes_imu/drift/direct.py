@@ -31,7 +31,8 @@ from ..noise.contrast_covariance import contrast_edf
 
 special = LazyModule("scipy.special")
 
-__all__ = ["DriftCheck", "drift_check", "direct_contrasts", "direct_edf", "honest_quantiles", "DRIFT_ALPHA"]
+__all__ = ["DriftCheck", "drift_check", "direct_contrasts", "direct_edf", "honest_quantiles", "record_drift_check",
+           "unmeasured_reason", "DRIFT_ALPHA"]
 
 #: false-alarm rate of the drift-space check on a correct model
 DRIFT_ALPHA = 0.05
@@ -169,3 +170,28 @@ def drift_check(fit, draws, contrasts, edf):
     high = np.sqrt(nu * v_hat / (2.0 * special.gammainccinv(nu / 2.0, 0.95)))
     return DriftCheck(t[inside], np.sqrt(v_hat), low, high, nu, *band, p, min(1.0, simes),
                       contrasts.calibration_s)
+
+
+def unmeasured_reason(fit, bias_start, calibration_s):
+    """Why the record measures none of these drift semantics (``None`` where it does)."""
+    contrasts = getattr(getattr(fit, "allan", None), "contrasts", None)
+    if bias_start != "calibrated":
+        return f"the record measures calibrated outages only (bias start {bias_start!r})"
+    if contrasts is None:
+        return "the log's samples were not kept (an Allan table, or a log read out of core)"
+    if round(calibration_s * contrasts.rate_hz) != contrasts.n_cal:
+        return f"measured for a {contrasts.calibration_s:g} s calibration window, not {calibration_s:g} s"
+    if contrasts.k.size == 0:
+        return f"the log is shorter than twice the {calibration_s:g} s calibration window"
+    return None
+
+
+def record_drift_check(fit, t, *, bias_start="calibrated", calibration_s=60.0, models="averaged", rng=None):
+    """The :class:`DriftCheck` of ``fit`` at horizons ``t`` [s] (attitude / velocity, order 1), or
+    ``None`` where the record measures nothing of these semantics (:func:`unmeasured_reason`)."""
+    from .bands import drift_bands
+
+    if unmeasured_reason(fit, bias_start, calibration_s) is not None:
+        return None
+    return drift_bands(fit, t, quantity="attitude", bias_start=bias_start, calibration_s=calibration_s,
+                       models=models, rng=rng).check

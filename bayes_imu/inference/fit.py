@@ -254,11 +254,13 @@ class FitResult:
             adequacy["widened"] = bool(self.widened)
             adequacy["stationarity"] = self.stationarity.to_dict() if self.stationarity is not None else None
         from ..noise.datasheet import KIND_OF_UNIT, datasheet
+        from .allan_readout import allan_readout
 
         return {
             "model": list(self.model.terms),
             "parameters": parameters,
             "datasheet": datasheet(self, KIND_OF_UNIT[unit]) if unit in KIND_OF_UNIT else None,
+            "allan_datasheet": allan_readout(self, KIND_OF_UNIT.get(unit), unit=unit),
             "adequacy": adequacy,
             "diagnostics": {k: (bool(v) if k == "converged" else int(v) if k in ("n_steps", "n_walkers") else float(v))
                             for k, v in self.diagnostics.items()},

@@ -1,0 +1,116 @@
+"""The calibrated-outage error measured from the record (allan.contrast), its EDF
+(noise.contrast_covariance) and the honest bands and drift check built on them (drift.direct).
+
+References: explicit loops over every outage start (the definition of the calibrated error:
+the sum of the outage's rate samples minus k times the mean of the N before it), exact
+variances of white noise (``q dt^2 (k + k^2 / N)``) and Monte Carlo with stated n-sigma bounds.
+"""
+
+import numpy as np
+import pytest
+
+from bayes_imu.allan.contrast import contrast_grid, phase_contrasts
+from bayes_imu.allan.estimator import allan_variance
+from bayes_imu.drift.direct import honest_quantiles
+from bayes_imu.errors import InputError
+from bayes_imu.noise.avar_forms import NoiseModel
+from bayes_imu.noise.contrast_covariance import contrast_edf
+from bayes_imu.noise.simulate import simulate_log
+
+
+def _brute_force(y, k, n_cal, dt):
+    """Mean square of ``dt (sum_{i<k} y_{j+i} - k mean(y_{j-N..j-1}))`` over every start j, by loops."""
+    total, count = 0.0, 0
+    for j in range(n_cal, y.size - k + 1):
+        bias = sum(y[j - n_cal:j]) / n_cal
+        e = dt * sum(y[i] - bias for i in range(j, j + k))
+        total += e * e
+        count += 1
+    return total / count, count
+
+
+@pytest.mark.parametrize("k,n_cal", [(1, 1), (3, 7), (7, 3), (5, 5), (20, 9), (9, 31)])
+def test_estimator_equals_explicit_loops(rng, k, n_cal):
+    y = 3.0 + rng.standard_normal(80) + 0.05 * np.arange(80)  # an offset and a ramp in the rate
+    dt = 0.25
+    c = phase_contrasts(y, rate_hz=1 / dt, calibration_s=n_cal * dt, k=[k])
+    expected, count = _brute_force(y, k, n_cal, dt)
+    np.testing.assert_allclose(c.mean_square[0], expected, rtol=1e-10)
+    assert c.n_terms[0] == count
+
+
+def test_allan_variance_carries_the_contrasts(rng):
+    """At k = N the contrast is the Allan variance's second difference: V = 2 tau^2 AVAR(tau)
+    (the same overlapping starts), and unit conversions scale it by the factor squared."""
+    y = rng.standard_normal(4096)
+    a = allan_variance(y, rate_hz=10.0, m=np.array([64]), contrast_span_s=6.4)
+    v = phase_contrasts(y, rate_hz=10.0, calibration_s=6.4, k=[64]).mean_square[0]
+    np.testing.assert_allclose(v, 2 * 6.4**2 * a.avar[0], rtol=1e-9)
+    grid = a.contrasts
+    assert grid.n_cal == 64 and grid.k[0] == 1 and grid.k[-1] + 64 <= 2048
+    np.testing.assert_allclose(a.scaled(3.0).contrasts.mean_square, 9.0 * grid.mean_square, rtol=1e-15)
+    assert allan_variance(y, rate_hz=10.0, contrast_span_s=None).contrasts is None
+    assert contrast_grid(100, 60).size == 0
+
+
+def test_interpolation_is_exact_on_the_grid_and_nan_outside(rng):
+    c = phase_contrasts(rng.standard_normal(3000), rate_hz=100.0, calibration_s=1.0)
+    np.testing.assert_allclose(c.at(c.t_s), c.mean_square, rtol=1e-12)
+    assert np.isnan(c.at([100.0]))[0] and not c.covers([100.0])[0]
+
+
+def test_bad_window_is_an_input_error():
+    with pytest.raises(InputError, match="calibration"):
+        phase_contrasts(np.zeros(100), rate_hz=10.0, calibration_s=0.01)
+    with pytest.raises(InputError, match="outage"):
+        phase_contrasts(np.zeros(100), rate_hz=10.0, calibration_s=5.0, k=[60])
+
+
+def test_white_noise_mean_is_unbiased(rng):
+    """E V_hat = q dt^2 (k + k^2 / N) for white noise, over 400 records (4 sigma of the mean)."""
+    dt, q, n_cal = 0.1, 2.0, 20
+    ks = np.array([5, 20, 80])
+    v = np.array([phase_contrasts(np.sqrt(q) * rng.standard_normal(600), rate_hz=10.0, calibration_s=2.0,
+                                  k=ks).mean_square for _ in range(400)])
+    exact = q * dt * dt * (ks + ks**2 / n_cal)
+    assert np.all(np.abs(v.mean(0) / exact - 1) < 4 * v.std(0) / np.sqrt(400) / exact)
+
+
+@pytest.mark.parametrize("terms,params", [
+    (("white",), {"noise_variance": 1.0}),
+    (("white", "gauss_markov"), {"noise_variance": 1.0, "bias_variance": 1e-2, "time_constant": 20.0}),
+    (("white", "random_walk"), {"noise_variance": 1.0, "rate_random_walk": 3e-3}),
+    (("white", "bias_instability"), {"noise_variance": 1.0, "bias_instability": 0.05}),
+])
+def test_edf_against_monte_carlo(rng, terms, params):
+    """The EDF 2 E^2 / Var of V_hat under the model against 400 simulated records: the Monte Carlo
+    variance's relative standard error is about sqrt(2 / 400) (1 + excess kurtosis) ~ 0.1; bound 30%."""
+    dt, n, n_cal = 0.1, 2**12, 60
+    model = NoiseModel(terms, dt)
+    ks = np.array([10, 60, 300, 1000])
+    edf = contrast_edf(model, params, ks, n_cal, n)
+    v = np.array([phase_contrasts(simulate_log(model, params, n, rng=rng), rate_hz=10.0, calibration_s=6.0,
+                                  k=ks).mean_square for _ in range(400)])
+    mc = 2 * v.mean(0) ** 2 / v.var(0, ddof=1)
+    np.testing.assert_allclose(edf / mc, 1.0, atol=0.3)
+
+
+def test_edf_of_white_noise_at_short_outages():
+    """White noise, k << N: e_j is nearly a k-sample sum, M / k-ish independent pieces; the exact EDF of
+    a mean of squared moving sums of white noise is 2 M^2 k^2 / (2 sum_d (M - |d|) (k - |d|)^2) with
+    the calibration term's small share (k^2 / N) neglected: compare at k = 1, where e_j are independent
+    up to the calibration mean (EDF within 1% of M)."""
+    model = NoiseModel(("white",), 1.0)
+    edf = contrast_edf(model, {"noise_variance": 1.0}, [1], 10000, 200000)
+    assert abs(edf[0] / (200000 - 10000) - 1) < 0.01
+
+
+def test_honest_quantiles_contain_the_direct_interval():
+    q = np.array([0.05, 0.5, 0.95])
+    total = np.array([[1.0, 1.0], [1.1, 1.1], [1.2, 1.2]])
+    out = honest_quantiles(q, total, np.array([4.0, np.nan]), np.array([10.0, np.nan]))
+    from scipy import stats
+
+    lo, hi = np.sqrt(10 * 4.0 / stats.chi2.ppf([0.95, 0.05], 10))
+    np.testing.assert_allclose(out[:, 0], [min(1.0, lo), 1.1, max(1.2, hi)], rtol=1e-12)
+    np.testing.assert_array_equal(out[:, 1], total[:, 1])
