@@ -128,7 +128,11 @@ def main(argv=None):
                 if (fam, seed) in done:
                     continue
                 began = time.perf_counter()
-                new = run_scene(sg, fam, seed, args.max_log2n)
+                try:
+                    new = run_scene(sg, fam, seed, args.max_log2n)
+                except ValueError as exc:  # the generator's own draw failed (reported, not counted)
+                    print(f"{fam:13s} seed {seed:6d} skipped: the generator failed ({exc})", flush=True)
+                    continue
                 rows += new
                 hits = sum(r["q05"] <= r["truth"] <= r["q95"] for r in new)
                 print(f"{fam:13s} seed {seed:6d} n {new[0]['n']:8d} {new[0]['model']:40s} covered {hits}/{len(new)} "
