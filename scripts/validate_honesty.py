@@ -12,6 +12,10 @@ record's interval included where the record measures the drift), of the model's 
 median width ratio honest / model. Standard errors treat each log as one cluster (the standard
 deviation of per-log coverage over sqrt(logs)).
 
+``--terms white`` fits white noise alone whatever the scene (a wrong model on purpose): the check's
+rejection rate there is its power against a gross misfit, and on the ``white+gm`` control family
+with the default selection its false-alarm rate.
+
 Dev seeds ``0..`` and held-out seeds ``100000..`` (``--held-out``); run nice'd:
 ``nice -n 10 python scripts/validate_honesty.py --logs 12 --csv out.csv``.
 """
@@ -37,7 +41,7 @@ def _scenegen(path):
     return scenegen
 
 
-def run_scene(sg, family, seed, max_log2n):
+def run_scene(sg, family, seed, max_log2n, terms="auto"):
     """Per-horizon rows of one scene."""
     from bayes_imu.allan.estimator import allan_variance
     from bayes_imu.drift.bands import drift_bands
@@ -52,7 +56,7 @@ def run_scene(sg, family, seed, max_log2n):
     allan = allan_variance(y, rate_hz=scene.rate_hz, contrast_span_s=scene.calibration_s)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
-        fit = fit_allan(allan, rng=seed)
+        fit = fit_allan(allan, rng=seed, terms=terms)
     bands = drift_bands(fit, t, quantity="attitude", calibration_s=scene.calibration_s, rng=seed)
     model = bands.model_total if bands.model_total is not None else bands.total
     check = bands.check
@@ -108,7 +112,11 @@ def main(argv=None):
     parser.add_argument("--scenegen", type=Path, default=Path(__file__).resolve().parent)
     parser.add_argument("--csv", type=Path, default=None, help="per-horizon rows (appended, resumable)")
     parser.add_argument("--summary-only", action="store_true", help="print the table of --csv")
+    parser.add_argument("--terms", default="auto",
+                        help="fit these terms (comma-separated) instead of selecting: a wrong model on purpose, "
+                             "for the drift-space check's power")
     args = parser.parse_args(argv)
+    terms = "auto" if args.terms == "auto" else tuple(args.terms.split(","))
     rows = []
     done = set()
     if args.csv is not None and args.csv.exists():
@@ -129,7 +137,7 @@ def main(argv=None):
                     continue
                 began = time.perf_counter()
                 try:
-                    new = run_scene(sg, fam, seed, args.max_log2n)
+                    new = run_scene(sg, fam, seed, args.max_log2n, terms)
                 except ValueError as exc:  # the generator's own draw failed (reported, not counted)
                     print(f"{fam:13s} seed {seed:6d} skipped: the generator failed ({exc})", flush=True)
                     continue
