@@ -25,6 +25,9 @@ rate [Hz]. Nominal values are posterior medians; with ``credibility`` the upper 
 quantile (conservative). Several axes of one sensor combine to the worst axis (largest
 value, the file says so), and every axis's own value is listed in comment lines. A fit that
 failed its adequacy check is flagged in the file (``# WARNING`` line) and in ``adequate``.
+A record the stationarity check flags has both densities' draws widened by the spread between
+its parts (repeatability, :mod:`bayes_imu.inference.repeatability`), as ``summary.json``'s
+``parameters_repeatability``.
 """
 
 from dataclasses import dataclass, field
@@ -33,6 +36,7 @@ import math
 import numpy as np
 
 from ..errors import InputError
+from ..inference.repeatability import repeatability_spread
 from ..io.readers import UNITS
 
 __all__ = ["KalibrAxis", "KalibrValues", "kalibr_values", "kalibr_values_from_folders", "write_kalibr_yaml",
@@ -90,7 +94,10 @@ def axis_densities(fit, factor=1.0):
     if "bias_instability" in draws:
         tau_max = 2.0 ** math.floor(math.log2(fit.allan.n_samples / 4.0)) * dt
         rw2 += draws["bias_instability"] ** 2 * 6.0 * math.log(2.0) / (math.pi * tau_max)
-    return density, np.sqrt(rw2) * factor
+    # repeatability between parts (inference.repeatability): a record whose parts differ widens both densities
+    short, long = repeatability_spread(getattr(fit, "stationarity", None))
+    z = np.random.default_rng(20261125).standard_normal((2, density.size))
+    return density * np.exp(0.5 * short * z[0]), np.sqrt(rw2) * factor * np.exp(0.5 * long * z[1])
 
 
 def kalibr_values(gyro=(), accel=(), *, credibility=None):
