@@ -151,3 +151,23 @@ def test_honest_bands_cover_a_truth_the_model_cannot_express():
     honest, alone = np.mean(honest, axis=0), np.mean(alone, axis=0)
     assert np.all(honest >= 0.74), honest
     assert alone[-1] < 0.5, alone
+
+
+def test_edf_sum_against_every_lag():
+    """The lag sum's geometric midpoint rule beyond 256 lags against the sum over every lag (a Gauss-Markov
+    bias and flicker, whose covariance reaches beyond the span): within 0.5%."""
+    from bayes_imu.noise import contrast_covariance as cc
+
+    model = NoiseModel(("white", "gauss_markov", "bias_instability"), 0.1)
+    params = {"noise_variance": 1.0, "bias_variance": 0.05, "time_constant": 30.0, "bias_instability": 0.05}
+    n, n_cal = 20000, 60
+    for k in (5, 60, 700):
+        r = k / n_cal
+        lags = np.array([0.0, n_cal, -n_cal, k, -k, k + n_cal, -(k + n_cal)])
+        weights = np.array([1 + (1 + r) ** 2 + r * r, -r * (1 + r), -r * (1 + r), -(1 + r), -(1 + r), r, r])
+        m = n - n_cal - k + 1
+        d = np.arange(m, dtype=float)
+        c = -0.5 * model.structure_function(np.abs(d[:, None] + lags).ravel(), params).reshape(m, 7) @ weights
+        var = 2.0 / m**2 * (m * c[0] ** 2 + 2.0 * np.dot(m - d[1:], c[1:] ** 2))
+        exact = 2.0 * c[0] ** 2 / var
+        np.testing.assert_allclose(cc.contrast_edf(model, params, [k], n_cal, n)[0], exact, rtol=5e-3)

@@ -38,6 +38,8 @@ __all__ = ["DriftCheck", "drift_check", "direct_contrasts", "direct_edf", "hones
 DRIFT_ALPHA = 0.05
 #: posterior draws of the predictive p-value
 _CHECK_DRAWS = 1000
+#: outages per decade at which the EDF is computed exactly (interpolated between)
+_EDF_PER_DECADE = 4
 
 
 @dataclass(frozen=True)
@@ -122,10 +124,17 @@ def _reference_point(fit):
 
 
 def direct_edf(fit, contrasts, t):
-    """EDF of the record's direct estimate at outages ``t`` [s] under the fit's reference point."""
+    """EDF of the record's direct estimate at outages ``t`` [s] under the fit's reference point:
+    exact at up to :data:`_EDF_PER_DECADE` outages per decade spanning ``t``, interpolated in log-log
+    between them (the EDF is smooth in the outage length)."""
     model, params = _reference_point(fit)
     k = np.round(np.asarray(t, dtype=float) * contrasts.rate_hz)
-    return contrast_edf(model, params, k, contrasts.n_cal, contrasts.n_samples)
+    lo, hi = k.min(), k.max()
+    nodes = np.unique(np.round(np.geomspace(lo, hi, max(2, int(np.log10(hi / lo) * _EDF_PER_DECADE) + 2))))
+    if nodes.size >= k.size:
+        return contrast_edf(model, params, k, contrasts.n_cal, contrasts.n_samples)
+    edf = contrast_edf(model, params, nodes, contrasts.n_cal, contrasts.n_samples)
+    return np.exp(np.interp(np.log(k), np.log(nodes), np.log(edf)))
 
 
 def honest_quantiles(quantiles, total, mean_square, edf):

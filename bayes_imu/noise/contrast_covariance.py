@@ -12,8 +12,8 @@ with ``R(0) = 1 + (1 + r)^2 + r^2``, ``R(+-N) = -r (1 + r)``, ``R(+-k) = -(1 + r
 ``R(+-(k + N)) = r``. ``C(d)`` vanishes beyond the span ``L = k + N`` for white noise, random
 walks and quantization (``D`` polynomial of degree <= 3, annihilated by the contrast); the
 Gauss-Markov and flicker parts decay smoothly there, and between its kinks (``d = k, N, |k - N|,
-k + N``) ``C`` is smooth. The sum is exact over ``d <= 4096`` and a midpoint rule on a geometric
-grid (ratio 1.01, edges at the kinks) beyond (the structure function is evaluated at non-integer
+k + N``) ``C`` is smooth. The sum is exact over ``d <= 256`` and a midpoint rule on a geometric
+grid (ratio 1.02, edges at the kinks) beyond (the structure function is evaluated at non-integer
 lags there: every term's ``D`` is a smooth closed form in the lag). The equivalent degrees of freedom
 ``nu = 2 C(0)^2 / Var(V_hat)`` make ``V_hat ~ E V_hat chi2_nu / nu`` (a gamma approximation with
 the exact first two moments; its tails are checked against Monte Carlo in the tests).
@@ -24,8 +24,8 @@ import numpy as np
 __all__ = ["contrast_edf"]
 
 #: lags summed one by one before the covariance sum switches to the geometric midpoint rule
-_EXACT_LAGS = 4096
-_RATIO = 1.01
+_EXACT_LAGS = 256
+_RATIO = 1.02
 
 
 def _lags(m, k, n_cal):
