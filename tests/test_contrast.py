@@ -171,3 +171,28 @@ def test_edf_sum_against_every_lag():
         var = 2.0 / m**2 * (m * c[0] ** 2 + 2.0 * np.dot(m - d[1:], c[1:] ** 2))
         exact = 2.0 * c[0] ** 2 / var
         np.testing.assert_allclose(cc.contrast_edf(model, params, [k], n_cal, n)[0], exact, rtol=5e-3)
+
+
+def test_record_drift_check_in_summary_and_reasons(rng):
+    """A white-noise fit: the check covers the horizons the record measures, agrees with the model (p > 0.05
+    for this seed is not asserted: the p-value's calibration is measured in scripts/validate_honesty.py),
+    and says why where nothing is measured."""
+    from bayes_imu.drift.bands import drift_bands
+    from bayes_imu.drift.direct import record_drift_check, unmeasured_reason
+    from bayes_imu.inference.fit import fit_allan
+
+    y = rng.standard_normal(2**14)
+    fit = fit_allan(allan_variance(y, rate_hz=100.0, contrast_span_s=10.0), terms=("white",), rng=1)
+    check = record_drift_check(fit, [0.5, 5.0, 50.0, 500.0], calibration_s=10.0, rng=2)
+    np.testing.assert_allclose(check.t_s, [0.5, 5.0, 50.0])  # spans up to half the 164 s record
+    d = check.to_dict("u s")
+    assert len(d["horizons"]) == 3 and d["unit"] == "u s" and 0 <= d["p_value"] <= 1
+    assert np.all(check.direct_low < check.direct) and np.all(check.direct < check.direct_high)
+    b = drift_bands(fit, [0.5, 5.0, 50.0, 500.0], quantity="attitude", calibration_s=10.0, rng=2)
+    assert list(b.extrapolated) == [False, False, False, True] and b.measured_s < 500.0
+    assert np.all(b.total[0] <= b.model_total[0]) and np.all(b.total[-1] >= b.model_total[-1])
+    assert "calibrated" in unmeasured_reason(fit, "zero", 10.0)
+    assert "window" in unmeasured_reason(fit, "calibrated", 60.0)
+    assert record_drift_check(fit, [500.0], calibration_s=10.0) is None
+    fit_table = fit_allan(allan_variance(y, rate_hz=100.0, contrast_span_s=None), terms=("white",), rng=1)
+    assert "not kept" in unmeasured_reason(fit_table, "calibrated", 60.0)

@@ -195,12 +195,18 @@ def unmeasured_reason(fit, bias_start, calibration_s):
     return None
 
 
-def record_drift_check(fit, t, *, bias_start="calibrated", calibration_s=60.0, models="averaged", rng=None):
+def record_drift_check(fit, t, *, bias_start="calibrated", calibration_s=60.0, models="averaged", rng=None,
+                       max_draws=_CHECK_DRAWS):
     """The :class:`DriftCheck` of ``fit`` at horizons ``t`` [s] (attitude / velocity, order 1), or
-    ``None`` where the record measures nothing of these semantics (:func:`unmeasured_reason`)."""
+    ``None`` where the record measures nothing of these semantics (:func:`unmeasured_reason`);
+    ``max_draws`` posterior draws (a random subset, ``rng``)."""
     from .bands import drift_bands
 
     if unmeasured_reason(fit, bias_start, calibration_s) is not None:
         return None
-    return drift_bands(fit, t, quantity="attitude", bias_start=bias_start, calibration_s=calibration_s,
-                       models=models, rng=rng).check
+    t = np.asarray(t, dtype=float)
+    inside = fit.allan.contrasts.covers(t)
+    if not inside.any():
+        return None
+    return drift_bands(fit, t[inside], quantity="attitude", bias_start=bias_start,
+                       calibration_s=calibration_s, models=models, rng=rng, max_draws=max_draws).check
