@@ -81,7 +81,7 @@ def one_log(job):
             from bayes_imu.drift.bands import drift_bands
             from bayes_imu.drift.closed_forms import drift_sigma
 
-            bands = drift_bands(res, BAND_TIMES, quantity="attitude", rng=rng)  # a flagged log's spread draws
+            bands = drift_bands(res, BAND_TIMES, quantity="attitude", bias_start="zero", rng=rng)  # a flagged log's spread draws
             true = drift_sigma(BAND_TIMES, quantity="attitude", dt=1.0 / RATE, noise_variance=truth["noise_variance"],
                                bias_variance=truth.get("bias_variance", 0.0), time_constant=truth.get("time_constant", np.inf),
                                random_walk=truth.get("rate_random_walk", 0.0)).total
@@ -97,7 +97,8 @@ def one_log(job):
                            bias_variance=truth.get("bias_variance", 0.0), time_constant=truth.get("time_constant", np.inf),
                            random_walk=truth.get("rate_random_walk", 0.0)).total
         for models in ("averaged", "selected"):
-            bands = drift_bands(res, BAND_TIMES, quantity="attitude", models=models, rng=rng)
+            bands = drift_bands(res, BAND_TIMES, quantity="attitude", bias_start="zero", models=models,
+                                 rng=rng)
             out["auto_" + models] = (bands.quantile(0.05) <= true) & (true <= bands.quantile(0.95))
         out["auto_selected_true"] = res.model.terms == model.terms
         out["auto_adequate"] = res.adequacy.adequate

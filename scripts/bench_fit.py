@@ -125,6 +125,7 @@ def stages(log):
     t3 = time.perf_counter()
     print(f"\nstages (in-process, warm): read {t1 - t0:.2f} s, Allan variance {t2 - t1:.2f} s, "
           f"selection + sampling {t3 - t2:.2f} s ({result.diagnostics['n_steps']} steps x {result.diagnostics['n_walkers']} walkers)")
+    _honesty_stages(values, result, t3 - t0)
     with tempfile.TemporaryDirectory() as folder:
         out = Path(folder)
         times = [time.perf_counter()]
@@ -136,6 +137,26 @@ def stages(log):
     d = np.diff(times)
     print(f"outputs (timed here): posterior.nc {d[0]:.2f} s (the command's process); the output process's "
           f"matplotlib + corner {d[1]:.2f} s, allan_fit.png {d[2]:.2f} s, corner.png {d[3]:.2f} s")
+
+
+
+def _honesty_stages(values, result, fit_s):
+    """What issue 35 adds to a fit: the record's contrasts (inside allan_variance), the drift-space check the
+    command writes without --sensor, and the summary's IEEE readings and repeatability intervals."""
+    from bayes_imu.allan.contrast import phase_contrasts
+    from bayes_imu.drift.bands import default_times
+    from bayes_imu.drift.direct import record_drift_check
+
+    times = [time.perf_counter()]
+    for step in (lambda: phase_contrasts(values, rate_hz=100.0),
+                 lambda: record_drift_check(result, default_times(result.model.dt, 3600.0), rng=0),
+                 lambda: result.summary(unit="deg/s")):
+        step()
+        times.append(time.perf_counter())
+    d = np.diff(times)
+    print(f"issue 35 additions: contrasts {d[0]:.2f} s, drift check {d[1]:.2f} s, summary (readings, repeatability "
+          f"included) {d[2]:.2f} s: {100 * d[:2].sum() / fit_s:.1f}% of read + Allan + fit ({fit_s:.2f} s) "
+          "beside the summary")
 
 
 if __name__ == "__main__":

@@ -52,7 +52,7 @@ def main(argv=None):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)
             res = fit_allan(allan, terms=model.terms, rng=rng, likelihood=args.likelihood)
-        total = drift_draws(res, TIMES, quantity="attitude")["total"]
+        total = drift_draws(res, TIMES, quantity="attitude", bias_start="zero")["total"]
         true = drift_sigma(TIMES, quantity="attitude", dt=0.01, noise_variance=truth["noise_variance"],
                            bias_variance=truth["bias_variance"], time_constant=truth["time_constant"]).total
         product = res.draws("bias_variance") * res.draws("time_constant")

@@ -42,8 +42,8 @@ def test_quantization_drift_monte_carlo(rng):
     attitude = dt * paths.sum(axis=1)
     position = dt * np.cumsum(dt * np.cumsum(paths, axis=1), axis=1)[:, -2]  # p_k = dt sum_{j<k} v_j
     fit = fake_fit(("quantization",), [[q]], dt)
-    d_att = drift_draws(fit, [k * dt], quantity="attitude")["total"][0, 0] ** 2
-    d_pos = drift_draws(fit, [k * dt], quantity="position")["total"][0, 0] ** 2
+    d_att = drift_draws(fit, [k * dt], quantity="attitude", bias_start="zero")["total"][0, 0] ** 2
+    d_pos = drift_draws(fit, [k * dt], quantity="position", bias_start="zero")["total"][0, 0] ** 2
     for sample, expected in ((attitude, d_att), (position, d_pos)):
         assert abs(sample.var() / expected - 1) < 5 * np.sqrt(2 / 4000)
     np.testing.assert_allclose(d_att, 2 * q * q)
@@ -59,7 +59,7 @@ def test_bias_instability_without_calibration_is_sqrt2_plateau():
     # by the Allan variance's definition, AVAR(m) = E[(mean_2 - mean_1)^2] / 2 over adjacent m-sample means:
     # the attitude error t (mean_2 - mean_1) has variance 2 AVAR(m) t^2 (the model's sampled-data AVAR)
     avar = fit.model.avar(np.round(t / 0.01), {"bias_instability": np.array(0.01)})
-    np.testing.assert_allclose(drift_draws(fit, t, quantity="attitude")["total"][0], np.sqrt(2 * avar) * t, rtol=1e-9)
+    np.testing.assert_allclose(drift_draws(fit, t, quantity="attitude", bias_start="zero")["total"][0], np.sqrt(2 * avar) * t, rtol=1e-9)
 
 
 def test_default_times_and_units():
@@ -75,5 +75,24 @@ def test_bands_vectorised_speed_shape(rng):
     """1e4 draws x 1e3 times in one call (timed in scripts/bench_drift.py, not here)."""
     samples = np.column_stack([rng.uniform(0.5, 2.0, 10_000), rng.uniform(1e-4, 1e-3, 10_000), rng.uniform(10, 100, 10_000)])
     fit = fake_fit(("white", "gauss_markov"), samples)
-    bands = drift_bands(fit, np.geomspace(0.01, 3600, 1000), quantity="velocity")
+    bands = drift_bands(fit, np.geomspace(0.01, 3600, 1000), quantity="velocity", bias_start="zero")
     assert bands.total.shape == (3, 1000) and np.all(np.diff(bands.total[1]) >= 0)
+
+
+def test_default_bias_start_is_calibrated_60s():
+    """Every library entry point defaults to the command line's semantics: calibrated over 60 s
+    (issue 35). The white-noise attitude error after k samples with an N-sample calibration mean
+    has variance q dt^2 (k + k^2 / N) (a sum of k samples plus k times the mean's error)."""
+    import inspect
+
+    from bayes_imu.report.scene import max_outage
+
+    for function in (drift_bands, drift_draws, max_outage):
+        parameters = inspect.signature(function).parameters
+        assert parameters["bias_start"].default == "calibrated"
+        assert parameters["calibration_s"].default == 60.0
+    dt, q = 0.01, 0.04
+    fit = fake_fit(("white",), [[q]], dt)
+    k, n = 1000.0, 6000.0
+    got = drift_draws(fit, [k * dt], quantity="attitude")["total"][0, 0]
+    np.testing.assert_allclose(got, dt * np.sqrt(q * (k + k * k / n)), rtol=1e-12)

@@ -81,17 +81,17 @@ def test_flagged_fit_widens_drift_bands_by_the_spread(rng, tmp_path):
     fit = fit_allan(allan_variance(y, rate_hz=1 / DT), terms=("white",), rng=1)
     assert fit.stationarity is not None and fit.stationarity.stationary
     t = np.array([1.0, 100.0])
-    plain = drift_draws(fit, t, quantity="attitude", rng=2)["total"]
-    np.testing.assert_array_equal(drift_draws(fit, t, quantity="attitude", rng=3)["total"], plain)
+    plain = drift_draws(fit, t, quantity="attitude", bias_start="zero", rng=2)["total"]
+    np.testing.assert_array_equal(drift_draws(fit, t, quantity="attitude", bias_start="zero", rng=3)["total"], plain)
     st = fit.stationarity
     flagged = dataclasses.replace(fit, stationarity=Stationarity(False, 1e-5, st.tau_s[-1], st.tau_s, st.segment_adev,
                                                                  np.linspace(0.2, 0.6, st.tau_s.size)))
-    ratio = np.log(drift_draws(flagged, t, quantity="attitude", rng=2)["total"] / plain)
+    ratio = np.log(drift_draws(flagged, t, quantity="attitude", bias_start="zero", rng=2)["total"] / plain)
     n = ratio.shape[0]
     for i, s in enumerate(flagged.stationarity.drift_log_sd(t)):
         assert abs(ratio[:, i].mean()) < 4 * s / np.sqrt(n)
         assert ratio[:, i].std() == pytest.approx(s, rel=4 / np.sqrt(2 * n))
-    assert np.allclose(drift_draws(flagged, t, quantity="attitude", rng=2, segment_spread=False)["total"], plain)
+    assert np.allclose(drift_draws(flagged, t, quantity="attitude", bias_start="zero", rng=2, segment_spread=False)["total"], plain)
     save_fit(flagged, tmp_path / "fit.npz")
     back = load_fit(tmp_path / "fit.npz")
     assert not back.stationarity.stationary and back.stationarity.p_value == 1e-5

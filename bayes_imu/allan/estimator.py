@@ -17,6 +17,7 @@ from .._lazy import LazyModule
 
 special = LazyModule("scipy.special")  # chi-squared quantiles without scipy.stats (0.3 s to import)
 
+from .contrast import DEFAULT_CONTRAST_SPAN_S, PhaseContrasts, phase_contrasts
 from .kernels import allan_sums
 from .._progress import progress_bar
 from ..errors import InputError
@@ -97,6 +98,10 @@ class AllanResult:
         The sensor kind of the samples, when known (:mod:`bayes_imu.noise.quantities`); set by
         :func:`allan_variance`'s ``sensor`` or :meth:`with_sensor`, carried by every result
         built on this one instead of being read back from a unit string.
+    contrasts : PhaseContrasts or None
+        The calibrated-outage error measured directly from the log
+        (:mod:`bayes_imu.allan.contrast`; ``None`` when not computed: Allan tables, out-of-core
+        runs, ``contrast_span_s=None``).
     """
 
     tau: np.ndarray
@@ -113,6 +118,7 @@ class AllanResult:
     n_samples: int
     segments: SegmentAllan = None
     sensor: str = None
+    contrasts: PhaseContrasts = None
 
     def __post_init__(self):
         check_sensor(self.sensor)
@@ -128,8 +134,9 @@ class AllanResult:
             return self
         f2 = factor * factor
         segments = self.segments if self.segments is None else replace(self.segments, avar=self.segments.avar * f2)
+        contrasts = self.contrasts if self.contrasts is None else self.contrasts.scaled(factor)
         return replace(self, avar=self.avar * f2, adev=self.adev * abs(factor), avar_low=self.avar_low * f2,
-                       avar_high=self.avar_high * f2, segments=segments)
+                       avar_high=self.avar_high * f2, segments=segments, contrasts=contrasts)
 
     @property
     def duration_s(self):
@@ -187,7 +194,7 @@ def check_sensor(sensor):
 
 
 def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, interval="exact", progress=False,
-                   segments=DEFAULT_SEGMENTS, sensor=None):
+                   segments=DEFAULT_SEGMENTS, contrast_span_s=DEFAULT_CONTRAST_SPAN_S, sensor=None):
     """Fully overlapping Allan variance of uniformly sampled rate data (SP1065 eq 14).
 
     Parameters
@@ -211,6 +218,10 @@ def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, inte
     segments : int
         Also compute the Allan variance of this many consecutive parts of the log
         (:class:`SegmentAllan`, for the stationarity check); 0 or 1 skips it.
+    contrast_span_s : float or None
+        Calibration window [s] of the calibrated-outage errors measured directly from the log
+        (:class:`~bayes_imu.allan.contrast.PhaseContrasts`, for the drift-space check); ``None``
+        skips them.
     sensor : {"gyro", "accel"} or None
         Sensor kind of the samples, recorded on the result (:attr:`AllanResult.sensor`).
 
@@ -227,7 +238,10 @@ def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, inte
         x, sums = allan_sums(y, ms, progress=bar.update)
     alphas = identify_noise(x, ms) if alpha is None else alpha
     result = assemble_result(ms, sums, alphas, y.size, rate_hz, confidence, interval)
-    return replace(result, segments=segment_allan(y, ms, segments), sensor=sensor)
+    contrasts = None
+    if contrast_span_s is not None and contrast_span_s * rate_hz >= 1.0:
+        contrasts = phase_contrasts(x=x, rate_hz=rate_hz, calibration_s=contrast_span_s)
+    return replace(result, segments=segment_allan(y, ms, segments), contrasts=contrasts, sensor=sensor)
 
 
 def segment_allan(y, m, n_segments=DEFAULT_SEGMENTS):

@@ -406,13 +406,11 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
         writer.submit(plot, *arguments, **options)
     summary = result.summary(unit=unit)
     summary.update(log=_log_label(args), column=column, unit=unit, input=info)
-    _say(args, f"model: {' + '.join(result.model.terms)}  (converged: {result.diagnostics['converged']})")
-    note = _averaging_note(summary)
-    if note:
-        _say(args, note)
+    _say(args, _model_line(summary, result.diagnostics["converged"]))
     for name, p in summary["parameters"].items():
         _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
     _say_datasheet(args, summary["datasheet"])
+    _say_readout(args, summary["allan_datasheet"])
     adequacy = result.adequacy
     if not adequacy.adequate:
         what = [f"goodness of fit p = {adequacy.p_value:.2g} (worst at tau = {adequacy.worst_tau_s:g} s)"]
@@ -427,14 +425,62 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
               f"{_ratio_text(steady.largest_ratio())} in Allan deviation at tau = {steady.worst_tau_s:g} s "
               f"(p = {steady.p_value:.2g}; warm-up?), with a spread of up to x{steady.spread_factor():.2g} (1 sigma) "
               "at longer tau; drift bands include that spread")
-    if args.sensor:
-        summary["drift"] = _write_drift(result, args, unit, out, writer)[0]
+    written = _write_drift(result, args, unit, out, writer) if args.sensor else None
+    if written is not None:
+        summary["drift"] = written[0]
+    if summary["adequacy"] is not None:
+        summary["adequacy"]["drift"] = _drift_check(result, args, unit, column, written)
     _write_json(out / "summary.json", summary)
     save_fit(result, out / ARCHIVE_NAME)
     # posterior.nc here: it needs only h5netcdf (h5py is loaded with emcee), and queued behind the figures it would
     # end the run later
     write_netcdf(result, out / "posterior.nc")
     return summary
+
+
+def _drift_check(result, args, unit, column, written):
+    """summary.json ``adequacy.drift``: the drift the record shows against the bands (drift.direct),
+    warned about when they disagree."""
+    from ..drift.bands import default_times, integrated_unit
+    from ..drift.direct import record_drift_check, unmeasured_reason
+
+    reason = unmeasured_reason(result, args.bias_start, args.calibration)
+    if written is not None:
+        found = [(b.check, u) for b, u in zip(written[1], written[2]) if b.check is not None]
+        check, shown = found[0] if found else (None, None)
+    elif reason is None:
+        t = np.array(args.times) if args.times is not None else default_times(result.model.dt, args.horizon)
+        check = record_drift_check(result, t, calibration_s=args.calibration, models=args.models, rng=args.seed)
+        shown = integrated_unit(unit, "attitude")
+    else:
+        check = None
+    if check is None:
+        return {"available": False, "reason": reason or "no requested horizon within the spans the log measures"}
+    if not check.adequate:
+        _warn(f"{column}: the drift the log itself shows disagrees with the model at t = {check.worst_t_s:g} s "
+              f"(p = {check.p_combined:.2g}); the drift bands include the log's own interval up to "
+              f"{check.t_s[-1]:g} s and extrapolate the model beyond")
+    return {"available": True, **check.to_dict(shown)}
+
+
+def _model_line(summary, converged):
+    """What the bands use: the model average (its most probable models and each term's probability),
+    then the selected model (the simplest within the selection margin) for reference."""
+    mixture = sorted(summary["model_averaging"], key=lambda c: -c["probability"])
+    shown = ", ".join(f"{' + '.join(c['model'])} {c['probability']:.2f}" for c in mixture[:3])
+    more = f", {len(mixture) - 3} more" if len(mixture) > 3 else ""
+    terms = ", ".join(f"{t} {p:.2f}" for t, p in summary["term_probability"].items())
+    return (f"model average (what the drift bands use): {shown}{more}  (converged: {converged})\n"
+            f"  term probabilities: {terms}; simplest model within the evidence margin: "
+            f"{' + '.join(summary['model'])}")
+
+
+def _say_readout(args, block):
+    if block:
+        _say(args, "  Allan deviation readings (IEEE Std 952, model-averaged):")
+        for name, p in block.items():
+            at = f" at tau = {p['tau_s']:.3g} s" if "tau_s" in p else ""
+            _say(args, f"    {name:30s} median {p['median']:.4g}  90% [{p['q05']:.4g}, {p['q95']:.4g}] {p['unit']}{at}")
 
 
 def _averaging_note(summary, *, likely=0.1, certain=0.9):

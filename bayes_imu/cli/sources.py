@@ -10,6 +10,7 @@ description of what was read and done.
 import dataclasses
 from pathlib import Path
 
+from ..allan.contrast import DEFAULT_CONTRAST_SPAN_S
 from ..allan.estimator import allan_variance
 from ..io.bags import is_bag, read_imu_bag
 from ..errors import InputError
@@ -37,6 +38,7 @@ class SourceOptions:
     allan_table: Path = None
     samples: int = None
     progress: bool = False
+    calibration: float = DEFAULT_CONTRAST_SPAN_S
 
     @classmethod
     def from_namespace(cls, args):
@@ -95,8 +97,8 @@ def allan_results(opts, command, grid="octave"):
         columns, results, info = _streamed(opts, command, grid)
     else:
         columns, values, rate, info = _read(opts, command)
-        results = [allan_variance(values[:, j], rate_hz=rate, m=grid, progress=opts.progress)
-                   for j in range(values.shape[1])]
+        results = [allan_variance(values[:, j], rate_hz=rate, m=grid, progress=opts.progress,
+                                  contrast_span_s=opts.calibration) for j in range(values.shape[1])]
     if increments:  # increment / dt = mean rate over the sample: every Allan variance times (factor * rate)^2
         factor *= results[0].rate_hz
         unit = unit if opts.units is not None else "u/s"

@@ -15,9 +15,9 @@ Non-stationary logs: when the fit's between-segment check flags the record
 ``z ~ N(0, 1)`` one per draw, so that the bands allow a later outage to fall in a part of the
 sensor's life as different as the record's own parts are (``segment_spread=False`` leaves it out).
 
-Bias semantics (``bias_start``, :mod:`bayes_imu.noise._base`): ``"zero"`` (the paper),
-``"stationary"`` and ``"calibrated"`` (the bias estimated as the mean of the
-``calibration_s`` seconds before the outage; the conservative, actionable default of reports).
+Bias semantics (``bias_start``, :mod:`bayes_imu.noise._base`): ``"calibrated"`` (the default of
+every entry point, library and command line alike: the bias estimated as the mean of the
+``calibration_s`` = 60 s before the outage), ``"zero"`` (the paper) and ``"stationary"``.
 """
 
 from dataclasses import dataclass, field
@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .closed_forms import QUANTITY_ORDER
+from .direct import direct_contrasts, direct_edf, drift_check, honest_quantiles
 from ..errors import InputError
 from ..noise import BIAS_STARTS, TERMS, NoiseModel
 from ..noise.quantities import SENSORS
@@ -67,6 +68,14 @@ class DriftBands:
     term_probability : dict
         Term name -> posterior probability that the sensor has it (share of the draws whose
         model has it; 1 for every term of a selected model).
+    measured_s : float
+        Longest horizon the record measures directly (calibrated attitude / velocity,
+        :mod:`bayes_imu.drift.direct`): up to it ``total`` contains the record's own interval;
+        beyond it the bands are the model's extrapolation. ``nan`` when nothing is measured.
+    model_total : (n_q, n_t) ndarray or None
+        The model's quantiles before the record's interval was included (``None`` when equal).
+    check : DriftCheck or None
+        The drift-space adequacy check at the horizons measured.
     """
 
     t_s: np.ndarray
@@ -82,18 +91,24 @@ class DriftBands:
     calibration_s: float = float("nan")
     models: str = "selected"
     term_probability: dict = field(default_factory=dict)
+    measured_s: float = float("nan")
+    model_total: np.ndarray = None
+    check: object = None
 
     @property
     def extrapolated(self):
-        """``(n_t,)`` bool: times beyond the fitted log's duration."""
-        return self.t_s > self.record_s
+        """``(n_t,)`` bool: times where the band is the model's extrapolation: beyond the horizons
+        the record measures (:attr:`measured_s`) where it measures any, else beyond the log."""
+        return self.t_s > (self.measured_s if np.isfinite(self.measured_s) else self.record_s)
 
     def scaled(self, factor):
         """The same bands in another unit (every drift value times ``factor``)."""
         from dataclasses import replace
 
         return replace(self, total=self.total * factor, white=self.white * factor, bias=self.bias * factor,
-                       terms={n: v * factor for n, v in self.terms.items()})
+                       terms={n: v * factor for n, v in self.terms.items()},
+                       model_total=None if self.model_total is None else self.model_total * factor,
+                       check=None if self.check is None else self.check.scaled(factor))
 
     def quantile(self, q):
         """Band at probability ``q`` (one of :attr:`quantiles`)."""
@@ -141,7 +156,7 @@ def _check_times(t):
     return t
 
 
-def drift_draws(fit, t, *, quantity, bias_start="zero", calibration_s=DEFAULT_CALIBRATION_S, models="averaged",
+def drift_draws(fit, t, *, quantity, bias_start="calibrated", calibration_s=DEFAULT_CALIBRATION_S, models="averaged",
                 max_draws=None, rng=None, component_draws=slice(None), segment_spread=True):
     """Per-draw 1-sigma drift of ``quantity`` at times ``t`` [s].
 
@@ -207,8 +222,9 @@ def _term_order(parts):
     return [t for t in TERMS if t in present]
 
 
-def drift_bands(fit, t=None, *, quantity, bias_start="zero", calibration_s=DEFAULT_CALIBRATION_S, models="averaged",
-                quantiles=(0.05, 0.5, 0.95), horizon_s=3600.0, max_draws=None, rng=None, segment_spread=True):
+def drift_bands(fit, t=None, *, quantity, bias_start="calibrated", calibration_s=DEFAULT_CALIBRATION_S, models="averaged",
+                quantiles=(0.05, 0.5, 0.95), horizon_s=3600.0, max_draws=None, rng=None, segment_spread=True,
+                honest=True):
     """Posterior quantiles of the 1-sigma drift of ``quantity`` at times ``t`` (s).
 
     Parameters
@@ -218,9 +234,10 @@ def drift_bands(fit, t=None, *, quantity, bias_start="zero", calibration_s=DEFAU
         Times (s); default :func:`default_times` up to ``horizon_s``. Given times are kept
         exactly (rounded to whole samples).
     quantity : {"attitude", "velocity", "position"}
-    bias_start : {"zero", "stationary", "calibrated"}
+    bias_start : {"calibrated", "zero", "stationary"}
+        Default ``"calibrated"``, as the command line (module docstring).
     calibration_s : float
-        Calibration window of ``"calibrated"`` (s).
+        Calibration window of ``"calibrated"`` (s), default 60.
     models : {"averaged", "selected"}
     quantiles : sequence of float
     max_draws : int, optional
@@ -228,6 +245,10 @@ def drift_bands(fit, t=None, *, quantity, bias_start="zero", calibration_s=DEFAU
     segment_spread : bool
         Widen the bands of a log flagged non-stationary by the spread between its parts
         (module docstring).
+    honest : bool
+        Where the record measures the drift (calibrated attitude / velocity, a fit of a log read
+        in memory: :mod:`bayes_imu.drift.direct`), widen the band to contain the record's own
+        interval and check the model against it (:attr:`DriftBands.check`).
 
     Returns
     -------
@@ -252,5 +273,25 @@ def drift_bands(fit, t=None, *, quantity, bias_start="zero", calibration_s=DEFAU
              if np.isfinite(v[:, 0]).any()}
     probability = {n: float(np.mean(np.isfinite(v[:, 0]))) for n, v in draws["terms"].items() if n in terms}
     cal = float(calibration_s) if bias_start == "calibrated" else float("nan")
-    return DriftBands(draws["t_s"], quantity, q, np.quantile(draws["total"], q, axis=0), white, bias, crossover,
-                      bias_start, record, terms, cal, models, probability)
+    total = np.quantile(draws["total"], q, axis=0)
+    measured = direct_part(fit, draws, quantity, bias_start, calibration_s, q, total) if honest else None
+    return DriftBands(draws["t_s"], quantity, q, total if measured is None else measured[0], white, bias, crossover,
+                      bias_start, record, terms, cal, models, probability,
+                      *((float("nan"), None, None) if measured is None else measured[1:]))
+
+
+def direct_part(fit, draws, quantity, bias_start, calibration_s, q, total):
+    """``(honest total, measured_s, model total, DriftCheck)``, or ``None`` where the record measures
+    nothing of these drift semantics (:mod:`bayes_imu.drift.direct`)."""
+    contrasts = direct_contrasts(fit, quantity, bias_start, calibration_s)
+    if contrasts is None:
+        return None
+    t = draws["t_s"]
+    inside = contrasts.covers(t)
+    if not inside.any():
+        return None
+    edf = np.full(t.shape, np.nan)
+    edf[inside] = direct_edf(fit, contrasts, t[inside])
+    check = drift_check(fit, draws, contrasts, edf)
+    honest = honest_quantiles(q, total, contrasts.at(t), edf)
+    return honest, float(contrasts.t_s[-1]), total, check

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..allan.contrast import PhaseContrasts
 from ..allan.estimator import AllanResult, SegmentAllan
 from ..errors import InputError
 from .._version import __version__
@@ -41,6 +42,7 @@ def save_fit(fit, path):
         "mixture": [{"terms": list(c.terms), "probability": c.probability} for c in fit.mixture],
         "adequacy": None if q is None else {**q.to_dict(), "residuals": None},
         "segments": None if a.segments is None else {"n_samples": int(a.segments.n_samples)},
+        "contrasts": None if getattr(a, "contrasts", None) is None else {"n_cal": int(a.contrasts.n_cal)},
         "stationarity": None if st is None else {"stationary": bool(st.stationary), "p_value": float(st.p_value),
                                                  "worst_tau_s": float(st.worst_tau_s)},
     }
@@ -55,6 +57,8 @@ def save_fit(fit, path):
         arrays["residuals"] = np.asarray(q.residuals)
     if a.segments is not None:
         arrays.update(segments_m=a.segments.m, segments_avar=a.segments.avar)
+    if getattr(a, "contrasts", None) is not None:
+        arrays.update(contrasts_k=a.contrasts.k, contrasts_mean_square=a.contrasts.mean_square)
     if st is not None:
         arrays.update(stationarity_tau=st.tau_s, stationarity_adev=st.segment_adev, stationarity_spread=st.spread)
     with open(path, "wb") as f:
@@ -93,9 +97,14 @@ def load_fit(path):
         raise InputError(f"{file}: archive format {meta.get('format')!r}; this bayes_imu reads format {_FORMAT}")
     seg = meta.get("segments")
     segments = None if seg is None else SegmentAllan(data["segments_m"], data["segments_avar"], seg["n_samples"])
+    con = meta.get("contrasts")
+    n_all, rate = meta["allan"]["n_samples"], meta["allan"]["rate_hz"]
+    contrasts = None if con is None else PhaseContrasts(data["contrasts_k"], con["n_cal"],
+                                                        data["contrasts_mean_square"],
+                                                        n_all - con["n_cal"] - data["contrasts_k"] + 1, rate, n_all)
     allan = AllanResult(**{k: data[f"allan_{k}"] for k in _ALLAN_ARRAYS}, confidence=meta["allan"]["confidence"],
-                        rate_hz=meta["allan"]["rate_hz"], n_samples=meta["allan"]["n_samples"],
-                        segments=segments, sensor=meta["allan"].get("sensor"))
+                        rate_hz=rate, n_samples=n_all, segments=segments, contrasts=contrasts,
+                        sensor=meta["allan"].get("sensor"))
     st = meta.get("stationarity")
     steady = None if st is None else Stationarity(st["stationary"], st["p_value"], st["worst_tau_s"],
                                                   data["stationarity_tau"], data["stationarity_adev"],

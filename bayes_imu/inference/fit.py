@@ -234,6 +234,15 @@ class FitResult:
         """Dict name -> quantiles of each parameter (and the derived densities)."""
         return {n: np.quantile(self.draws(n), q) for n in self._derived_names()}
 
+    def repeatability_quantiles(self, q=(0.05, 0.5, 0.95)):
+        """Dict name -> quantiles of each parameter widened by the spread between parts of a record the
+        stationarity check flags ("repeatability between parts", :mod:`bayes_imu.inference.repeatability`;
+        the same as :meth:`quantiles` for a stationary record)."""
+        from .repeatability import repeatability_draws
+
+        return {n: np.quantile(repeatability_draws(n, self.draws(n), self.stationarity, i), q)
+                for i, n in enumerate(self._derived_names())}
+
     def predictive_avar(self, m=None, *, n_draws=400, rng=None, term=None):
         """Posterior draws of the model Allan variance, ``(n_draws, n_tau)`` (one term if given)."""
         m = self.allan.m if m is None else np.asarray(m)
@@ -254,6 +263,9 @@ class FitResult:
                 "q95": float(np.quantile(d, 0.95)),
                 "unit": PARAMETER_UNITS.get(name, "1").format(u=unit),
             }
+        repeatable = self.repeatability_quantiles()
+        parameters_repeatability = {n: {"median": float(q[1]), "q05": float(q[0]), "q95": float(q[2]),
+                                        "unit": parameters[n]["unit"]} for n, q in repeatable.items()}
         probabilities = self.probabilities if self.probabilities is not None else np.full(len(self.candidates), np.nan)
         adequacy = self.adequacy.to_dict() if self.adequacy is not None else None
         if adequacy is not None:
@@ -261,12 +273,15 @@ class FitResult:
             adequacy["stationarity"] = self.stationarity.to_dict() if self.stationarity is not None else None
         from ..noise.datasheet import datasheet
         from ..noise.quantities import si_sensor
+        from .allan_readout import allan_readout
 
         kind = si_sensor(self.sensor, unit)
         return {
             "model": list(self.model.terms),
             "parameters": parameters,
+            "parameters_repeatability": parameters_repeatability,
             "datasheet": datasheet(self, kind) if kind is not None else None,
+            "allan_datasheet": allan_readout(self, kind, unit=unit),
             "adequacy": adequacy,
             "diagnostics": {k: (bool(v) if k == "converged" else int(v) if k in ("n_steps", "n_walkers") else float(v))
                             for k, v in self.diagnostics.items()},

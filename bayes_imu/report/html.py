@@ -139,11 +139,23 @@ def _sensor_section(s, cred):
 model may be worse (list several units' logs to bound a new unit).</p>
 <p class="model">Model needed: <b>{html.escape(' + '.join(fit.model.terms))}</b> ({why}).</p>
 <p class="adequacy">Goodness of fit: p = {a.p_value:.2g}, worst at tau = {a.worst_tau_s:g} s: {html.escape(fit_check)}.</p>
+{_drift_check_text(s.bands)}
 <p class="diagnostics">Sampler: {conv}; {rhat}{d['n_steps']} steps x {d['n_walkers']} walkers.</p>
 <table><tr><th>parameter (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>
 <img alt="Allan fit of {html.escape(s.spec.name)}" src="{allan_png}">
 <img alt="drift bands of {html.escape(s.spec.name)}" src="{drift_png}">
 </section>"""
+
+
+def _drift_check_text(bands):
+    """The drift-space check (drift.direct): the drift the log itself shows against the bands."""
+    check = next((b.check for b in bands if getattr(b, "check", None) is not None), None)
+    if check is None:
+        return '<p class="drift-check">Drift measured on the log itself: not available for these bands.</p>'
+    verdict = ("agrees with the model" if check.adequate else
+               f"DISAGREES with the model (worst at {check.worst_t_s:g} s): the bands include the log's own interval")
+    return (f'<p class="drift-check">Drift measured on the log itself (up to {check.t_s[-1]:g} s; beyond, the bands '
+            f'extrapolate the model): p = {check.p_combined:.2g}, {html.escape(verdict)}.</p>')
 
 
 def _population_section(s):

@@ -25,6 +25,9 @@ rate [Hz]. Nominal values are posterior medians; with ``credibility`` the upper 
 quantile (conservative). Several axes of one sensor combine to the worst axis (largest
 value, the file says so), and every axis's own value is listed in comment lines. A fit that
 failed its adequacy check is flagged in the file (``# WARNING`` line) and in ``adequate``.
+A record the stationarity check flags has both densities' draws widened by the spread between
+its parts (repeatability, :mod:`bayes_imu.inference.repeatability`), as ``summary.json``'s
+``parameters_repeatability``.
 """
 
 from dataclasses import dataclass, field
@@ -33,6 +36,7 @@ import math
 import numpy as np
 
 from ..errors import InputError
+from ..inference.repeatability import normal_scores, repeatability_spread
 from ..io.readers import UNITS
 from ..noise.quantities import SENSORS
 
@@ -89,7 +93,10 @@ def axis_densities(fit, factor=1.0):
     for term in model.components:  # each term's Kalibr role (:attr:`bayes_imu.noise.Term.kalibr`)
         if term.kalibr == "random_walk":
             rw2 += term.kalibr_random_walk2(draws, tau_max)
-    return density, np.sqrt(rw2) * factor
+    # repeatability between parts (inference.repeatability): a record whose parts differ widens both densities
+    short, long = repeatability_spread(getattr(fit, "stationarity", None))
+    z_short, z_long = normal_scores(density.size, 0), normal_scores(density.size, 1)
+    return density * np.exp(0.5 * short * z_short), np.sqrt(rw2) * factor * np.exp(0.5 * long * z_long)
 
 
 def kalibr_values(gyro=(), accel=(), *, credibility=None):

@@ -516,9 +516,7 @@ def plot_drift(bands_list, path, *, units, title="", min_probability=0.1):
                         (bands.crossover_s, 0.02), xycoords=("data", "axes fraction"), textcoords="offset points",
                         xytext=(4, 4), fontsize=7, color="dimgray", va="bottom",
                         ha="left" if bands.crossover_s < np.sqrt(t[0] * t[-1]) else "right")
-        if bands.record_s < t[-1]:
-            ax.axvspan(bands.record_s, t[-1], color="gray", alpha=0.12,
-                       label=f"beyond the log ({bands.record_s:.4g} s): extrapolation")
+        _draw_measured(ax, bands, t)
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("time since GPS loss (s)")
@@ -533,6 +531,25 @@ def plot_drift(bands_list, path, *, units, title="", min_probability=0.1):
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def _draw_measured(ax, bands, t):
+    """The record's own 1-sigma drift with its 90% interval (drift.direct) and the model's extrapolation
+    beyond what the record measures (or beyond the log) shaded."""
+    check = getattr(bands, "check", None)
+    if check is not None and check.t_s.size:
+        i = np.unique(np.linspace(0, check.t_s.size - 1, min(check.t_s.size, 16)).round().astype(int))
+        ax.errorbar(check.t_s[i], check.direct[i],
+                    yerr=[check.direct[i] - check.direct_low[i], check.direct_high[i] - check.direct[i]],
+                    fmt="o", ms=2.5, lw=0.8, color="black", alpha=0.7,
+                    label=f"measured on the log itself, 90% interval (check p = {check.p_combined:.2g})")
+    measured = getattr(bands, "measured_s", float("nan"))
+    edge = measured if np.isfinite(measured) else bands.record_s
+    if edge < t[-1]:
+        what = (f"beyond what the log measures ({edge:.4g} s): model extrapolation" if np.isfinite(measured)
+                else f"beyond the log ({edge:.4g} s): extrapolation")
+        ax.axvspan(edge, t[-1], color="gray", alpha=0.12, hatch="//" if np.isfinite(measured) else None,
+                   label=what)
 
 
 def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None, drift_unit=None):

@@ -1,0 +1,174 @@
+"""The calibrated-outage error measured directly from the record: unequal-span phase contrasts.
+
+An outage of ``k`` samples after a calibration window of ``N`` samples (the bias taken as the
+plain mean of the window, :mod:`bayes_imu.noise._base`) leaves an attitude (or velocity) error
+
+    e_j / dt = x_{j+k} - x_j - r (x_j - x_{j-N}),    r = k / N,
+
+a fixed contrast of three points of the phase record ``x_j = sum_{i<j} y_i``. For ``k = N`` it is
+the second difference of the Allan variance (``E e^2 = 2 tau^2 AVAR(tau)``, ``tau = N dt``);
+otherwise it is its unequal-span generalisation. Whatever the noise (any process with stationary
+increments, random walks and flicker included, since the contrast annihilates constants and
+linear trends of ``x``), the overlapping average over every start ``j``
+
+    V_hat(k) = dt^2 / M sum_{j=N}^{n-k} e_j^2,    M = n - N - k + 1,
+
+is an unbiased estimate of the mean-square error ``E e^2`` the drift bands predict: it needs no
+model. Its sampling distribution (the EDF) does depend on the noise and is computed from a model's
+structure function (:func:`bayes_imu.noise.contrast_covariance.contrast_edf`).
+
+:func:`phase_contrasts` evaluates ``V_hat`` on a log-spaced grid of outage lengths (one vectorised
+O(n) pass each over the phase record the Allan variance already builds: one subtraction and
+two dot products per outage), up to spans ``k + N`` of
+half the record; :meth:`PhaseContrasts.at` interpolates between grid points in log-log.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = ["PhaseContrasts", "phase_contrasts", "contrast_mean_square", "DEFAULT_CONTRAST_SPAN_S",
+           "CONTRASTS_PER_DECADE", "MAX_SPAN_FRACTION"]
+
+#: calibration window of the contrasts computed with every Allan variance [s] (the drift bands' default)
+DEFAULT_CONTRAST_SPAN_S = 60.0
+#: outage lengths per decade of the grid
+CONTRASTS_PER_DECADE = 6
+#: longest span ``k + N`` measured, as a fraction of the record
+MAX_SPAN_FRACTION = 0.5
+
+
+@dataclass(frozen=True)
+class PhaseContrasts:
+    """Direct estimates of the calibrated-outage mean-square error (attitude / velocity, order 1).
+
+    Attributes
+    ----------
+    k : (n_k,) ndarray of int
+        Outage lengths [samples].
+    n_cal : int
+        Calibration window [samples].
+    mean_square : (n_k,) ndarray
+        ``V_hat(k)`` [u^2 s^2] (module docstring).
+    n_terms : (n_k,) ndarray of int
+        Starts averaged, ``M = n - N - k + 1``.
+    rate_hz : float
+    n_samples : int
+    """
+
+    k: np.ndarray
+    n_cal: int
+    mean_square: np.ndarray
+    n_terms: np.ndarray
+    rate_hz: float
+    n_samples: int
+
+    @property
+    def calibration_s(self):
+        return self.n_cal / self.rate_hz
+
+    @property
+    def t_s(self):
+        return self.k / self.rate_hz
+
+    def scaled(self, factor):
+        """The contrasts of ``factor * y`` (a unit conversion)."""
+        from dataclasses import replace
+
+        return replace(self, mean_square=self.mean_square * factor * factor)
+
+    def covers(self, t):
+        """``(n_t,)`` bool: outages ``t`` [s] within the measured grid."""
+        t = np.asarray(t, dtype=float)
+        if self.k.size == 0:
+            return np.zeros(t.shape, dtype=bool)
+        k = np.round(t * self.rate_hz)
+        return (k >= self.k[0]) & (k <= self.k[-1])
+
+    def at(self, t):
+        """``V_hat`` at outages ``t`` [s], interpolated in log-log between grid points (``nan`` outside)."""
+        t = np.asarray(t, dtype=float)
+        inside = self.covers(t)
+        out = np.full(t.shape, np.nan)
+        if inside.any():
+            k = np.round(t[inside] * self.rate_hz)
+            out[inside] = np.exp(np.interp(np.log(k), np.log(self.k), np.log(self.mean_square)))
+        return out
+
+    def n_terms_at(self, t):
+        """``M`` at outages ``t`` [s]."""
+        k = np.round(np.asarray(t, dtype=float) * self.rate_hz)
+        return self.n_samples - self.n_cal - k + 1
+
+
+def contrast_mean_square(x, k, n_cal):
+    """``V_hat / dt^2`` for outage ``k`` and window ``n_cal`` from a phase record ``x`` ``(n + 1,)``.
+
+    ``x`` is the running sum of the rate about any constant (the contrast annihilates it).
+    """
+    return float(_mean_squares(x, np.array([k]), n_cal)[0])
+
+
+def _mean_squares(x, ks, n_cal):
+    """``V_hat / dt^2`` at every outage of ``ks``: with ``A = x_{j+k} - x_j`` and ``B = x_j - x_{j-N}``,
+    ``sum e^2 = A.A - 2 r A.B + r^2 B.B``; ``B`` is one array for every ``k`` and ``B.B`` over its first
+    ``M`` entries a running sum, so each outage costs one subtraction and two dot products."""
+    n = x.size - 1
+    ks = np.asarray(ks, dtype=np.int64)
+    n_cal = int(n_cal)
+    if ks.size and (ks.min() < 1 or n_cal < 1 or ks.max() + n_cal > n):
+        raise InputError(f"outages {ks.min()}-{ks.max()} + calibration {n_cal} samples: expected 1 <= each, "
+                         f"sum <= {n}")
+    b = x[n_cal:] - x[:-n_cal] if n_cal <= n else np.zeros(0)
+    bb = np.concatenate(([0.0], np.cumsum(b * b)))
+    out = np.empty(ks.size)
+    for i, k in enumerate(ks):
+        m = n + 1 - n_cal - int(k)
+        a = x[n_cal + k:] - x[n_cal:n + 1 - k]
+        r = k / n_cal
+        out[i] = (np.dot(a, a) - 2.0 * r * np.dot(a, b[:m]) + r * r * bb[m]) / m
+    return out
+
+
+def contrast_grid(n_samples, n_cal, per_decade=CONTRASTS_PER_DECADE, max_fraction=MAX_SPAN_FRACTION):
+    """Whole-sample outage lengths from 1 to ``max_fraction n - N``, ``per_decade`` per decade."""
+    top = int(np.floor(max_fraction * n_samples)) - int(n_cal)
+    if top < 1:
+        return np.zeros(0, dtype=np.int64)
+    count = max(2, int(np.ceil(np.log10(top) * per_decade)) + 1)
+    return np.unique(np.round(np.geomspace(1.0, top, count))).astype(np.int64)
+
+
+def phase_contrasts(y=None, *, rate_hz, calibration_s=DEFAULT_CONTRAST_SPAN_S, x=None, k=None):
+    """:class:`PhaseContrasts` of rate samples ``y`` (or of their phase record ``x``).
+
+    Parameters
+    ----------
+    y : (n,) array_like, optional
+        Rate samples [u].
+    rate_hz : float
+    calibration_s : float
+        Calibration window [s] (rounded to whole samples).
+    x : (n + 1,) ndarray, optional
+        The phase record ``cumsum`` of ``y`` about its mean, with a leading 0 (what the Allan
+        variance builds); given instead of ``y``.
+    k : array_like of int, optional
+        Outage lengths [samples]; default :func:`contrast_grid`.
+
+    Returns
+    -------
+    PhaseContrasts
+        Empty (``k.size == 0``) when the window is longer than half the record.
+    """
+    if x is None:
+        y = np.asarray(y, dtype=np.float64)
+        x = np.concatenate(([0.0], np.cumsum(y - y.mean())))
+    n = x.size - 1
+    n_cal = int(round(calibration_s * rate_hz))
+    if n_cal < 1:
+        raise InputError(f"calibration={calibration_s!r} s: expected at least one sample ({1.0 / rate_hz:g} s)")
+    ks = contrast_grid(n, n_cal) if k is None else np.asarray(k, dtype=np.int64)
+    ms = _mean_squares(x, ks, n_cal) / rate_hz**2
+    return PhaseContrasts(ks, n_cal, ms.reshape(ks.shape), n - n_cal - ks + 1, float(rate_hz), int(n))

@@ -1,0 +1,212 @@
+"""The drift the record itself shows: a drift-space adequacy check and bands honest within the record.
+
+For a calibrated outage (``bias_start="calibrated"``) of attitude or velocity the error is a
+fixed contrast of the phase record, whose mean square the log measures without a model
+(:mod:`bayes_imu.allan.contrast`, ``V_hat``; unbiased for any noise with stationary increments).
+Under a model, ``V_hat ~ V chi2_nu / nu`` with ``V`` the model's mean-square drift and ``nu`` the
+EDF of :func:`bayes_imu.noise.contrast_covariance.contrast_edf`.
+
+The check (:func:`drift_check`), per requested horizon the record covers: the posterior
+predictive p-value ``p = 2 min(u, 1 - u)``, ``u = mean_i F_nu(nu V_hat / V_i)`` over posterior
+draws ``V_i`` (model-averaged, as the bands). Over horizons, Simes' combination
+``min_i n p_(i) / i`` (valid under the positive dependence of nested horizons) is compared with
+:data:`DRIFT_ALPHA`.
+
+Honest bands (:func:`honest_quantiles`; derivation in docs/reference.md, "Bands the record
+measures"): within the record, each lower quantile ``q < 1/2`` of the band is the smaller of the
+model's and the direct one, ``sqrt(nu V_hat / chi2_nu^{-1}(1 - q))``, each upper quantile the larger
+(the median stays the model's). The band then contains the data's own interval for the true drift,
+which covers it with probability ``1 - 2 q`` whatever the noise (given ``nu``), so the band covers
+at least that often whether or not the model is right. Beyond the record the band is the model's
+extrapolation alone (:attr:`bayes_imu.drift.bands.DriftBands.extrapolated`).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._lazy import LazyModule
+from .closed_forms import QUANTITY_ORDER
+from ..noise.contrast_covariance import contrast_edf
+
+special = LazyModule("scipy.special")
+
+__all__ = ["DriftCheck", "drift_check", "direct_contrasts", "direct_edf", "honest_quantiles", "record_drift_check",
+           "unmeasured_reason", "DRIFT_ALPHA"]
+
+#: false-alarm rate of the drift-space check on a correct model
+DRIFT_ALPHA = 0.05
+#: posterior draws of the predictive p-value
+_CHECK_DRAWS = 1000
+#: outages per decade at which the EDF is computed exactly (interpolated between)
+_EDF_PER_DECADE = 4
+
+
+@dataclass(frozen=True)
+class DriftCheck:
+    """Drift-space adequacy check of a fit at the horizons its record covers.
+
+    Attributes
+    ----------
+    t_s : (n_t,) ndarray
+        Horizons checked [s].
+    direct, direct_low, direct_high : (n_t,) ndarray
+        1-sigma drift measured from the record and its 90% interval [unit x s].
+    edf : (n_t,) ndarray
+    model_q05, model_q50, model_q95 : (n_t,) ndarray
+        The model's band there [unit x s] (before any honest widening).
+    p_value : (n_t,) ndarray
+        Posterior predictive p-value per horizon (module docstring).
+    p_combined : float
+        Simes' combination over horizons.
+    calibration_s : float
+    """
+
+    t_s: np.ndarray
+    direct: np.ndarray
+    direct_low: np.ndarray
+    direct_high: np.ndarray
+    edf: np.ndarray
+    model_q05: np.ndarray
+    model_q50: np.ndarray
+    model_q95: np.ndarray
+    p_value: np.ndarray
+    p_combined: float
+    calibration_s: float
+
+    def scaled(self, factor):
+        """The same check in another unit (drift values times ``factor``)."""
+        from dataclasses import replace
+
+        f = abs(factor)
+        return replace(self, direct=self.direct * f, direct_low=self.direct_low * f, direct_high=self.direct_high * f,
+                       model_q05=self.model_q05 * f, model_q50=self.model_q50 * f, model_q95=self.model_q95 * f)
+
+    @property
+    def adequate(self):
+        return bool(not (self.p_combined < DRIFT_ALPHA))
+
+    @property
+    def worst_t_s(self):
+        return float(self.t_s[np.argmin(self.p_value)]) if self.t_s.size else float("nan")
+
+    def to_dict(self, unit=None, factor=1.0):
+        """JSON-ready (drift values times ``factor``, in ``unit``)."""
+        rows = [{"t_s": float(t), "direct": float(d * factor), "direct_q05": float(lo * factor),
+                 "direct_q95": float(hi * factor), "edf": float(e), "model_q05": float(a * factor),
+                 "model_q50": float(b * factor), "model_q95": float(c * factor), "p_value": float(p)}
+                for t, d, lo, hi, e, a, b, c, p in zip(self.t_s, self.direct, self.direct_low, self.direct_high,
+                                                       self.edf, self.model_q05, self.model_q50, self.model_q95,
+                                                       self.p_value)]
+        return {"adequate": self.adequate, "p_value": float(self.p_combined), "alpha": DRIFT_ALPHA,
+                "worst_t_s": self.worst_t_s, "calibration_s": float(self.calibration_s), "unit": unit,
+                "horizons": rows}
+
+
+def direct_contrasts(fit, quantity, bias_start, calibration_s):
+    """The fit's record contrasts when they answer these drift semantics, else ``None``."""
+    contrasts = getattr(getattr(fit, "allan", None), "contrasts", None)
+    if (contrasts is None or bias_start != "calibrated" or QUANTITY_ORDER.get(quantity) != 1
+            or contrasts.k.size == 0 or round(calibration_s * contrasts.rate_hz) != contrasts.n_cal):
+        return None
+    return contrasts
+
+
+def _reference_point(fit):
+    """``(NoiseModel, params)``: the median draw of the most probable model-averaged component."""
+    from ..noise import NoiseModel
+
+    parts = [(NoiseModel(c.terms, fit.model.dt), c.samples, c.probability) for c in fit.mixture]
+    if not parts:
+        parts = [(fit.model, fit.samples[:, :len(fit.model.parameter_names)], 1.0)]
+    model, samples, _ = max(parts, key=lambda p: p[2])
+    return model, model.unpack(np.median(samples, axis=0))
+
+
+def direct_edf(fit, contrasts, t):
+    """EDF of the record's direct estimate at outages ``t`` [s] under the fit's reference point:
+    exact at up to :data:`_EDF_PER_DECADE` outages per decade spanning ``t``, interpolated in log-log
+    between them (the EDF is smooth in the outage length)."""
+    model, params = _reference_point(fit)
+    k = np.round(np.asarray(t, dtype=float) * contrasts.rate_hz)
+    lo, hi = k.min(), k.max()
+    nodes = np.unique(np.round(np.geomspace(lo, hi, max(2, int(np.log10(hi / lo) * _EDF_PER_DECADE) + 2))))
+    if nodes.size >= k.size:
+        return contrast_edf(model, params, k, contrasts.n_cal, contrasts.n_samples)
+    edf = contrast_edf(model, params, nodes, contrasts.n_cal, contrasts.n_samples)
+    return np.exp(np.interp(np.log(k), np.log(nodes), np.log(edf)))
+
+
+def honest_quantiles(quantiles, total, mean_square, edf):
+    """The band's quantiles widened to contain the record's own interval (module docstring).
+
+    Parameters
+    ----------
+    quantiles : (n_q,) probabilities
+    total : (n_q, n_t) the model's quantiles of the 1-sigma drift
+    mean_square, edf : (n_t,) the direct estimate (``nan`` where not measured) and its EDF
+
+    Returns
+    -------
+    (n_q, n_t) ndarray
+    """
+    q = np.asarray(quantiles, dtype=float)[:, None]
+    nu = np.where(np.isfinite(mean_square), edf, 1.0)
+    direct = np.sqrt(nu * mean_square / special.gammainccinv(nu / 2.0, q) / 2.0)  # P(chi2_nu > c) = q
+    lower = np.where(np.isfinite(direct), np.minimum(total, direct), total)
+    upper = np.where(np.isfinite(direct), np.maximum(total, direct), total)
+    return np.where(q < 0.5, lower, np.where(q > 0.5, upper, total))
+
+
+def drift_check(fit, draws, contrasts, edf):
+    """:class:`DriftCheck` from drift draws (:func:`bayes_imu.drift.bands.drift_draws` output).
+
+    ``draws["t_s"]`` are the horizons; only those ``contrasts`` covers are checked.
+    """
+    t = np.asarray(draws["t_s"], dtype=float)
+    inside = contrasts.covers(t)
+    total = draws["total"][:, inside]
+    if total.shape[0] > _CHECK_DRAWS:
+        total = total[np.linspace(0, total.shape[0] - 1, _CHECK_DRAWS).astype(int)]
+    v_hat = contrasts.at(t[inside])
+    nu = np.asarray(edf, dtype=float)[inside]
+    u = np.mean(special.gammainc(nu / 2.0, nu * v_hat / (2.0 * total**2)), axis=0)
+    p = np.minimum(1.0, 2.0 * np.minimum(u, 1.0 - u))
+    order = np.sort(p)
+    simes = float(np.min(order * p.size / np.arange(1, p.size + 1))) if p.size else 1.0
+    band = np.quantile(draws["total"][:, inside], [0.05, 0.5, 0.95], axis=0)
+    low = np.sqrt(nu * v_hat / (2.0 * special.gammainccinv(nu / 2.0, 0.05)))
+    high = np.sqrt(nu * v_hat / (2.0 * special.gammainccinv(nu / 2.0, 0.95)))
+    return DriftCheck(t[inside], np.sqrt(v_hat), low, high, nu, *band, p, min(1.0, simes),
+                      contrasts.calibration_s)
+
+
+def unmeasured_reason(fit, bias_start, calibration_s):
+    """Why the record measures none of these drift semantics (``None`` where it does)."""
+    contrasts = getattr(getattr(fit, "allan", None), "contrasts", None)
+    if bias_start != "calibrated":
+        return f"the record measures calibrated outages only (bias start {bias_start!r})"
+    if contrasts is None:
+        return "the log's samples were not kept (an Allan table, or a log read out of core)"
+    if round(calibration_s * contrasts.rate_hz) != contrasts.n_cal:
+        return f"measured for a {contrasts.calibration_s:g} s calibration window, not {calibration_s:g} s"
+    if contrasts.k.size == 0:
+        return f"the log is shorter than twice the {calibration_s:g} s calibration window"
+    return None
+
+
+def record_drift_check(fit, t, *, bias_start="calibrated", calibration_s=60.0, models="averaged", rng=None,
+                       max_draws=_CHECK_DRAWS):
+    """The :class:`DriftCheck` of ``fit`` at horizons ``t`` [s] (attitude / velocity, order 1), or
+    ``None`` where the record measures nothing of these semantics (:func:`unmeasured_reason`);
+    ``max_draws`` posterior draws (a random subset, ``rng``)."""
+    from .bands import drift_bands
+
+    if unmeasured_reason(fit, bias_start, calibration_s) is not None:
+        return None
+    t = np.asarray(t, dtype=float)
+    inside = fit.allan.contrasts.covers(t)
+    if not inside.any():
+        return None
+    return drift_bands(fit, t[inside], quantity="attitude", bias_start=bias_start,
+                       calibration_s=calibration_s, models=models, rng=rng, max_draws=max_draws).check
