@@ -16,15 +16,13 @@ Exit status: 0 success, 2 a user error (one line on stderr, no traceback unless
 
 import argparse
 import contextlib
+import dataclasses
 import json
 import logging
 import os
 import re
-import shutil
 import signal
-import stat
 import sys
-import tempfile
 import textwrap
 import threading
 import time
@@ -38,7 +36,7 @@ from ..report.output import safe_folder_name, staged_file, staged_folder
 from ..report.plots import import_plotting, plot_allan_fit, plot_corner
 from ..report.worker import OutputWriter, background_default
 from .._progress import show_progress
-from .sources import SourceOptions, allan_results
+from ..allan.pipeline import LogSource, allan_from_source
 from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, SENSOR_QUANTITIES
 from ..drift.display import DISPLAY_CHOICES, display_unit
 from ..drift.closed_forms import DRIFT_BIAS_STARTS, QUANTITY_ORDER, SI_OUTPUT_UNITS, drift_sigma
@@ -260,77 +258,33 @@ def _build_parser():
 
 # ---------------------------------------------------------------------------- reading
 
-@contextlib.contextmanager
-def _readable_log(args):
-    """``-`` (standard input) or a named pipe: copied as it streams in to a temporary file of
-    the same name, read like any log (line numbers unchanged), removed afterwards. A pipe with
-    no writer is an error at once, not a wait."""
-    path = args.log
-    fifo = str(path) != "-" and path.exists() and stat.S_ISFIFO(path.stat().st_mode)
-    if str(path) != "-" and not fifo:
-        yield
-        return
-    folder = Path(tempfile.mkdtemp(prefix="bayes-imu-input-"))
-    spooled = folder / ("stdin.csv" if str(path) == "-" else path.name)
-    try:
-        with open(spooled, "wb") as target:
-            if fifo:
-                _copy_pipe(path, target)
-            else:
-                shutil.copyfileobj(sys.stdin.buffer, target, 1 << 20)
-        if spooled.stat().st_size == 0:
-            raise InputError(f"{path}: nothing was read from {'standard input' if not fifo else 'the pipe'}; "
-                             "expected a log")
-        args.log, args.log_label = spooled, str(path)
-        yield
-    finally:
-        args.log, args.log_label = path, None
-        shutil.rmtree(folder, ignore_errors=True)
+def _source(args, **changes):
+    """The :class:`LogSource` the parsed arguments ask for (absent options at their defaults)."""
+    names = {f.name for f in dataclasses.fields(LogSource)}
+    return dataclasses.replace(LogSource(**{k: v for k, v in vars(args).items() if k in names}), **changes)
 
 
-def _copy_pipe(path, target):
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # opening never blocks; a first read tells if a writer exists
-    try:
-        try:
-            first = os.read(fd, 1 << 16)
-        except BlockingIOError:  # a writer, nothing written yet: wait for it
-            first = None
-        if first == b"":
-            raise InputError(f"{path}: a named pipe with no writer; start the program that writes the log first")
-        os.set_blocking(fd, True)
-        if first:
-            target.write(first)
-        while chunk := os.read(fd, 1 << 20):
-            target.write(chunk)
-    finally:
-        os.close(fd)
-
-
-def _log_label(args):
-    return getattr(args, "log_label", None) or str(args.log or args.allan_table)
+def _inputs(*paths):
+    """The input files an output must not replace (standard input is none)."""
+    return [p for p in paths if p is not None and str(p) != "-"]
 
 
 # ---------------------------------------------------------------------------- commands
 
 def _cmd_allan(args):
-    with _readable_log(args):
-        return _allan(args)
-
-
-def _allan(args):
-    columns, results, unit, info = allan_results(SourceOptions.from_namespace(args), "allan", args.grid)
-    info["log"] = _log_label(args)
-    result = results[0]
+    source = _source(args)
+    read = allan_from_source(source, purpose="allan", grid=args.grid, progress=args.progress)
+    columns, result, unit, info = read.columns, read.results[0], read.unit, read.info
     from ..report.plots import plot_allan
 
-    with staged_folder(args.out, force=args.force, inputs=[args.log]) as tmp:
+    with staged_folder(args.out, force=args.force, inputs=_inputs(args.log)) as tmp:
         lines = ["tau,m,adev,adev_low,adev_high,edf,unit"]
         lines += [
             f"{t:.9g},{m},{a:.9g},{lo:.9g},{hi:.9g},{e:.6g},{unit}"
             for t, m, a, lo, hi, e in zip(result.tau, result.m, result.adev, result.adev_low, result.adev_high, result.edf)
         ]
         (tmp / "allan.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
-        plot_allan(result, tmp / "allan.png", label=f"{Path(_log_label(args)).name}: {columns[0]} [{unit}]", unit=unit)
+        plot_allan(result, tmp / "allan.png", label=f"{Path(source.shown).name}: {columns[0]} [{unit}]", unit=unit)
     _say(args, f"{result.tau.size} cluster sizes from {result.n_samples} samples ({info['action']}); "
                f"wrote {args.out / 'allan.csv'} and allan.png")
     return 0
@@ -345,8 +299,7 @@ def _cmd_fit(args):
         raise InputError("fit: give a log to fit (or --allan-table FILE); see bayes-imu fit --help")
     if args.samples is not None:
         raise InputError("--samples goes with --allan-table (a log's sample count is read from the log)")
-    with _readable_log(args):
-        return _fit(args)
+    return _fit(args)
 
 
 def _fit(args):
@@ -358,10 +311,10 @@ def _fit(args):
     # script, which without a __main__ guard would run the command again there)
     background = False if getattr(args, "in_batch", False) else background_default(automatic=_EXECUTABLE)
     with OutputWriter(background=background, warm=(import_plotting, warm_up_fit)) as writer:
-        columns, results, unit, info = allan_results(SourceOptions.from_namespace(args), "fit")
-        info["log"] = _log_label(args)
+        read = allan_from_source(_source(args), purpose="fit", progress=args.progress)
+        columns, results, unit, info = read.columns, read.results, read.unit, read.info
         terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
-        with staged_folder(args.out, force=args.force, inputs=[args.log or args.allan_table]) as tmp:
+        with staged_folder(args.out, force=args.force, inputs=_inputs(args.log, args.allan_table)) as tmp:
             if len(columns) == 1:
                 _fit_axis(args, results[0], unit, info, terms, columns[0], tmp, writer)
             else:
@@ -397,13 +350,13 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
     # the rest, and the other beside it once this process waits (report.worker). The corner plot of four or more
     # parameters takes longer than allan_fit.png (corner.png of 3, 5 and 7 parameters 0.14-0.16, 0.33 and 0.57-0.59 s,
     # allan_fit.png 0.17-0.20 s: scripts/study_speed_options.py --figures)
-    label = f"{Path(_log_label(args)).name}: {column}"
+    label = f"{Path(info['log']).name}: {column}"
     figures = [(plot_allan_fit, result, out / "allan_fit.png", {"label": label, "unit": unit, "rng": args.seed}),
                (plot_corner, result, out / "corner.png", {"unit": unit})]
     for plot, *arguments, options in (figures[::-1] if result.samples.shape[1] >= 4 else figures):
         writer.submit(plot, *arguments, **options)
     summary = result.summary(unit=unit)
-    summary.update(log=_log_label(args), column=column, unit=unit, input=info)
+    summary.update(log=info["log"], column=column, unit=unit, input=info)
     _say(args, f"model: {' + '.join(result.model.terms)}  (converged: {result.diagnostics['converged']})")
     note = _averaging_note(summary)
     if note:
@@ -599,10 +552,8 @@ def _cmd_fit_population(args):
         args.sensor = UNITS[args.units][0]
     allans, labels, infos, unit = [], [], [], None
     for path in args.logs:
-        one = argparse.Namespace(**{**vars(args), "log": path})
-        with _readable_log(one):
-            columns, results, unit, info = allan_results(SourceOptions.from_namespace(one), "fit")
-        info["log"] = _log_label(one)
+        read = allan_from_source(_source(args, log=path), purpose="fit", progress=args.progress)
+        columns, results, unit, info = read.columns, read.results, read.unit, read.info
         allans.append(results[0])
         infos.append(info)
         labels.append(job_name(Path(info["log"]), labels))
@@ -690,7 +641,10 @@ def _fleet_fit(job):
     with warnings.catch_warnings():
         warnings.simplefilter("default")
         warnings.showwarning = _one_line_warning
-        return _cmd_fit(args)
+        try:
+            return _cmd_fit(args)
+        except BayesIMUError as exc:  # in this command's terms, as the fit alone would say it
+            raise type(exc)(as_flags(str(exc))) from None
 
 
 def _read_sensor_json(path):
@@ -890,7 +844,16 @@ _FLAGS = ((re.compile(r"\bforce=True\b"), "--force"), (re.compile(r"\bscheduler=
                                                              "give --rate HZ or a --time-column"),
           (re.compile(r"^(out|scheduler)="), r"--\1 "), (re.compile(r"^columns="), "--column "),
           (re.compile(r"\bbut rate_hz is\b"), "but --rate is"), (re.compile(r"\(is rate_hz right\?\)"), "(is --rate right?)"),
-          (re.compile(r"\bgive a column\b"), "give --column"))
+          (re.compile(r"\bgive a column\b"), "give --column"),
+          # allan.pipeline's LogSource fields
+          (re.compile(r"^(column|units)="), r"--\1 "), (re.compile(r"\bbut sensor is\b"), "but --sensor is"),
+          (re.compile(r"\bleave out input='increments'"), "leave out --input"),
+          (re.compile(r"\binput='increments'"), "--input increments"),
+          (re.compile(r"\bneeds a (column|topic) \("), r"needs --\1 ("),
+          (re.compile(r"\bleave out column\b"), "leave out --column"),
+          (re.compile(r"\ban Allan table needs rate_hz\b"), "--allan-table needs --rate HZ"),
+          (re.compile(r"\ba time column is not available out of core; give rate_hz\b"),
+           "--time-column is not available out of core; give --rate HZ"))
 
 
 def as_flags(message):
