@@ -114,9 +114,9 @@ def _task(job):
     """A library task: succeed, fail as a user error, or fail internally, by the job's argument."""
     from bayes_imu.errors import InputError
 
-    if job.argv == ("user",):
+    if job.request == ("user",):
         raise InputError("bad input in job")
-    if job.argv == ("bug",):
+    if job.request == ("bug",):
         raise ZeroDivisionError("division by zero")
 
 
