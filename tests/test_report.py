@@ -262,3 +262,53 @@ def test_a_sensors_numbers_do_not_depend_on_the_sensors_beside_it(tmp_path, repo
     assert again.sensors[0].bounds != rep.sensors[0].bounds  # the first sensor did change
     assert again.sensors[1].bounds == rep.sensors[1].bounds
     assert again.sensors[1].max_outage_s == rep.sensors[1].max_outage_s
+
+
+SENSOR = """
+[[sensor]]
+name = "{name}"
+log = "{log}"
+column = "{column}"
+kind = "gyro"
+units = "rad/s"
+{extra}
+"""
+
+
+def _one_sensor_report(folder, name, **sensor):
+    """``build_report`` of a scene with one sensor (its stream: the first spawned from seed 3)."""
+    extra = "\n".join(f"{k} = {v!r}".replace("'", '"') for k, v in sensor.pop("extra", {}).items())
+    scene = ('[scene]\nname = "s"\noutages_s = [1, 5]\ncredibility = 0.9\nbias_start = "zero"\n'
+             + SENSOR.format(name=name, extra=extra, **sensor))
+    path = folder / f"{name}.toml"
+    path.write_text(scene)
+    return build_report(read_scene(path), rng=3).sensors[0]
+
+
+def test_scene_reads_time_stamps_and_gaps_as_fit_does(tmp_path, rng):
+    """A scene sensor with ``time_column`` and ``gaps = "longest"`` (no ``rate_hz``) gets the bounds of the same
+    sensor given the longest regular segment alone with ``rate_hz``: the stamps give the rate, the gap cuts the
+    log, as in ``bayes-imu fit`` (reference: the segment written out by this test, at the rate its stamps span:
+    (samples - 1) / (last stamp - first stamp), docs/cli.md "Input options")."""
+    y = 1e-3 * rng.standard_normal(3000)
+    t = np.arange(3000) / 200.0
+    t[1000:] += 0.5  # a 0.5 s gap: the longest regular segment is samples 1000-2999
+    (tmp_path / "stamped.csv").write_text("t,gx\n" + "".join(f"{ti:.3f},{float(v)!r}\n" for ti, v in zip(t, y)))
+    (tmp_path / "segment.csv").write_text("gx\n" + "".join(f"{float(v)!r}\n" for v in y[1000:]))
+    stamped = _one_sensor_report(tmp_path, "stamped", log="stamped.csv", column="gx",
+                                 extra={"time_column": "t", "gaps": "longest"})
+    written = [float(f"{ti:.3f}") for ti in t[1000:]]
+    rate = 1999 / (written[-1] - written[0])
+    plain = _one_sensor_report(tmp_path, "plain", log="segment.csv", column="gx", extra={"rate_hz": rate})
+    assert stamped.fit.allan.n_samples == 2000 and stamped.fit.allan.rate_hz == rate
+    assert stamped.bounds == plain.bounds  # the same samples at the same rate: the same numbers, bit for bit
+
+
+def test_scene_refuses_a_reading_key_it_does_not_know_and_a_log_without_a_rate(tmp_path):
+    (tmp_path / "log.csv").write_text("gx\n" + "0.1\n-0.1\n" * 40)
+    with pytest.raises(InputError, match=r"\[\[sensor\]\] #1: missing key 'rate_hz'"):
+        _one_sensor_report(tmp_path, "a", log="log.csv", column="gx")
+    with pytest.raises(InputError, match=r"gaps='skip': expected one of error, longest"):
+        _one_sensor_report(tmp_path, "b", log="log.csv", column="gx", extra={"rate_hz": 100.0, "gaps": "skip"})
+    with pytest.raises(InputError, match=r"units='rad/s': expected one of rad, deg for a gyro \(increments\)"):
+        _one_sensor_report(tmp_path, "c", log="log.csv", column="gx", extra={"rate_hz": 100.0, "input": "increments"})

@@ -83,8 +83,8 @@ _SCENE_HELP = """scene format (TOML; paths relative to the scene file):
   kind = "gyro"                    # gyro or accel
   log = "budget.csv"
   column = "gyro_x"                # or a list ["gyro_x", "gyro_y", "gyro_z"]: the worst axis counts
-  rate_hz = 100
-  units = "deg/s"
+  rate_hz = 100                    # or time_column = "t" (and gaps = "longest"); a ROS bag: topic
+  units = "deg/s"                  # input = "increments" with rad / deg / m/s; stream = true: out of core
 
   [[sensor]]                       # several units' logs: bounds for a NEW unit (population fit)
   name = "ADIS16405"
