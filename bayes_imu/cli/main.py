@@ -38,11 +38,11 @@ from ..report.writers import (FitRequest, axis_summary, batch_summary, drift_out
                               population_summary, write_allan_csv, write_drift, write_json, write_sigma_csv)
 from .._progress import show_progress
 from ..allan.pipeline import LogSource, allan_from_source
-from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, SENSOR_QUANTITIES
+from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES
 from ..drift.display import DISPLAY_CHOICES, display_unit
-from ..drift.closed_forms import DRIFT_BIAS_STARTS, QUANTITY_ORDER, SI_OUTPUT_UNITS, drift_sigma
+from ..drift.closed_forms import DRIFT_BIAS_STARTS, QUANTITY_ORDER, SI_OUTPUT_UNITS
 from ..errors import BayesIMUError, InputError
-from ..io.readers import INCREMENT_UNITS, SI_UNITS, UNITS, read_json_object
+from ..io.readers import INCREMENT_UNITS, UNITS
 from ..inference.archive import write_netcdf
 from ..inference.fit import DISCREPANCY_MODES, warm_up as warm_up_fit
 from ..inference.likelihood import LIKELIHOODS
@@ -447,6 +447,41 @@ def _cmd_kalibr(args):
     return 0
 
 
+def _fit_options(parser):
+    parser.add_argument("--seed", type=_seed_type, default=0,
+                        help="random seed, 0 to 2**32 - 1 (recorded in the outputs), default 0")
+    parser.add_argument("--terms", default="auto",
+                        help="'auto' (model selection, default) or a comma-separated list of terms: "
+                             + ", ".join(TERMS))
+    parser.add_argument("--likelihood", choices=LIKELIHOODS, default=LIKELIHOODS[0],
+                        help="Allan-variance likelihood: correlated (default: multivariate normal on log AVAR with "
+                             "the exact covariance of the estimates), copula (gamma margins, same correlation), "
+                             "independent (gamma per cluster size, ignores correlation: faster, overconfident)")
+    _drift_options(parser)
+    parser.add_argument("--models", choices=MODEL_CHOICES, default="averaged",
+                        help="drift from every candidate model weighted by its posterior probability (averaged, "
+                             "default) or from the selected model alone (selected)")
+    parser.add_argument("--discrepancy", choices=DISCREPANCY_MODES, default="auto",
+                        help="model-discrepancy term that widens the intervals of an inadequate fit: auto (added "
+                             "when the best model fails the goodness-of-fit check), never, always")
+
+
+def _drift_options(parser):
+    parser.add_argument("--sensor", choices=("gyro", "accel"),
+                        help="also write drift.csv / drift.png: attitude (gyro) or velocity and position (accel)")
+    parser.add_argument("--horizon", type=_positive_number, default=3600.0,
+                        help="longest drift time (s), default 3600")
+    parser.add_argument("--bias-start", choices=BIAS_STARTS, default="calibrated",
+                        help="bias at the start of the outage: calibrated (default: the mean of the --calibration "
+                             "seconds before it is removed), zero (the paper) or stationary (never estimated)")
+    parser.add_argument("--calibration", type=_positive_number, default=DEFAULT_CALIBRATION_S, metavar="S",
+                        help=f"calibration window of --bias-start calibrated (s), default {DEFAULT_CALIBRATION_S:g}")
+    parser.add_argument("--times", type=_times, metavar="T1,T2,...",
+                        help="write drift.csv rows at exactly these times (s) instead of a log grid up to --horizon")
+    parser.add_argument("--display-units", choices=DISPLAY_CHOICES, default="si",
+                        help="units of drift.csv / drift.png: si (rad, m/s, m; default) or deg (attitude in degrees)")
+
+
 def _cmd_fit_population(args):
     """Several logs (units) of one column: the hierarchical fit and the new-unit predictive."""
     from ..drift.bands import drift_bands, integrated_unit
@@ -538,57 +573,12 @@ def _fleet_fit(job):
             raise type(exc)(as_flags(str(exc))) from None
 
 
-def _read_sensor_json(path):
-    spec = read_json_object(path, "of sensor parameters")
-    unknown = sorted(set(spec) - set(_SENSOR_JSON_KEYS))
-    if unknown:
-        raise InputError(f"{path}: unknown key {unknown[0]!r}; expected keys: {', '.join(_SENSOR_JSON_KEYS)}")
-    for key in ("rate_hz", "kind", "noise_density"):
-        if key not in spec:
-            raise InputError(f"{path}: missing key {key!r}")
-    if spec["kind"] not in SENSOR_QUANTITIES:
-        raise InputError(f"{path}: kind={spec['kind']!r}: expected 'gyro' or 'accel'")
-    si = SI_UNITS[spec["kind"]]
-    units = spec.get("units", si)
-    if units not in UNITS or UNITS[units][0] != spec["kind"]:
-        allowed = [u for u, (k, _) in UNITS.items() if k == spec["kind"]]
-        raise InputError(f"{path}: units={units!r}: expected one of {', '.join(allowed)} for a {spec['kind']}")
-    return spec
-
-
-_SENSOR_JSON_KEYS = ("name", "kind", "units", "rate_hz", "noise_density", "bias_variance", "time_constant",
-                     "random_walk")
-
-
-def _positive_float(path, spec, key, default=None):
-    value = spec.get(key, default)
-    if isinstance(value, bool) or (key in spec and not isinstance(value, (int, float))):
-        raise InputError(f"{path}: {key}={value!r}: expected a number")
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{path}: {key}={value!r}: expected a number") from None
-    if not value > 0 and not (value == 0 and default is not None):
-        raise InputError(f"{path}: {key}={value!r}: expected a positive number")
-    return value
-
-
 def _cmd_drift(args):
-    spec = _read_sensor_json(args.sensor)
-    dt = 1.0 / _positive_float(args.sensor, spec, "rate_hz")
-    if not args.horizon > dt:
-        raise InputError(f"--horizon={args.horizon!r}: expected a time (s) longer than one sample ({dt} s)")
-    t = np.unique(np.round(np.geomspace(dt, args.horizon, 200) / dt)) * dt
-    k = UNITS[spec.get("units", SI_UNITS[spec["kind"]])][1]  # the values' unit in SI
-    quantities = SENSOR_QUANTITIES[spec["kind"]]
-    results = [drift_sigma(t, quantity=quantity, dt=dt,
-                           noise_density=k * _positive_float(args.sensor, spec, "noise_density"),
-                           bias_variance=k * k * _positive_float(args.sensor, spec, "bias_variance", 0.0),
-                           time_constant=_positive_float(args.sensor, spec, "time_constant", np.inf),
-                           random_walk=k * _positive_float(args.sensor, spec, "random_walk", 0.0),
-                           bias_start=args.bias_start)
-               for quantity in quantities]
-    units, factors = zip(*(display_unit(SI_OUTPUT_UNITS[q], args.display_units) for q in quantities))
+    from ..drift.known import known_drift, read_sensor_json
+
+    spec = read_sensor_json(args.sensor)
+    results = known_drift(args.sensor, spec, horizon_s=args.horizon, bias_start=args.bias_start)
+    units, factors = zip(*(display_unit(SI_OUTPUT_UNITS[r.quantity], args.display_units) for r in results))
     with staged_folder(args.out, force=args.force, inputs=[args.sensor]) as tmp:
         write_sigma_csv(results, units, factors, tmp / "drift.csv")
     for result, unit, f in zip(results, units, factors):
@@ -596,41 +586,6 @@ def _cmd_drift(args):
                    f"{unit} (order {QUANTITY_ORDER[result.quantity]})")
     _say(args, f"wrote {args.out / 'drift.csv'}")
     return 0
-
-
-def _fit_options(parser):
-    parser.add_argument("--seed", type=_seed_type, default=0,
-                        help="random seed, 0 to 2**32 - 1 (recorded in the outputs), default 0")
-    parser.add_argument("--terms", default="auto",
-                        help="'auto' (model selection, default) or a comma-separated list of terms: "
-                             + ", ".join(TERMS))
-    parser.add_argument("--likelihood", choices=LIKELIHOODS, default=LIKELIHOODS[0],
-                        help="Allan-variance likelihood: correlated (default: multivariate normal on log AVAR with "
-                             "the exact covariance of the estimates), copula (gamma margins, same correlation), "
-                             "independent (gamma per cluster size, ignores correlation: faster, overconfident)")
-    _drift_options(parser)
-    parser.add_argument("--models", choices=MODEL_CHOICES, default="averaged",
-                        help="drift from every candidate model weighted by its posterior probability (averaged, "
-                             "default) or from the selected model alone (selected)")
-    parser.add_argument("--discrepancy", choices=DISCREPANCY_MODES, default="auto",
-                        help="model-discrepancy term that widens the intervals of an inadequate fit: auto (added "
-                             "when the best model fails the goodness-of-fit check), never, always")
-
-
-def _drift_options(parser):
-    parser.add_argument("--sensor", choices=("gyro", "accel"),
-                        help="also write drift.csv / drift.png: attitude (gyro) or velocity and position (accel)")
-    parser.add_argument("--horizon", type=_positive_number, default=3600.0,
-                        help="longest drift time (s), default 3600")
-    parser.add_argument("--bias-start", choices=BIAS_STARTS, default="calibrated",
-                        help="bias at the start of the outage: calibrated (default: the mean of the --calibration "
-                             "seconds before it is removed), zero (the paper) or stationary (never estimated)")
-    parser.add_argument("--calibration", type=_positive_number, default=DEFAULT_CALIBRATION_S, metavar="S",
-                        help=f"calibration window of --bias-start calibrated (s), default {DEFAULT_CALIBRATION_S:g}")
-    parser.add_argument("--times", type=_times, metavar="T1,T2,...",
-                        help="write drift.csv rows at exactly these times (s) instead of a log grid up to --horizon")
-    parser.add_argument("--display-units", choices=DISPLAY_CHOICES, default="si",
-                        help="units of drift.csv / drift.png: si (rad, m/s, m; default) or deg (attitude in degrees)")
 
 
 # ---------------------------------------------------------------------------- entry point
@@ -762,7 +717,7 @@ _FLAGS = ((re.compile(r"\bforce=True\b"), "--force"), (re.compile(r"\bscheduler=
                                                              "give --rate HZ or a --time-column"),
           (re.compile(r"^(out|scheduler)="), r"--\1 "), (re.compile(r"^columns="), "--column "),
           (re.compile(r"\bbut rate_hz is\b"), "but --rate is"), (re.compile(r"\(is rate_hz right\?\)"), "(is --rate right?)"),
-          (re.compile(r"\bgive a column\b"), "give --column"),
+          (re.compile(r"\bgive a column\b"), "give --column"), (re.compile(r"^horizon_s="), "--horizon="),
           # allan.pipeline's LogSource fields
           (re.compile(r"^(column|units)="), r"--\1 "), (re.compile(r"\bbut sensor is\b"), "but --sensor is"),
           (re.compile(r"\bleave out input='increments'"), "leave out --input"),
