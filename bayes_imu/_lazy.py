@@ -5,11 +5,13 @@
 * :func:`import_without`: a third-party library imported with one of *its* optional imports marked
   absent, because that import costs more than the work the command needs the library for, and
   given back a stand-in that imports it when first called. Two uses: emcee without
-  ``scipy.stats`` (its KDE move, unused here; about 0.3 s, :func:`bayes_imu.inference.sampling.import_emcee`)
-  and corner without ArviZ (its ``InferenceData`` entry point; ArviZ and xarray about 1 s,
-  :func:`bayes_imu.report.plots.import_corner`). Each relies on how the library is written, so each is
-  pinned: :data:`CHECKED_VERSIONS` lists the versions it was checked on (``tests/test_lazy.py`` fails,
-  naming the installed version, on any other), and every run checks the structure it relies on and
+  ``scipy.stats`` (its KDE move, unused here; about 0.3 s,
+  :func:`bayes_imu.inference.sampling.import_emcee`) and corner without ArviZ (its
+  ``InferenceData`` entry point; ArviZ and xarray about 1 s,
+  :func:`bayes_imu.report.plots.import_corner`). Each relies on how the library is written, so
+  each is pinned: :data:`CHECKED_VERSIONS` lists the versions it was checked on
+  (``tests/test_lazy.py`` fails, naming the installed version, on any other), and every run
+  checks the structure it relies on and
   raises :class:`ImportError` naming the library and its version where that changed, never leaving
   a library half-working. ``BAYES_IMU_PLAIN_IMPORTS=1`` turns the trick off (plain imports).
 """
@@ -61,7 +63,11 @@ def import_without(name, absent, *, owner, attribute, stand_in, prepare=None):
     """
     if name in sys.modules:
         return sys.modules[name]
-    if absent in sys.modules or threading.active_count() > 1 or os.environ.get(PLAIN_IMPORTS_ENV) == "1":
+    if (
+        absent in sys.modules
+        or threading.active_count() > 1
+        or os.environ.get(PLAIN_IMPORTS_ENV) == "1"
+    ):
         if prepare is not None:
             prepare()
         return importlib.import_module(name)
@@ -71,12 +77,16 @@ def import_without(name, absent, *, owner, attribute, stand_in, prepare=None):
     except ImportError as exc:
         for loaded in [m for m in sys.modules if m == name or m.startswith(name + ".")]:
             del sys.modules[loaded]  # nothing half-imported stays behind
-        raise ImportError(_changed(name, absent, f"it no longer imports without {absent} ({exc})")) from None
+        raise ImportError(
+            _changed(name, absent, f"it no longer imports without {absent} ({exc})")
+        ) from None
     finally:
         del sys.modules[absent]
     holder = sys.modules.get(owner)
     if holder is None or getattr(holder, attribute, False) is not None:
-        raise ImportError(_changed(name, absent, f"{owner}.{attribute} is not None without {absent}"))
+        raise ImportError(
+            _changed(name, absent, f"{owner}.{attribute} is not None without {absent}")
+        )
     setattr(holder, attribute, stand_in)
     return module
 
@@ -89,6 +99,8 @@ def _changed(name, absent, what):
     except PackageNotFoundError:
         installed = "(version unknown)"
     checked = ", ".join(CHECKED_VERSIONS.get(name, ()))
-    return (f"{name} {installed}: {what}; bayes_imu imports {name} without {absent} to save import time, "
-            f"which was checked on {name} {checked} (bayes_imu/_lazy.py): set {PLAIN_IMPORTS_ENV}=1 to import "
-            "it plainly, and please report it")
+    return (
+        f"{name} {installed}: {what}; bayes_imu imports {name} without {absent} to save import "
+        f"time, which was checked on {name} {checked} (bayes_imu/_lazy.py): set "
+        f"{PLAIN_IMPORTS_ENV}=1 to import it plainly, and please report it"
+    )

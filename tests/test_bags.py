@@ -122,16 +122,17 @@ def test_bag_errors_are_one_line(tmp_path, samples, capsys):
 
 
 def test_scene_reads_a_bag_as_fit_does(tmp_path, samples):
-    """A scene sensor read from a ROS bag (``topic``, no ``rate_hz``: the header stamps give it) gets the bounds
-    of the same samples from a CSV at the rate the stamps span ((n - 1) / (last - first), integer nanoseconds):
-    the same numbers, bit for bit."""
+    """A scene sensor read from a ROS bag (``topic``, no ``rate_hz``: the header stamps give it)
+    gets the bounds of the same samples from a CSV at the rate the stamps span ((n - 1) / (last -
+    first), integer nanoseconds): the same numbers, bit for bit."""
     from bayes_imu.report.scene import build_report, read_scene
 
     gyro, accel, stamps = samples
     write_bag(tmp_path / "imu.bag", 1, gyro, accel, stamps)
     (tmp_path / "imu.csv").write_text("gz\n" + "".join(f"{float(g)!r}\n" for g in gyro[:, 2]))
     rate = (len(stamps) - 1) / (int(stamps[-1] - stamps[0]) * 1e-9)
-    head = '[scene]\nname = "s"\noutages_s = [1, 5]\ncredibility = 0.9\n[[sensor]]\nname = "imu"\nkind = "gyro"\n'
+    head = ('[scene]\nname = "s"\noutages_s = [1, 5]\ncredibility = 0.9\n'
+            '[[sensor]]\nname = "imu"\nkind = "gyro"\n')
     bag = tmp_path / "bag.toml"
     bag.write_text(head + 'log = "imu.bag"\ntopic = "/imu0"\ncolumn = "gyro_z"\nunits = "rad/s"\n')
     csv = tmp_path / "csv.toml"

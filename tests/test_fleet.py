@@ -156,8 +156,9 @@ def _request_fields():
 
 
 def test_every_fit_option_is_a_field_of_the_request_a_batch_hands_each_log():
-    """The parser's options against the request's fields, both ways, so that a new ``fit`` option cannot be
-    dropped on the way to a batch's logs (as a hand-kept list of forwarded options once could)."""
+    """The parser's options against the request's fields, both ways, so that a new ``fit`` option
+    cannot be dropped on the way to a batch's logs (as a hand-kept list of forwarded options
+    could)."""
     fit = {a.dest for a in _subparser("fit")._actions} - _RUN_OPTIONS - {"log"}
     batch = {a.dest for a in _subparser("fit-batch")._actions} - _RUN_OPTIONS - _BATCH_ONLY
     assert fit == _request_fields()
@@ -169,7 +170,8 @@ def _non_default(action):
     if action.nargs == 0:
         return [action.option_strings[0]]
     if action.choices:
-        return [action.option_strings[0], next(str(c) for c in action.choices if c != action.default)]
+        other = next(str(c) for c in action.choices if c != action.default)
+        return [action.option_strings[0], other]
     for text in ("7", "0.5"):
         try:
             value = action.type(text) if action.type else text
@@ -181,8 +183,9 @@ def _non_default(action):
 
 
 def test_every_fit_option_reaches_a_batch_job_as_fit_would_read_it(tmp_path, monkeypatch):
-    """fit-batch with every option set away from its default: each job's request is, field for field, the
-    request ``fit`` makes of the same log and options, and every option's value is in it."""
+    """fit-batch with every option set away from its default: each job's request is, field for
+    field, the request ``fit`` makes of the same log and options, and every option's value is in
+    it."""
     import dataclasses
 
     import bayes_imu.report.fleet as fleet
@@ -202,7 +205,8 @@ def test_every_fit_option_reaches_a_batch_job_as_fit_would_read_it(tmp_path, mon
 
     monkeypatch.setattr(fleet, "run_batch", run_batch)
     logs = [tmp_path / "a.csv", tmp_path / "b.csv"]
-    assert main(["fit-batch", *map(str, logs), *words, "--serial", "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    argv = ["fit-batch", *map(str, logs), *words, "--serial", "--out", str(tmp_path / "out")]
+    assert main(argv + ["--quiet"]) == 2
     assert [j.request.source.log for j in jobs] == logs
     fit_args = _subparser("fit").parse_args([str(logs[0]), *words, "--out", str(tmp_path / "fit")])
     assert jobs[0].request == _fit_request(fit_args)
@@ -212,16 +216,18 @@ def test_every_fit_option_reaches_a_batch_job_as_fit_would_read_it(tmp_path, mon
     for action in actions:
         assert getattr(defaults, action.dest) != getattr(fit_args, action.dest), action.dest
         given = getattr(fit_args, action.dest)
-        assert request[action.dest] == (tuple(given.split(",")) if action.dest == "terms" else given), action.dest
+        expected = tuple(given.split(",")) if action.dest == "terms" else given
+        assert request[action.dest] == expected, action.dest
 
 
 def test_logs_whose_names_look_like_options_are_fitted_as_logs(tmp_path, monkeypatch, rng):
-    """``./-unit2.csv`` and ``./--terms=white.csv`` are logs: an argv rebuilt from their paths (``-unit2.csv``,
-    ``--terms=white.csv``) read them as options, and both fits failed."""
+    """``./-unit2.csv`` and ``./--terms=white.csv`` are logs: an argv rebuilt from their paths
+    (``-unit2.csv``, ``--terms=white.csv``) read them as options, and both fits failed."""
     monkeypatch.chdir(tmp_path)
     names = ["-unit2.csv", "--terms=white.csv"]
     for name in names:
-        (tmp_path / name).write_text("gx\n" + "\n".join(f"{v:.8f}" for v in 0.01 * rng.standard_normal(2048)) + "\n")
+        values = 0.01 * rng.standard_normal(2048)
+        (tmp_path / name).write_text("gx\n" + "".join(f"{v:.8f}\n" for v in values))
     status = main(["fit-batch", *(f"./{n}" for n in names), "--column", "gx", "--rate", "100",
                    "--terms", "random_walk,white", "--serial", "--out", "out", "--quiet"])
     batch = json.loads((tmp_path / "out" / "batch.json").read_text())

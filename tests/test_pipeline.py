@@ -1,4 +1,5 @@
-"""allan.pipeline: a LogSource read into Allan variances, the one path every command and scene report takes.
+"""allan.pipeline: a LogSource read into Allan variances, the one path every command and scene
+report takes.
 
 References: the Allan variance of the samples this test writes, computed from the numpy array itself
 (``allan_variance``), and the SI factor written out here (pi / 180 for deg/s)."""
@@ -18,7 +19,10 @@ from bayes_imu.errors import InputError
 def log(tmp_path, rng):
     y = 0.1 * rng.standard_normal((512, 2))
     path = tmp_path / "imu.csv"
-    path.write_text("t,gx,gy\n" + "".join(f"{k / 50:.2f},{float(a)!r},{float(b)!r}\n" for k, (a, b) in enumerate(y)))
+    path.write_text(
+        "t,gx,gy\n"
+        + "".join(f"{k / 50:.2f},{float(a)!r},{float(b)!r}\n" for k, (a, b) in enumerate(y))
+    )
     return path, y
 
 
@@ -31,20 +35,27 @@ def test_every_column_in_si_with_the_rate_of_the_stamps(log):
     for j, result in enumerate(read.results):
         plain = allan_variance(y[:, j], rate_hz=rate)
         assert result.rate_hz == rate
-        np.testing.assert_allclose(result.avar, plain.avar * (math.pi / 180) ** 2, rtol=1e-14, atol=0)
+        np.testing.assert_allclose(
+            result.avar, plain.avar * (math.pi / 180) ** 2, rtol=1e-14, atol=0
+        )
 
 
 def test_a_label_names_the_log_in_what_was_read(log):
     path, _ = log
-    read = allan_from_source(LogSource(log=path, column="gx", rate=50.0, label="from the pipe"), purpose="allan")
+    read = allan_from_source(
+        LogSource(log=path, column="gx", rate=50.0, label="from the pipe"), purpose="allan"
+    )
     assert read.info["log"] == "from the pipe" and read.info["rate_source"] == "--rate"
 
 
-@pytest.mark.parametrize("changes, message", [
-    ({"rate": None}, r"no sample rate: give rate_hz or a time column"),
-    ({"column": "gx,gy"}, r"^column='gx,gy': allan takes one column"),
-    ({"units": "rad"}, r"^units=rad is an increment unit: add input='increments'"),
-])
+@pytest.mark.parametrize(
+    "changes, message",
+    [
+        ({"rate": None}, r"no sample rate: give rate_hz or a time column"),
+        ({"column": "gx,gy"}, r"^column='gx,gy': allan takes one column"),
+        ({"units": "rad"}, r"^units=rad is an increment unit: add input='increments'"),
+    ],
+)
 def test_errors_name_the_request_s_parameters(log, changes, message):
     path, _ = log
     source = LogSource(log=path, column="gx", rate=50.0)

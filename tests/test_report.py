@@ -286,29 +286,35 @@ def _one_sensor_report(folder, name, **sensor):
 
 
 def test_scene_reads_time_stamps_and_gaps_as_fit_does(tmp_path, rng):
-    """A scene sensor with ``time_column`` and ``gaps = "longest"`` (no ``rate_hz``) gets the bounds of the same
-    sensor given the longest regular segment alone with ``rate_hz``: the stamps give the rate, the gap cuts the
-    log, as in ``bayes-imu fit`` (reference: the segment written out by this test, at the rate its stamps span:
-    (samples - 1) / (last stamp - first stamp), docs/cli.md "Input options")."""
+    """A scene sensor with ``time_column`` and ``gaps = "longest"`` (no ``rate_hz``) gets the bounds
+    of the same sensor given the longest regular segment alone with ``rate_hz``: the stamps give the
+    rate, the gap cuts the log, as in ``bayes-imu fit`` (reference: the segment written out by this
+    test, at the rate its stamps span: (samples - 1) / (last stamp - first stamp), docs/cli.md
+    "Input options")."""
     y = 1e-3 * rng.standard_normal(3000)
     t = np.arange(3000) / 200.0
     t[1000:] += 0.5  # a 0.5 s gap: the longest regular segment is samples 1000-2999
-    (tmp_path / "stamped.csv").write_text("t,gx\n" + "".join(f"{ti:.3f},{float(v)!r}\n" for ti, v in zip(t, y)))
+    rows = "".join(f"{ti:.3f},{float(v)!r}\n" for ti, v in zip(t, y))
+    (tmp_path / "stamped.csv").write_text("t,gx\n" + rows)
     (tmp_path / "segment.csv").write_text("gx\n" + "".join(f"{float(v)!r}\n" for v in y[1000:]))
     stamped = _one_sensor_report(tmp_path, "stamped", log="stamped.csv", column="gx",
                                  extra={"time_column": "t", "gaps": "longest"})
     written = [float(f"{ti:.3f}") for ti in t[1000:]]
     rate = 1999 / (written[-1] - written[0])
-    plain = _one_sensor_report(tmp_path, "plain", log="segment.csv", column="gx", extra={"rate_hz": rate})
+    plain = _one_sensor_report(tmp_path, "plain", log="segment.csv", column="gx",
+                               extra={"rate_hz": rate})
     assert stamped.fit.allan.n_samples == 2000 and stamped.fit.allan.rate_hz == rate
-    assert stamped.bounds == plain.bounds  # the same samples at the same rate: the same numbers, bit for bit
+    assert stamped.bounds == plain.bounds  # the same samples at the same rate: bit for bit
 
 
-def test_scene_refuses_a_reading_key_it_does_not_know_and_a_log_without_a_rate(tmp_path):
+@pytest.mark.parametrize("extra, message", [
+    ({}, r"\[\[sensor\]\] #1: missing key 'rate_hz'"),
+    ({"rate_hz": 100.0, "gaps": "skip"}, r"gaps='skip': expected one of error, longest"),
+    ({"rate_hz": 100.0, "input": "increments"},
+     r"units='rad/s': expected one of rad, deg for a gyro \(increments\)"),
+    ({"rate_hz": 100.0, "stream": "yes"}, r"stream='yes': expected true or false"),
+])
+def test_scene_reading_keys_are_checked(tmp_path, extra, message):
     (tmp_path / "log.csv").write_text("gx\n" + "0.1\n-0.1\n" * 40)
-    with pytest.raises(InputError, match=r"\[\[sensor\]\] #1: missing key 'rate_hz'"):
-        _one_sensor_report(tmp_path, "a", log="log.csv", column="gx")
-    with pytest.raises(InputError, match=r"gaps='skip': expected one of error, longest"):
-        _one_sensor_report(tmp_path, "b", log="log.csv", column="gx", extra={"rate_hz": 100.0, "gaps": "skip"})
-    with pytest.raises(InputError, match=r"units='rad/s': expected one of rad, deg for a gyro \(increments\)"):
-        _one_sensor_report(tmp_path, "c", log="log.csv", column="gx", extra={"rate_hz": 100.0, "input": "increments"})
+    with pytest.raises(InputError, match=message):
+        _one_sensor_report(tmp_path, "a", log="log.csv", column="gx", extra=extra)

@@ -1,4 +1,5 @@
-"""One path from a log to its Allan variances: what ``fit``, ``allan``, batches, fleets and scenes read.
+"""One path from a log to its Allan variances: what ``fit``, ``allan``, batches, fleets and scenes
+read.
 
 A :class:`LogSource` is a frozen request: the log (a file, ``-`` for standard input, a named
 pipe, a ROS bag, a binary or text log larger than memory), its column(s), the rate or the time
@@ -39,7 +40,7 @@ MIN_SAMPLES = {"allan": 4, "fit": 32}
 
 @dataclasses.dataclass(frozen=True)
 class LogSource:
-    """Where the samples come from and how to read them (the input options of ``allan`` and ``fit``).
+    """Where the samples come from and how to read them (the input options of ``allan``, ``fit``).
 
     Attributes
     ----------
@@ -143,12 +144,16 @@ def allan_from_source(source, *, purpose="fit", grid="octave", progress=False):
     increments = source.input == "increments"
     table = UNITS if not increments else INCREMENT_UNITS
     if source.units is not None and source.units not in table:
-        what = ("an increment unit: add input='increments'" if not increments
-                else f"a rate unit; increments (input='increments') take {', '.join(INCREMENT_UNITS)}")
+        what = (
+            "an increment unit: add input='increments'"
+            if not increments
+            else f"a rate unit; increments (input='increments') take {', '.join(INCREMENT_UNITS)}"
+        )
         raise InputError(f"units={source.units} is {what}")
     if source.units is not None and source.sensor and source.sensor != table[source.units][0]:
-        raise InputError(f"units={source.units} is a {table[source.units][0]} unit but sensor is "
-                         f"{source.sensor}")
+        raise InputError(
+            f"units={source.units} is a {table[source.units][0]} unit but sensor is {source.sensor}"
+        )
     if source.allan_table is not None:
         return _table(source)
     with _spooled(source) as spooled:
@@ -161,24 +166,32 @@ def _allan(opts, purpose, grid, progress, increments, table):
     bag = is_bag(opts.log)
     if opts.rate is None and opts.time_column is None and not bag:
         raise InputError(f"{opts.log}: no sample rate: give rate_hz or a time column")
-    factor, unit = ((1.0, "u") if opts.units is None
-                    else (table[opts.units][1], SI_UNITS[table[opts.units][0]]))
+    factor, unit = (
+        (1.0, "u") if opts.units is None else (table[opts.units][1], SI_UNITS[table[opts.units][0]])
+    )
     if increments and bag:
-        raise InputError(f"{opts.log}: a ROS bag's sensor_msgs/Imu holds rates, not increments; "
-                         "leave out input='increments'")
+        raise InputError(
+            f"{opts.log}: a ROS bag's sensor_msgs/Imu holds rates, not increments; "
+            "leave out input='increments'"
+        )
     if bag and opts.units is None:  # sensor_msgs/Imu is SI by definition
         kinds = {c.strip().split("_")[0] for c in (opts.column or "").split(",")}
         unit = SI_UNITS.get(kinds.pop()) if len(kinds) == 1 else None
         if unit is None:
-            raise InputError(f"column={opts.column!r}: fit gyro and accelerometer fields of a bag "
-                             "separately")
+            raise InputError(
+                f"column={opts.column!r}: fit gyro and accelerometer fields of a bag separately"
+            )
     if not bag and (opts.stream or opts.log.suffix.lower() in BINARY_SUFFIXES):
         columns, results, info = _streamed(opts, purpose, grid, progress)
     else:
         columns, values, rate, info = _read(opts, purpose, progress)
-        results = [allan_variance(values[:, j], rate_hz=rate, m=grid, progress=progress)
-                   for j in range(values.shape[1])]
-    if increments:  # increment / dt = mean rate over the sample: every Allan variance times (factor * rate)^2
+        results = [
+            allan_variance(values[:, j], rate_hz=rate, m=grid, progress=progress)
+            for j in range(values.shape[1])
+        ]
+    if (
+        increments
+    ):  # increment / dt = mean rate over the sample: every Allan variance times (factor * rate)^2
         factor *= results[0].rate_hz
         unit = unit if opts.units is not None else "u/s"
         info["input"] = "increments (divided by the sample period)"
@@ -190,14 +203,21 @@ def _columns(opts, purpose):
     if opts.column is None:
         try:
             names = sniff_file(opts.log)["names"]
-            shown = ("; its columns: " + ", ".join(repr(n) for n in names[:12])
-                     + (", ..." if len(names) > 12 else ""))
+            shown = (
+                "; its columns: "
+                + ", ".join(repr(n) for n in names[:12])
+                + (", ..." if len(names) > 12 else "")
+            )
         except InputError:
             shown = ""
-        raise InputError(f"{opts.log}: a text log needs a column (a header name or 0-based index){shown}")
+        raise InputError(
+            f"{opts.log}: a text log needs a column (a header name or 0-based index){shown}"
+        )
     columns = [c.strip() for c in opts.column.split(",")]
     if any(not c for c in columns):
-        raise InputError(f"column={opts.column!r}: expected column names or indices separated by commas")
+        raise InputError(
+            f"column={opts.column!r}: expected column names or indices separated by commas"
+        )
     if purpose == "allan" and len(columns) > 1:
         raise InputError(f"column={opts.column!r}: allan takes one column (fit takes several)")
     return columns
@@ -208,17 +228,31 @@ def _table(opts):
     from .table import read_allan_table
 
     if opts.rate is None:
-        raise InputError(f"{opts.allan_table}: an Allan table needs rate_hz (the rate of the log the "
-                         "table came from)")
+        raise InputError(
+            f"{opts.allan_table}: an Allan table needs rate_hz (the rate of the log the "
+            "table came from)"
+        )
     if opts.input == "increments":
-        raise InputError("input='increments' does not apply to an Allan table (give it in rate units)")
-    result, assumption = read_allan_table(opts.allan_table, rate_hz=opts.rate, n_samples=opts.samples)
-    factor, unit = ((1.0, "u") if opts.units is None
-                    else (UNITS[opts.units][1], SI_UNITS[UNITS[opts.units][0]]))
-    info = {"allan_table": str(opts.allan_table), "rate_hz": result.rate_hz, "rate_source": "--rate",
-            "samples_used": result.n_samples, "intervals": assumption,
-            "action": "Allan deviation table fitted", "input_units": opts.units or "unspecified (u)",
-            "unit": unit, "log": opts.shown}
+        raise InputError(
+            "input='increments' does not apply to an Allan table (give it in rate units)"
+        )
+    result, assumption = read_allan_table(
+        opts.allan_table, rate_hz=opts.rate, n_samples=opts.samples
+    )
+    factor, unit = (
+        (1.0, "u") if opts.units is None else (UNITS[opts.units][1], SI_UNITS[UNITS[opts.units][0]])
+    )
+    info = {
+        "allan_table": str(opts.allan_table),
+        "rate_hz": result.rate_hz,
+        "rate_source": "--rate",
+        "samples_used": result.n_samples,
+        "intervals": assumption,
+        "action": "Allan deviation table fitted",
+        "input_units": opts.units or "unspecified (u)",
+        "unit": unit,
+        "log": opts.shown,
+    }
     return SourceAllan(("adev",), (result.scaled(factor),), unit, info)
 
 
@@ -231,11 +265,22 @@ def _streamed(opts, purpose, grid, progress):
     if binary and opts.column is not None:
         raise InputError(f"{opts.log}: a binary log has one channel; leave out column")
     columns = ["0"] if binary else _columns(opts, purpose)
-    results = [allan_variance_file(opts.log, rate_hz=opts.rate, column=None if binary else c, m=grid,
-                                   progress=progress) for c in columns]
+    results = [
+        allan_variance_file(
+            opts.log, rate_hz=opts.rate, column=None if binary else c, m=grid, progress=progress
+        )
+        for c in columns
+    ]
     _require_samples(opts, results[0].n_samples, purpose)
-    info = {"log": str(opts.log), "columns": columns, "read": "out of core", "rate_hz": results[0].rate_hz,
-            "rate_source": "--rate", "samples_used": results[0].n_samples, "action": "all samples used"}
+    info = {
+        "log": str(opts.log),
+        "columns": columns,
+        "read": "out of core",
+        "rate_hz": results[0].rate_hz,
+        "rate_source": "--rate",
+        "samples_used": results[0].n_samples,
+        "action": "all samples used",
+    }
     return columns, results, info
 
 
@@ -248,25 +293,43 @@ def _read(opts, purpose, progress):
         data = read_imu_bag(opts.log, topic=opts.topic, columns=columns)
         where, what = f"{opts.log}: {opts.topic} header stamps", "message"
     else:
-        data = read_columns(opts.log, columns=columns, time_column=opts.time_column, progress=progress)
+        data = read_columns(
+            opts.log, columns=columns, time_column=opts.time_column, progress=progress
+        )
         where, what = f"{opts.log}: column {opts.time_column!r}", "line"
-    timebase = check_time(data.time_s, rate_hz=opts.rate, gaps=opts.gaps, lines=data.lines, where=where,
-                          n_samples=data.values.shape[0], what=what)
-    values = data.values[timebase.start:timebase.stop]
+    timebase = check_time(
+        data.time_s,
+        rate_hz=opts.rate,
+        gaps=opts.gaps,
+        lines=data.lines,
+        where=where,
+        n_samples=data.values.shape[0],
+        what=what,
+    )
+    values = data.values[timebase.start : timebase.stop]
     _require_samples(opts, values.shape[0], purpose)
-    info = {"log": str(opts.log), "columns": list(data.columns), "delimiter": data.delimiter,
-            "header": data.header, "read": "in memory", **timebase.to_json()}
+    info = {
+        "log": str(opts.log),
+        "columns": list(data.columns),
+        "delimiter": data.delimiter,
+        "header": data.header,
+        "read": "in memory",
+        **timebase.to_json(),
+    }
     return data.columns, values, timebase.rate_hz, info
 
 
 def _require_samples(opts, n, purpose):
     needed = MIN_SAMPLES[purpose]
     if n < needed:
-        raise InputError(f"{opts.log}: {n} samples; expected at least {needed} for {purpose} "
-                         f"({'4 octave cluster sizes' if purpose == 'fit' else 'one Allan variance'})")
+        raise InputError(
+            f"{opts.log}: {n} samples; expected at least {needed} for {purpose} "
+            f"({'4 octave cluster sizes' if purpose == 'fit' else 'one Allan variance'})"
+        )
 
 
-# ---------------------------------------------------------------------------- pipes and standard input
+# ------------------------------------------------------------------ pipes and standard input
+
 
 @contextlib.contextmanager
 def _spooled(source):
@@ -287,23 +350,28 @@ def _spooled(source):
             else:
                 shutil.copyfileobj(sys.stdin.buffer, target, 1 << 20)
         if spooled.stat().st_size == 0:
-            raise InputError(f"{path}: nothing was read from "
-                             f"{'standard input' if not fifo else 'the pipe'}; expected a log")
+            raise InputError(
+                f"{path}: nothing was read from "
+                f"{'standard input' if not fifo else 'the pipe'}; expected a log"
+            )
         yield dataclasses.replace(source, log=spooled, label=source.shown)
     finally:
         shutil.rmtree(folder, ignore_errors=True)
 
 
 def _copy_pipe(path, target):
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # never blocks; a first read tells if a writer exists
+    fd = os.open(
+        path, os.O_RDONLY | os.O_NONBLOCK
+    )  # never blocks; a first read tells if a writer exists
     try:
         try:
             first = os.read(fd, 1 << 16)
         except BlockingIOError:  # a writer, nothing written yet: wait for it
             first = None
         if first == b"":
-            raise InputError(f"{path}: a named pipe with no writer; start the program that writes the log "
-                             "first")
+            raise InputError(
+                f"{path}: a named pipe with no writer; start the program that writes the log first"
+            )
         os.set_blocking(fd, True)
         if first:
             target.write(first)

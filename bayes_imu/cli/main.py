@@ -35,7 +35,8 @@ from ..report.output import safe_folder_name, staged_file, staged_folder
 from ..report.plots import import_plotting, plot_allan_fit, plot_corner
 from ..report.worker import OutputWriter, background_default
 from ..report.writers import (FitRequest, axis_summary, batch_summary, drift_outputs, fit_summary,
-                              population_summary, write_allan_csv, write_drift, write_json, write_sigma_csv)
+                              population_summary, write_allan_csv, write_drift, write_json,
+                              write_sigma_csv)
 from .._progress import show_progress
 from ..allan.pipeline import LogSource, allan_from_source
 from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES
@@ -84,7 +85,7 @@ _SCENE_HELP = """scene format (TOML; paths relative to the scene file):
   log = "budget.csv"
   column = "gyro_x"                # or a list ["gyro_x", "gyro_y", "gyro_z"]: the worst axis counts
   rate_hz = 100                    # or time_column = "t" (and gaps = "longest"); a ROS bag: topic
-  units = "deg/s"                  # input = "increments" with rad / deg / m/s; stream = true: out of core
+  units = "deg/s"                  # input = "increments" (rad, deg, m/s); stream = true
 
   [[sensor]]                       # several units' logs: bounds for a NEW unit (population fit)
   name = "ADIS16405"
@@ -249,7 +250,8 @@ def _build_parser():
 def _source(args, **changes):
     """The :class:`LogSource` the parsed arguments ask for (absent options at their defaults)."""
     names = {f.name for f in dataclasses.fields(LogSource)}
-    return dataclasses.replace(LogSource(**{k: v for k, v in vars(args).items() if k in names}), **changes)
+    source = LogSource(**{k: v for k, v in vars(args).items() if k in names})
+    return dataclasses.replace(source, **changes)
 
 
 def _inputs(*paths):
@@ -267,14 +269,15 @@ def _cmd_allan(args):
 
     with staged_folder(args.out, force=args.force, inputs=_inputs(args.log)) as tmp:
         write_allan_csv(result, tmp / "allan.csv", unit=unit)
-        plot_allan(result, tmp / "allan.png", label=f"{Path(source.shown).name}: {columns[0]} [{unit}]", unit=unit)
+        label = f"{Path(source.shown).name}: {columns[0]} [{unit}]"
+        plot_allan(result, tmp / "allan.png", label=label, unit=unit)
     _say(args, f"{result.tau.size} cluster sizes from {result.n_samples} samples ({info['action']}); "
                f"wrote {args.out / 'allan.csv'} and allan.png")
     return 0
 
 
 def _fit_request(args, **source_changes):
-    """The :class:`FitRequest` of the parsed arguments (options a command lacks at their defaults)."""
+    """The :class:`FitRequest` of the parsed arguments (options a command lacks: defaults)."""
     names = {f.name for f in dataclasses.fields(FitRequest)} - {"source", "terms"}
     terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
     return FitRequest(source=_source(args, **source_changes), terms=terms,
@@ -314,7 +317,8 @@ def _fit(request, args, in_batch=False):
                 out = tmp if folder is None else tmp / folder
                 axes[column] = _fit_axis(request, args, allan, unit, info, column, out, writer)
             if len(columns) > 1:
-                write_json(tmp / "summary.json", fit_summary(axes, info=info, seed=request.seed, folders=folders))
+                summary = fit_summary(axes, info=info, seed=request.seed, folders=folders)
+                write_json(tmp / "summary.json", summary)
             writer.wait()  # every output in the staging folder before it is moved into place
     _say(args, f"wrote {args.out}")
     return 0
@@ -341,7 +345,8 @@ def _fit_axis(request, args, allan, unit, info, column, out, writer):
     # parameters takes longer than allan_fit.png (corner.png of 3, 5 and 7 parameters 0.14-0.16, 0.33 and 0.57-0.59 s,
     # allan_fit.png 0.17-0.20 s: scripts/study_speed_options.py --figures)
     label = f"{Path(info['log']).name}: {column}"
-    figures = [(plot_allan_fit, result, out / "allan_fit.png", {"label": label, "unit": unit, "rng": request.seed}),
+    figures = [(plot_allan_fit, result, out / "allan_fit.png",
+                {"label": label, "unit": unit, "rng": request.seed}),
                (plot_corner, result, out / "corner.png", {"unit": unit})]
     for plot, *arguments, options in (figures[::-1] if result.samples.shape[1] >= 4 else figures):
         writer.submit(plot, *arguments, **options)
@@ -413,8 +418,9 @@ def _say_drift(args, drift):
                    f"90% [{b.total[0][-1]:.4g}, {b.total[2][-1]:.4g}] {u}")
     first = drift.bands[0]
     if first.extrapolated[-1]:
-        _warn(f"the drift horizon ({first.t_s[-1]:g} s) is longer than the log ({first.record_s:g} s): beyond "
-              "the log the bands extrapolate the fitted model (drift.csv column 'extrapolated')")
+        _warn(f"the drift horizon ({first.t_s[-1]:g} s) is longer than the log "
+              f"({first.record_s:g} s): beyond the log the bands extrapolate the fitted model "
+              "(drift.csv column 'extrapolated')")
 
 
 def _cmd_report(args):
@@ -520,7 +526,7 @@ def _cmd_fit_population(args):
             _say(args, f"  unit-to-unit spread of {name}: {s['median']:.2g} (90% [{s['q05']:.2g}, {s['q95']:.2g}]) "
                        "in ln units (0.1 = 10%)")
         bands, unit_bands, drift_unit = None, (), None
-        if drift is not None:  # the new unit's first quantity, as written to drift.csv, against each unit's own
+        if drift is not None:  # the new unit's first quantity, as in drift.csv, against each unit's
             _say_drift(args, drift)
             write_drift(drift, tmp)
             bands, drift_unit = drift.bands[0], drift.units[0]
@@ -544,13 +550,15 @@ def _cmd_fit_batch(args):
         names, jobs = [], []
         for log in args.logs:
             names.append(job_name(log, names))
-            job_request = dataclasses.replace(request, source=dataclasses.replace(request.source, log=log))
+            source = dataclasses.replace(request.source, log=log)
+            job_request = dataclasses.replace(request, source=source)
             jobs.append(BatchJob(names[-1], job_request, staging / names[-1]))
         start = time.perf_counter()
         scheduler = "serial" if args.serial else args.scheduler
         results = run_batch(jobs, _fleet_fit, scheduler=scheduler, n_workers=args.workers, progress=args.progress)
         seconds = time.perf_counter() - start
-        doc = batch_summary(results, args.logs, staging, seconds=seconds, scheduler=scheduler, seed=args.seed)
+        doc = batch_summary(results, args.logs, staging, seconds=seconds, scheduler=scheduler,
+                            seed=args.seed)
         write_json(staging / "batch.json", doc)
     failed = [r for r in results if r.status]
     for r in failed:
@@ -561,8 +569,8 @@ def _cmd_fit_batch(args):
 
 
 def _fleet_fit(job):
-    """One log of ``fit-batch`` (the fleet's task): exactly ``bayes-imu fit`` of the job's request, its outputs
-    written in this process."""
+    """One log of ``fit-batch`` (the fleet's task): exactly ``bayes-imu fit`` of the job's request,
+    its outputs written in this process."""
     args = argparse.Namespace(out=job.out, force=False, quiet=True, progress=False)
     with warnings.catch_warnings():
         warnings.simplefilter("default")
@@ -578,11 +586,13 @@ def _cmd_drift(args):
 
     spec = read_sensor_json(args.sensor)
     results = known_drift(args.sensor, spec, horizon_s=args.horizon, bias_start=args.bias_start)
-    units, factors = zip(*(display_unit(SI_OUTPUT_UNITS[r.quantity], args.display_units) for r in results))
+    shown = [display_unit(SI_OUTPUT_UNITS[r.quantity], args.display_units) for r in results]
+    units, factors = zip(*shown)
     with staged_folder(args.out, force=args.force, inputs=[args.sensor]) as tmp:
         write_sigma_csv(results, units, factors, tmp / "drift.csv")
     for result, unit, f in zip(results, units, factors):
-        _say(args, f"{result.quantity}: 1-sigma drift after {result.t_s[-1]:g} s = {result.total[-1] * f:.4g} "
+        last = result.total[-1] * f
+        _say(args, f"{result.quantity}: 1-sigma drift after {result.t_s[-1]:g} s = {last:.4g} "
                    f"{unit} (order {QUANTITY_ORDER[result.quantity]})")
     _say(args, f"wrote {args.out / 'drift.csv'}")
     return 0
@@ -717,14 +727,17 @@ _FLAGS = ((re.compile(r"\bforce=True\b"), "--force"), (re.compile(r"\bscheduler=
                                                              "give --rate HZ or a --time-column"),
           (re.compile(r"^(out|scheduler)="), r"--\1 "), (re.compile(r"^columns="), "--column "),
           (re.compile(r"\bbut rate_hz is\b"), "but --rate is"), (re.compile(r"\(is rate_hz right\?\)"), "(is --rate right?)"),
-          (re.compile(r"\bgive a column\b"), "give --column"), (re.compile(r"^horizon_s="), "--horizon="),
+          (re.compile(r"\bgive a column\b"), "give --column"),
+          (re.compile(r"^horizon_s="), "--horizon="),
           # allan.pipeline's LogSource fields
-          (re.compile(r"^(column|units)="), r"--\1 "), (re.compile(r"\bbut sensor is\b"), "but --sensor is"),
+          (re.compile(r"^(column|units)="), r"--\1 "),
+          (re.compile(r"\bbut sensor is\b"), "but --sensor is"),
           (re.compile(r"\bleave out input='increments'"), "leave out --input"),
           (re.compile(r"\binput='increments'"), "--input increments"),
           (re.compile(r"\bneeds a (column|topic) \("), r"needs --\1 ("),
           (re.compile(r"\bleave out column\b"), "leave out --column"),
-          (re.compile(r"^display_units='deg'"), "--display-units deg"), (re.compile(r"\(give units\)"), "(give --units)"),
+          (re.compile(r"^display_units='deg'"), "--display-units deg"),
+          (re.compile(r"\(give units\)"), "(give --units)"),
           (re.compile(r"\ban Allan table needs rate_hz\b"), "--allan-table needs --rate HZ"),
           (re.compile(r"\ba time column is not available out of core; give rate_hz\b"),
            "--time-column is not available out of core; give --rate HZ"))

@@ -1,4 +1,4 @@
-"""Drift from known noise parameters: a sensor JSON (a datasheet's values) in, 1-sigma drift curves out.
+"""Drift from known noise parameters: a sensor JSON (a datasheet's values) in, drift curves out.
 
 The ``bayes-imu drift`` command's library: :func:`read_sensor_json` checks the file (kind, rate,
 noise density and the optional bias and random-walk values, in the units it names) and
@@ -16,8 +16,16 @@ from .closed_forms import drift_sigma
 __all__ = ["SENSOR_JSON_KEYS", "read_sensor_json", "known_drift"]
 
 #: keys of a sensor JSON file
-SENSOR_JSON_KEYS = ("name", "kind", "units", "rate_hz", "noise_density", "bias_variance", "time_constant",
-                    "random_walk")
+SENSOR_JSON_KEYS = (
+    "name",
+    "kind",
+    "units",
+    "rate_hz",
+    "noise_density",
+    "bias_variance",
+    "time_constant",
+    "random_walk",
+)
 
 
 def read_sensor_json(path):
@@ -25,7 +33,9 @@ def read_sensor_json(path):
     spec = read_json_object(path, "of sensor parameters")
     unknown = sorted(set(spec) - set(SENSOR_JSON_KEYS))
     if unknown:
-        raise InputError(f"{path}: unknown key {unknown[0]!r}; expected keys: {', '.join(SENSOR_JSON_KEYS)}")
+        raise InputError(
+            f"{path}: unknown key {unknown[0]!r}; expected keys: {', '.join(SENSOR_JSON_KEYS)}"
+        )
     for key in ("rate_hz", "kind", "noise_density"):
         if key not in spec:
             raise InputError(f"{path}: missing key {key!r}")
@@ -34,7 +44,9 @@ def read_sensor_json(path):
     units = spec.get("units", SI_UNITS[spec["kind"]])
     if units not in UNITS or UNITS[units][0] != spec["kind"]:
         allowed = [u for u, (k, _) in UNITS.items() if k == spec["kind"]]
-        raise InputError(f"{path}: units={units!r}: expected one of {', '.join(allowed)} for a {spec['kind']}")
+        raise InputError(
+            f"{path}: units={units!r}: expected one of {', '.join(allowed)} for a {spec['kind']}"
+        )
     return spec
 
 
@@ -63,13 +75,21 @@ def known_drift(path, spec, *, horizon_s, bias_start="zero", n_times=200):
     """
     dt = 1.0 / _positive_float(path, spec, "rate_hz")
     if not horizon_s > dt:
-        raise InputError(f"horizon_s={horizon_s!r}: expected a time (s) longer than one sample ({dt} s)")
+        raise InputError(
+            f"horizon_s={horizon_s!r}: expected a time (s) longer than one sample ({dt} s)"
+        )
     t = np.unique(np.round(np.geomspace(dt, horizon_s, n_times) / dt)) * dt
     k = UNITS[spec.get("units", SI_UNITS[spec["kind"]])][1]  # the values' unit in SI
-    return tuple(drift_sigma(t, quantity=quantity, dt=dt,
-                             noise_density=k * _positive_float(path, spec, "noise_density"),
-                             bias_variance=k * k * _positive_float(path, spec, "bias_variance", 0.0),
-                             time_constant=_positive_float(path, spec, "time_constant", np.inf),
-                             random_walk=k * _positive_float(path, spec, "random_walk", 0.0),
-                             bias_start=bias_start)
-                 for quantity in SENSOR_QUANTITIES[spec["kind"]])
+    return tuple(
+        drift_sigma(
+            t,
+            quantity=quantity,
+            dt=dt,
+            noise_density=k * _positive_float(path, spec, "noise_density"),
+            bias_variance=k * k * _positive_float(path, spec, "bias_variance", 0.0),
+            time_constant=_positive_float(path, spec, "time_constant", np.inf),
+            random_walk=k * _positive_float(path, spec, "random_walk", 0.0),
+            bias_start=bias_start,
+        )
+        for quantity in SENSOR_QUANTITIES[spec["kind"]]
+    )

@@ -32,7 +32,8 @@ CONNECT_TIMEOUT = "10s"
 @dataclass(frozen=True)
 class BatchJob:
     """One job of a batch: its name (the output sub-folder), the frozen request of its work (for
-    ``bayes-imu fit-batch``: a :class:`~bayes_imu.report.writers.FitRequest`) and its output folder."""
+    ``bayes-imu fit-batch``: a :class:`~bayes_imu.report.writers.FitRequest`) and its output
+    folder."""
 
     name: str
     request: object

@@ -44,7 +44,8 @@ def import_corner():
     So corner is imported with ArviZ marked absent and given back an ``InferenceData`` entry point
     that imports ArviZ when first called (:func:`_arviz_corner`): ``corner.corner`` works for every
     input as before (tested). Where that is not safe, ArviZ is imported first, without its
-    import-time announcement. The mechanism and its version pin: :func:`bayes_imu._lazy.import_without`.
+    import-time announcement. The mechanism and its version pin:
+    :func:`bayes_imu._lazy.import_without`.
     """
     from .._lazy import import_without
     from ..inference.fit import import_arviz

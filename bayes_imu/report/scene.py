@@ -255,8 +255,8 @@ def read_scene(path):
         where = f"{path}: [[sensor]] #{i}"
         if not isinstance(entry, dict):
             raise InputError(f"{where}: expected a table")
-        _known(entry, ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units") + _READING,
-               where)
+        keys = ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units")
+        _known(entry, keys + _READING, where)
         kind = _get(entry, "kind", str, where)
         if kind not in SENSOR_QUANTITIES:
             raise InputError(f"{where}: kind={kind!r}: expected 'gyro' or 'accel'")
@@ -306,8 +306,9 @@ def _reading(entry, kind, where):
     units = _get(entry, "units", str, where)
     if units not in table or table[units][0] != kind:
         allowed = [u for u, (k, _) in table.items() if k == kind]
-        raise InputError(f"{where}: units={units!r}: expected one of {', '.join(allowed)} for a {kind}"
-                         + (" (increments)" if kind_of_input == "increments" else ""))
+        what = f"a {kind}" + (" (increments)" if kind_of_input == "increments" else "")
+        raise InputError(f"{where}: units={units!r}: expected one of {', '.join(allowed)} "
+                         f"for {what}")
     return LogSource(topic=topic, stream=stream, rate=rate, time_column=time_column, gaps=gaps,
                      input=kind_of_input, units=units, sensor=kind)
 

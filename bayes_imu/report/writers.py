@@ -24,14 +24,32 @@ from ..drift.display import display_unit
 from ..errors import InputError
 from ..inference.likelihood import LIKELIHOODS
 
-__all__ = ["FitRequest", "DriftOutput", "write_json", "write_allan_csv", "drift_outputs", "write_drift",
-           "axis_summary", "fit_summary", "worst_axis", "population_summary", "batch_summary",
-           "write_sigma_csv", "AMPLITUDES"]
+__all__ = [
+    "FitRequest",
+    "DriftOutput",
+    "write_json",
+    "write_allan_csv",
+    "drift_outputs",
+    "write_drift",
+    "axis_summary",
+    "fit_summary",
+    "worst_axis",
+    "population_summary",
+    "batch_summary",
+    "write_sigma_csv",
+    "AMPLITUDES",
+]
 
 #: amplitude parameters reported per axis as worst-axis conservative values (the time constant is
 #: not monotone in the drift, so it has no "worst" direction)
-AMPLITUDES = ("noise_variance", "noise_density", "quantization", "bias_instability", "bias_variance",
-              "rate_random_walk")
+AMPLITUDES = (
+    "noise_variance",
+    "noise_density",
+    "quantization",
+    "bias_instability",
+    "bias_variance",
+    "rate_random_walk",
+)
 
 
 @dataclass(frozen=True)
@@ -106,8 +124,12 @@ def write_json(path, doc):
 def write_allan_csv(result, path, *, unit):
     """``allan.csv``: tau (s), cluster size, ADEV with its interval, EDF and the unit."""
     lines = ["tau,m,adev,adev_low,adev_high,edf,unit"]
-    lines += [f"{t:.9g},{m},{a:.9g},{lo:.9g},{hi:.9g},{e:.6g},{unit}" for t, m, a, lo, hi, e in
-              zip(result.tau, result.m, result.adev, result.adev_low, result.adev_high, result.edf)]
+    lines += [
+        f"{t:.9g},{m},{a:.9g},{lo:.9g},{hi:.9g},{e:.6g},{unit}"
+        for t, m, a, lo, hi, e in zip(
+            result.tau, result.m, result.adev, result.adev_low, result.adev_high, result.edf
+        )
+    ]
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
@@ -120,22 +142,42 @@ def drift_outputs(result, request, unit):
         ``display_units="deg"`` for a fit that is not a gyro in rad/s.
     """
     if request.display_units == "deg" and unit != "rad/s" and request.sensor == "gyro":
-        raise InputError(f"display_units='deg' needs a gyro fitted in SI (give units); this fit is in "
-                         f"{unit!r}")
-    t = (np.array(request.times) if request.times is not None
-         else default_times(result.model.dt, request.horizon))
+        raise InputError(
+            f"display_units='deg' needs a gyro fitted in SI (give units); this fit is in {unit!r}"
+        )
+    t = (
+        np.array(request.times)
+        if request.times is not None
+        else default_times(result.model.dt, request.horizon)
+    )
     quantities = SENSOR_QUANTITIES[request.sensor]
     shown = [display_unit(integrated_unit(unit, q), request.display_units) for q in quantities]
-    bands = [drift_bands(result, t, quantity=q, bias_start=request.bias_start,
-                         calibration_s=request.calibration, models=request.models,
-                         rng=request.seed).scaled(factor) for q, (_, factor) in zip(quantities, shown)]
+    bands = [
+        drift_bands(
+            result,
+            t,
+            quantity=q,
+            bias_start=request.bias_start,
+            calibration_s=request.calibration,
+            models=request.models,
+            rng=request.seed,
+        ).scaled(factor)
+        for q, (_, factor) in zip(quantities, shown)
+    ]
     at_horizon = {}
     for b, (u, _) in zip(bands, shown):
         at_horizon[b.quantity] = {
-            "t_s": float(b.t_s[-1]), "q05": float(b.total[0][-1]), "q50": float(b.total[1][-1]),
-            "q95": float(b.total[2][-1]), "unit": u, "record_s": b.record_s,
-            "extrapolated": bool(b.extrapolated[-1]), "bias_start": b.bias_start,
-            "calibration_s": None if np.isnan(b.calibration_s) else b.calibration_s, "models": b.models}
+            "t_s": float(b.t_s[-1]),
+            "q05": float(b.total[0][-1]),
+            "q50": float(b.total[1][-1]),
+            "q95": float(b.total[2][-1]),
+            "unit": u,
+            "record_s": b.record_s,
+            "extrapolated": bool(b.extrapolated[-1]),
+            "bias_start": b.bias_start,
+            "calibration_s": None if np.isnan(b.calibration_s) else b.calibration_s,
+            "models": b.models,
+        }
     return DriftOutput(tuple(bands), tuple(u for u, _ in shown), at_horizon)
 
 
@@ -146,8 +188,10 @@ def write_drift(drift, folder, *, submit=None):
 
     lines = ["t_s,quantity,q05,q50,q95,unit,extrapolated"]
     for b, u in zip(drift.bands, drift.units):
-        lines += [f"{ti:.6g},{b.quantity},{lo:.9g},{med:.9g},{hi:.9g},{u},{str(x).lower()}"
-                  for ti, lo, med, hi, x in zip(b.t_s, *b.total, b.extrapolated)]
+        lines += [
+            f"{ti:.6g},{b.quantity},{lo:.9g},{med:.9g},{hi:.9g},{u},{str(x).lower()}"
+            for ti, lo, med, hi, x in zip(b.t_s, *b.total, b.extrapolated)
+        ]
     (folder / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
     (submit or _call)(plot_drift, list(drift.bands), folder / "drift.png", units=list(drift.units))
 
@@ -170,14 +214,22 @@ def fit_summary(axes, *, info, seed, folders=None):
     axis's (with its sub-folder), the worst axis of each amplitude and drift, and what was read."""
     if len(axes) == 1:
         return next(iter(axes.values()))
-    axes = {column: dict(summary, folder=folder) for (column, summary), folder in zip(axes.items(), folders)}
-    return {"axes": axes, "worst_axis": worst_axis(axes), "input": info, "seed": seed,
-            "bayes_imu_version": __version__}
+    axes = {
+        column: dict(summary, folder=folder)
+        for (column, summary), folder in zip(axes.items(), folders)
+    }
+    return {
+        "axes": axes,
+        "worst_axis": worst_axis(axes),
+        "input": info,
+        "seed": seed,
+        "bayes_imu_version": __version__,
+    }
 
 
 def worst_axis(axes):
-    """Per amplitude parameter, the largest upper (q95) value over the axes, and which axis; the same
-    for each drift quantity."""
+    """Per amplitude parameter, the largest upper (q95) value over the axes, and which axis; the
+    same for each drift quantity."""
     worst = {}
     for name in AMPLITUDES:
         have = {c: s["parameters"][name] for c, s in axes.items() if name in s["parameters"]}
@@ -202,27 +254,41 @@ def population_summary(population, *, unit, column, infos, drift=None):
 
 
 def batch_summary(results, logs, folder, *, seconds, scheduler, seed):
-    """``batch.json`` of a batch: each log's outcome, and the throughput (the fitted logs' samples are
-    read from their ``summary.json`` in ``folder/<job name>``)."""
+    """``batch.json`` of a batch: each log's outcome, and the throughput (the fitted logs' samples
+    are read from their ``summary.json`` in ``folder/<job name>``)."""
     samples = 0
     for r in results:
         if r.status == 0:
             summary = json.loads((folder / r.name / "summary.json").read_text())
-            samples += (sum(a["n_samples"] for a in summary["axes"].values()) if "axes" in summary
-                        else summary["n_samples"])
+            samples += (
+                sum(a["n_samples"] for a in summary["axes"].values())
+                if "axes" in summary
+                else summary["n_samples"]
+            )
     failed = [r for r in results if r.status]
-    return {"logs": [dict(r.to_json(), log=str(log)) for r, log in zip(results, logs)],
-            "n_logs": len(results), "n_failed": len(failed), "seconds": seconds,
-            "logs_per_minute": 60 * len(results) / seconds, "samples_per_second": samples / seconds,
-            "scheduler": scheduler or "LocalCluster", "seed": seed, "bayes_imu_version": __version__}
+    return {
+        "logs": [dict(r.to_json(), log=str(log)) for r, log in zip(results, logs)],
+        "n_logs": len(results),
+        "n_failed": len(failed),
+        "seconds": seconds,
+        "logs_per_minute": 60 * len(results) / seconds,
+        "samples_per_second": samples / seconds,
+        "scheduler": scheduler or "LocalCluster",
+        "seed": seed,
+        "bayes_imu_version": __version__,
+    }
 
 
 def write_sigma_csv(results, units, factors, path):
-    """The ``drift`` command's ``drift.csv``: each :class:`~bayes_imu.drift.closed_forms.DriftResult`
-    (one per quantity) times its display ``factor``, in its display unit."""
+    """The ``drift`` command's ``drift.csv``: each
+    :class:`~bayes_imu.drift.closed_forms.DriftResult` (one per quantity) times its display
+    ``factor``, in its display unit."""
     lines = ["t_s,quantity,white,bias,random_walk,total,unit"]
     for result, unit, f in zip(results, units, factors):
-        lines += [f"{ti:.6g},{result.quantity},{w * f:.9g},{b * f:.9g},{r * f:.9g},{tot * f:.9g},{unit}"
-                  for ti, w, b, r, tot in
-                  zip(result.t_s, result.white, result.bias, result.random_walk, result.total)]
+        lines += [
+            f"{ti:.6g},{result.quantity},{w * f:.9g},{b * f:.9g},{r * f:.9g},{tot * f:.9g},{unit}"
+            for ti, w, b, r, tot in zip(
+                result.t_s, result.white, result.bias, result.random_walk, result.total
+            )
+        ]
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
