@@ -141,6 +141,9 @@ def allan_from_source(source, *, purpose="fit", grid="octave", progress=False):
     """
     if purpose not in MIN_SAMPLES:
         raise InputError(f"purpose={purpose!r}: expected one of {', '.join(MIN_SAMPLES)}")
+    paths = {k: Path(v) for k, v in (("log", source.log), ("allan_table", source.allan_table))
+             if v is not None and not isinstance(v, Path)}
+    source = dataclasses.replace(source, **paths)  # a path given as a string
     increments = source.input == "increments"
     table = UNITS if not increments else INCREMENT_UNITS
     if source.units is not None and source.units not in table:
