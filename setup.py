@@ -48,6 +48,30 @@ def _load(stage):
     return importlib.import_module(f"bayes_imu.{stage}._sources")
 
 
+#: numba versions on which the fast-math hook of precompiled_kernels was checked (the precompiled
+#: kernels equal numba's JIT build bit for bit: tests/test_allan.py); tests/test_build.py fails,
+#: naming the version, on another
+NUMBA_AOT_CHECKED = ("0.68.1",)
+#: the leading parameters of numba.pycc.compiler.compile_extra that the hook passes on
+COMPILE_EXTRA_PARAMETERS = ("typingctx", "targetctx", "func", "args", "return_type", "flags")
+
+
+def _check_compiler_hook(pycc_compiler):
+    """Refuse to build, naming numba's version, where the AOT compiler no longer has the entry point
+    the fast-math hook replaces: the kernels would otherwise be built without their fast-math
+    flags."""
+    import inspect
+
+    import numba
+
+    parameters = tuple(inspect.signature(pycc_compiler.compile_extra).parameters)
+    if parameters[:len(COMPILE_EXTRA_PARAMETERS)] != COMPILE_EXTRA_PARAMETERS:
+        raise RuntimeError(f"numba {numba.__version__}: numba.pycc.compiler.compile_extra"
+                           f"{parameters} is not the entry point setup.py's fast-math hook was "
+                           f"checked on (numba {', '.join(NUMBA_AOT_CHECKED)}); build with a "
+                           "checked numba, or update precompiled_kernels")
+
+
 def precompiled_kernels():
     """The ``Extension`` of ``bayes_imu._compiled``, or ``None`` where numba has no AOT compiler."""
     # what the build JIT-compiles on the way (a kernel's callee) is cached outside the package: an
@@ -61,6 +85,7 @@ def precompiled_kernels():
     except ImportError as exc:
         warnings.warn(f"bayes_imu: building without precompiled kernels ({exc}); they are JIT-compiled on first use")
         return None
+    _check_compiler_hook(pycc_compiler)
     sources = {stage: _load(stage) for stage in ("allan", "noise")}
     fastmath = sources["allan"].FASTMATH
     plain = pycc_compiler.compile_extra

@@ -119,3 +119,24 @@ def test_bag_errors_are_one_line(tmp_path, samples, capsys):
         read_imu_bag(tmp_path / "broken.bag", topic="/imu0", columns=["gyro_x"])
     assert main(["allan", str(tmp_path / "gap.bag"), "--column", "gyro_x", "--out", str(out)]) == 2
     assert "needs --topic" in capsys.readouterr().err
+
+
+def test_scene_reads_a_bag_as_fit_does(tmp_path, samples):
+    """A scene sensor read from a ROS bag (``topic``, no ``rate_hz``: the header stamps give it)
+    gets the bounds of the same samples from a CSV at the rate the stamps span ((n - 1) / (last -
+    first), integer nanoseconds): the same numbers, bit for bit."""
+    from bayes_imu.report.scene import build_report, read_scene
+
+    gyro, accel, stamps = samples
+    write_bag(tmp_path / "imu.bag", 1, gyro, accel, stamps)
+    (tmp_path / "imu.csv").write_text("gz\n" + "".join(f"{float(g)!r}\n" for g in gyro[:, 2]))
+    rate = (len(stamps) - 1) / (int(stamps[-1] - stamps[0]) * 1e-9)
+    head = ('[scene]\nname = "s"\noutages_s = [1, 5]\ncredibility = 0.9\n'
+            '[[sensor]]\nname = "imu"\nkind = "gyro"\n')
+    bag = tmp_path / "bag.toml"
+    bag.write_text(head + 'log = "imu.bag"\ntopic = "/imu0"\ncolumn = "gyro_z"\nunits = "rad/s"\n')
+    csv = tmp_path / "csv.toml"
+    csv.write_text(head + f'log = "imu.csv"\ncolumn = "gz"\nunits = "rad/s"\nrate_hz = {rate!r}\n')
+    from_bag, from_csv = (build_report(read_scene(p), rng=2).sensors[0] for p in (bag, csv))
+    assert from_bag.fit.allan.rate_hz == rate and from_bag.fit.allan.n_samples == len(stamps)
+    assert [dict(b, axis="gz") for b in from_bag.bounds] == list(from_csv.bounds)

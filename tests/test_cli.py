@@ -202,18 +202,3 @@ def test_drift_of_a_non_stationary_log_is_the_same_with_the_same_seed(tmp_path):
     assert outs[0][0] != outs[2][0]
 
 
-def test_a_line_says_where_the_selected_model_and_the_model_average_disagree():
-    """Terms the selected model leaves out that the average gives 0.1 or more, and its own terms below 0.9, with
-    the selected model's probability; nothing where the two agree (0.1 and 0.9 themselves: the edges)."""
-    from bayes_imu.cli.main import _averaging_note
-
-    def summary(probability, own=0.16):
-        return {"model": ["white", "filtered_white", "gauss_markov"], "term_probability": probability,
-                "candidates": [{"probability": 0.5, "selected": False}, {"probability": own, "selected": True}]}
-
-    agree = {"white": 1.0, "filtered_white": 1.0, "gauss_markov": 0.9, "random_walk": 0.099, "ramp": 0.05}
-    assert _averaging_note(summary(agree)) is None
-    line = _averaging_note(summary({**agree, "gauss_markov": 0.45, "random_walk": 0.84, "gauss_markov_2": 0.1}))
-    assert "(probability 0.16)" in line and "ramp" not in line and "white " not in line
-    assert line.index("random_walk 0.84 (not in this model)") < line.index("gauss_markov 0.45 (in this model)") \
-        < line.index("gauss_markov_2 0.10 (not in this model)")

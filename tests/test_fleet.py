@@ -114,9 +114,9 @@ def _task(job):
     """A library task: succeed, fail as a user error, or fail internally, by the job's argument."""
     from bayes_imu.errors import InputError
 
-    if job.argv == ("user",):
+    if job.request == ("user",):
         raise InputError("bad input in job")
-    if job.argv == ("bug",):
+    if job.request == ("bug",):
         raise ZeroDivisionError("division by zero")
 
 
@@ -130,3 +130,109 @@ def test_run_batch_maps_failures_to_statuses():
     assert results[1].error == "bayes-imu: error: bad input in job"
     assert results[2].error == "bayes-imu: internal error: ZeroDivisionError: division by zero"
     assert [r.name for r in results] == ["ok", "user", "bug"]
+
+
+def _subparser(name):
+    from bayes_imu.cli.main import _build_parser
+
+    parser = _build_parser()
+    action = next(a for a in parser._actions if a.dest == "command")
+    return action.choices[name]
+
+
+#: options of a command that say where and how to write and print, not what to fit
+_RUN_OPTIONS = {"help", "out", "force", "quiet"}
+_BATCH_ONLY = {"logs", "scheduler", "workers", "serial"}
+
+
+def _request_fields():
+    import dataclasses
+
+    from bayes_imu.allan.pipeline import LogSource
+    from bayes_imu.report.writers import FitRequest
+
+    return ({f.name for f in dataclasses.fields(LogSource)} - {"log", "label"}) | \
+        ({f.name for f in dataclasses.fields(FitRequest)} - {"source"})
+
+
+def test_every_fit_option_is_a_field_of_the_request_a_batch_hands_each_log():
+    """The parser's options against the request's fields, both ways, so that a new ``fit`` option
+    cannot be dropped on the way to a batch's logs (as a hand-kept list of forwarded options
+    could)."""
+    fit = {a.dest for a in _subparser("fit")._actions} - _RUN_OPTIONS - {"log"}
+    batch = {a.dest for a in _subparser("fit-batch")._actions} - _RUN_OPTIONS - _BATCH_ONLY
+    assert fit == _request_fields()
+    assert batch == fit - {"allan_table", "samples"}  # a batch fits logs, not Allan tables
+
+
+def _non_default(action):
+    """A value of ``action`` other than its default, as argv words."""
+    if action.nargs == 0:
+        return [action.option_strings[0]]
+    if action.choices:
+        other = next(str(c) for c in action.choices if c != action.default)
+        return [action.option_strings[0], other]
+    for text in ("7", "0.5"):
+        try:
+            value = action.type(text) if action.type else text
+        except Exception:  # noqa: BLE001 - an argparse type refuses with one of several errors
+            continue
+        if value != action.default:
+            return [action.option_strings[0], text]
+    raise AssertionError(f"no test value for {action.dest}")
+
+
+def test_every_fit_option_reaches_a_batch_job_as_fit_would_read_it(tmp_path, monkeypatch):
+    """fit-batch with every option set away from its default: each job's request is, field for
+    field, the request ``fit`` makes of the same log and options, and every option's value is in
+    it."""
+    import dataclasses
+
+    import bayes_imu.report.fleet as fleet
+    from bayes_imu.cli.main import _fit_request
+    from bayes_imu.report.fleet import JobResult
+
+    actions = [a for a in _subparser("fit-batch")._actions
+               if a.option_strings and a.dest not in _RUN_OPTIONS | _BATCH_ONLY]
+    words = [w for a in actions for w in _non_default(a)]
+    if "--input" in words:  # increments take increment units: keep the pair consistent
+        words[words.index("--units") + 1] = "rad"
+    jobs = []
+
+    def run_batch(batch, task, **kwargs):
+        jobs.extend(batch)
+        return [JobResult(j.name, 2, "bayes-imu: error: not run", 0.0, "") for j in batch]
+
+    monkeypatch.setattr(fleet, "run_batch", run_batch)
+    logs = [tmp_path / "a.csv", tmp_path / "b.csv"]
+    argv = ["fit-batch", *map(str, logs), *words, "--serial", "--out", str(tmp_path / "out")]
+    assert main(argv + ["--quiet"]) == 2
+    assert [j.request.source.log for j in jobs] == logs
+    fit_args = _subparser("fit").parse_args([str(logs[0]), *words, "--out", str(tmp_path / "fit")])
+    assert jobs[0].request == _fit_request(fit_args)
+    defaults = _subparser("fit").parse_args([str(logs[0]), "--out", "x"])
+    request = dataclasses.asdict(jobs[0].request)
+    request.update(request.pop("source"))
+    for action in actions:
+        assert getattr(defaults, action.dest) != getattr(fit_args, action.dest), action.dest
+        given = getattr(fit_args, action.dest)
+        expected = tuple(given.split(",")) if action.dest == "terms" else given
+        assert request[action.dest] == expected, action.dest
+
+
+def test_logs_whose_names_look_like_options_are_fitted_as_logs(tmp_path, monkeypatch, rng):
+    """``./-unit2.csv`` and ``./--terms=white.csv`` are logs: an argv rebuilt from their paths
+    (``-unit2.csv``, ``--terms=white.csv``) read them as options, and both fits failed."""
+    monkeypatch.chdir(tmp_path)
+    names = ["-unit2.csv", "--terms=white.csv"]
+    for name in names:
+        values = 0.01 * rng.standard_normal(2048)
+        (tmp_path / name).write_text("gx\n" + "".join(f"{v:.8f}\n" for v in values))
+    status = main(["fit-batch", *(f"./{n}" for n in names), "--column", "gx", "--rate", "100",
+                   "--terms", "random_walk,white", "--serial", "--out", "out", "--quiet"])
+    batch = json.loads((tmp_path / "out" / "batch.json").read_text())
+    assert status == 0, batch
+    assert [r["status"] for r in batch["logs"]] == [0, 0]
+    for row, name in zip(batch["logs"], names):
+        summary = json.loads((tmp_path / "out" / row["name"] / "summary.json").read_text())
+        assert summary["log"] == name and sorted(summary["model"]) == ["random_walk", "white"]

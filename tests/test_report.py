@@ -70,7 +70,7 @@ def test_better_sensor_ranks_first_and_bounds_are_quantiles(report):
     for component in fit.mixture:  # model-averaged: every candidate's draws, by probability
         assert set(component.terms) <= {"white", "gauss_markov", "random_walk", "bias_instability",
                                         "quantization", "filtered_white", "hf_correlated",
-                                        "gauss_markov_2", "ramp"}, component.terms
+                                        "gauss_markov_2", "ramp", "vibration"}, component.terms
         p = NoiseModel(component.terms, 0.01).unpack(component.samples)
         var = drift_sigma(300.0, quantity="attitude", dt=0.01, noise_variance=p["noise_variance"],
                           bias_variance=p.get("bias_variance", 0.0), time_constant=p.get("time_constant", np.inf),
@@ -87,6 +87,9 @@ def test_better_sensor_ranks_first_and_bounds_are_quantiles(report):
         if "correlated_variance" in p:  # Var(sum of k stationary AR(1) samples)
             phi = np.exp(-0.01 / p["correlated_time_constant"])
             var = var + p["correlated_variance"] * 0.01**2 * (k * (1 - phi**2) - 2 * phi * (1 - phi**k)) / (1 - phi) ** 2
+        if "vibration_amplitude" in p:  # random phase: (A^2/2) dt^2 |sum_{i<k} e^(i omega i)|^2 (Dirichlet)
+            half = np.pi * p["vibration_frequency"] * 0.01
+            var = var + 0.5 * p["vibration_amplitude"] ** 2 * 0.01**2 * (np.sin(k * half) / np.sin(half)) ** 2
         sig.append(np.sqrt(var))
     assert budget["bounds"][2]["bound"] == pytest.approx(np.quantile(np.concatenate(sig), 0.95), rel=1e-10)
 
@@ -265,3 +268,59 @@ def test_a_sensors_numbers_do_not_depend_on_the_sensors_beside_it(tmp_path, repo
     assert again.sensors[0].bounds != rep.sensors[0].bounds  # the first sensor did change
     assert again.sensors[1].bounds == rep.sensors[1].bounds
     assert again.sensors[1].max_outage_s == rep.sensors[1].max_outage_s
+
+
+SENSOR = """
+[[sensor]]
+name = "{name}"
+log = "{log}"
+column = "{column}"
+kind = "gyro"
+units = "rad/s"
+{extra}
+"""
+
+
+def _one_sensor_report(folder, name, **sensor):
+    """``build_report`` of a scene with one sensor (its stream: the first spawned from seed 3)."""
+    extra = "\n".join(f"{k} = {v!r}".replace("'", '"') for k, v in sensor.pop("extra", {}).items())
+    scene = ('[scene]\nname = "s"\noutages_s = [1, 5]\ncredibility = 0.9\nbias_start = "zero"\n'
+             + SENSOR.format(name=name, extra=extra, **sensor))
+    path = folder / f"{name}.toml"
+    path.write_text(scene)
+    return build_report(read_scene(path), rng=3).sensors[0]
+
+
+def test_scene_reads_time_stamps_and_gaps_as_fit_does(tmp_path, rng):
+    """A scene sensor with ``time_column`` and ``gaps = "longest"`` (no ``rate_hz``) gets the bounds
+    of the same sensor given the longest regular segment alone with ``rate_hz``: the stamps give the
+    rate, the gap cuts the log, as in ``bayes-imu fit`` (reference: the segment written out by this
+    test, at the rate its stamps span: (samples - 1) / (last stamp - first stamp), docs/cli.md
+    "Input options")."""
+    y = 1e-3 * rng.standard_normal(3000)
+    t = np.arange(3000) / 200.0
+    t[1000:] += 0.5  # a 0.5 s gap: the longest regular segment is samples 1000-2999
+    rows = "".join(f"{ti:.3f},{float(v)!r}\n" for ti, v in zip(t, y))
+    (tmp_path / "stamped.csv").write_text("t,gx\n" + rows)
+    (tmp_path / "segment.csv").write_text("gx\n" + "".join(f"{float(v)!r}\n" for v in y[1000:]))
+    stamped = _one_sensor_report(tmp_path, "stamped", log="stamped.csv", column="gx",
+                                 extra={"time_column": "t", "gaps": "longest"})
+    written = [float(f"{ti:.3f}") for ti in t[1000:]]
+    rate = 1999 / (written[-1] - written[0])
+    plain = _one_sensor_report(tmp_path, "plain", log="segment.csv", column="gx",
+                               extra={"rate_hz": rate})
+    assert stamped.fit.allan.n_samples == 2000 and stamped.fit.allan.rate_hz == rate
+    assert stamped.bounds == plain.bounds  # the same samples at the same rate: bit for bit
+
+
+@pytest.mark.parametrize("extra, message", [
+    ({}, r"\[\[sensor\]\] #1: missing key 'rate_hz'"),
+    ({"rate_hz": 100.0, "gaps": "skip"}, r"gaps='skip': expected one of error, longest"),
+    ({"rate_hz": 100.0, "input": "increments"},
+     r"units='rad/s': expected one of rad, deg for a gyro \(increments\)"),
+    ({"rate_hz": 100.0, "stream": "yes"}, r"stream='yes': expected true or false"),
+])
+def test_scene_reading_keys_are_checked(tmp_path, extra, message):
+    (tmp_path / "log.csv").write_text("gx\n" + "0.1\n-0.1\n" * 40)
+    with pytest.raises(InputError, match=message):
+        _one_sensor_report(tmp_path, "a", log="log.csv", column="gx", extra=extra)

@@ -2,7 +2,8 @@
 
 Owns the overlapping estimator and its equivalent degrees of freedom and intervals
 (:mod:`~bayes_imu.allan.estimator`), the segment Allan variances of the stationarity check,
-the out-of-core pass over files larger than memory (:mod:`~bayes_imu.allan.outofcore`), Allan
+the out-of-core pass over files larger than memory (:mod:`~bayes_imu.allan.outofcore`), the one
+path from a log request to its Allan variances (:mod:`~bayes_imu.allan.pipeline`), Allan
 tables written by other tools (:mod:`~bayes_imu.allan.table`), the autocorrelation fit
 (:mod:`~bayes_imu.allan.autocorr`) and the compiled kernels (:mod:`~bayes_imu.allan.kernels`).
 """

@@ -16,15 +16,12 @@ Exit status: 0 success, 2 a user error (one line on stderr, no traceback unless
 
 import argparse
 import contextlib
-import json
+import dataclasses
 import logging
 import os
 import re
-import shutil
 import signal
-import stat
 import sys
-import tempfile
 import textwrap
 import threading
 import time
@@ -37,14 +34,18 @@ from .._version import __version__
 from ..report.output import safe_folder_name, staged_file, staged_folder
 from ..report.plots import import_plotting, plot_allan_fit, plot_corner
 from ..report.worker import OutputWriter, background_default
+from ..report.writers import (FitRequest, axis_summary, batch_summary, drift_check_summary,
+                              drift_outputs, fit_summary,
+                              population_summary, write_allan_csv, write_drift, write_json,
+                              write_sigma_csv)
 from .._progress import show_progress
-from .sources import SourceOptions, allan_results
-from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, SENSOR_QUANTITIES
+from ..allan.pipeline import LogSource, allan_from_source
+from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES
 from ..drift.display import DISPLAY_CHOICES, display_unit
 from .nav import add_nav_parser
-from ..drift.closed_forms import DRIFT_BIAS_STARTS, QUANTITY_ORDER, SI_OUTPUT_UNITS, drift_sigma
+from ..drift.closed_forms import DRIFT_BIAS_STARTS, QUANTITY_ORDER, SI_OUTPUT_UNITS
 from ..errors import BayesIMUError, InputError
-from ..io.readers import INCREMENT_UNITS, SI_UNITS, UNITS, read_json_object
+from ..io.readers import INCREMENT_UNITS, UNITS
 from ..inference.archive import write_netcdf
 from ..inference.fit import DISCREPANCY_MODES, warm_up as warm_up_fit
 from ..inference.likelihood import LIKELIHOODS
@@ -55,10 +56,6 @@ from ..io.timebase import GAP_POLICIES, RATE_RANGE
 __all__ = ["main"]
 
 log = logging.getLogger("bayes_imu")
-#: amplitude parameters reported per axis as worst-axis conservative values (the time
-#: constant is not monotone in the drift, so it has no "worst" direction)
-_AMPLITUDES = ("noise_variance", "noise_density", "quantization", "bias_instability", "bias_variance",
-               "rate_random_walk")
 
 
 class _UsageError(Exception):
@@ -89,8 +86,8 @@ _SCENE_HELP = """scene format (TOML; paths relative to the scene file):
   kind = "gyro"                    # gyro or accel
   log = "budget.csv"
   column = "gyro_x"                # or a list ["gyro_x", "gyro_y", "gyro_z"]: the worst axis counts
-  rate_hz = 100
-  units = "deg/s"
+  rate_hz = 100                    # or time_column = "t" (and gaps = "longest"); a ROS bag: topic
+  units = "deg/s"                  # input = "increments" (rad, deg, m/s); stream = true
 
   [[sensor]]                       # several units' logs: bounds for a NEW unit (population fit)
   name = "ADIS16405"
@@ -105,15 +102,6 @@ _SCENE_HELP = """scene format (TOML; paths relative to the scene file):
   kind = "gyro"
   fit = "fit_tactical"             # or fits = [...] for several units
 """
-
-#: options of ``fit`` that ``fit-batch`` forwards to every log: (dest, flag)
-_FORWARDED = (("column", "--column"), ("topic", "--topic"), ("stream", "--stream"), ("rate", "--rate"),
-              ("time_column", "--time-column"), ("gaps", "--gaps"), ("units", "--units"), ("seed", "--seed"),
-              ("terms", "--terms"), ("likelihood", "--likelihood"), ("sensor", "--sensor"), ("horizon", "--horizon"),
-              ("bias_start", "--bias-start"), ("calibration", "--calibration"), ("models", "--models"),
-              ("times", "--times"), ("discrepancy", "--discrepancy"), ("input", "--input"),
-              ("display_units", "--display-units"))
-
 
 def _input_options(batch=False, optional_log=False):
     """Options shared by the commands that read logs (``batch``: several logs)."""
@@ -262,119 +250,78 @@ def _build_parser():
 
 # ---------------------------------------------------------------------------- reading
 
-@contextlib.contextmanager
-def _readable_log(args):
-    """``-`` (standard input) or a named pipe: copied as it streams in to a temporary file of
-    the same name, read like any log (line numbers unchanged), removed afterwards. A pipe with
-    no writer is an error at once, not a wait."""
-    path = args.log
-    fifo = str(path) != "-" and path.exists() and stat.S_ISFIFO(path.stat().st_mode)
-    if str(path) != "-" and not fifo:
-        yield
-        return
-    folder = Path(tempfile.mkdtemp(prefix="bayes-imu-input-"))
-    spooled = folder / ("stdin.csv" if str(path) == "-" else path.name)
-    try:
-        with open(spooled, "wb") as target:
-            if fifo:
-                _copy_pipe(path, target)
-            else:
-                shutil.copyfileobj(sys.stdin.buffer, target, 1 << 20)
-        if spooled.stat().st_size == 0:
-            raise InputError(f"{path}: nothing was read from {'standard input' if not fifo else 'the pipe'}; "
-                             "expected a log")
-        args.log, args.log_label = spooled, str(path)
-        yield
-    finally:
-        args.log, args.log_label = path, None
-        shutil.rmtree(folder, ignore_errors=True)
+def _source(args, **changes):
+    """The :class:`LogSource` the parsed arguments ask for (absent options at their defaults)."""
+    names = {f.name for f in dataclasses.fields(LogSource)}
+    source = LogSource(**{k: v for k, v in vars(args).items() if k in names})
+    return dataclasses.replace(source, **changes)
 
 
-def _copy_pipe(path, target):
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # opening never blocks; a first read tells if a writer exists
-    try:
-        try:
-            first = os.read(fd, 1 << 16)
-        except BlockingIOError:  # a writer, nothing written yet: wait for it
-            first = None
-        if first == b"":
-            raise InputError(f"{path}: a named pipe with no writer; start the program that writes the log first")
-        os.set_blocking(fd, True)
-        if first:
-            target.write(first)
-        while chunk := os.read(fd, 1 << 20):
-            target.write(chunk)
-    finally:
-        os.close(fd)
-
-
-def _log_label(args):
-    return getattr(args, "log_label", None) or str(args.log or args.allan_table)
+def _inputs(*paths):
+    """The input files an output must not replace (standard input is none)."""
+    return [p for p in paths if p is not None and str(p) != "-"]
 
 
 # ---------------------------------------------------------------------------- commands
 
 def _cmd_allan(args):
-    with _readable_log(args):
-        return _allan(args)
-
-
-def _allan(args):
-    columns, results, unit, info = allan_results(SourceOptions.from_namespace(args), "allan", args.grid)
-    info["log"] = _log_label(args)
-    result = results[0]
+    source = _source(args)
+    read = allan_from_source(source, purpose="allan", grid=args.grid, progress=args.progress)
+    columns, result, unit, info = read.columns, read.results[0], read.unit, read.info
     from ..report.plots import plot_allan
 
-    with staged_folder(args.out, force=args.force, inputs=[args.log]) as tmp:
-        lines = ["tau,m,adev,adev_low,adev_high,edf,unit"]
-        lines += [
-            f"{t:.9g},{m},{a:.9g},{lo:.9g},{hi:.9g},{e:.6g},{unit}"
-            for t, m, a, lo, hi, e in zip(result.tau, result.m, result.adev, result.adev_low, result.adev_high, result.edf)
-        ]
-        (tmp / "allan.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
-        plot_allan(result, tmp / "allan.png", label=f"{Path(_log_label(args)).name}: {columns[0]} [{unit}]", unit=unit)
+    with staged_folder(args.out, force=args.force, inputs=_inputs(args.log)) as tmp:
+        write_allan_csv(result, tmp / "allan.csv", unit=unit)
+        label = f"{Path(source.shown).name}: {columns[0]} [{unit}]"
+        plot_allan(result, tmp / "allan.png", label=label, unit=unit)
     _say(args, f"{result.tau.size} cluster sizes from {result.n_samples} samples ({info['action']}); "
                f"wrote {args.out / 'allan.csv'} and allan.png")
     return 0
+
+
+def _fit_request(args, **source_changes):
+    """The :class:`FitRequest` of the parsed arguments (options a command lacks: defaults)."""
+    names = {f.name for f in dataclasses.fields(FitRequest)} - {"source", "terms"}
+    terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
+    return FitRequest(source=_source(args, **source_changes), terms=terms,
+                      **{k: v for k, v in vars(args).items() if k in names})
 
 
 def _cmd_fit(args):
     if args.allan_table is not None:
         if args.log is not None:
             raise InputError(f"fit: give a log or --allan-table, not both (got {args.log} and {args.allan_table})")
-        return _fit(args)
-    if args.log is None:
+    elif args.log is None:
         raise InputError("fit: give a log to fit (or --allan-table FILE); see bayes-imu fit --help")
-    if args.samples is not None:
+    elif args.samples is not None:
         raise InputError("--samples goes with --allan-table (a log's sample count is read from the log)")
-    with _readable_log(args):
-        return _fit(args)
+    return _fit(_fit_request(args), args)
 
 
-def _fit(args):
+def _fit(request, args, in_batch=False):
+    """``request`` fitted into ``args.out`` (``args``: where and how to write and print)."""
     # the worker imports ArviZ and the plotting libraries while this process reads and fits the log (a second
     # worker for the figures alone was tried: on 2 cores it slowed the fit more than it saved)
     import_emcee()  # before the writer's thread starts: emcee without scipy.stats (see import_emcee)
     # a batch's fits write in their own process: it has its own parallelism, and its imports are made once.
     # Python callers of main() do too, unless the environment asks (a spawned process re-runs the caller's
     # script, which without a __main__ guard would run the command again there)
-    background = False if getattr(args, "in_batch", False) else background_default(automatic=_EXECUTABLE)
+    background = False if in_batch else background_default(automatic=_EXECUTABLE)
     with OutputWriter(background=background, warm=(import_plotting, warm_up_fit)) as writer:
-        columns, results, unit, info = allan_results(SourceOptions.from_namespace(args), "fit")
-        info["log"] = _log_label(args)
-        terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
-        with staged_folder(args.out, force=args.force, inputs=[args.log or args.allan_table]) as tmp:
-            if len(columns) == 1:
-                _fit_axis(args, results[0], unit, info, terms, columns[0], tmp, writer)
-            else:
-                axes = {}
-                for allan, column, folder in zip(results, columns, _folder_names(columns)):
+        read = allan_from_source(request.source, purpose="fit", progress=args.progress)
+        columns, unit, info = read.columns, read.unit, read.info
+        inputs = _inputs(request.source.log, request.source.allan_table)
+        with staged_folder(args.out, force=args.force, inputs=inputs) as tmp:
+            folders = [None] if len(columns) == 1 else _folder_names(columns)
+            axes = {}
+            for allan, column, folder in zip(read.results, columns, folders):
+                if folder is not None:
                     _say(args, f"[{column}]")
-                    axes[column] = _fit_axis(args, allan, unit, info, terms, column, tmp / folder, writer)
-                    axes[column]["folder"] = folder
-                summary = {"axes": axes, "worst_axis": _worst_axis(axes), "input": info, "seed": args.seed,
-                           "bayes_imu_version": __version__}
-                _write_json(tmp / "summary.json", summary)
+                out = tmp if folder is None else tmp / folder
+                axes[column] = _fit_axis(request, args, allan, unit, info, column, out, writer)
+            if len(columns) > 1:
+                summary = fit_summary(axes, info=info, seed=request.seed, folders=folders)
+                write_json(tmp / "summary.json", summary)
             writer.wait()  # every output in the staging folder before it is moved into place
     _say(args, f"wrote {args.out}")
     return 0
@@ -387,25 +334,27 @@ def _folder_names(columns):
     return names
 
 
-def _fit_axis(args, allan, unit, info, terms, column, out, writer):
+def _fit_axis(request, args, allan, unit, info, column, out, writer):
     from ..inference.archive import ARCHIVE_NAME, save_fit
     from ..inference.fit import fit_allan
 
     out.mkdir(exist_ok=True)
     # the output process seeks modes ahead while this process fits (fit_allan's pool; the same numbers)
-    result = fit_allan(allan, terms=terms, likelihood=args.likelihood, rng=args.seed, discrepancy=args.discrepancy,
-                       progress=args.progress, pool=writer.pool() if writer.background else None)
+    result = fit_allan(allan, terms=request.terms, likelihood=request.likelihood, rng=request.seed,
+                       discrepancy=request.discrepancy, progress=args.progress,
+                       pool=writer.pool() if writer.background else None)
     # the figures first, the longer first: the output process draws one while this process summarises and writes
     # the rest, and the other beside it once this process waits (report.worker). The corner plot of four or more
     # parameters takes longer than allan_fit.png (corner.png of 3, 5 and 7 parameters 0.14-0.16, 0.33 and 0.57-0.59 s,
     # allan_fit.png 0.17-0.20 s: scripts/study_speed_options.py --figures)
-    label = f"{Path(_log_label(args)).name}: {column}"
-    figures = [(plot_allan_fit, result, out / "allan_fit.png", {"label": label, "unit": unit, "rng": args.seed}),
+    label = f"{Path(info['log']).name}: {column}"
+    figures = [(plot_allan_fit, result, out / "allan_fit.png",
+                {"label": label, "unit": unit, "rng": request.seed}),
                (plot_corner, result, out / "corner.png", {"unit": unit})]
     for plot, *arguments, options in (figures[::-1] if result.samples.shape[1] >= 4 else figures):
         writer.submit(plot, *arguments, **options)
-    summary = result.summary(unit=unit)
-    summary.update(log=_log_label(args), column=column, unit=unit, input=info)
+    drift = drift_outputs(result, request, unit) if request.sensor else None
+    summary = axis_summary(result, unit=unit, info=info, column=column, drift=drift)
     _say(args, _model_line(summary, result.diagnostics["converged"]))
     for name, p in summary["parameters"].items():
         _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
@@ -425,42 +374,21 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
               f"{_ratio_text(steady.largest_ratio())} in Allan deviation at tau = {steady.worst_tau_s:g} s "
               f"(p = {steady.p_value:.2g}; warm-up?), with a spread of up to x{steady.spread_factor():.2g} (1 sigma) "
               "at longer tau; drift bands include that spread")
-    written = _write_drift(result, args, unit, out, writer) if args.sensor else None
-    if written is not None:
-        summary["drift"] = written[0]
+    if drift is not None:
+        _say_drift(args, drift)
+        write_drift(drift, out, submit=writer.submit)
     if summary["adequacy"] is not None:
-        summary["adequacy"]["drift"] = _drift_check(result, args, unit, column, written)
-    _write_json(out / "summary.json", summary)
+        summary["adequacy"]["drift"], check = drift_check_summary(result, request, unit, drift)
+        if check is not None and not check.adequate:
+            _warn(f"{column}: the drift the log itself shows disagrees with the model at t = "
+                  f"{check.worst_t_s:g} s (p = {check.p_combined:.2g}); the drift bands include the log's "
+                  f"own interval up to {check.t_s[-1]:g} s and extrapolate the model beyond")
+    write_json(out / "summary.json", summary)
     save_fit(result, out / ARCHIVE_NAME)
     # posterior.nc here: it needs only h5netcdf (h5py is loaded with emcee), and queued behind the figures it would
     # end the run later
     write_netcdf(result, out / "posterior.nc")
     return summary
-
-
-def _drift_check(result, args, unit, column, written):
-    """summary.json ``adequacy.drift``: the drift the record shows against the bands (drift.direct),
-    warned about when they disagree."""
-    from ..drift.bands import default_times, integrated_unit
-    from ..drift.direct import record_drift_check, unmeasured_reason
-
-    reason = unmeasured_reason(result, args.bias_start, args.calibration)
-    if written is not None:
-        found = [(b.check, u) for b, u in zip(written[1], written[2]) if b.check is not None]
-        check, shown = found[0] if found else (None, None)
-    elif reason is None:
-        t = np.array(args.times) if args.times is not None else default_times(result.model.dt, args.horizon)
-        check = record_drift_check(result, t, calibration_s=args.calibration, models=args.models, rng=args.seed)
-        shown = integrated_unit(unit, "attitude")
-    else:
-        check = None
-    if check is None:
-        return {"available": False, "reason": reason or "no requested horizon within the spans the log measures"}
-    if not check.adequate:
-        _warn(f"{column}: the drift the log itself shows disagrees with the model at t = {check.worst_t_s:g} s "
-              f"(p = {check.p_combined:.2g}); the drift bands include the log's own interval up to "
-              f"{check.t_s[-1]:g} s and extrapolate the model beyond")
-    return {"available": True, **check.to_dict(shown)}
 
 
 def _model_line(summary, converged):
@@ -483,22 +411,6 @@ def _say_readout(args, block):
             _say(args, f"    {name:30s} median {p['median']:.4g}  90% [{p['q05']:.4g}, {p['q95']:.4g}] {p['unit']}{at}")
 
 
-def _averaging_note(summary, *, likely=0.1, certain=0.9):
-    """A line where the selected model and the model average disagree (``None`` where they agree): the terms
-    it leaves out that the average gives a probability of at least ``likely``, and its own terms below
-    ``certain``. The selected model is the simplest within the selection margin; the drift bands average over
-    every candidate (``term_probability`` in summary.json)."""
-    selected, probability = set(summary["model"]), summary["term_probability"]
-    shown = [(t, p) for t, p in probability.items() if (p < certain if t in selected else p >= likely)]
-    if not shown:
-        return None
-    own = next((c["probability"] for c in summary["candidates"] if c["selected"]), float("nan"))
-    terms = ", ".join(f"{t} {p:.2f} ({'in' if t in selected else 'not in'} this model)"
-                      for t, p in sorted(shown, key=lambda kv: -kv[1]))
-    return (f"  selected as the simplest model within the margin of the best evidence (probability {own:.2f}); "
-            f"the drift bands average over all models: {terms}")
-
-
 def _ratio_text(ratio):
     """``1.3x``; below 1.1x a percentage (``2.4%``): a long log resolves a small change, which "1x" would hide."""
     return f"{100.0 * (ratio - 1.0):.2g}%" if ratio < 1.1 else f"{ratio:.2g}x"
@@ -511,60 +423,15 @@ def _say_datasheet(args, block):
             _say(args, f"    {name:30s} median {p['median']:.4g}  90% [{p['q05']:.4g}, {p['q95']:.4g}] {p['unit']}")
 
 
-def _worst_axis(axes):
-    """Per amplitude parameter, the largest upper (q95) value over the axes, and which axis."""
-    worst = {}
-    for name in _AMPLITUDES:
-        have = {c: s["parameters"][name] for c, s in axes.items() if name in s["parameters"]}
-        if have:
-            axis = max(have, key=lambda c: have[c]["q95"])
-            worst[name] = {"q95": have[axis]["q95"], "axis": axis, "unit": have[axis]["unit"]}
-    for quantity in ("attitude", "velocity", "position"):
-        have = {c: s["drift"][quantity] for c, s in axes.items() if quantity in s.get("drift", {})}
-        if have:
-            axis = max(have, key=lambda c: have[c]["q95"])
-            worst[f"drift_{quantity}"] = {**have[axis], "axis": axis}
-    return worst
-
-
-def _write_drift(result, args, unit, out, writer=None):
-    """drift.csv / drift.png; returns the q05/q50/q95 of sigma(t) at the horizon per quantity, and the
-    bands written (in the display units) with their units."""
-    from ..drift.bands import SENSOR_QUANTITIES, default_times, drift_bands, integrated_unit
-    from ..report.plots import plot_drift
-
-    if args.display_units == "deg" and unit != "rad/s" and args.sensor == "gyro":
-        raise InputError(f"--display-units deg needs a gyro fitted in SI (give --units); this fit is in {unit!r}")
-    t = np.array(args.times) if args.times is not None else default_times(result.model.dt, args.horizon)
-    quantities = SENSOR_QUANTITIES[args.sensor]
-    shown = [display_unit(integrated_unit(unit, q), args.display_units) for q in quantities]
-    bands = [drift_bands(result, t, quantity=q, bias_start=args.bias_start, calibration_s=args.calibration,
-                         models=args.models, rng=args.seed).scaled(factor) for q, (_, factor) in zip(quantities, shown)]
-    lines = ["t_s,quantity,q05,q50,q95,unit,extrapolated"]
-    at_horizon = {}
-    for b, (u, _) in zip(bands, shown):
-        lines += [f"{ti:.6g},{b.quantity},{lo:.9g},{med:.9g},{hi:.9g},{u},{str(x).lower()}"
-                  for ti, lo, med, hi, x in zip(b.t_s, *b.total, b.extrapolated)]
-        at_horizon[b.quantity] = {"t_s": float(b.t_s[-1]), "q05": float(b.total[0][-1]), "q50": float(b.total[1][-1]),
-                                  "q95": float(b.total[2][-1]), "unit": u, "record_s": b.record_s,
-                                  "extrapolated": bool(b.extrapolated[-1]), "bias_start": b.bias_start,
-                                  "calibration_s": None if np.isnan(b.calibration_s) else b.calibration_s,
-                                  "models": b.models}
+def _say_drift(args, drift):
+    for b, u in zip(drift.bands, drift.units):
         _say(args, f"{b.quantity}: 1-sigma drift after {b.t_s[-1]:g} s: median {b.total[1][-1]:.4g}, "
                    f"90% [{b.total[0][-1]:.4g}, {b.total[2][-1]:.4g}] {u}")
-    if bands[0].extrapolated[-1]:
-        _warn(f"the drift horizon ({bands[0].t_s[-1]:g} s) is longer than the log ({bands[0].record_s:g} s): beyond "
-              "the log the bands extrapolate the fitted model (drift.csv column 'extrapolated')")
-    (out / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    if writer is None:
-        plot_drift(bands, out / "drift.png", units=[u for u, _ in shown])
-    else:
-        writer.submit(plot_drift, bands, out / "drift.png", units=[u for u, _ in shown])
-    return at_horizon, bands, [u for u, _ in shown]
-
-
-def _write_json(path, doc):
-    path.write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n", encoding="utf-8")
+    first = drift.bands[0]
+    if first.extrapolated[-1]:
+        _warn(f"the drift horizon ({first.t_s[-1]:g} s) is longer than the log "
+              f"({first.record_s:g} s): beyond the log the bands extrapolate the fitted model "
+              "(drift.csv column 'extrapolated')")
 
 
 def _cmd_report(args):
@@ -645,21 +512,20 @@ def _cmd_fit_population(args):
         raise InputError(f"fit-population: {len(args.logs)} log given; expected the logs of at least 2 units")
     if args.units is not None and args.sensor is None:
         args.sensor = UNITS[args.units][0]
+    request = _fit_request(args, log=args.logs[0])
     allans, labels, infos, unit = [], [], [], None
     for path in args.logs:
-        one = argparse.Namespace(**{**vars(args), "log": path})
-        with _readable_log(one):
-            columns, results, unit, info = allan_results(SourceOptions.from_namespace(one), "fit")
-        info["log"] = _log_label(one)
-        allans.append(results[0])
+        read = allan_from_source(dataclasses.replace(request.source, log=path), purpose="fit",
+                                 progress=args.progress)
+        columns, unit, info = read.columns, read.unit, read.info
+        allans.append(read.results[0])
         infos.append(info)
         labels.append(job_name(Path(info["log"]), labels))
-    terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
     with staged_folder(args.out, force=args.force, inputs=args.logs) as tmp:
-        pop = fit_population(allans, labels=labels, terms=terms, rng=args.seed, spread_scale=args.spread_scale,
-                             progress=args.progress)
-        summary = pop.summary(unit=unit)
-        summary.update(column=columns[0], unit=unit, logs=[i["log"] for i in infos], input=infos)
+        pop = fit_population(allans, labels=labels, terms=request.terms, rng=args.seed,
+                             spread_scale=args.spread_scale, progress=args.progress)
+        drift = drift_outputs(pop.new_unit, request, unit) if args.sensor else None
+        summary = population_summary(pop, unit=unit, column=columns[0], infos=infos, drift=drift)
         _say(args, f"common model: {' + '.join(pop.model.terms)} ({len(labels)} units; population sampler "
                    f"converged: {pop.diagnostics['converged']})")
         _say(args, "a new unit of this model (unit-to-unit spread included):")
@@ -671,16 +537,17 @@ def _cmd_fit_population(args):
             _say(args, f"  unit-to-unit spread of {name}: {s['median']:.2g} (90% [{s['q05']:.2g}, {s['q95']:.2g}]) "
                        "in ln units (0.1 = 10%)")
         bands, unit_bands, drift_unit = None, (), None
-        if args.sensor:  # the new unit's first quantity, as written to drift.csv, against each unit's own
-            summary["drift"], written, shown = _write_drift(pop.new_unit, args, unit, tmp)
-            bands, drift_unit = written[0], shown[0]
+        if drift is not None:  # the new unit's first quantity, as in drift.csv, against each unit's
+            _say_drift(args, drift)
+            write_drift(drift, tmp)
+            bands, drift_unit = drift.bands[0], drift.units[0]
             factor = display_unit(integrated_unit(unit, bands.quantity), args.display_units)[1]
             unit_bands = [drift_bands(f, bands.t_s, quantity=bands.quantity, bias_start=args.bias_start,
                                       calibration_s=args.calibration, rng=args.seed).scaled(factor)
                           for f in pop.unit_fits]
         plot_population(pop, tmp / "population.png", unit=unit, bands=bands, unit_bands=unit_bands, rng=args.seed,
                         drift_unit=drift_unit)
-        _write_json(tmp / "summary.json", summary)
+        write_json(tmp / "summary.json", summary)
     _say(args, f"wrote {args.out}")
     return 0
 
@@ -689,36 +556,22 @@ def _cmd_fit_batch(args):
     """Every log's own fit into a staged copy of --out (claimed, moved in whole: the rules of any output)."""
     from ..report.fleet import BatchJob, job_name, run_batch
 
+    request = _fit_request(args, log=None)
     with staged_folder(args.out, force=args.force, inputs=args.logs) as staging:
         names, jobs = [], []
         for log in args.logs:
             names.append(job_name(log, names))
-            argv = ["fit", str(log), "--out", str(staging / names[-1]), "--quiet"]
-            for dest, flag in _FORWARDED:
-                value = getattr(args, dest)
-                if value is True:
-                    argv.append(flag)
-                elif isinstance(value, tuple):
-                    argv += [flag, ",".join(repr(v) for v in value)]
-                elif value not in (None, False):
-                    argv += [flag, str(value)]
-            jobs.append(BatchJob(names[-1], tuple(argv)))
+            source = dataclasses.replace(request.source, log=log)
+            job_request = dataclasses.replace(request, source=source)
+            jobs.append(BatchJob(names[-1], job_request, staging / names[-1]))
         start = time.perf_counter()
         scheduler = "serial" if args.serial else args.scheduler
         results = run_batch(jobs, _fleet_fit, scheduler=scheduler, n_workers=args.workers, progress=args.progress)
         seconds = time.perf_counter() - start
-        samples = 0
-        for r in results:
-            if r.status == 0:
-                summary = json.loads((staging / r.name / "summary.json").read_text())
-                samples += (sum(a["n_samples"] for a in summary["axes"].values()) if "axes" in summary
-                            else summary["n_samples"])
-        failed = [r for r in results if r.status]
-        doc = {"logs": [dict(r.to_json(), log=str(log)) for r, log in zip(results, args.logs)],
-               "n_logs": len(results), "n_failed": len(failed), "seconds": seconds,
-               "logs_per_minute": 60 * len(results) / seconds, "samples_per_second": samples / seconds,
-               "scheduler": scheduler or "LocalCluster", "seed": args.seed, "bayes_imu_version": __version__}
-        _write_json(staging / "batch.json", doc)
+        doc = batch_summary(results, args.logs, staging, seconds=seconds, scheduler=scheduler,
+                            seed=args.seed)
+        write_json(staging / "batch.json", doc)
+    failed = [r for r in results if r.status]
     for r in failed:
         print(f"bayes-imu: error: {r.name}: {r.error.removeprefix('bayes-imu: error: ')}", file=sys.stderr)
     _say(args, f"{len(results) - len(failed)} of {len(results)} logs fitted in {seconds:.1f} s "
@@ -727,84 +580,31 @@ def _cmd_fit_batch(args):
 
 
 def _fleet_fit(job):
-    """One log of ``fit-batch`` (the fleet's task): exactly ``bayes-imu fit`` with the job's arguments, its outputs
-    written in this process."""
-    try:
-        args = _build_parser().parse_args(list(job.argv))
-    except _UsageError as exc:
-        raise InputError(str(exc)) from None
-    args.progress = False
-    args.in_batch = True
+    """One log of ``fit-batch`` (the fleet's task): exactly ``bayes-imu fit`` of the job's request,
+    its outputs written in this process."""
+    args = argparse.Namespace(out=job.out, force=False, quiet=True, progress=False)
     with warnings.catch_warnings():
         warnings.simplefilter("default")
         warnings.showwarning = _one_line_warning
-        return _cmd_fit(args)
-
-
-def _read_sensor_json(path):
-    spec = read_json_object(path, "of sensor parameters")
-    unknown = sorted(set(spec) - set(_SENSOR_JSON_KEYS))
-    if unknown:
-        raise InputError(f"{path}: unknown key {unknown[0]!r}; expected keys: {', '.join(_SENSOR_JSON_KEYS)}")
-    for key in ("rate_hz", "kind", "noise_density"):
-        if key not in spec:
-            raise InputError(f"{path}: missing key {key!r}")
-    if spec["kind"] not in SENSOR_QUANTITIES:
-        raise InputError(f"{path}: kind={spec['kind']!r}: expected 'gyro' or 'accel'")
-    si = SI_UNITS[spec["kind"]]
-    units = spec.get("units", si)
-    if units not in UNITS or UNITS[units][0] != spec["kind"]:
-        allowed = [u for u, (k, _) in UNITS.items() if k == spec["kind"]]
-        raise InputError(f"{path}: units={units!r}: expected one of {', '.join(allowed)} for a {spec['kind']}")
-    return spec
-
-
-_SENSOR_JSON_KEYS = ("name", "kind", "units", "rate_hz", "noise_density", "bias_variance", "time_constant",
-                     "random_walk")
-
-
-def _positive_float(path, spec, key, default=None):
-    value = spec.get(key, default)
-    if isinstance(value, bool) or (key in spec and not isinstance(value, (int, float))):
-        raise InputError(f"{path}: {key}={value!r}: expected a number")
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{path}: {key}={value!r}: expected a number") from None
-    if not value > 0 and not (value == 0 and default is not None):
-        raise InputError(f"{path}: {key}={value!r}: expected a positive number")
-    return value
+        try:
+            return _fit(job.request, args, in_batch=True)
+        except BayesIMUError as exc:  # in this command's terms, as the fit alone would say it
+            raise type(exc)(as_flags(str(exc))) from None
 
 
 def _cmd_drift(args):
-    spec = _read_sensor_json(args.sensor)
-    dt = 1.0 / _positive_float(args.sensor, spec, "rate_hz")
-    if not args.horizon > dt:
-        raise InputError(f"--horizon={args.horizon!r}: expected a time (s) longer than one sample ({dt} s)")
-    t = np.unique(np.round(np.geomspace(dt, args.horizon, 200) / dt)) * dt
-    rows, shown = [], {}
-    k = UNITS[spec.get("units", SI_UNITS[spec["kind"]])][1]  # the values' unit in SI
-    for quantity in SENSOR_QUANTITIES[spec["kind"]]:
-        result = drift_sigma(
-            t, quantity=quantity, dt=dt,
-            noise_density=k * _positive_float(args.sensor, spec, "noise_density"),
-            bias_variance=k * k * _positive_float(args.sensor, spec, "bias_variance", 0.0),
-            time_constant=_positive_float(args.sensor, spec, "time_constant", np.inf),
-            random_walk=k * _positive_float(args.sensor, spec, "random_walk", 0.0),
-            bias_start=args.bias_start,
-        )
-        unit, f = shown[quantity] = display_unit(SI_OUTPUT_UNITS[quantity],
-                                                 args.display_units)
-        rows += [(ti, quantity, w * f, b * f, r * f, tot * f, unit) for ti, w, b, r, tot in
-                 zip(result.t_s, result.white, result.bias, result.random_walk, result.total)]
-    lines = ["t_s,quantity,white,bias,random_walk,total,unit"]
-    lines += [f"{ti:.6g},{q},{w:.9g},{b:.9g},{r:.9g},{tot:.9g},{u}" for ti, q, w, b, r, tot, u in rows]
+    from ..drift.known import known_drift, read_sensor_json
+
+    spec = read_sensor_json(args.sensor)
+    results = known_drift(args.sensor, spec, horizon_s=args.horizon, bias_start=args.bias_start)
+    shown = [display_unit(SI_OUTPUT_UNITS[r.quantity], args.display_units) for r in results]
+    units, factors = zip(*shown)
     with staged_folder(args.out, force=args.force, inputs=[args.sensor]) as tmp:
-        (tmp / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    for quantity in SENSOR_QUANTITIES[spec["kind"]]:
-        last = [row for row in rows if row[1] == quantity][-1]
-        _say(args, f"{quantity}: 1-sigma drift after {last[0]:g} s = {last[5]:.4g} {last[6]} "
-                   f"(order {QUANTITY_ORDER[quantity]})")
+        write_sigma_csv(results, units, factors, tmp / "drift.csv")
+    for result, unit, f in zip(results, units, factors):
+        last = result.total[-1] * f
+        _say(args, f"{result.quantity}: 1-sigma drift after {result.t_s[-1]:g} s = {last:.4g} "
+                   f"{unit} (order {QUANTITY_ORDER[result.quantity]})")
     _say(args, f"wrote {args.out / 'drift.csv'}")
     return 0
 
@@ -938,7 +738,20 @@ _FLAGS = ((re.compile(r"\bforce=True\b"), "--force"), (re.compile(r"\bscheduler=
                                                              "give --rate HZ or a --time-column"),
           (re.compile(r"^(out|scheduler)="), r"--\1 "), (re.compile(r"^columns="), "--column "),
           (re.compile(r"\bbut rate_hz is\b"), "but --rate is"), (re.compile(r"\(is rate_hz right\?\)"), "(is --rate right?)"),
-          (re.compile(r"\bgive a column\b"), "give --column"))
+          (re.compile(r"\bgive a column\b"), "give --column"),
+          (re.compile(r"^horizon_s="), "--horizon="),
+          # allan.pipeline's LogSource fields
+          (re.compile(r"^(column|units)="), r"--\1 "),
+          (re.compile(r"\bbut sensor is\b"), "but --sensor is"),
+          (re.compile(r"\bleave out input='increments'"), "leave out --input"),
+          (re.compile(r"\binput='increments'"), "--input increments"),
+          (re.compile(r"\bneeds a (column|topic) \("), r"needs --\1 ("),
+          (re.compile(r"\bleave out column\b"), "leave out --column"),
+          (re.compile(r"^display_units='deg'"), "--display-units deg"),
+          (re.compile(r"\(give units\)"), "(give --units)"),
+          (re.compile(r"\ban Allan table needs rate_hz\b"), "--allan-table needs --rate HZ"),
+          (re.compile(r"\ba time column is not available out of core; give rate_hz\b"),
+           "--time-column is not available out of core; give --rate HZ"))
 
 
 def as_flags(message):

@@ -20,6 +20,7 @@ never visited it; with the move all eight converge, 3-5% of their draws there
 """
 
 import numpy as np
+from .._lazy import import_without
 
 __all__ = ["AUTOCORR_MULTIPLE", "RELABEL_SHARE", "ensemble_sampler", "relabel_move", "import_emcee", "autocorr_time",
            "long_enough", "burn_and_thin", "one_blas_thread", "steps_to_next_check", "GEOMETRIC_FROM"]
@@ -174,28 +175,14 @@ def import_emcee():
     """``emcee``, without loading scipy.stats for it where nothing else has.
 
     emcee's KDE move (not used here) imports ``scipy.stats.gaussian_kde`` as emcee is imported,
-    and scipy.stats costs about 0.3 s (timed once), a tenth of a command's run; nothing else in a fit needs
-    it. So where scipy.stats is not loaded yet and no other thread runs (another thread could
-    be importing it at that moment), emcee is imported with scipy.stats marked absent, which
-    emcee handles (its KDE move is then without ``gaussian_kde``), and the move is given back a
-    ``gaussian_kde`` that imports scipy.stats when called: :class:`emcee.moves.KDEMove` works
-    as before (tested).
+    and scipy.stats costs about 0.3 s to import, a tenth of a command's run; nothing else in a fit
+    needs it. So emcee is imported with scipy.stats marked absent, which emcee handles (its KDE
+    move is then without ``gaussian_kde``), and the move is given back a ``gaussian_kde`` that
+    imports scipy.stats when called: :class:`emcee.moves.KDEMove` works as before (tested). The
+    mechanism and its version pin: :func:`bayes_imu._lazy.import_without`.
     """
-    import sys
-    import threading
-
-    if "emcee" in sys.modules or "scipy.stats" in sys.modules or threading.active_count() > 1:
-        import emcee
-
-        return emcee
-    sys.modules["scipy.stats"] = None  # "import of scipy.stats halted": emcee's KDE move does without it
-    try:
-        import emcee
-    finally:
-        del sys.modules["scipy.stats"]
-    if getattr(emcee.moves.kde, "gaussian_kde", None) is None:
-        emcee.moves.kde.gaussian_kde = _gaussian_kde
-    return emcee
+    return import_without("emcee", "scipy.stats", owner="emcee.moves.kde", attribute="gaussian_kde",
+                          stand_in=_gaussian_kde)
 
 
 def _gaussian_kde(*args, **kwargs):

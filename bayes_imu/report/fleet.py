@@ -1,11 +1,13 @@
 """Fleets of sensors: many jobs in parallel on Dask distributed, each failure isolated.
 
-A job is a frozen spec (:class:`BatchJob`: a name and the arguments of the work) and a task
+A job is a frozen spec (:class:`BatchJob`: a name, the frozen request of the work and its output
+folder) and a task
 function runs it: ``task(job)`` returns normally on success and raises on failure
 (:class:`~bayes_imu.errors.BayesIMUError` is a user error, status 2; anything else an internal
 error, status 1). The task must be a module-level function (Dask pickles it by reference);
-``bayes-imu fit-batch`` passes its own fit, so each log runs exactly what ``bayes-imu fit``
-would run alone (same options, same seed), into ``OUT/<log name>/``, and the results are
+``bayes-imu fit-batch`` passes its own fit and one :class:`~bayes_imu.report.writers.FitRequest` per
+log (never an argv), so each log runs exactly what ``bayes-imu fit`` would run alone (same options,
+same seed), into ``OUT/<log name>/``, and the results are
 identical to serial runs. A failed job is reported with its status and its one-line error
 and does not stop the others. :func:`run_batch` uses a ``LocalCluster``
 (one single-threaded worker process per core) unless given the address of a running
@@ -29,11 +31,13 @@ CONNECT_TIMEOUT = "10s"
 
 @dataclass(frozen=True)
 class BatchJob:
-    """One job of a batch: its name (the output sub-folder) and the arguments of its work
-    (for ``bayes-imu fit-batch``: the ``bayes-imu fit`` arguments)."""
+    """One job of a batch: its name (the output sub-folder), the frozen request of its work (for
+    ``bayes-imu fit-batch``: a :class:`~bayes_imu.report.writers.FitRequest`) and its output
+    folder."""
 
     name: str
-    argv: tuple
+    request: object
+    out: object = None
 
 
 @dataclass(frozen=True)

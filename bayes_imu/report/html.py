@@ -100,7 +100,10 @@ def _source_text(s):
         where = "fit folder" + ("s " if spec.population else " ") + ", ".join(p.name for p in spec.paths)
     else:
         where = ("logs " if spec.population else "log ") + ", ".join(p.name for p in spec.paths)
-        where += f", column {spec.column}, input {spec.units}, {spec.rate_hz:g} Hz"
+        axis = s.axes[s.worst]
+        fitted = axis.fit if axis.fit is not None else axis.population.unit_fits[0]
+        rate = spec.rate_hz if spec.rate_hz is not None else fitted.allan.rate_hz  # from stamps
+        where += f", column {spec.column}, input {spec.units}, {rate:g} Hz"
     axes = f"; worst of axes {', '.join(a.axis for a in s.axes)}: {s.axes[s.worst].axis}" if len(s.axes) > 1 else ""
     return f"{spec.kind}, {where}{axes}"
 

@@ -41,33 +41,17 @@ def import_corner():
     corner imports ArviZ as it is imported (for its ``InferenceData`` entry point), and ArviZ with
     xarray costs about 1 s to import, more than drawing every figure of a fit; the figures here
     pass numpy arrays, which corner draws without ArviZ (its path where ArviZ is not installed).
-    So where ArviZ is not loaded and no other thread runs (another could be importing it), corner
-    is imported with ArviZ marked absent, and given back an ``InferenceData`` entry point that
-    imports ArviZ when first called (:func:`_arviz_corner`): ``corner.corner`` works for every
-    input as before (tested). Elsewhere ArviZ is imported first, without its import-time
-    announcement (:func:`bayes_imu.inference.fit.import_arviz`).
+    So corner is imported with ArviZ marked absent and given back an ``InferenceData`` entry point
+    that imports ArviZ when first called (:func:`_arviz_corner`): ``corner.corner`` works for every
+    input as before (tested). Where that is not safe, ArviZ is imported first, without its
+    import-time announcement. The mechanism and its version pin:
+    :func:`bayes_imu._lazy.import_without`.
     """
-    import sys
-    import threading
+    from .._lazy import import_without
+    from ..inference.fit import import_arviz
 
-    if "corner" in sys.modules:
-        return sys.modules["corner"]
-    if "arviz" in sys.modules or threading.active_count() > 1:
-        from ..inference.fit import import_arviz
-
-        import_arviz()
-        import corner
-
-        return corner
-    sys.modules["arviz"] = None  # "import of arviz halted": corner's ArviZ entry point is left out
-    try:
-        import corner
-    finally:
-        del sys.modules["arviz"]
-    module = sys.modules.get("corner.corner")
-    if getattr(module, "arviz_corner", False) is None:
-        module.arviz_corner = _arviz_corner
-    return corner
+    return import_without("corner", "arviz", owner="corner.corner", attribute="arviz_corner",
+                          stand_in=_arviz_corner, prepare=import_arviz)
 
 
 def _arviz_corner(*args, **kwargs):

@@ -15,20 +15,22 @@ bound at the longest outage; sensors that cannot provide the required quantity (
 for a position requirement) rank last.
 """
 
+import dataclasses
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..allan.estimator import allan_variance
+from ..allan.pipeline import LogSource, allan_from_source
 from ..drift.bands import DEFAULT_CALIBRATION_S, SENSOR_QUANTITIES, drift_bands, drift_draws
 from ..noise import BIAS_STARTS
 from ..drift.display import parse_amount
 from ..errors import InputError
 from ..inference.fit import fit_allan
 from ..drift.closed_forms import SI_OUTPUT_UNITS
-from ..io.readers import SI_UNITS, UNITS, read_log, read_text, to_si
+from ..io.readers import INCREMENT_UNITS, SI_UNITS, UNITS, read_text
+from ..io.timebase import GAP_POLICIES
 
 __all__ = ["Scene", "SensorSpec", "SensorReport", "Report", "read_scene", "build_report", "OUTPUT_UNITS"]
 
@@ -48,7 +50,12 @@ class SensorSpec:
     columns : tuple of str
         Axes to bound (the worst one counts); empty for fit folders (their axes are used).
     rate_hz : float or None
+        Sample rate (Hz); ``None`` where the time stamps give it (``time_column``, a ROS bag).
     source : {"log", "logs", "fit", "fits"}
+    reading : LogSource or None
+        How each log is read (everything ``bayes-imu fit`` reads: time column and gaps, a ROS
+        bag's topic, increments, out-of-core reading); its ``log`` is left empty. ``None``
+        for fit folders.
     """
 
     name: str
@@ -58,6 +65,7 @@ class SensorSpec:
     kind: str
     units: str
     source: str = "log"
+    reading: LogSource = None
 
     @property
     def log(self):
@@ -247,7 +255,8 @@ def read_scene(path):
         where = f"{path}: [[sensor]] #{i}"
         if not isinstance(entry, dict):
             raise InputError(f"{where}: expected a table")
-        _known(entry, ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units"), where)
+        keys = ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units")
+        _known(entry, keys + _READING, where)
         kind = _get(entry, "kind", str, where)
         if kind not in SENSOR_QUANTITIES:
             raise InputError(f"{where}: kind={kind!r}: expected 'gyro' or 'accel'")
@@ -259,22 +268,49 @@ def read_scene(path):
         paths = tuple(path.parent / p for p in _paths(entry, source, where))
         name = _get(entry, "name", str, where)
         if source in ("fit", "fits"):
-            for key in ("column", "rate_hz", "units"):
+            for key in ("column", "rate_hz", "units") + _READING:
                 if key in entry:
                     raise InputError(f"{where}: {key} is taken from the fit folder; leave it out with {source}")
             specs.append(SensorSpec(name, paths, (), None, kind, SI_UNITS[kind], source))
             continue
-        units = _get(entry, "units", str, where)
-        if units not in UNITS or UNITS[units][0] != kind:
-            allowed = [u for u, (k, _) in UNITS.items() if k == kind]
-            raise InputError(f"{where}: units={units!r}: expected one of {', '.join(allowed)} for a {kind}")
-        specs.append(SensorSpec(name, paths, _columns(entry, where), _get(entry, "rate_hz", float, where), kind, units,
-                                source))
+        reading = _reading(entry, kind, where)
+        columns = _columns(entry, where)
+        specs.append(SensorSpec(name, paths, columns, reading.rate, kind, reading.units, source,
+                                dataclasses.replace(reading, column=",".join(columns))))
     names = [s.name for s in specs]
     if len(set(names)) != len(names):
         raise InputError(f"{path}: sensor names must be unique, got {names}")
     return Scene(str(scene.get("name", path.stem)), tuple(float(v) for v in outages), float(cred), tuple(specs),
                  requirement, bias_start, str(path), float(calibration))
+
+
+#: keys of a ``[[sensor]]`` with logs that say how to read them, beyond column, rate_hz and units
+_READING = ("time_column", "gaps", "topic", "input", "stream")
+
+
+def _reading(entry, kind, where):
+    """How the logs of a ``[[sensor]]`` are read: a :class:`LogSource` without its log."""
+    time_column = _get(entry, "time_column", str, where, required=False)
+    topic = _get(entry, "topic", str, where, required=False)
+    rate = _get(entry, "rate_hz", float, where, required=time_column is None and topic is None)
+    gaps = _get(entry, "gaps", str, where, default="error", required=False)
+    if gaps not in GAP_POLICIES:
+        raise InputError(f"{where}: gaps={gaps!r}: expected one of {', '.join(GAP_POLICIES)}")
+    kind_of_input = _get(entry, "input", str, where, default="rate", required=False)
+    if kind_of_input not in ("rate", "increments"):
+        raise InputError(f"{where}: input={kind_of_input!r}: expected 'rate' or 'increments'")
+    stream = entry.get("stream", False)
+    if not isinstance(stream, bool):
+        raise InputError(f"{where}: stream={stream!r}: expected true or false")
+    table = UNITS if kind_of_input == "rate" else INCREMENT_UNITS
+    units = _get(entry, "units", str, where)
+    if units not in table or table[units][0] != kind:
+        allowed = [u for u, (k, _) in table.items() if k == kind]
+        what = f"a {kind}" + (" (increments)" if kind_of_input == "increments" else "")
+        raise InputError(f"{where}: units={units!r}: expected one of {', '.join(allowed)} "
+                         f"for {what}")
+    return LogSource(topic=topic, stream=stream, rate=rate, time_column=time_column, gaps=gaps,
+                     input=kind_of_input, units=units, sensor=kind)
 
 
 def _paths(entry, key, where):
@@ -393,11 +429,12 @@ def _axes(spec, rng):
         fits = {n: [dict(u)[n] for u in per_unit] for n in names}
         allans = {n: [f.allan for f in fs] for n, fs in fits.items()}
     else:
-        fits, allans = {}, {}
-        for column in spec.columns:
-            allans[column] = [allan_variance(to_si(read_log(p, column=column).values, spec.units, where=where),
-                                             rate_hz=spec.rate_hz) for p in spec.paths]
-            fits[column] = [fit_allan(a, rng=rng) for a in allans[column]]
+        try:  # every column of a log in one read, as bayes-imu fit reads it
+            read = [allan_from_source(dataclasses.replace(spec.reading, log=p)) for p in spec.paths]
+        except InputError as exc:
+            raise InputError(f"{where}{exc}") from None
+        allans = {column: [r.results[j] for r in read] for j, column in enumerate(spec.columns)}
+        fits = {column: [fit_allan(a, rng=rng) for a in allans[column]] for column in spec.columns}
     out = []
     for axis in fits:
         if len(fits[axis]) == 1:

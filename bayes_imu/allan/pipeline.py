@@ -1,0 +1,390 @@
+"""One path from a log to its Allan variances: what ``fit``, ``allan``, batches, fleets and scenes
+read.
+
+A :class:`LogSource` is a frozen request: the log (a file, ``-`` for standard input, a named
+pipe, a ROS bag, a binary or text log larger than memory), its column(s), the rate or the time
+column and the gaps policy, the input kind (rates or increments) and units, or an Allan table
+instead of a log. :func:`allan_from_source` turns it into one
+:class:`~bayes_imu.allan.estimator.AllanResult` per column (SI when ``units`` is given) and a
+JSON-ready description of what was read and done (:class:`SourceAllan`).
+
+Binary logs (``.npy``, raw) and ``stream=True`` are read out of core
+(:func:`~bayes_imu.allan.outofcore.allan_variance_file`); everything else in memory with the full
+checks of :mod:`bayes_imu.io.readers` and :func:`bayes_imu.io.timebase.check_time`. Standard input
+and named pipes are copied as they stream in to a temporary file of the same name and read like
+any log (line numbers unchanged); the copy is removed afterwards.
+"""
+
+import contextlib
+import dataclasses
+import os
+import shutil
+import stat
+import sys
+import tempfile
+from pathlib import Path
+
+from ..errors import InputError
+from ..io.bags import is_bag, read_imu_bag
+from ..io.readers import INCREMENT_UNITS, SI_UNITS, UNITS, read_columns, sniff_file
+from ..io.timebase import check_time
+from .contrast import DEFAULT_CONTRAST_SPAN_S
+from .estimator import allan_variance
+from .outofcore import BINARY_SUFFIXES
+
+__all__ = ["LogSource", "SourceAllan", "allan_from_source", "MIN_SAMPLES"]
+
+#: fewest samples per purpose: one Allan variance (``allan``), 4 octave cluster sizes
+#: (1, 2, 4, 8 <= N/4) for a fit
+MIN_SAMPLES = {"allan": 4, "fit": 32}
+
+
+@dataclasses.dataclass(frozen=True)
+class LogSource:
+    """Where the samples come from and how to read them (the input options of ``allan``, ``fit``).
+
+    Attributes
+    ----------
+    log : Path or None
+        The log: delimited text (``.gz`` accepted), ``.npy`` / raw binary, a ROS bag, ``-``
+        (standard input) or a named pipe. ``None`` with ``allan_table``.
+    column : str or None
+        Column name or 0-based index; several separated by commas (a fit of each).
+    topic : str or None
+        ROS bag: the ``sensor_msgs/Imu`` topic (columns ``gyro_x`` ... ``accel_z``).
+    stream : bool
+        Read a text log out of core, in chunks (automatic for binary logs).
+    rate : float or None
+        Sample rate (Hz); optional with ``time_column`` or a bag (their stamps give it).
+    time_column : str or None
+        Time stamps (s): the rate is derived from them and checked.
+    gaps : {"error", "longest"}
+        Irregular time steps: an error, or the longest regular segment.
+    input : {"rate", "increments"}
+        Rate samples, or delta-angle / delta-velocity increments per sample.
+    units : str or None
+        Units of the column(s), converted to SI (rad/s, m/s^2); ``None``: left as they are.
+    sensor : {"gyro", "accel"} or None
+        The sensor kind, checked against ``units``.
+    allan_table : Path or None
+        An Allan deviation table to fit instead of a log (``rate`` is its log's rate).
+    samples : int or None
+        With ``allan_table``: samples in the log it came from.
+    label : str or None
+        The name outputs give the log (default: ``log`` as given).
+    calibration : float or None
+        Calibration window [s] of the calibrated-outage errors the record measures directly
+        (:attr:`AllanResult.contrasts`, for the drift-space check); ``None`` skips them.
+    """
+
+    log: Path = None
+    column: str = None
+    topic: str = None
+    stream: bool = False
+    rate: float = None
+    time_column: str = None
+    gaps: str = "error"
+    input: str = "rate"
+    units: str = None
+    sensor: str = None
+    allan_table: Path = None
+    samples: int = None
+    label: str = None
+    calibration: float = DEFAULT_CONTRAST_SPAN_S
+
+    @property
+    def shown(self):
+        """The log's name in outputs and messages (its ``label``, or the path as given)."""
+        return self.label or str(self.log or self.allan_table)
+
+
+@dataclasses.dataclass(frozen=True)
+class SourceAllan:
+    """The Allan variances of a :class:`LogSource`.
+
+    Attributes
+    ----------
+    columns : tuple of str
+        The columns read (``("adev",)`` for an Allan table, ``("0",)`` for a binary log).
+    results : tuple of AllanResult
+        One per column, in ``unit`` squared.
+    unit : str
+        The unit of the rates: SI (``rad/s``, ``m/s^2``) with ``units``, else ``u`` (``u/s`` for
+        increments).
+    info : dict
+        JSON-ready description of what was read and done (``summary.json``'s ``input``).
+    """
+
+    columns: tuple
+    results: tuple
+    unit: str
+    info: dict
+
+
+def allan_from_source(source, *, purpose="fit", grid="octave", progress=False):
+    """The Allan variance of every column of ``source`` (see the module docstring).
+
+    Parameters
+    ----------
+    source : LogSource
+    purpose : {"fit", "allan"}
+        What the variances are for: ``allan`` takes one column and 4 samples, ``fit`` several
+        columns and 32 samples (:data:`MIN_SAMPLES`).
+    grid : {"octave", "decade", "all"}
+        Cluster sizes (:func:`~bayes_imu.allan.estimator.allan_variance`'s ``m``).
+    progress : bool
+        Progress bars on standard error.
+
+    Returns
+    -------
+    SourceAllan
+
+    Raises
+    ------
+    InputError
+        Anything wrong with the request or the log, in one line that names it.
+    """
+    if purpose not in MIN_SAMPLES:
+        raise InputError(f"purpose={purpose!r}: expected one of {', '.join(MIN_SAMPLES)}")
+    paths = {k: Path(v) for k, v in (("log", source.log), ("allan_table", source.allan_table))
+             if v is not None and not isinstance(v, Path)}
+    source = dataclasses.replace(source, **paths)  # a path given as a string
+    increments = source.input == "increments"
+    table = UNITS if not increments else INCREMENT_UNITS
+    if source.units is not None and source.units not in table:
+        what = (
+            "an increment unit: add input='increments'"
+            if not increments
+            else f"a rate unit; increments (input='increments') take {', '.join(INCREMENT_UNITS)}"
+        )
+        raise InputError(f"units={source.units} is {what}")
+    if source.units is not None and source.sensor and source.sensor != table[source.units][0]:
+        raise InputError(
+            f"units={source.units} is a {table[source.units][0]} unit but sensor is {source.sensor}"
+        )
+    if source.allan_table is not None:
+        return _table(source)
+    with _spooled(source) as spooled:
+        columns, results, unit, info = _allan(spooled, purpose, grid, progress, increments, table)
+    info["log"] = source.shown
+    return SourceAllan(tuple(columns), tuple(results), unit, info)
+
+
+def _allan(opts, purpose, grid, progress, increments, table):
+    bag = is_bag(opts.log)
+    if opts.rate is None and opts.time_column is None and not bag:
+        raise InputError(f"{opts.log}: no sample rate: give rate_hz or a time column")
+    factor, unit = (
+        (1.0, "u") if opts.units is None else (table[opts.units][1], SI_UNITS[table[opts.units][0]])
+    )
+    if increments and bag:
+        raise InputError(
+            f"{opts.log}: a ROS bag's sensor_msgs/Imu holds rates, not increments; "
+            "leave out input='increments'"
+        )
+    if bag and opts.units is None:  # sensor_msgs/Imu is SI by definition
+        kinds = {c.strip().split("_")[0] for c in (opts.column or "").split(",")}
+        unit = SI_UNITS.get(kinds.pop()) if len(kinds) == 1 else None
+        if unit is None:
+            raise InputError(
+                f"column={opts.column!r}: fit gyro and accelerometer fields of a bag separately"
+            )
+    if not bag and (opts.stream or opts.log.suffix.lower() in BINARY_SUFFIXES):
+        columns, results, info = _streamed(opts, purpose, grid, progress)
+    else:
+        columns, values, rate, info = _read(opts, purpose, progress)
+        results = [
+            allan_variance(values[:, j], rate_hz=rate, m=grid, progress=progress,
+                           contrast_span_s=opts.calibration)
+            for j in range(values.shape[1])
+        ]
+    if (
+        increments
+    ):  # increment / dt = mean rate over the sample: every Allan variance times (factor * rate)^2
+        factor *= results[0].rate_hz
+        unit = unit if opts.units is not None else "u/s"
+        info["input"] = "increments (divided by the sample period)"
+    info.update(input_units=opts.units or (unit if bag else "unspecified (u)"), unit=unit)
+    return columns, [r.scaled(factor) for r in results], unit, info
+
+
+def _columns(opts, purpose):
+    if opts.column is None:
+        try:
+            names = sniff_file(opts.log)["names"]
+            shown = (
+                "; its columns: "
+                + ", ".join(repr(n) for n in names[:12])
+                + (", ..." if len(names) > 12 else "")
+            )
+        except InputError:
+            shown = ""
+        raise InputError(
+            f"{opts.log}: a text log needs a column (a header name or 0-based index){shown}"
+        )
+    columns = [c.strip() for c in opts.column.split(",")]
+    if any(not c for c in columns):
+        raise InputError(
+            f"column={opts.column!r}: expected column names or indices separated by commas"
+        )
+    if purpose == "allan" and len(columns) > 1:
+        raise InputError(f"column={opts.column!r}: allan takes one column (fit takes several)")
+    return columns
+
+
+def _table(opts):
+    """An Allan deviation table (``fit --allan-table``) as the one Allan result to fit."""
+    from .table import read_allan_table
+
+    if opts.rate is None:
+        raise InputError(
+            f"{opts.allan_table}: an Allan table needs rate_hz (the rate of the log the "
+            "table came from)"
+        )
+    if opts.input == "increments":
+        raise InputError(
+            "input='increments' does not apply to an Allan table (give it in rate units)"
+        )
+    result, assumption = read_allan_table(
+        opts.allan_table, rate_hz=opts.rate, n_samples=opts.samples
+    )
+    factor, unit = (
+        (1.0, "u") if opts.units is None else (UNITS[opts.units][1], SI_UNITS[UNITS[opts.units][0]])
+    )
+    info = {
+        "allan_table": str(opts.allan_table),
+        "rate_hz": result.rate_hz,
+        "rate_source": "--rate",
+        "samples_used": result.n_samples,
+        "intervals": assumption,
+        "action": "Allan deviation table fitted",
+        "input_units": opts.units or "unspecified (u)",
+        "unit": unit,
+        "log": opts.shown,
+    }
+    return SourceAllan(("adev",), (result.scaled(factor),), unit, info)
+
+
+def _streamed(opts, purpose, grid, progress):
+    from .outofcore import allan_variance_file
+
+    if opts.time_column is not None:
+        raise InputError(f"{opts.log}: a time column is not available out of core; give rate_hz")
+    binary = opts.log.suffix.lower() in BINARY_SUFFIXES
+    if binary and opts.column is not None:
+        raise InputError(f"{opts.log}: a binary log has one channel; leave out column")
+    columns = ["0"] if binary else _columns(opts, purpose)
+    results = [
+        allan_variance_file(
+            opts.log, rate_hz=opts.rate, column=None if binary else c, m=grid, progress=progress
+        )
+        for c in columns
+    ]
+    _require_samples(opts, results[0].n_samples, purpose)
+    info = {
+        "log": str(opts.log),
+        "columns": columns,
+        "read": "out of core",
+        "rate_hz": results[0].rate_hz,
+        "rate_source": "--rate",
+        "samples_used": results[0].n_samples,
+        "action": "all samples used",
+    }
+    return columns, results, info
+
+
+def _read(opts, purpose, progress):
+    """Columns read in memory, cut to the usable time base, and the input description."""
+    columns = _columns(opts, purpose)
+    if is_bag(opts.log):
+        if opts.topic is None:
+            raise InputError(f"{opts.log}: a ROS bag needs a topic (a sensor_msgs/Imu topic)")
+        data = read_imu_bag(opts.log, topic=opts.topic, columns=columns)
+        where, what = f"{opts.log}: {opts.topic} header stamps", "message"
+    else:
+        data = read_columns(
+            opts.log, columns=columns, time_column=opts.time_column, progress=progress
+        )
+        where, what = f"{opts.log}: column {opts.time_column!r}", "line"
+    timebase = check_time(
+        data.time_s,
+        rate_hz=opts.rate,
+        gaps=opts.gaps,
+        lines=data.lines,
+        where=where,
+        n_samples=data.values.shape[0],
+        what=what,
+    )
+    values = data.values[timebase.start : timebase.stop]
+    _require_samples(opts, values.shape[0], purpose)
+    info = {
+        "log": str(opts.log),
+        "columns": list(data.columns),
+        "delimiter": data.delimiter,
+        "header": data.header,
+        "read": "in memory",
+        **timebase.to_json(),
+    }
+    return data.columns, values, timebase.rate_hz, info
+
+
+def _require_samples(opts, n, purpose):
+    needed = MIN_SAMPLES[purpose]
+    if n < needed:
+        raise InputError(
+            f"{opts.log}: {n} samples; expected at least {needed} for {purpose} "
+            f"({'4 octave cluster sizes' if purpose == 'fit' else 'one Allan variance'})"
+        )
+
+
+# ------------------------------------------------------------------ pipes and standard input
+
+
+@contextlib.contextmanager
+def _spooled(source):
+    """``source`` itself, or, for ``-`` (standard input) or a named pipe, ``source`` with ``log`` a
+    temporary copy of the same name, made as the data streams in and removed afterwards. A pipe
+    with no writer is an error at once, not a wait."""
+    path = source.log
+    fifo = str(path) != "-" and path.exists() and stat.S_ISFIFO(path.stat().st_mode)
+    if str(path) != "-" and not fifo:
+        yield source
+        return
+    folder = Path(tempfile.mkdtemp(prefix="bayes-imu-input-"))
+    spooled = folder / ("stdin.csv" if str(path) == "-" else path.name)
+    try:
+        with open(spooled, "wb") as target:
+            if fifo:
+                _copy_pipe(path, target)
+            else:
+                shutil.copyfileobj(sys.stdin.buffer, target, 1 << 20)
+        if spooled.stat().st_size == 0:
+            raise InputError(
+                f"{path}: nothing was read from "
+                f"{'standard input' if not fifo else 'the pipe'}; expected a log"
+            )
+        yield dataclasses.replace(source, log=spooled, label=source.shown)
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _copy_pipe(path, target):
+    fd = os.open(
+        path, os.O_RDONLY | os.O_NONBLOCK
+    )  # never blocks; a first read tells if a writer exists
+    try:
+        try:
+            first = os.read(fd, 1 << 16)
+        except BlockingIOError:  # a writer, nothing written yet: wait for it
+            first = None
+        if first == b"":
+            raise InputError(
+                f"{path}: a named pipe with no writer; start the program that writes the log first"
+            )
+        os.set_blocking(fd, True)
+        if first:
+            target.write(first)
+        while chunk := os.read(fd, 1 << 20):
+            target.write(chunk)
+    finally:
+        os.close(fd)
