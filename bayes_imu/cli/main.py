@@ -241,6 +241,9 @@ def _build_parser():
                         help="upper posterior quantile for conservative values (e.g. 0.95); default: medians")
     kalibr.add_argument("--force", action="store_true", help="replace a file bayes_imu wrote earlier (never other files)")
     kalibr.set_defaults(handler=_cmd_kalibr)
+    from .extra import add_commands  # export, plan (issue 38)
+
+    add_commands(sub)
 
     drift = sub.add_parser("drift", help="drift curves from known noise parameters (JSON)")
     drift.add_argument("sensor", type=Path,
