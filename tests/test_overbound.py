@@ -107,8 +107,9 @@ def test_pair_bounds_a_real_fit_of_a_log_with_gauss_markov_and_flicker(rng):
 
     dt = 0.1
     model = NoiseModel(("white", "bias_instability", "gauss_markov"), dt)
-    y = simulate_log(model, {"noise_variance": 1e-6 / dt, "bias_instability": 2e-5, "bias_variance": 4e-9,
-                             "time_constant": 200.0}, 2**15, rng=rng)
+    c = 5e4  # simulated in units of 2e-5 rad/s (the flicker simulator's check is not scale-free)
+    y = simulate_log(model, {"noise_variance": 1e-6 / dt * c**2, "bias_instability": 2e-5 * c,
+                             "bias_variance": 4e-9 * c**2, "time_constant": 200.0}, 2**15, rng=rng) / c
     result = fit(y, rate_hz=1.0 / dt, rng=rng)
     bound = overbound(result, kind="gyro", max_draws=None)
     t = np.geomspace(dt, bound.t_s[-1], 2001)
