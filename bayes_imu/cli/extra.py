@@ -11,7 +11,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["add_commands"]
+__all__ = ["add_commands", "add_fit_options", "datasheet_hook"]
 
 
 def _positive(text):
@@ -34,8 +34,63 @@ def _probability(text):
     return value
 
 
+def _lengths(text):
+    try:
+        values = [_duration(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        values = []
+    if not values or not all(np.isfinite(v) and v > 0 for v in values):
+        raise argparse.ArgumentTypeError(f"expected comma-separated durations (600, 10min, 4h), got {text!r}")
+    return tuple(sorted(set(values)))
+
+
+def _duration(text):
+    text = text.strip()
+    for suffix, scale in (("min", 60.0), ("h", 3600.0), ("d", 86400.0), ("s", 1.0)):
+        if text.endswith(suffix):
+            return float(text[: -len(suffix)]) * scale
+    return float(text)
+
+
+def _datasheet_file(text):
+    from ..noise.datasheet_check import read_datasheet_spec
+
+    try:
+        kind, spec = read_datasheet_spec(Path(text))
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return Path(text), kind, spec
+
+
+def add_fit_options(fit):
+    """``fit --datasheet FILE``: each datasheet value's posterior probability of being within spec."""
+    fit.add_argument("--datasheet", type=_datasheet_file, metavar="FILE",
+                     help="vendor datasheet values (JSON or TOML, datasheet units; docs/cli.md): summary.json gets "
+                          "each value's posterior probability of being within spec, and a one-line verdict")
+
+
+def datasheet_hook(args, result, unit, summary):
+    """With ``--datasheet``: ``summary["datasheet_check"]`` and the verdict line."""
+    given = getattr(args, "datasheet", None)
+    if given is None:
+        return
+    from ..noise.datasheet import KIND_OF_UNIT
+    from ..noise.datasheet_check import check_datasheet, verdict
+    from .main import _say
+
+    path, kind, spec = given
+    if KIND_OF_UNIT.get(unit) != kind:
+        raise InputError(f"--datasheet {path}: a {kind} datasheet, but the log is in {unit!r}; expected a {kind} "
+                         "log fitted in SI (give --units)")
+    values = check_datasheet(result, kind, spec)
+    line = verdict(values)
+    summary["datasheet_check"] = {"file": str(path), "kind": kind, "values": values, "verdict": line}
+    _say(args, f"  datasheet {path.name}: {line}")
+
+
 def add_commands(sub):
     """Add ``export`` and ``plan`` to the ``bayes-imu`` sub-command parser ``sub``."""
+    from ..drift.plan import DEFAULT_LENGTHS_S
     from ..report.exports import FORMATS
 
     export = sub.add_parser(
@@ -67,6 +122,33 @@ def add_commands(sub):
     export.add_argument("--quiet", action="store_true", help="no messages")
     export.set_defaults(handler=_cmd_export)
 
+    plan = sub.add_parser(
+        "plan", help="how long to record: predicted 90% intervals versus record length",
+        description="Predict how the 90% interval of each noise parameter, and of the drift at --horizons, "
+                    "shrinks with record length, from a pilot fit (a short log fitted by bayes-imu fit) or from "
+                    "datasheet values, by the Fisher information of the Allan-variance likelihood the fit uses "
+                    "(validated against simulate-and-fit: docs/validation/plan.md). Writes plan.csv, plan.json "
+                    "and plan.png.",
+        epilog="examples:\n  bayes-imu plan fit_pilot --horizons 10,100 --out plan_gx\n"
+               "  bayes-imu plan --datasheet adis.toml --rate 200 --lengths 10min,1h,4h,24h --out plan_ds",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    plan.add_argument("fit", type=Path, nargs="?", help="pilot fit folder (bayes-imu fit, fitted with --units)")
+    plan.add_argument("--datasheet", type=_datasheet_file, metavar="FILE",
+                      help="plan from datasheet values instead (JSON or TOML, as fit --datasheet); needs --rate")
+    plan.add_argument("--rate", type=_positive, metavar="HZ", help="with --datasheet: the log's sample rate")
+    plan.add_argument("--lengths", type=_lengths, default=DEFAULT_LENGTHS_S,
+                      help="record lengths (s, or with min / h / d), default 10min,30min,1h,2h,4h,8h,24h,48h")
+    plan.add_argument("--horizons", type=_lengths, default=(), metavar="S,...",
+                      help="drift horizons (s): the 1-sigma drift's interval too (attitude for a gyro, velocity "
+                           "for an accelerometer)")
+    plan.add_argument("--calibration", type=_positive, default=60.0, metavar="S",
+                      help="seconds of bias calibration before an outage, default 60")
+    plan.add_argument("--out", type=Path, required=True,
+                      help="output folder: new, empty, or a previous bayes_imu result with --force")
+    plan.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out")
+    plan.add_argument("--quiet", action="store_true", help="no messages")
+    plan.set_defaults(handler=_cmd_plan)
+
 
 def _cmd_export(args):
     from ..report.exports import export_values_from_folders, write_export
@@ -95,3 +177,68 @@ def _cmd_export(args):
         _say(args, f"  {sensor} bound tight at " + ", ".join(f"{q} {t:.3g} s" for _, q, t in rows))
     _say(args, f"wrote {args.out} ({args.format}, {values.mode})")
     return 0
+
+
+def _plan_inputs(args):
+    """``[(label, model, params, kind, record_s)]`` of the pilot fit's axes, or of the datasheet."""
+    from ..inference.archive import fit_axes, load_fit
+    from ..noise.datasheet import KIND_OF_UNIT
+    from ..noise.datasheet_check import spec_model
+
+    if (args.fit is None) == (args.datasheet is None):
+        raise InputError("plan: give a pilot fit folder or --datasheet FILE (one of them)")
+    if args.datasheet is not None:
+        if args.rate is None:
+            raise InputError("plan: --datasheet needs --rate HZ (the rate of the log to be recorded)")
+        path, kind, spec = args.datasheet
+        model, params = spec_model(kind, spec, args.rate)
+        return [(path.stem, model, params, kind, None)]
+    if args.rate is not None:
+        raise InputError("plan: --rate goes with --datasheet (a pilot fit has its own rate)")
+    out = []
+    for axis, place, summary in fit_axes(args.fit):
+        fit = load_fit(place)
+        params = {p: float(np.median(fit.draws(p))) for p in fit.model.parameter_names}
+        out.append((axis, fit.model, params, KIND_OF_UNIT.get(summary.get("unit")), fit.record_s))
+    return out
+
+
+def _cmd_plan(args):
+    import json
+
+    from ..drift.plan import plan_record_length
+    from ..report.output import staged_folder
+    from ..report.planning import plan_csv, plot_plan
+    from .main import _say
+    from .._version import __version__
+
+    plans, pilot = [], None
+    for label, model, params, kind, record_s in _plan_inputs(args):
+        if args.horizons and kind is None:
+            raise InputError("plan: --horizons needs a gyro or accelerometer fit in SI (bayes-imu fit --units)")
+        quantity = {"gyro": "attitude", "accel": "velocity"}.get(kind)
+        plans.append((label, plan_record_length(model, params, lengths_s=args.lengths, horizons_s=args.horizons,
+                                                quantity=quantity, calibration_s=args.calibration)))
+        pilot = record_s
+    inputs = [args.fit] if args.fit is not None else [args.datasheet[0]]
+    with staged_folder(args.out, force=args.force, inputs=inputs) as tmp:
+        (tmp / "plan.csv").write_text(plan_csv(plans), encoding="utf-8")
+        doc = {"bayes_imu_version": __version__, "method": "Fisher information of the correlated Allan-variance "
+               "likelihood", "source": str(inputs[0]), "calibration_s": args.calibration,
+               "axes": {label: {"rate_hz": p.rate_hz, "rows": p.rows()} for label, p in plans}}
+        (tmp / "plan.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+        plot_plan(plans, tmp / "plan.png", pilot_s=pilot,
+                  title=f"Predicted 90% intervals versus record length: {Path(str(inputs[0])).name}")
+    for label, plan in plans:
+        _say(args, f"[{label}] 90% interval, upper half-width in % of the value:")
+        whats = list(plan.names) + [f"{plan.quantity} drift {t:g} s" for t in plan.horizons_s]
+        _say(args, "  " + f"{'length':>8}" + "".join(f"{w[:22]:>24}" for w in whats))
+        for i, length in enumerate(plan.lengths_s):
+            sds = list(plan.log_sd[i]) + list(plan.drift_log_sd[i])
+            _say(args, "  " + f"{_hours(length):>8}" + "".join(f"{100 * np.expm1(1.6448536 * s):23.3g}%" for s in sds))
+    _say(args, f"wrote {args.out}/plan.csv, plan.json and plan.png")
+    return 0
+
+
+def _hours(seconds):
+    return f"{seconds / 3600:g} h" if seconds >= 3600 else f"{seconds / 60:g} min"

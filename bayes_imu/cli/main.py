@@ -39,6 +39,7 @@ from ..report.plots import import_plotting, plot_allan_fit, plot_corner
 from ..report.worker import OutputWriter, background_default
 from .._progress import show_progress
 from .sources import SourceOptions, allan_results
+from .extra import add_commands, add_fit_options, datasheet_hook
 from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, SENSOR_QUANTITIES
 from ..drift.display import DISPLAY_CHOICES, display_unit
 from ..drift.closed_forms import DRIFT_BIAS_STARTS, QUANTITY_ORDER, SI_OUTPUT_UNITS, drift_sigma
@@ -184,6 +185,7 @@ def _build_parser():
                      help="with --allan-table: samples in the log it came from (sets the intervals; unknown: "
                           "the shortest record the table allows is assumed, the widest intervals)")
     fit.set_defaults(handler=_cmd_fit)
+    add_fit_options(fit)  # --datasheet (cli/extra.py, issue 38)
 
     batch = sub.add_parser("fit-batch", parents=[_input_options(batch=True)],
                            help="fit many logs in parallel (Dask), one output folder per log")
@@ -241,9 +243,7 @@ def _build_parser():
                         help="upper posterior quantile for conservative values (e.g. 0.95); default: medians")
     kalibr.add_argument("--force", action="store_true", help="replace a file bayes_imu wrote earlier (never other files)")
     kalibr.set_defaults(handler=_cmd_kalibr)
-    from .extra import add_commands  # export, plan (issue 38)
-
-    add_commands(sub)
+    add_commands(sub)  # export, plan (cli/extra.py, issue 38)
 
     drift = sub.add_parser("drift", help="drift curves from known noise parameters (JSON)")
     drift.add_argument("sensor", type=Path,
@@ -414,6 +414,7 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
     for name, p in summary["parameters"].items():
         _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
     _say_datasheet(args, summary["datasheet"])
+    datasheet_hook(args, result, unit, summary)
     adequacy = result.adequacy
     if not adequacy.adequate:
         what = [f"goodness of fit p = {adequacy.p_value:.2g} (worst at tau = {adequacy.worst_tau_s:g} s)"]
