@@ -140,10 +140,24 @@ model may be worse (list several units' logs to bound a new unit).</p>
 <p class="model">Model needed: <b>{html.escape(' + '.join(fit.model.terms))}</b> ({why}).</p>
 <p class="adequacy">Goodness of fit: p = {a.p_value:.2g}, worst at tau = {a.worst_tau_s:g} s: {html.escape(fit_check)}.</p>
 <p class="diagnostics">Sampler: {conv}; {rhat}{d['n_steps']} steps x {d['n_walkers']} walkers.</p>
-<table><tr><th>parameter (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>
+<table><tr><th>parameter (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>{_datasheet_table(s)}
 <img alt="Allan fit of {html.escape(s.spec.name)}" src="{allan_png}">
 <img alt="drift bands of {html.escape(s.spec.name)}" src="{drift_png}">
 </section>"""
+
+
+def _datasheet_table(s):
+    """The datasheet check of a sensor (scene ``datasheet``): spec, posterior median, P(within spec)."""
+    check = s.datasheet_check
+    if check is None:
+        return ""
+    rows = "".join(
+        f"<tr><td>{html.escape(n)}</td><td>{v['spec']:.4g} {html.escape(v['unit'])}</td>"
+        + (f"<td>{v['median']:.4g}</td><td>{v['probability']:.2f}</td>" if v["probability"] is not None
+           else "<td>not in the model</td><td></td>") + "</tr>"
+        for n, v in check["values"].items())
+    return (f"\n<table class=\"datasheet\"><tr><th>datasheet value</th><th>spec</th><th>posterior median</th>"
+            f"<th>P(within spec)</th></tr>{rows}</table>\n<p class=\"datasheet\">{html.escape(check['verdict'])}</p>")
 
 
 def _population_section(s):
@@ -169,7 +183,7 @@ def _population_section(s):
 predictive of a hierarchical fit of {len(pop.labels)} units.</p>
 <p class="model">Common model: <b>{html.escape(' + '.join(pop.model.terms))}</b> (summed evidence over the units);
 {html.escape(check)}; population sampler {'converged' if pop.diagnostics['converged'] else 'NOT CONVERGED'}.</p>
-<table><tr><th>new unit (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>
+<table><tr><th>new unit (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>{_datasheet_table(s)}
 <table><tr><th>unit-to-unit spread (ln units)</th><th>5%</th><th>median</th><th>95%</th></tr>{spread}</table>
 <img alt="population of {html.escape(s.spec.name)}" src="{pop_png}">
 <img alt="drift bands of {html.escape(s.spec.name)}" src="{drift_png}">

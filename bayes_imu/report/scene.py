@@ -49,6 +49,8 @@ class SensorSpec:
         Axes to bound (the worst one counts); empty for fit folders (their axes are used).
     rate_hz : float or None
     source : {"log", "logs", "fit", "fits"}
+    datasheet : tuple or None
+        ``(path, kind, values)`` of the sensor's ``datasheet`` file (:mod:`bayes_imu.noise.datasheet_check`).
     """
 
     name: str
@@ -58,6 +60,7 @@ class SensorSpec:
     kind: str
     units: str
     source: str = "log"
+    datasheet: tuple = None
 
     @property
     def log(self):
@@ -133,6 +136,18 @@ class SensorReport:
     def record_s(self):
         return self.posterior.record_s
 
+    @property
+    def datasheet_check(self):
+        """``{"file", "values", "verdict"}``: the worst axis's probability of each datasheet value being within
+        spec (:func:`bayes_imu.noise.datasheet_check.check_datasheet`), or ``None`` without a datasheet."""
+        if self.spec.datasheet is None:
+            return None
+        from ..noise.datasheet_check import check_datasheet, verdict
+
+        path, kind, values = self.spec.datasheet
+        checked = check_datasheet(self.posterior, kind, values)
+        return {"file": str(path), "axis": self.axes[self.worst].axis, "values": checked, "verdict": verdict(checked)}
+
 
 @dataclass(frozen=True)
 class Report:
@@ -165,6 +180,8 @@ class Report:
                 entry["unit_to_unit"] = (f"included: the bounds are for a NEW unit of this model (posterior "
                                          f"predictive of a hierarchical fit of {len(s.spec.paths)} units)")
             entry.update(bounds=list(s.bounds), max_outage_s=s.max_outage_s)
+            if s.spec.datasheet is not None:
+                entry["datasheet_check"] = s.datasheet_check
             out.append(entry)
         return {"scene": self.scene.name, "credibility": self.scene.credibility, "outages_s": list(self.scene.outages_s),
                 "requirement": self.scene.requirement, "bias_start": self.scene.bias_start,
@@ -247,10 +264,11 @@ def read_scene(path):
         where = f"{path}: [[sensor]] #{i}"
         if not isinstance(entry, dict):
             raise InputError(f"{where}: expected a table")
-        _known(entry, ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units"), where)
+        _known(entry, ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units", "datasheet"), where)
         kind = _get(entry, "kind", str, where)
         if kind not in SENSOR_QUANTITIES:
             raise InputError(f"{where}: kind={kind!r}: expected 'gyro' or 'accel'")
+        sheet = _datasheet(entry, path, kind, where)
         sources = [k for k in ("log", "logs", "fit", "fits") if k in entry]
         if len(sources) != 1:
             raise InputError(f"{where}: expected exactly one of log, logs (several units), fit or fits (fit folders); "
@@ -262,19 +280,34 @@ def read_scene(path):
             for key in ("column", "rate_hz", "units"):
                 if key in entry:
                     raise InputError(f"{where}: {key} is taken from the fit folder; leave it out with {source}")
-            specs.append(SensorSpec(name, paths, (), None, kind, SI_UNITS[kind], source))
+            specs.append(SensorSpec(name, paths, (), None, kind, SI_UNITS[kind], source, sheet))
             continue
         units = _get(entry, "units", str, where)
         if units not in UNITS or UNITS[units][0] != kind:
             allowed = [u for u, (k, _) in UNITS.items() if k == kind]
             raise InputError(f"{where}: units={units!r}: expected one of {', '.join(allowed)} for a {kind}")
         specs.append(SensorSpec(name, paths, _columns(entry, where), _get(entry, "rate_hz", float, where), kind, units,
-                                source))
+                                source, sheet))
     names = [s.name for s in specs]
     if len(set(names)) != len(names):
         raise InputError(f"{path}: sensor names must be unique, got {names}")
     return Scene(str(scene.get("name", path.stem)), tuple(float(v) for v in outages), float(cred), tuple(specs),
                  requirement, bias_start, str(path), float(calibration))
+
+
+def _datasheet(entry, path, kind, where):
+    """``(path, kind, values)`` of a sensor's ``datasheet = "FILE"`` (relative to the scene), or None."""
+    if "datasheet" not in entry:
+        return None
+    from ..noise.datasheet_check import read_datasheet_spec
+
+    value = entry["datasheet"]
+    if not isinstance(value, str) or not value:
+        raise InputError(f"{where}: datasheet={value!r}: expected the path of a JSON or TOML datasheet file")
+    sheet_kind, values = read_datasheet_spec(path.parent / value)
+    if sheet_kind != kind:
+        raise InputError(f"{where}: datasheet {value}: a {sheet_kind} datasheet for a {kind}")
+    return path.parent / value, kind, values
 
 
 def _paths(entry, key, where):
