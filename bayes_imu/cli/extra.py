@@ -171,7 +171,7 @@ def _cmd_export(args):
     for key, value in values.noise.present().items():
         text = f"  {key:28s} {value:.4g}"
         if values.bound is not None:
-            text += f"  (x{factors[key]:.2g} over the posterior median {values.point.present()[key]:.4g})"
+            text += f"  (x{factors[key]:.3g} over the posterior median {values.point.present()[key]:.4g})"
         _say(args, text)
     for sensor, rows in values.tight.items():
         _say(args, f"  {sensor} bound tight at " + ", ".join(f"{q} {t:.3g} s" for _, q, t in rows))
