@@ -1,4 +1,4 @@
-"""Overbounding factors on the shipped synthetic logs (``data_synthetic/``): "inflate by what factor?".
+"""Overbounding factors on the shipped synthetic logs: "inflate by what factor?".
 
 For the Gauss-Markov gyro (``gyro_lowgrade``: white + Gauss-Markov bias, 1 h at 100 Hz) and the
 accelerometer (``accel_gravity``: white + Gauss-Markov, 30 min at 200 Hz): fit (model selection),
@@ -30,13 +30,18 @@ LOGS = (("gyro_lowgrade", "gyro"), ("accel_gravity", "accel"))
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--t-max", default="60,600,1800", help="longest horizons (s), default 60,600,1800")
+    parser.add_argument(
+        "--t-max", default="60,600,1800", help="longest horizons (s), default 60,600,1800"
+    )
     parser.add_argument("--quick", action="store_true", help="the gyro, 60 s only")
     args = parser.parse_args(argv)
     truth = json.loads((DATA / "truth.json").read_text())
     ranges = [60.0] if args.quick else [float(v) for v in args.t_max.split(",")]
-    print(f"{'log':15s} {'t_max':>6} {'N point':>10} {'N bound':>10} {'xN':>6} {'K point':>10} {'K bound':>10} "
-          f"{'xK':>6}  tight at (s)")
+    print(
+        f"{'log':15s} {'t_max':>6} {'N point':>10} {'N bound':>10} {'xN':>6} "
+        f"{'K point':>10} {'K bound':>10} "
+        f"{'xK':>6}  tight at (s)"
+    )
     for name, kind in LOGS[:1] if args.quick else LOGS:
         info = truth[name]
         y = to_si(read_log(DATA / info["file"], column=info["column"]).values, info["unit"])
@@ -46,10 +51,15 @@ def main(argv=None):
             pair = overbound(fit, kind=kind, t_max=t_max, rng=1)
             f_n, f_k = pair.factors(density, walk)
             tight = ", ".join(f"{q} {t:.3g}" for q, t in pair.tight_s)
-            print(f"{name:15s} {t_max:6g} {density:10.4g} {pair.noise_density:10.4g} {f_n:6.3g} {walk:10.4g} "
-                  f"{pair.random_walk:10.4g} {f_k:6.3g}  {tight}")
-    print("SI units: N rad/s/sqrt(Hz) or m/s^2/sqrt(Hz), K rad/s^2/sqrt(Hz) or m/s^3/sqrt(Hz); "
-          "bound: 95% credible drift, bias calibrated over the 60 s before the outage")
+            print(
+                f"{name:15s} {t_max:6g} {density:10.4g} {pair.noise_density:10.4g} {f_n:6.3g} "
+                f"{walk:10.4g} "
+                f"{pair.random_walk:10.4g} {f_k:6.3g}  {tight}"
+            )
+    print(
+        "SI units: N rad/s/sqrt(Hz) or m/s^2/sqrt(Hz), K rad/s^2/sqrt(Hz) or m/s^3/sqrt(Hz); "
+        "bound: 95% credible drift, bias calibrated over the 60 s before the outage"
+    )
     return 0
 
 

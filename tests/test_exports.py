@@ -23,7 +23,14 @@ import pytest
 import yaml
 
 from bayes_imu.errors import InputError
-from bayes_imu.report.exports import FORMATS, ExportValues, ImuNoise, from_fields, render_export, to_fields
+from bayes_imu.report.exports import (
+    FORMATS,
+    ExportValues,
+    ImuNoise,
+    from_fields,
+    render_export,
+    to_fields,
+)
 
 EUROC = ImuNoise(1.6968e-04, 1.9393e-05, 2.0000e-3, 3.0000e-3, 200.0)
 TUM_VI = ImuNoise(0.00016, 0.000022, 0.0028, 0.00086, 200.0)
@@ -41,7 +48,9 @@ def _parse(text, fmt):
             def __getattr__(self, name):
                 return lambda matrix: captured.__setitem__(name[3].lower() + name[4:], matrix)
 
-        fake = types.SimpleNamespace(PreintegrationCombinedParams=types.SimpleNamespace(MakeSharedU=lambda g: Params()))
+        fake = types.SimpleNamespace(
+            PreintegrationCombinedParams=types.SimpleNamespace(MakeSharedU=lambda g: Params())
+        )
         sys.modules["gtsam"] = fake
         try:
             exec(compile(text, "snippet.py", "exec"), {})
@@ -52,7 +61,10 @@ def _parse(text, fmt):
         return {name: matrix[0, 0] for name, matrix in captured.items()}
     if fmt == "matlab":
         assert re.search(r"^gyro = gyroparams;$", text, re.M) or "gyro." not in text
-        return {m.group(1): float(m.group(2)) for m in re.finditer(r"^((?:gyro|accel)\.\w+) = (\S+);$", text, re.M)}
+        return {
+            m.group(1): float(m.group(2))
+            for m in re.finditer(r"^((?:gyro|accel)\.\w+) = (\S+);$", text, re.M)
+        }
     doc = yaml.safe_load(text.replace("%YAML:1.0\n", "", 1))
     if fmt == "openvins":
         doc = doc["imu0"]
@@ -63,7 +75,9 @@ def _parse(text, fmt):
 @pytest.mark.parametrize("published", [EUROC, TUM_VI], ids=["euroc", "tum-vi"])
 @pytest.mark.parametrize("fmt", list(FORMATS))
 def test_published_values_round_trip_through_every_format(published, fmt):
-    values = ExportValues(published, published, per_axis={k: [("x", v, None)] for k, v in published.present().items()})
+    values = ExportValues(
+        published, published, per_axis={k: [("x", v, None)] for k, v in published.present().items()}
+    )
     text = render_export(values, fmt)
     back = from_fields(_parse(text, fmt), fmt)
     for key, value in published.present().items():
@@ -72,14 +86,23 @@ def test_published_values_round_trip_through_every_format(published, fmt):
 
 def test_field_units_are_each_formats_own():
     """GTSAM covariances are the squared densities; the others take the densities themselves."""
-    assert to_fields(EUROC, "gtsam")["gyroscopeCovariance"] == pytest.approx(1.6968e-04**2, rel=1e-15)
-    assert to_fields(EUROC, "vins") == {"gyr_n": 1.6968e-04, "gyr_w": 1.9393e-05, "acc_n": 2e-3, "acc_w": 3e-3}
+    assert to_fields(EUROC, "gtsam")["gyroscopeCovariance"] == pytest.approx(
+        1.6968e-04**2, rel=1e-15
+    )
+    assert to_fields(EUROC, "vins") == {
+        "gyr_n": 1.6968e-04,
+        "gyr_w": 1.9393e-05,
+        "acc_n": 2e-3,
+        "acc_w": 3e-3,
+    }
     assert to_fields(EUROC, "matlab")["accel.RandomWalk"] == 3e-3
 
 
 def test_one_sensor_alone_writes_only_its_fields():
     gyro = ImuNoise(gyroscope_noise_density=1e-4, gyroscope_random_walk=1e-5, update_rate=100.0)
-    values = ExportValues(gyro, gyro, per_axis={k: [("x", v, None)] for k, v in gyro.present().items()})
+    values = ExportValues(
+        gyro, gyro, per_axis={k: [("x", v, None)] for k, v in gyro.present().items()}
+    )
     for fmt in FORMATS:
         fields = _parse(render_export(values, fmt), fmt)
         assert set(fields) == {FORMATS[fmt].names[k] for k in gyro.present()}, fmt

@@ -20,8 +20,13 @@ from bayes_imu.noise import NoiseModel
 
 def _posterior(rng, terms, columns, dt=0.01, record_s=7200.0):
     model = NoiseModel(terms, dt)
-    return SimpleNamespace(model=model, samples=np.column_stack(columns), record_s=record_s, mixture=(),
-                           stationarity=None)
+    return SimpleNamespace(
+        model=model,
+        samples=np.column_stack(columns),
+        record_s=record_s,
+        mixture=(),
+        stationarity=None,
+    )
 
 
 def _lognormal(rng, median, sd, n):
@@ -30,19 +35,30 @@ def _lognormal(rng, median, sd, n):
 
 @pytest.fixture
 def gm_flicker(rng):
-    """Draws of a white + flicker + Gauss-Markov posterior (what a filter's two terms cannot represent)."""
+    """Draws of a white + flicker + Gauss-Markov posterior (beyond a filter's two terms)."""
     n = 1000
-    return _posterior(rng, ("white", "bias_instability", "gauss_markov"),
-                      [_lognormal(rng, 1e-6, 0.1, n), _lognormal(rng, 2e-5, 0.2, n),
-                       _lognormal(rng, 2.5e-9, 0.3, n), _lognormal(rng, 300.0, 0.3, n)])
+    return _posterior(
+        rng,
+        ("white", "bias_instability", "gauss_markov"),
+        [
+            _lognormal(rng, 1e-6, 0.1, n),
+            _lognormal(rng, 2e-5, 0.2, n),
+            _lognormal(rng, 2.5e-9, 0.3, n),
+            _lognormal(rng, 300.0, 0.3, n),
+        ],
+    )
 
 
-@pytest.mark.parametrize("kind, quantities", [("gyro", ("attitude",)), ("accel", ("velocity", "position"))])
+@pytest.mark.parametrize(
+    "kind, quantities", [("gyro", ("attitude",)), ("accel", ("velocity", "position"))]
+)
 def test_pair_bounds_the_95_percent_drift_on_a_dense_grid(gm_flicker, kind, quantities):
     result = overbound(gm_flicker, kind=kind, t_min=0.01, t_max=3600.0, max_draws=None)
     t = np.geomspace(0.01, 3600.0, 3001)
     for quantity in quantities:
-        upper = drift_bands(gm_flicker, t, quantity=quantity, bias_start="calibrated", quantiles=(0.95,)).total[0]
+        upper = drift_bands(
+            gm_flicker, t, quantity=quantity, bias_start="calibrated", quantiles=(0.95,)
+        ).total[0]
         pair = filter_drift(result.noise_density, result.random_walk, t, dt=0.01, quantity=quantity)
         assert np.all(pair >= upper), np.min(pair / upper)
     assert result.tight_s  # the bound is met somewhere (minimal), and says where
@@ -69,8 +85,8 @@ def test_pair_is_the_linear_programme_optimum_by_vertex_enumeration(gm_flicker):
 
 
 def test_white_plus_random_walk_factor_tends_to_the_credible_interval_ratio(rng):
-    """Exactly white + random walk: white dominates below ~1 s, the walk beyond ~1e3 s, so the minimal
-    pair is each term's own 95% quantile (the quantile of a sum is below the sum of the quantiles)."""
+    """Exactly white + random walk: white dominates below ~1 s, the walk beyond ~1e3 s, so the
+    minimal pair is each term's own 95% quantile (a sum's quantile is below their sum)."""
     n, dt = 4000, 0.1
     density = _lognormal(rng, 1e-3, 0.05, n)
     walk = _lognormal(rng, 1e-6, 0.3, n)
@@ -86,13 +102,24 @@ def test_population_new_unit_predictive_is_accepted(gm_flicker):
     unit = UnitPosterior(gm_flicker.model, gm_flicker.samples, 7200.0, "new unit")
     result = overbound(unit, kind="gyro", t_min=1.0, t_max=600.0, max_draws=None)
     t = np.geomspace(1.0, 600.0, 500)
-    upper = drift_bands(unit, t, quantity="attitude", bias_start="calibrated", quantiles=(0.95,)).total[0]
-    assert np.all(filter_drift(result.noise_density, result.random_walk, t, dt=0.01, quantity="attitude") >= upper)
+    upper = drift_bands(
+        unit, t, quantity="attitude", bias_start="calibrated", quantiles=(0.95,)
+    ).total[0]
+    assert np.all(
+        filter_drift(result.noise_density, result.random_walk, t, dt=0.01, quantity="attitude")
+        >= upper
+    )
 
 
-@pytest.mark.parametrize("options, match", [({"kind": "mag"}, "kind"), ({"kind": "gyro", "credibility": 0.4}, "credibility"),
-                                            ({"kind": "gyro", "t_min": 10.0, "t_max": 5.0}, "t_min"),
-                                            ({"kind": "gyro", "t_min": 1e-4}, "t_min")])
+@pytest.mark.parametrize(
+    "options, match",
+    [
+        ({"kind": "mag"}, "kind"),
+        ({"kind": "gyro", "credibility": 0.4}, "credibility"),
+        ({"kind": "gyro", "t_min": 10.0, "t_max": 5.0}, "t_min"),
+        ({"kind": "gyro", "t_min": 1e-4}, "t_min"),
+    ],
+)
 def test_bad_options_are_input_errors(gm_flicker, options, match):
     with pytest.raises(InputError, match=match):
         overbound(gm_flicker, **options)
@@ -100,20 +127,37 @@ def test_bad_options_are_input_errors(gm_flicker, options, match):
 
 @pytest.mark.slow
 def test_pair_bounds_a_real_fit_of_a_log_with_gauss_markov_and_flicker(rng):
-    """End to end: a simulated 55-minute 10 Hz gyro log (white + flicker + Gauss-Markov; the flicker simulator's
-    circulant embedding holds up to 2**15 samples) fitted, then bounded over its own duration."""
+    """End to end: a simulated 55-minute 10 Hz gyro log (white + flicker + Gauss-Markov; the flicker
+    simulator's circulant embedding holds up to 2**15 samples) fitted, then bounded over its own
+    duration."""
     from bayes_imu.inference.fit import fit
     from bayes_imu.noise.simulate import simulate_log
 
     dt = 0.1
     model = NoiseModel(("white", "bias_instability", "gauss_markov"), dt)
     c = 5e4  # simulated in units of 2e-5 rad/s (the flicker simulator's check is not scale-free)
-    y = simulate_log(model, {"noise_variance": 1e-6 / dt * c**2, "bias_instability": 2e-5 * c,
-                             "bias_variance": 4e-9 * c**2, "time_constant": 200.0}, 2**15, rng=rng) / c
+    y = (
+        simulate_log(
+            model,
+            {
+                "noise_variance": 1e-6 / dt * c**2,
+                "bias_instability": 2e-5 * c,
+                "bias_variance": 4e-9 * c**2,
+                "time_constant": 200.0,
+            },
+            2**15,
+            rng=rng,
+        )
+        / c
+    )
     result = fit(y, rate_hz=1.0 / dt, rng=rng)
     bound = overbound(result, kind="gyro", max_draws=None)
     t = np.geomspace(dt, bound.t_s[-1], 2001)
-    upper = drift_bands(result, t, quantity="attitude", bias_start="calibrated", quantiles=(0.95,)).total[0]
-    assert np.all(filter_drift(bound.noise_density, bound.random_walk, t, dt=dt, quantity="attitude") >= upper)
+    upper = drift_bands(
+        result, t, quantity="attitude", bias_start="calibrated", quantiles=(0.95,)
+    ).total[0]
+    assert np.all(
+        filter_drift(bound.noise_density, bound.random_walk, t, dt=dt, quantity="attitude") >= upper
+    )
     point = np.median(result.draws("noise_density"))
     assert bound.factors(point, 1.0)[0] >= 1.0

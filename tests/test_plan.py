@@ -34,12 +34,20 @@ def test_white_noise_width_matches_the_spread_of_the_estimate(rng):
 
 def test_longer_records_shrink_white_noise_as_one_over_root_length():
     model = NoiseModel(("white", "random_walk"), 0.01)
-    plan = plan_record_length(model, {"noise_variance": 1e-4, "rate_random_walk": 1e-5},
-                              lengths_s=[3600.0, 4 * 3600.0, 16 * 3600.0], horizons_s=[1.0, 100.0],
-                              quantity="attitude")
+    plan = plan_record_length(
+        model,
+        {"noise_variance": 1e-4, "rate_random_walk": 1e-5},
+        lengths_s=[3600.0, 4 * 3600.0, 16 * 3600.0],
+        horizons_s=[1.0, 100.0],
+        quantity="attitude",
+    )
     white = plan.log_sd[:, 0]
-    assert white[0] / white[1] == pytest.approx(2.0, rel=0.05) and white[1] / white[2] == pytest.approx(2.0, rel=0.05)
-    assert np.all(np.diff(plan.log_sd, axis=0) < 0) and np.all(np.diff(plan.drift_log_sd, axis=0) < 0)
+    assert white[0] / white[1] == pytest.approx(2.0, rel=0.05) and white[1] / white[
+        2
+    ] == pytest.approx(2.0, rel=0.05)
+    assert np.all(np.diff(plan.log_sd, axis=0) < 0) and np.all(
+        np.diff(plan.drift_log_sd, axis=0) < 0
+    )
     assert plan.width90 == pytest.approx(np.exp(2 * Z90 * plan.log_sd))
     rows = plan.rows()
     assert len(rows) == 3 * 4 and rows[2]["what"] == "attitude drift at 1 s"

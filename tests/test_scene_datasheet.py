@@ -27,16 +27,21 @@ datasheet = "{sheet}"
 
 
 def test_scene_datasheet_probability_column_and_verdict(tmp_path):
-    (tmp_path / "sheet.json").write_text(json.dumps({"kind": "gyro", "angle_random_walk": 100.0,
-                                                     "rate_random_walk": 1.0}))
+    (tmp_path / "sheet.json").write_text(
+        json.dumps({"kind": "gyro", "angle_random_walk": 100.0, "rate_random_walk": 1.0})
+    )
     path = tmp_path / "scene.toml"
     path.write_text(SCENE.format(data=DATA, sheet="sheet.json"))
     rep = build_report(read_scene(path), rng=0)
     write_report(rep, tmp_path / "out")
-    check = json.loads((tmp_path / "out" / "report.json").read_text())["sensors"][0]["datasheet_check"]
+    check = json.loads((tmp_path / "out" / "report.json").read_text())["sensors"][0][
+        "datasheet_check"
+    ]
     arw = check["values"]["angle_random_walk"]
     fit = rep.sensors[0].fit
-    expected = np.median(fit.draws("noise_density")) * 60 * 180 / np.pi  # rad/s/sqrt(Hz) -> deg/sqrt(h)
+    expected = (
+        np.median(fit.draws("noise_density")) * 60 * 180 / np.pi
+    )  # rad/s/sqrt(Hz) -> deg/sqrt(h)
     assert arw["median"] == pytest.approx(expected, rel=1e-12) and arw["probability"] == 1.0
     assert check["file"].endswith("sheet.json") and check["verdict"]
     page = (tmp_path / "out" / "report.html").read_text()

@@ -11,14 +11,16 @@ SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 
 
 def _run(script, *args):
-    proc = subprocess.run([sys.executable, str(SCRIPTS / script), *args], capture_output=True, text=True, timeout=600)
+    proc = subprocess.run(
+        [sys.executable, str(SCRIPTS / script), *args], capture_output=True, text=True, timeout=600
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
     return proc.stdout
 
 
 @pytest.mark.slow
 def test_validate_plan_quick(tmp_path):
-    """Two 1 h replicates: the white-noise width predicted within 10% (its spread is small even with two logs)."""
+    """Two 1 h replicates: the white-noise width predicted within 10% (a small spread)."""
     out = _run("validate_plan.py", "--quick", "--csv", str(tmp_path / "p.csv"))
     ratio = float(re.search(r"1h noise_variance\s+\S+\s+\S+ \+-\S+\s+(\S+)", out).group(1))
     assert 0.9 < ratio < 1.1 and (tmp_path / "p.csv").exists()
@@ -28,4 +30,6 @@ def test_validate_plan_quick(tmp_path):
 def test_overbound_example_quick():
     out = _run("overbound_example.py", "--quick")
     row = re.search(r"gyro_lowgrade\s+60\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)", out)
-    assert row and float(row.group(3)) >= 1.0  # the white-noise density is never below the point value here
+    assert (
+        row and float(row.group(3)) >= 1.0
+    )  # the white-noise density is never below the point value here

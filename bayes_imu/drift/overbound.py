@@ -82,19 +82,24 @@ class OverboundResult:
     calibration_s: float
 
     def factors(self, noise_density, random_walk):
-        """``(N / noise_density, K / random_walk)``: the factor over given point values (same unit)."""
+        """``(N / noise_density, K / random_walk)``: factors over point values (same unit)."""
+
         def ratio(a, b):
             return float(a / b) if b > 0 else float("inf") if a > 0 else float("nan")
 
         return ratio(self.noise_density, noise_density), ratio(self.random_walk, random_walk)
 
 
-def filter_drift(noise_density, random_walk, t, *, dt, quantity, calibration_s=DEFAULT_CALIBRATION_S):
+def filter_drift(
+    noise_density, random_walk, t, *, dt, quantity, calibration_s=DEFAULT_CALIBRATION_S
+):
     """1-sigma calibrated-start drift ``(n_t,)`` of the two-term filter model at times ``t`` [s].
 
     ``noise_density`` N [u/sqrt(Hz)], ``random_walk`` K [u/sqrt(s)], sample period ``dt`` [s].
     """
-    w, r = _unit_drifts(np.round(np.asarray(t, float) / dt), dt, QUANTITY_ORDER[quantity], calibration_s)
+    w, r = _unit_drifts(
+        np.round(np.asarray(t, float) / dt), dt, QUANTITY_ORDER[quantity], calibration_s
+    )
     return np.sqrt(noise_density**2 / dt * w + random_walk**2 * r)
 
 
@@ -112,30 +117,54 @@ def _grid(dt, t_min, t_max, n):
 def _upper(fit, k, dt, quantities, credibility, calibration_s, max_draws, rng):
     out = {}
     for quantity in quantities:
-        total = drift_draws(fit, k * dt, quantity=quantity, bias_start="calibrated", calibration_s=calibration_s,
-                            max_draws=max_draws, rng=rng, component_draws=slice(0, 0))["total"]
+        total = drift_draws(
+            fit,
+            k * dt,
+            quantity=quantity,
+            bias_start="calibrated",
+            calibration_s=calibration_s,
+            max_draws=max_draws,
+            rng=rng,
+            component_draws=slice(0, 0),
+        )["total"]
         out[quantity] = np.quantile(total, credibility, axis=0)
     return out
 
 
 def _solve(rows):
-    """The two-variable LP of the module docstring; ``rows`` ``(n, 2)`` are constraint rows ``a_i x >= 1``."""
+    """The two-variable LP of the module docstring; ``rows`` ``(n, 2)``: ``a_i x >= 1``."""
     from scipy.optimize import linprog
 
     scale = 1.0 / np.max(rows, axis=0)  # variables of order one
     a = rows * scale
-    res = linprog(np.mean(a, axis=0), A_ub=-a, b_ub=-np.ones(a.shape[0]), bounds=[(0, None)] * 2, method="highs")
+    res = linprog(
+        np.mean(a, axis=0),
+        A_ub=-a,
+        b_ub=-np.ones(a.shape[0]),
+        bounds=[(0, None)] * 2,
+        method="highs",
+    )
     if res.status != 0:
         raise ModelError(f"overbound: the linear programme failed ({res.message})")
     x = res.x * scale
-    # the solver's tolerance may leave a constraint violated by ~1e-9: scale up to meet every one, with a
-    # relative margin of 1e-6 on the variance for horizons between the grid's (module docstring)
+    # the solver's tolerance may leave a constraint violated by ~1e-9: scale up to meet every one,
+    # with a relative margin of 1e-6 on the variance for horizons between the grid's
     return x * max(1.0, float(np.max(1.0 / (rows @ x)))) * (1.0 + _MARGIN)
 
 
-def overbound(fit, *, kind, t_min=None, t_max=None, credibility=0.95, calibration_s=DEFAULT_CALIBRATION_S,
-              n_grid=120, max_draws=4000, rng=None):
-    """The minimal white + random-walk pair bounding the posterior's upper credible drift (module docstring).
+def overbound(
+    fit,
+    *,
+    kind,
+    t_min=None,
+    t_max=None,
+    credibility=0.95,
+    calibration_s=DEFAULT_CALIBRATION_S,
+    n_grid=120,
+    max_draws=4000,
+    rng=None,
+):
+    """The minimal white + random-walk pair bounding the posterior's upper credible drift.
 
     Parameters
     ----------
@@ -165,10 +194,16 @@ def overbound(fit, *, kind, t_min=None, t_max=None, credibility=0.95, calibratio
     dt = fit.model.dt
     record = getattr(fit, "record_s", float("nan"))
     t_min = dt if t_min is None else float(t_min)
-    t_max = (min(DEFAULT_T_MAX_S, record) if np.isfinite(record) else DEFAULT_T_MAX_S) if t_max is None else t_max
+    t_max = (
+        (min(DEFAULT_T_MAX_S, record) if np.isfinite(record) else DEFAULT_T_MAX_S)
+        if t_max is None
+        else t_max
+    )
     t_max = float(t_max)
     if not (np.isfinite(t_min) and np.isfinite(t_max) and dt <= t_min < t_max):
-        raise InputError(f"t_min={t_min!r} s, t_max={t_max!r} s: expected one sample ({dt:g} s) <= t_min < t_max")
+        raise InputError(
+            f"t_min={t_min!r} s, t_max={t_max!r} s: expected one sample ({dt:g} s) <= t_min < t_max"
+        )
     quantities = SENSOR_QUANTITIES[kind]
     seed = np.random.default_rng(rng).integers(2**63)  # the same draws at every horizon
     k = _grid(dt, t_min, t_max, n_grid)
@@ -177,28 +212,58 @@ def overbound(fit, *, kind, t_min=None, t_max=None, credibility=0.95, calibratio
         flat = rows.reshape(-1, 2)
         x = _solve(flat[np.isfinite(flat[:, 0])])
         slack = np.nanmin(np.where(np.isfinite(rows[..., 0]), rows @ x, np.nan), axis=0)
-        bad = _violations(fit, _near_tight(k, slack), x, dt, quantities, credibility, calibration_s,
-                          max_draws, seed)
+        bad = _violations(
+            fit,
+            _near_tight(k, slack),
+            x,
+            dt,
+            quantities,
+            credibility,
+            calibration_s,
+            max_draws,
+            seed,
+        )
         if bad.size == 0:
             break
         k = np.union1d(k, bad)
     else:
         raise ModelError("overbound: the horizons did not settle after eight refinements")
     upper = _upper(fit, k, dt, quantities, credibility, calibration_s, max_draws, seed)
-    drift = {q: filter_drift(np.sqrt(x[0] * dt), np.sqrt(x[1]), k * dt, dt=dt, quantity=q,
-                             calibration_s=calibration_s) for q in quantities}
+    drift = {
+        q: filter_drift(
+            np.sqrt(x[0] * dt),
+            np.sqrt(x[1]),
+            k * dt,
+            dt=dt,
+            quantity=q,
+            calibration_s=calibration_s,
+        )
+        for q in quantities
+    }
     tight = []
     for q in quantities:
         for t, f, u in zip(k * dt, drift[q], upper[q]):
-            if u > 0 and f**2 <= u**2 * (1.0 + _TIGHT) and not (tight and tight[-1][0] == q
-                                                                 and t < tight[-1][1] * 1.01):
+            if (
+                u > 0
+                and f**2 <= u**2 * (1.0 + _TIGHT)
+                and not (tight and tight[-1][0] == q and t < tight[-1][1] * 1.01)
+            ):
                 tight.append((q, float(t)))  # one per tight stretch (a refined grid is dense there)
-    return OverboundResult(float(np.sqrt(x[0] * dt)), float(np.sqrt(x[1])), float(credibility), k * dt, upper,
-                           drift, tuple(tight), float(calibration_s))
+    return OverboundResult(
+        float(np.sqrt(x[0] * dt)),
+        float(np.sqrt(x[1])),
+        float(credibility),
+        k * dt,
+        upper,
+        drift,
+        tuple(tight),
+        float(calibration_s),
+    )
 
 
 def _rows(fit, k, dt, quantities, credibility, calibration_s, max_draws, seed):
-    """Constraint rows ``(n_quantities, n_k, 2)``: unit drifts over the bound's variance (``nan`` where it is 0)."""
+    """Constraint rows ``(n_quantities, n_k, 2)``: unit drifts over the bound's variance
+    (``nan`` where it is 0)."""
     upper = _upper(fit, k, dt, quantities, credibility, calibration_s, max_draws, seed)
     rows = []
     for q in quantities:

@@ -1,4 +1,4 @@
-"""How long to record: predicted 90% intervals of the parameters and of the drift versus record length.
+"""How long to record: predicted 90% intervals of parameters and drift versus record length.
 
 The answer is the Fisher information of the Allan-variance likelihood the fit itself uses
 (``likelihood="correlated"``, :class:`bayes_imu.inference.likelihood.LogPosterior`): a
@@ -84,18 +84,34 @@ class PlanResult:
         return np.exp(2.0 * Z90 * self.drift_log_sd)
 
     def rows(self):
-        """Table rows: dicts with ``length_s``, ``what``, ``value`` (planning point), ``q05``, ``q95``, ``width90``."""
+        """Table rows: dicts with ``length_s``, ``what``, ``value`` (planning point), ``q05``,
+        ``q95``, ``width90``."""
         out = []
         for i, length in enumerate(self.lengths_s):
             for j, name in enumerate(self.names):
                 v, s = self.point[name], self.log_sd[i, j]
-                out.append({"length_s": float(length), "what": name, "value": v, "q05": v * np.exp(-Z90 * s),
-                            "q95": v * np.exp(Z90 * s), "width90": float(np.exp(2 * Z90 * s))})
+                out.append(
+                    {
+                        "length_s": float(length),
+                        "what": name,
+                        "value": v,
+                        "q05": v * np.exp(-Z90 * s),
+                        "q95": v * np.exp(Z90 * s),
+                        "width90": float(np.exp(2 * Z90 * s)),
+                    }
+                )
             for j, t in enumerate(self.horizons_s):
                 v, s = float(self.drift[j]), self.drift_log_sd[i, j]
-                out.append({"length_s": float(length), "what": f"{self.quantity} drift at {t:g} s", "value": v,
-                            "q05": v * np.exp(-Z90 * s), "q95": v * np.exp(Z90 * s),
-                            "width90": float(np.exp(2 * Z90 * s))})
+                out.append(
+                    {
+                        "length_s": float(length),
+                        "what": f"{self.quantity} drift at {t:g} s",
+                        "value": v,
+                        "q05": v * np.exp(-Z90 * s),
+                        "q95": v * np.exp(Z90 * s),
+                        "width90": float(np.exp(2 * Z90 * s)),
+                    }
+                )
         return out
 
 
@@ -109,8 +125,10 @@ def _log_avar_jacobian(post, log_theta):
 
 def _log_drift(model, theta, k, order, n_cal):
     params = model.unpack(theta)
-    total = sum(t.drift_variance(order, k, params, model.dt, bias_start="calibrated", n_cal=n_cal)
-                for t in model.components)
+    total = sum(
+        t.drift_variance(order, k, params, model.dt, bias_start="calibrated", n_cal=n_cal)
+        for t in model.components
+    )
     return 0.5 * np.log(total)
 
 
@@ -126,9 +144,16 @@ def _fisher(model, params, n_samples):
     return wj.T @ wj
 
 
-def plan_record_length(model, params, *, lengths_s=DEFAULT_LENGTHS_S, horizons_s=(), quantity=None,
-                       calibration_s=DEFAULT_CALIBRATION_S):
-    """Predicted posterior spread of each parameter (and drift) for records of ``lengths_s`` seconds.
+def plan_record_length(
+    model,
+    params,
+    *,
+    lengths_s=DEFAULT_LENGTHS_S,
+    horizons_s=(),
+    quantity=None,
+    calibration_s=DEFAULT_CALIBRATION_S,
+):
+    """Predicted posterior spread of each parameter (and drift) for records of ``lengths_s``.
 
     Parameters
     ----------
@@ -149,17 +174,29 @@ def plan_record_length(model, params, *, lengths_s=DEFAULT_LENGTHS_S, horizons_s
     """
     if not isinstance(model, NoiseModel):
         raise InputError("model: expected a NoiseModel")
-    missing = [p for p in model.parameter_names if not (p in params and np.isfinite(params[p]) and params[p] > 0)]
+    missing = [
+        p
+        for p in model.parameter_names
+        if not (p in params and np.isfinite(params[p]) and params[p] > 0)
+    ]
     if missing:
         raise InputError(f"params: expected positive values of {', '.join(missing)}")
     lengths = np.asarray(lengths_s, float)
     n = np.round(lengths / model.dt)
     if lengths.ndim != 1 or lengths.size == 0 or np.any(~np.isfinite(lengths) | (n < 16)):
-        raise InputError(f"lengths={lengths_s!r}: expected record lengths of at least 16 samples ({16 * model.dt:g} s)")
+        raise InputError(
+            f"lengths={lengths_s!r}: expected record lengths of at least 16 samples "
+            f"({16 * model.dt:g} s)"
+        )
     horizons = np.asarray(horizons_s, float)
-    if horizons.size and (quantity not in QUANTITY_ORDER or np.any(~np.isfinite(horizons) | (horizons < model.dt))):
-        raise InputError(f"horizons={horizons_s!r}, quantity={quantity!r}: expected horizons of at least one sample "
-                         f"and a quantity ({', '.join(QUANTITY_ORDER)})")
+    if horizons.size and (
+        quantity not in QUANTITY_ORDER or np.any(~np.isfinite(horizons) | (horizons < model.dt))
+    ):
+        raise InputError(
+            f"horizons={horizons_s!r}, quantity={quantity!r}: expected horizons of at least "
+            "one sample "
+            f"and a quantity ({', '.join(QUANTITY_ORDER)})"
+        )
     theta = np.array([params[p] for p in model.parameter_names], float)
     k = np.round(horizons / model.dt)
     n_cal = float(np.round(calibration_s / model.dt))
@@ -169,17 +206,31 @@ def plan_record_length(model, params, *, lengths_s=DEFAULT_LENGTHS_S, horizons_s
         for j in range(theta.size):
             step = np.zeros(theta.size)
             step[j] = _STEP
-            grad[:, j] = (_log_drift(model, theta * np.exp(step), k, order, n_cal)
-                          - _log_drift(model, theta * np.exp(-step), k, order, n_cal)) / (2 * _STEP)
+            grad[:, j] = (
+                _log_drift(model, theta * np.exp(step), k, order, n_cal)
+                - _log_drift(model, theta * np.exp(-step), k, order, n_cal)
+            ) / (2 * _STEP)
     log_sd, drift_sd = [], []
     for count in n:
         cov = np.linalg.inv(_fisher(model, dict(zip(model.parameter_names, theta)), count))
         log_sd.append(np.sqrt(np.diag(cov)))
         drift_sd.append(np.sqrt(np.einsum("hi,ij,hj->h", grad, cov, grad)))
-    drift = np.exp(_log_drift(model, theta, k, QUANTITY_ORDER[quantity], n_cal)) if k.size else np.zeros(0)
-    return PlanResult(lengths, model.parameter_names, dict(zip(model.parameter_names, theta.tolist())),
-                      np.array(log_sd), horizons, quantity if k.size else None, drift,
-                      np.array(drift_sd).reshape(lengths.size, k.size), 1.0 / model.dt)
+    drift = (
+        np.exp(_log_drift(model, theta, k, QUANTITY_ORDER[quantity], n_cal))
+        if k.size
+        else np.zeros(0)
+    )
+    return PlanResult(
+        lengths,
+        model.parameter_names,
+        dict(zip(model.parameter_names, theta.tolist())),
+        np.array(log_sd),
+        horizons,
+        quantity if k.size else None,
+        drift,
+        np.array(drift_sd).reshape(lengths.size, k.size),
+        1.0 / model.dt,
+    )
 
 
 def plan_from_fit(fit, **options):

@@ -1,4 +1,4 @@
-"""Is a unit within its datasheet? The posterior probability of each datasheet value being within spec.
+"""Is a unit within its datasheet? P(within spec) of each datasheet value.
 
 A specification file (JSON or TOML) gives the vendor's values in the datasheet units of
 :func:`bayes_imu.noise.datasheet.datasheet` (gyro: ``angle_random_walk`` deg/sqrt(h),
@@ -24,7 +24,14 @@ from ..errors import InputError, ModelError
 from .datasheet import datasheet
 from .model import TERM_PARAMETERS, TERMS, NoiseModel
 
-__all__ = ["read_datasheet_spec", "datasheet_conversions", "check_datasheet", "verdict", "spec_model", "KINDS"]
+__all__ = [
+    "read_datasheet_spec",
+    "datasheet_conversions",
+    "check_datasheet",
+    "verdict",
+    "spec_model",
+    "KINDS",
+]
 
 KINDS = ("gyro", "accel")
 #: probability above which a value is within spec, and below whose complement it is outside
@@ -32,8 +39,9 @@ CONFIDENT = 0.95
 
 
 class _Probe:
-    """A one-draw posterior of every term (what :func:`datasheet` reads): every parameter (and the derived
-    ``noise_density``) equal to ``x``, or each its own value (``distinct``) to tell which one a row reads."""
+    """A one-draw posterior of every term (what :func:`datasheet` reads): every parameter (and
+    the derived ``noise_density``) equal to ``x``, or each its own value (``distinct``) to tell
+    which one a row reads."""
 
     def __init__(self, x, distinct=False):
         self.model = NoiseModel(TERMS, 1.0)
@@ -50,7 +58,7 @@ _PRIMES = (2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53)
 
 
 def datasheet_conversions(kind):
-    """Name -> ``(source, c, p, unit)``: the datasheet value is ``c * draws(source)**p`` (module docstring)."""
+    """Name -> ``(source, c, p, unit)``: the datasheet value is ``c * draws(source)**p``."""
     if kind not in KINDS:
         raise InputError(f"kind={kind!r}: expected one of {', '.join(KINDS)}")
     at = {x: datasheet(_Probe(x), kind) for x in (1.0, 4.0, 9.0)}
@@ -61,7 +69,9 @@ def datasheet_conversions(kind):
         c = row["median"]
         p = math.log(at[4.0][name]["median"] / c) / math.log(4.0)
         if not math.isclose(at[9.0][name]["median"], c * 9.0**p, rel_tol=1e-9) or p <= 0:
-            raise ModelError(f"datasheet row {name!r}: not a power of its parameter; cannot check a spec")
+            raise ModelError(
+                f"datasheet row {name!r}: not a power of its parameter; cannot check a spec"
+            )
         x = (tagged[name]["median"] / c) ** (1.0 / p)
         source = [n for n, v in probe.values.items() if math.isclose(v, x, rel_tol=1e-6)]
         if len(source) != 1:
@@ -71,7 +81,7 @@ def datasheet_conversions(kind):
 
 
 def read_datasheet_spec(path):
-    """``(kind, {name: value})`` of a JSON or TOML specification file, validated (module docstring)."""
+    """``(kind, {name: value})`` of a JSON or TOML specification file, validated."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -87,9 +97,13 @@ def read_datasheet_spec(path):
 
             doc = json.loads(text)
     except ValueError as exc:
-        raise InputError(f"{path}: not valid {'TOML' if path.suffix.lower() == '.toml' else 'JSON'} ({exc})") from None
+        raise InputError(
+            f"{path}: not valid {'TOML' if path.suffix.lower() == '.toml' else 'JSON'} ({exc})"
+        ) from None
     if not isinstance(doc, dict) or doc.get("kind") not in KINDS:
-        raise InputError(f"{path}: expected an object with kind = \"gyro\" or \"accel\" and datasheet values")
+        raise InputError(
+            f'{path}: expected an object with kind = "gyro" or "accel" and datasheet values'
+        )
     kind = doc["kind"]
     rows = datasheet_conversions(kind)
     spec = {}
@@ -97,13 +111,25 @@ def read_datasheet_spec(path):
         if name == "kind":
             continue
         if name not in rows:
-            raise InputError(f"{path}: {name!r}: expected one of {', '.join(rows)} ({kind} datasheet values)")
+            raise InputError(
+                f"{path}: {name!r}: expected one of {', '.join(rows)} ({kind} datasheet values)"
+            )
         expected = rows[name][3]
-        value, unit = (entry.get("value"), entry.get("unit", expected)) if isinstance(entry, dict) else (entry, expected)
+        value, unit = (
+            (entry.get("value"), entry.get("unit", expected))
+            if isinstance(entry, dict)
+            else (entry, expected)
+        )
         if unit != expected:
             raise InputError(f"{path}: {name} unit {unit!r}: expected {expected!r}")
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
-            raise InputError(f"{path}: {name} = {value!r}: expected a positive number in {expected}")
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not (math.isfinite(value) and value > 0)
+        ):
+            raise InputError(
+                f"{path}: {name} = {value!r}: expected a positive number in {expected}"
+            )
         spec[name] = float(value)
     if not spec:
         raise InputError(f"{path}: no datasheet values; expected some of {', '.join(rows)}")
@@ -111,7 +137,7 @@ def read_datasheet_spec(path):
 
 
 def check_datasheet(posterior, kind, spec):
-    """Name -> ``{"spec", "unit", "probability", "median", "q95"}``: ``P(value <= spec)`` over the draws.
+    """Name -> ``{"spec", "unit", "probability", "median", "q95"}``: ``P(value <= spec)``.
 
     ``posterior`` fitted in SI (as :func:`~bayes_imu.noise.datasheet.datasheet`); a value whose
     term the model lacks gets ``probability`` ``None`` (``"in_model": False``).
@@ -125,13 +151,19 @@ def check_datasheet(posterior, kind, spec):
             out[name] = {"spec": limit, "unit": unit, "probability": None, "in_model": False}
             continue
         value = c * np.asarray(posterior.draws(source), float) ** p
-        out[name] = {"spec": limit, "unit": unit, "probability": float(np.mean(value <= limit)), "in_model": True,
-                     "median": float(np.median(value)), "q95": float(np.quantile(value, 0.95))}
+        out[name] = {
+            "spec": limit,
+            "unit": unit,
+            "probability": float(np.mean(value <= limit)),
+            "in_model": True,
+            "median": float(np.median(value)),
+            "q95": float(np.quantile(value, 0.95)),
+        }
     return out
 
 
 def spec_model(kind, spec, rate_hz):
-    """``(NoiseModel, params)`` of datasheet values: the terms whose every parameter is given (SI)."""
+    """``(NoiseModel, params)`` of datasheet values: the terms whose parameters are all given."""
     rows = datasheet_conversions(kind)
     params = {}
     for name, value in spec.items():
@@ -142,8 +174,10 @@ def spec_model(kind, spec, rate_hz):
     terms = [t for t, names in TERM_PARAMETERS.items() if names and all(n in params for n in names)]
     unused = sorted(set(params) - {n for t in terms for n in TERM_PARAMETERS[t]})
     if not terms or unused:
-        raise InputError(f"datasheet values: {', '.join(unused) or 'none'} without the rest of their term; "
-                         "give a Gauss-Markov sigma with its time constant")
+        raise InputError(
+            f"datasheet values: {', '.join(unused) or 'none'} without the rest of their term; "
+            "give a Gauss-Markov sigma with its time constant"
+        )
     return NoiseModel(tuple(terms), 1.0 / rate_hz), params
 
 
@@ -156,11 +190,20 @@ def verdict(results):
         elif r["probability"] >= CONFIDENT:
             within.append(f"{name} P={r['probability']:.2f}")
         elif r["probability"] <= 1.0 - CONFIDENT:
-            outside.append(f"{name} P={r['probability']:.2f} (median {r['median']:.3g} > spec {r['spec']:.3g} "
-                           f"{r['unit']})")
+            outside.append(
+                f"{name} P={r['probability']:.2f} (median {r['median']:.3g} > spec {r['spec']:.3g} "
+                f"{r['unit']})"
+            )
         else:
             open_.append(f"{name} P={r['probability']:.2f}")
-    head = "OUTSIDE the datasheet" if outside else ("within the datasheet" if not open_ else "datasheet check open")
-    parts = [f"within spec: {', '.join(within)}" if within else "", f"outside: {', '.join(outside)}" if outside else "",
-             f"undecided: {', '.join(open_)}" if open_ else ""]
+    head = (
+        "OUTSIDE the datasheet"
+        if outside
+        else ("within the datasheet" if not open_ else "datasheet check open")
+    )
+    parts = [
+        f"within spec: {', '.join(within)}" if within else "",
+        f"outside: {', '.join(outside)}" if outside else "",
+        f"undecided: {', '.join(open_)}" if open_ else "",
+    ]
     return f"{head}: " + "; ".join(p for p in parts if p)

@@ -6,31 +6,26 @@ SI continuous-time densities (:class:`ImuNoise`), and each format is a conversio
 four numbers (``to_fields``) with its exact inverse (``from_fields``, what the tests use to
 round-trip published values):
 
-==========  ===============================================  ===========================================
-format      fields and units                                  convention (source)
-==========  ===============================================  ===========================================
-kalibr      ``{gyroscope,accelerometer}_noise_density``       continuous-time densities (Kalibr wiki
-            rad/s/sqrt(Hz), m/s^2/sqrt(Hz);                   "IMU Noise Model"; the EuRoC and TUM-VI
-            ``..._random_walk`` rad/s^2/sqrt(Hz),             ``imu0`` / ``imu_config.yaml`` files)
-            m/s^3/sqrt(Hz)
-openvins    the Kalibr keys under ``imu0:``                   continuous-time, as Kalibr; OpenVINS
-            (``kalibr_imu_chain.yaml``)                       discretises them itself (``sigma/sqrt(dt)``,
-                                                              ``sigma_b sqrt(dt)``; its propagation docs)
-vins        ``gyr_n``, ``acc_n`` (noise), ``gyr_w``,          the same four continuous-time densities
-            ``acc_w`` (bias random walk), Kalibr's units     (what VINS-Fusion users enter; its config
-                                                              comments call them "standard deviations")
-gtsam       ``gyroscopeCovariance``, ``accelerometerCov...``  continuous-time covariances, the squared
-            (rad/s)^2/Hz, (m/s^2)^2/Hz; ``biasOmegaCov...``  densities times I3
-            (rad/s^2)^2/Hz, ``biasAccCov...`` (m/s^3)^2/Hz   (``PreintegrationCombinedParams``)
-gtsam-py    the same, as a Python snippet                     ``params.set...(np.eye(3) * value)``
-matlab      ``gyroparams`` / ``accelparams``: NoiseDensity    IEEE Std 952 N and K: the MathWorks
-            (rad/s)/sqrt(Hz), (m/s^2)/sqrt(Hz);               example "Inertial Sensor Noise Analysis
-            RandomWalk (rad/s)*sqrt(Hz), (m/s^2)*sqrt(Hz)     Using Allan Variance" sets them from the
-                                                              Allan deviation at tau = 1 s and 3 s
-==========  ===============================================  ===========================================
+* ``kalibr``: ``{gyroscope,accelerometer}_noise_density`` [rad/s/sqrt(Hz), m/s^2/sqrt(Hz)]
+  and ``..._random_walk`` [rad/s^2/sqrt(Hz), m/s^3/sqrt(Hz)], continuous-time densities
+  (Kalibr wiki "IMU Noise Model"; the EuRoC and TUM-VI ``imu0`` / ``imu_config.yaml`` files);
+* ``openvins``: the Kalibr keys under ``imu0:`` (``kalibr_imu_chain.yaml``), continuous-time
+  as Kalibr (OpenVINS discretises them itself: ``sigma/sqrt(dt)``, ``sigma_b sqrt(dt)``);
+* ``vins``: ``gyr_n``, ``acc_n`` (noise), ``gyr_w``, ``acc_w`` (bias random walk), the same
+  continuous-time densities in Kalibr's units (what VINS-Fusion users enter; its config
+  comments call them "standard deviations");
+* ``gtsam`` (JSON) and ``gtsam-py`` (a Python snippet): ``gyroscopeCovariance``,
+  ``accelerometerCovariance``, ``biasOmegaCovariance``, ``biasAccCovariance`` of
+  ``PreintegrationCombinedParams``: continuous-time covariances, the squared densities
+  [(rad/s)^2/Hz, ...] times I3;
+* ``matlab``: ``gyroparams`` / ``accelparams`` NoiseDensity [(rad/s)/sqrt(Hz), (m/s^2)/sqrt(Hz)]
+  and RandomWalk [(rad/s)*sqrt(Hz), (m/s^2)*sqrt(Hz)]: the IEEE Std 952 N and K (the
+  MathWorks example "Inertial Sensor Noise Analysis Using Allan Variance" sets them from the
+  Allan deviation at tau = 1 s and 3 s), numerically the Kalibr densities.
 
-Values: the point values are the posterior medians of :func:`bayes_imu.report.kalibr.axis_densities`
-(the Kalibr conversion: the noise density with the white equivalents of the short-term terms,
+Values: the point values are the posterior medians of
+:func:`bayes_imu.report.kalibr.axis_densities` (the Kalibr conversion: the noise density
+with the white equivalents of the short-term terms,
 the bias terms as a random-walk density). With ``overbound=True`` the written values are
 :func:`bayes_imu.drift.overbound.overbound`'s pair (a white + random-walk model whose
 calibrated drift bounds the posterior's upper credible drift over ``[t_min, t_max]``), and
@@ -52,14 +47,31 @@ from ..drift.overbound import overbound as overbound_pair
 from ..errors import InputError
 from .kalibr import axis_densities, fit_folders
 
-__all__ = ["ImuNoise", "ExportValues", "FORMATS", "export_values", "export_values_from_folders", "to_fields",
-           "from_fields", "render_export", "write_export"]
+__all__ = [
+    "ImuNoise",
+    "ExportValues",
+    "FORMATS",
+    "export_values",
+    "export_values_from_folders",
+    "to_fields",
+    "from_fields",
+    "render_export",
+    "write_export",
+]
 
-_KEYS = ("gyroscope_noise_density", "gyroscope_random_walk", "accelerometer_noise_density",
-         "accelerometer_random_walk")
+_KEYS = (
+    "gyroscope_noise_density",
+    "gyroscope_random_walk",
+    "accelerometer_noise_density",
+    "accelerometer_random_walk",
+)
 _KIND_KEYS = {"gyro": _KEYS[:2], "accel": _KEYS[2:]}
-_SI = {"gyroscope_noise_density": "rad/s/sqrt(Hz)", "gyroscope_random_walk": "rad/s^2/sqrt(Hz)",
-       "accelerometer_noise_density": "m/s^2/sqrt(Hz)", "accelerometer_random_walk": "m/s^3/sqrt(Hz)"}
+_SI = {
+    "gyroscope_noise_density": "rad/s/sqrt(Hz)",
+    "gyroscope_random_walk": "rad/s^2/sqrt(Hz)",
+    "accelerometer_noise_density": "m/s^2/sqrt(Hz)",
+    "accelerometer_random_walk": "m/s^3/sqrt(Hz)",
+}
 
 
 @dataclass(frozen=True)
@@ -122,8 +134,17 @@ class ExportValues:
         return {k: v / self.point.present()[k] for k, v in self.bound.present().items()}
 
 
-def export_values(gyro=(), accel=(), *, overbound=False, t_min=None, t_max=None, credibility=0.95,
-                  calibration_s=60.0, rng=None):
+def export_values(
+    gyro=(),
+    accel=(),
+    *,
+    overbound=False,
+    t_min=None,
+    t_max=None,
+    credibility=0.95,
+    calibration_s=60.0,
+    rng=None,
+):
     """:class:`ExportValues` of the :class:`~bayes_imu.report.kalibr.KalibrAxis` of each sensor.
 
     ``overbound``: also compute each axis's overbounding pair over ``[t_min, t_max]`` [s] at
@@ -139,10 +160,19 @@ def export_values(gyro=(), accel=(), *, overbound=False, t_min=None, t_max=None,
             density, walk = (float(np.median(d)) for d in axis_densities(axis.fit, axis.factor))
             bound = (None, None)
             if overbound:
-                pair = overbound_pair(axis.fit, kind=kind, t_min=t_min, t_max=t_max, credibility=credibility,
-                                      calibration_s=calibration_s, rng=rng)
+                pair = overbound_pair(
+                    axis.fit,
+                    kind=kind,
+                    t_min=t_min,
+                    t_max=t_max,
+                    credibility=credibility,
+                    calibration_s=calibration_s,
+                    rng=rng,
+                )
                 bound = (pair.noise_density * axis.factor, pair.random_walk * axis.factor)
-                tight.setdefault(density_key.split("_")[0], []).extend((axis.label, q, t) for q, t in pair.tight_s)
+                tight.setdefault(density_key.split("_")[0], []).extend(
+                    (axis.label, q, t) for q, t in pair.tight_s
+                )
             per_axis.setdefault(density_key, []).append((axis.label, density, bound[0]))
             per_axis.setdefault(walk_key, []).append((axis.label, walk, bound[1]))
             check = getattr(axis.fit, "adequacy", None)
@@ -152,19 +182,33 @@ def export_values(gyro=(), accel=(), *, overbound=False, t_min=None, t_max=None,
     if len(rates) != 1:
         raise InputError(f"fits have different rates {sorted(rates)} Hz: expected one IMU rate")
     rate = rates.pop()
-    point = ImuNoise(**{k: max(p for _, p, _ in rows) for k, rows in per_axis.items()}, update_rate=rate)
-    bound = ImuNoise(**{k: max(b for _, _, b in rows) for k, rows in per_axis.items()}, update_rate=rate) \
-        if overbound else None
-    mode = (f"overbound of the upper {credibility:.0%} credible drift" if overbound else "posterior medians")
+    point = ImuNoise(
+        **{k: max(p for _, p, _ in rows) for k, rows in per_axis.items()}, update_rate=rate
+    )
+    bound = (
+        ImuNoise(
+            **{k: max(b for _, _, b in rows) for k, rows in per_axis.items()}, update_rate=rate
+        )
+        if overbound
+        else None
+    )
+    mode = (
+        f"overbound of the upper {credibility:.0%} credible drift"
+        if overbound
+        else "posterior medians"
+    )
     return ExportValues(bound or point, point, bound, per_axis, tight, mode, tuple(inadequate))
 
 
 def export_values_from_folders(gyro_dirs=(), accel_dirs=(), **options):
     """:func:`export_values` of ``bayes-imu fit`` folders (fitted with ``--units``)."""
-    return export_values(fit_folders(gyro_dirs, "gyro"), fit_folders(accel_dirs, "accel"), **options)
+    return export_values(
+        fit_folders(gyro_dirs, "gyro"), fit_folders(accel_dirs, "accel"), **options
+    )
 
 
 # ---------------------------------------------------------------------------- formats
+
 
 def _square(v):
     return v * v
@@ -181,25 +225,51 @@ class _Format:
 
 
 _KALIBR = _Format({k: k for k in _KEYS}, units=_SI)
-_GTSAM_NAMES = {"gyroscope_noise_density": "gyroscopeCovariance", "gyroscope_random_walk": "biasOmegaCovariance",
-                "accelerometer_noise_density": "accelerometerCovariance",
-                "accelerometer_random_walk": "biasAccCovariance"}
+_GTSAM_NAMES = {
+    "gyroscope_noise_density": "gyroscopeCovariance",
+    "gyroscope_random_walk": "biasOmegaCovariance",
+    "accelerometer_noise_density": "accelerometerCovariance",
+    "accelerometer_random_walk": "biasAccCovariance",
+}
 #: format name -> its field names and conversion (module docstring)
 FORMATS = {
     "kalibr": _KALIBR,
     "openvins": _KALIBR,
-    "vins": _Format({"gyroscope_noise_density": "gyr_n", "gyroscope_random_walk": "gyr_w",
-                     "accelerometer_noise_density": "acc_n", "accelerometer_random_walk": "acc_w"}, units=_SI),
-    "gtsam": _Format(_GTSAM_NAMES, _square, math.sqrt,
-                     {k: f"({u.replace('/sqrt(Hz)', '')})^2/Hz" for k, u in _SI.items()}),
-    "gtsam-py": _Format(_GTSAM_NAMES, _square, math.sqrt,
-                        {k: f"({u.replace('/sqrt(Hz)', '')})^2/Hz" for k, u in _SI.items()}),
-    "matlab": _Format({"gyroscope_noise_density": "gyro.NoiseDensity", "gyroscope_random_walk": "gyro.RandomWalk",
-                       "accelerometer_noise_density": "accel.NoiseDensity",
-                       "accelerometer_random_walk": "accel.RandomWalk"},
-                      units={"gyroscope_noise_density": "(rad/s)/sqrt(Hz)", "gyroscope_random_walk": "(rad/s)*sqrt(Hz)",
-                             "accelerometer_noise_density": "(m/s^2)/sqrt(Hz)",
-                             "accelerometer_random_walk": "(m/s^2)*sqrt(Hz)"}),
+    "vins": _Format(
+        {
+            "gyroscope_noise_density": "gyr_n",
+            "gyroscope_random_walk": "gyr_w",
+            "accelerometer_noise_density": "acc_n",
+            "accelerometer_random_walk": "acc_w",
+        },
+        units=_SI,
+    ),
+    "gtsam": _Format(
+        _GTSAM_NAMES,
+        _square,
+        math.sqrt,
+        {k: f"({u.replace('/sqrt(Hz)', '')})^2/Hz" for k, u in _SI.items()},
+    ),
+    "gtsam-py": _Format(
+        _GTSAM_NAMES,
+        _square,
+        math.sqrt,
+        {k: f"({u.replace('/sqrt(Hz)', '')})^2/Hz" for k, u in _SI.items()},
+    ),
+    "matlab": _Format(
+        {
+            "gyroscope_noise_density": "gyro.NoiseDensity",
+            "gyroscope_random_walk": "gyro.RandomWalk",
+            "accelerometer_noise_density": "accel.NoiseDensity",
+            "accelerometer_random_walk": "accel.RandomWalk",
+        },
+        units={
+            "gyroscope_noise_density": "(rad/s)/sqrt(Hz)",
+            "gyroscope_random_walk": "(rad/s)*sqrt(Hz)",
+            "accelerometer_noise_density": "(m/s^2)/sqrt(Hz)",
+            "accelerometer_random_walk": "(m/s^2)*sqrt(Hz)",
+        },
+    ),
 }
 
 
@@ -210,30 +280,38 @@ def _format(name):
 
 
 def to_fields(noise, fmt):
-    """``{field name: value}`` of an :class:`ImuNoise` in format ``fmt`` (its names, units, convention)."""
+    """``{field name: value}`` of an :class:`ImuNoise` in format ``fmt`` (its names and units)."""
     spec = _format(fmt)
     return {spec.names[k]: spec.forward(v) for k, v in noise.present().items()}
 
 
 def from_fields(values, fmt, *, update_rate=None):
-    """The :class:`ImuNoise` (SI densities) of ``{field name: value}`` in format ``fmt``; inverse of :func:`to_fields`."""
+    """The :class:`ImuNoise` (SI) of ``{field: value}`` in format ``fmt`` (inverse of to_fields)."""
     spec = _format(fmt)
     back = {name: key for key, name in spec.names.items()}
     unknown = [n for n in values if n not in back]
     if unknown:
         raise InputError(f"{fmt} fields {unknown}: expected some of {', '.join(back)}")
-    return ImuNoise(**{back[n]: spec.inverse(float(v)) for n, v in values.items()}, update_rate=update_rate)
+    return ImuNoise(
+        **{back[n]: spec.inverse(float(v)) for n, v in values.items()}, update_rate=update_rate
+    )
 
 
 # ---------------------------------------------------------------------------- files
 
+
 def _comments(values, fmt):
     """Header lines (without the comment mark): provenance, and per-axis and point values."""
     spec = FORMATS[fmt]
-    lines = [f"bayes_imu {__version__} {fmt} IMU noise: {values.mode}; continuous-time densities"
-             + (" squared (covariances)" if fmt.startswith("gtsam") else "")]
+    lines = [
+        f"bayes_imu {__version__} {fmt} IMU noise: {values.mode}; continuous-time densities"
+        + (" squared (covariances)" if fmt.startswith("gtsam") else "")
+    ]
     if values.inadequate:
-        lines.append("WARNING: the noise model failed its goodness-of-fit check for " + ", ".join(values.inadequate))
+        lines.append(
+            "WARNING: the noise model failed its goodness-of-fit check for "
+            + ", ".join(values.inadequate)
+        )
     several = any(len(rows) > 1 for rows in values.per_axis.values())
     if several:
         lines.append("one number per field: the largest over the axes (each axis below)")
@@ -242,15 +320,23 @@ def _comments(values, fmt):
         if key not in values.per_axis:
             continue
         name, unit = spec.names[key], spec.units[key]
-        text = f"{name} [{unit}]: point (posterior median) {spec.forward(values.point.present()[key])!r}"
+        point = spec.forward(values.point.present()[key])
+        text = f"{name} [{unit}]: point (posterior median) {point!r}"
         if values.bound is not None:
-            text += f"; overbound {spec.forward(values.bound.present()[key])!r} (x{factors[key]:.3g} on the density)"
+            bound = spec.forward(values.bound.present()[key])
+            text += f"; overbound {bound!r} (x{factors[key]:.3g} on the density)"
         lines.append(text)
         if several:
             for label, p, b in values.per_axis[key]:
-                lines.append(f"  {label}: point {spec.forward(p)!r}" + ("" if b is None else f", overbound {spec.forward(b)!r}"))
+                lines.append(
+                    f"  {label}: point {spec.forward(p)!r}"
+                    + ("" if b is None else f", overbound {spec.forward(b)!r}")
+                )
     for sensor, rows in values.tight.items():
-        lines.append(f"{sensor} bound tight at " + ", ".join(f"{q} {t:.4g} s ({label})" for label, q, t in rows))
+        lines.append(
+            f"{sensor} bound tight at "
+            + ", ".join(f"{q} {t:.4g} s ({label})" for label, q, t in rows)
+        )
     return lines
 
 
@@ -262,15 +348,27 @@ def render_export(values, fmt, *, topic="/imu0"):
     notes = _comments(values, fmt)
     rate = values.noise.update_rate
     if fmt == "gtsam":
-        doc = {"bayes_imu_version": __version__, "format": "gtsam.PreintegrationCombinedParams",
-               "convention": "continuous-time covariances: each value v means v * I3",
-               "units": {FORMATS[fmt].names[k]: FORMATS[fmt].units[k] for k in values.noise.present()},
-               "update_rate": rate, "notes": notes, **written}
+        doc = {
+            "bayes_imu_version": __version__,
+            "format": "gtsam.PreintegrationCombinedParams",
+            "convention": "continuous-time covariances: each value v means v * I3",
+            "units": {FORMATS[fmt].names[k]: FORMATS[fmt].units[k] for k in values.noise.present()},
+            "update_rate": rate,
+            "notes": notes,
+            **written,
+        }
         return json.dumps(doc, indent=2) + "\n"
     if fmt == "gtsam-py":
-        lines = [f"# {n}" for n in notes] + ["import numpy as np", "import gtsam", "",
-                                              "params = gtsam.PreintegrationCombinedParams.MakeSharedU(9.80665)"]
-        lines += [f"params.set{name[0].upper()}{name[1:]}(np.eye(3) * {v!r})" for name, v in written.items()]
+        lines = [f"# {n}" for n in notes] + [
+            "import numpy as np",
+            "import gtsam",
+            "",
+            "params = gtsam.PreintegrationCombinedParams.MakeSharedU(9.80665)",
+        ]
+        lines += [
+            f"params.set{name[0].upper()}{name[1:]}(np.eye(3) * {v!r})"
+            for name, v in written.items()
+        ]
         return "\n".join(lines) + "\n"
     if fmt == "matlab":
         lines = [f"% {n}" for n in notes]
@@ -283,16 +381,26 @@ def render_export(values, fmt, *, topic="/imu0"):
     lines = (["%YAML:1.0"] if fmt in ("openvins", "vins") else []) + [f"# {n}" for n in notes]
     indent = "  " if fmt == "openvins" else ""
     if fmt == "openvins":
-        lines += ["imu0:", "  T_i_b:"] + [f"    - {row}" for row in ("[1.0, 0.0, 0.0, 0.0]", "[0.0, 1.0, 0.0, 0.0]",
-                                                                       "[0.0, 0.0, 1.0, 0.0]", "[0.0, 0.0, 0.0, 1.0]")]
+        lines += ["imu0:", "  T_i_b:"] + [
+            f"    - {row}"
+            for row in (
+                "[1.0, 0.0, 0.0, 0.0]",
+                "[0.0, 1.0, 0.0, 0.0]",
+                "[0.0, 0.0, 1.0, 0.0]",
+                "[0.0, 0.0, 0.0, 1.0]",
+            )
+        ]
     lines += [f"{indent}{n}: {v!r}" for n, v in written.items()]
     if fmt in ("kalibr", "openvins"):
-        lines += [f"{indent}rostopic: {topic}", f"{indent}time_offset: 0.0"] if fmt == "openvins" \
+        lines += (
+            [f"{indent}rostopic: {topic}", f"{indent}time_offset: 0.0"]
+            if fmt == "openvins"
             else [f"rostopic: {topic}"]
+        )
         lines.append(f"{indent}update_rate: {rate!r}")
     return "\n".join(lines) + "\n"
 
 
 def write_export(values, path, fmt, *, topic="/imu0"):
-    """Write :func:`render_export` to ``path`` (a staged file: :func:`bayes_imu.report.output.staged_file`)."""
+    """Write :func:`render_export` to ``path`` (a path from ``report.output.staged_file``)."""
     path.write_text(render_export(values, fmt, topic=topic), encoding="utf-8")

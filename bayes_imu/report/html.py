@@ -122,6 +122,7 @@ def _sensor_section(s, cred):
         f"<tr><td>{html.escape(n)}</td><td>{q[0]:.4g}</td><td>{q[1]:.4g}</td><td>{q[2]:.4g}</td></tr>"
         for n, q in fit.quantiles().items()
     )
+    sheet = _datasheet_table(s)
     allan_png = _png(lambda target: plot_allan_fit(fit, target, label=s.spec.name, unit=UNITS_SI[s.spec.kind], rng=0))
     units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
     drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=s.spec.name))
@@ -140,24 +141,28 @@ model may be worse (list several units' logs to bound a new unit).</p>
 <p class="model">Model needed: <b>{html.escape(' + '.join(fit.model.terms))}</b> ({why}).</p>
 <p class="adequacy">Goodness of fit: p = {a.p_value:.2g}, worst at tau = {a.worst_tau_s:g} s: {html.escape(fit_check)}.</p>
 <p class="diagnostics">Sampler: {conv}; {rhat}{d['n_steps']} steps x {d['n_walkers']} walkers.</p>
-<table><tr><th>parameter (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>{_datasheet_table(s)}
+<table><tr><th>parameter (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>{sheet}
 <img alt="Allan fit of {html.escape(s.spec.name)}" src="{allan_png}">
 <img alt="drift bands of {html.escape(s.spec.name)}" src="{drift_png}">
 </section>"""
 
 
 def _datasheet_table(s):
-    """The datasheet check of a sensor (scene ``datasheet``): spec, posterior median, P(within spec)."""
+    """A sensor's datasheet check (scene ``datasheet``): spec, posterior median, P(within spec)."""
     check = s.datasheet_check
     if check is None:
         return ""
-    rows = "".join(
-        f"<tr><td>{html.escape(n)}</td><td>{v['spec']:.4g} {html.escape(v['unit'])}</td>"
-        + (f"<td>{v['median']:.4g}</td><td>{v['probability']:.2f}</td>" if v["probability"] is not None
-           else "<td>not in the model</td><td></td>") + "</tr>"
-        for n, v in check["values"].items())
-    return (f"\n<table class=\"datasheet\"><tr><th>datasheet value</th><th>spec</th><th>posterior median</th>"
-            f"<th>P(within spec)</th></tr>{rows}</table>\n<p class=\"datasheet\">{html.escape(check['verdict'])}</p>")
+    rows = []
+    for n, v in check["values"].items():
+        cells = (f"<td>{v['median']:.4g}</td><td>{v['probability']:.2f}</td>"
+                 if v["probability"] is not None else "<td>not in the model</td><td></td>")
+        rows.append(f"<tr><td>{html.escape(n)}</td><td>{v['spec']:.4g} {html.escape(v['unit'])}</td>"
+                    f"{cells}</tr>")
+    head = ("<tr><th>datasheet value</th><th>spec</th><th>posterior median</th>"
+            "<th>P(within spec)</th></tr>")
+    verdict = html.escape(check["verdict"])
+    return (f'\n<table class="datasheet">{head}{"".join(rows)}</table>\n'
+            f'<p class="datasheet">{verdict}</p>')
 
 
 def _population_section(s):
@@ -173,6 +178,7 @@ def _population_section(s):
     inadequate = [label for label, f in zip(pop.labels, pop.unit_fits) if not f.adequacy.adequate]
     check = ("every unit's fit adequate" if not inadequate else
              "INADEQUATE fits (intervals widened where a discrepancy was fitted): " + ", ".join(inadequate))
+    sheet = _datasheet_table(s)
     pop_png = _png(lambda target: plot_population(pop, target, unit=UNITS_SI[s.spec.kind], rng=0))
     units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
     drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=f"{s.spec.name}: a new unit"))
@@ -183,7 +189,7 @@ def _population_section(s):
 predictive of a hierarchical fit of {len(pop.labels)} units.</p>
 <p class="model">Common model: <b>{html.escape(' + '.join(pop.model.terms))}</b> (summed evidence over the units);
 {html.escape(check)}; population sampler {'converged' if pop.diagnostics['converged'] else 'NOT CONVERGED'}.</p>
-<table><tr><th>new unit (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>{_datasheet_table(s)}
+<table><tr><th>new unit (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>{sheet}
 <table><tr><th>unit-to-unit spread (ln units)</th><th>5%</th><th>median</th><th>95%</th></tr>{spread}</table>
 <img alt="population of {html.escape(s.spec.name)}" src="{pop_png}">
 <img alt="drift bands of {html.escape(s.spec.name)}" src="{drift_png}">

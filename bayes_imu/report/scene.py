@@ -50,7 +50,8 @@ class SensorSpec:
     rate_hz : float or None
     source : {"log", "logs", "fit", "fits"}
     datasheet : tuple or None
-        ``(path, kind, values)`` of the sensor's ``datasheet`` file (:mod:`bayes_imu.noise.datasheet_check`).
+        ``(path, kind, values)`` of the sensor's ``datasheet`` file
+        (:mod:`bayes_imu.noise.datasheet_check`).
     """
 
     name: str
@@ -138,15 +139,17 @@ class SensorReport:
 
     @property
     def datasheet_check(self):
-        """``{"file", "values", "verdict"}``: the worst axis's probability of each datasheet value being within
-        spec (:func:`bayes_imu.noise.datasheet_check.check_datasheet`), or ``None`` without a datasheet."""
+        """``{"file", "axis", "values", "verdict"}``: the worst axis's probability of each
+        datasheet value being within spec (:func:`~bayes_imu.noise.datasheet_check.check_datasheet`),
+        or ``None`` without a datasheet."""
         if self.spec.datasheet is None:
             return None
         from ..noise.datasheet_check import check_datasheet, verdict
 
         path, kind, values = self.spec.datasheet
         checked = check_datasheet(self.posterior, kind, values)
-        return {"file": str(path), "axis": self.axes[self.worst].axis, "values": checked, "verdict": verdict(checked)}
+        return {"file": str(path), "axis": self.axes[self.worst].axis, "values": checked,
+                "verdict": verdict(checked)}
 
 
 @dataclass(frozen=True)
@@ -264,7 +267,8 @@ def read_scene(path):
         where = f"{path}: [[sensor]] #{i}"
         if not isinstance(entry, dict):
             raise InputError(f"{where}: expected a table")
-        _known(entry, ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units", "datasheet"), where)
+        _known(entry, ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units",
+                       "datasheet"), where)
         kind = _get(entry, "kind", str, where)
         if kind not in SENSOR_QUANTITIES:
             raise InputError(f"{where}: kind={kind!r}: expected 'gyro' or 'accel'")
@@ -296,14 +300,15 @@ def read_scene(path):
 
 
 def _datasheet(entry, path, kind, where):
-    """``(path, kind, values)`` of a sensor's ``datasheet = "FILE"`` (relative to the scene), or None."""
+    """``(path, kind, values)`` of a sensor's ``datasheet = "FILE"`` (relative to the scene)."""
     if "datasheet" not in entry:
         return None
     from ..noise.datasheet_check import read_datasheet_spec
 
     value = entry["datasheet"]
     if not isinstance(value, str) or not value:
-        raise InputError(f"{where}: datasheet={value!r}: expected the path of a JSON or TOML datasheet file")
+        raise InputError(f"{where}: datasheet={value!r}: expected the path of a JSON or TOML "
+                         "datasheet file")
     sheet_kind, values = read_datasheet_spec(path.parent / value)
     if sheet_kind != kind:
         raise InputError(f"{where}: datasheet {value}: a {sheet_kind} datasheet for a {kind}")
