@@ -148,3 +148,18 @@ def test_plan_from_datasheet_and_its_errors(pilot, tmp_path, capsys):
     assert (
         main(["plan", str(pilot / "fit"), "--lengths", "1h,-2", "--out", str(tmp_path / "s")]) == 2
     )
+
+
+@pytest.mark.parametrize(
+    "command, words",
+    [
+        ("export", ("--overbound", "--format", "--t-max", "openvins")),
+        ("plan", ("--lengths", "--horizons", "--datasheet", "plan.png")),
+    ],
+)
+def test_new_commands_have_help(capsys, command, words):
+    with pytest.raises(SystemExit) as exc:
+        main([command, "--help"])
+    assert exc.value.code == 0
+    text = capsys.readouterr().out
+    assert all(w in text for w in words), text
