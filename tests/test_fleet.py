@@ -1,6 +1,7 @@
 """Fleets: fit-batch on a small Dask LocalCluster equals serial runs byte for byte; failures isolated."""
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -172,7 +173,9 @@ def _non_default(action):
     if action.choices:
         other = next(str(c) for c in action.choices if c != action.default)
         return [action.option_strings[0], other]
-    for text in ("7", "0.5"):
+    # a number, or a file an option reads (the shipped datasheet of --datasheet)
+    shipped = Path(__file__).resolve().parents[1] / "data_synthetic" / "gyro_datasheet.toml"
+    for text in ("7", "0.5", str(shipped)):
         try:
             value = action.type(text) if action.type else text
         except Exception:  # noqa: BLE001 - an argparse type refuses with one of several errors

@@ -40,6 +40,7 @@ from ..report.writers import (FitRequest, axis_summary, batch_summary, drift_che
                               write_sigma_csv)
 from .._progress import show_progress
 from ..allan.pipeline import LogSource, allan_from_source
+from .extra import add_commands, add_fit_options, datasheet_hook
 from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES
 from ..drift.display import DISPLAY_CHOICES, display_unit
 from .nav import add_nav_parser
@@ -173,10 +174,12 @@ def _build_parser():
                      help="with --allan-table: samples in the log it came from (sets the intervals; unknown: "
                           "the shortest record the table allows is assumed, the widest intervals)")
     fit.set_defaults(handler=_cmd_fit)
+    add_fit_options(fit)  # --datasheet (cli/extra.py, issue 38)
 
     batch = sub.add_parser("fit-batch", parents=[_input_options(batch=True)],
                            help="fit many logs in parallel (Dask), one output folder per log")
     _fit_options(batch)
+    add_fit_options(batch)  # --datasheet, as fit
     batch.add_argument("--scheduler", help="address of a running Dask scheduler (default: a LocalCluster)")
     batch.add_argument("--workers", type=_workers_type, help="LocalCluster worker processes (default: one per core)")
     batch.add_argument("--serial", action="store_true", help="no Dask: one log after another in this process")
@@ -230,6 +233,7 @@ def _build_parser():
                         help="upper posterior quantile for conservative values (e.g. 0.95); default: medians")
     kalibr.add_argument("--force", action="store_true", help="replace a file bayes_imu wrote earlier (never other files)")
     kalibr.set_defaults(handler=_cmd_kalibr)
+    add_commands(sub)  # export, plan (cli/extra.py, issue 38)
 
     drift = sub.add_parser("drift", help="drift curves from known noise parameters (JSON)")
     drift.add_argument("sensor", type=Path,
@@ -360,6 +364,7 @@ def _fit_axis(request, args, allan, unit, info, column, out, writer):
         _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
     _say_datasheet(args, summary["datasheet"])
     _say_readout(args, summary["allan_datasheet"])
+    datasheet_hook(args, request, result, unit, summary)
     adequacy = result.adequacy
     if not adequacy.adequate:
         what = [f"goodness of fit p = {adequacy.p_value:.2g} (worst at tau = {adequacy.worst_tau_s:g} s)"]

@@ -2,8 +2,10 @@
 
 Owns the paper's closed forms of Euler-integrated noise and the datasheet-level
 :func:`drift_sigma` (:mod:`~bayes_imu.drift.closed_forms`), the credible bands of a fit
-(:mod:`~bayes_imu.drift.bands`) and display units (:mod:`~bayes_imu.drift.display`). Each
-noise term's own drift variance lives with the term (:mod:`bayes_imu.noise`).
+(:mod:`~bayes_imu.drift.bands`), overbounding filter parameters
+(:mod:`~bayes_imu.drift.overbound`), record-length plans (:mod:`~bayes_imu.drift.plan`) and
+display units (:mod:`~bayes_imu.drift.display`). Each noise term's own drift variance lives
+with the term (:mod:`bayes_imu.noise`).
 """
 
 from .closed_forms import (
@@ -22,6 +24,8 @@ from .bands import (
 )
 from .navigation import NavLoop
 from .nav_bands import NavigationBands, NavQuantity, navigation_bands
+from .overbound import OverboundResult, overbound
+from .plan import PlanResult, plan_from_fit, plan_record_length
 
 __all__ = [
     "QUANTITY_ORDER",
@@ -38,4 +42,9 @@ __all__ = [
     "NavigationBands",
     "NavQuantity",
     "navigation_bands",
+    "OverboundResult",
+    "overbound",
+    "PlanResult",
+    "plan_from_fit",
+    "plan_record_length",
 ]

@@ -125,6 +125,7 @@ def _sensor_section(s, cred):
         f"<tr><td>{html.escape(n)}</td><td>{q[0]:.4g}</td><td>{q[1]:.4g}</td><td>{q[2]:.4g}</td></tr>"
         for n, q in fit.quantiles().items()
     )
+    sheet = _datasheet_table(s)
     allan_png = _png(lambda target: plot_allan_fit(fit, target, label=s.spec.name, unit=UNITS_SI[s.spec.kind], rng=0))
     units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
     drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=s.spec.name))
@@ -144,7 +145,7 @@ model may be worse (list several units' logs to bound a new unit).</p>
 <p class="adequacy">Goodness of fit: p = {a.p_value:.2g}, worst at tau = {a.worst_tau_s:g} s: {html.escape(fit_check)}.</p>
 {_drift_check_text(s.bands)}
 <p class="diagnostics">Sampler: {conv}; {rhat}{d['n_steps']} steps x {d['n_walkers']} walkers.</p>
-<table><tr><th>parameter (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>
+<table><tr><th>parameter (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>{sheet}
 <img alt="Allan fit of {html.escape(s.spec.name)}" src="{allan_png}">
 <img alt="drift bands of {html.escape(s.spec.name)}" src="{drift_png}">
 </section>"""
@@ -159,6 +160,22 @@ def _drift_check_text(bands):
                f"DISAGREES with the model (worst at {check.worst_t_s:g} s): the bands include the log's own interval")
     return (f'<p class="drift-check">Drift measured on the log itself (up to {check.t_s[-1]:g} s; beyond, the bands '
             f'extrapolate the model): p = {check.p_combined:.2g}, {html.escape(verdict)}.</p>')
+def _datasheet_table(s):
+    """A sensor's datasheet check (scene ``datasheet``): spec, posterior median, P(within spec)."""
+    check = s.datasheet_check
+    if check is None:
+        return ""
+    rows = []
+    for n, v in check["values"].items():
+        cells = (f"<td>{v['median']:.4g}</td><td>{v['probability']:.2f}</td>"
+                 if v["probability"] is not None else "<td>not in the model</td><td></td>")
+        rows.append(f"<tr><td>{html.escape(n)}</td><td>{v['spec']:.4g} {html.escape(v['unit'])}</td>"
+                    f"{cells}</tr>")
+    head = ("<tr><th>datasheet value</th><th>spec</th><th>posterior median</th>"
+            "<th>P(within spec)</th></tr>")
+    verdict = html.escape(check["verdict"])
+    return (f'\n<table class="datasheet">{head}{"".join(rows)}</table>\n'
+            f'<p class="datasheet">{verdict}</p>')
 
 
 def _population_section(s):
@@ -174,6 +191,7 @@ def _population_section(s):
     inadequate = [label for label, f in zip(pop.labels, pop.unit_fits) if not f.adequacy.adequate]
     check = ("every unit's fit adequate" if not inadequate else
              "INADEQUATE fits (intervals widened where a discrepancy was fitted): " + ", ".join(inadequate))
+    sheet = _datasheet_table(s)
     pop_png = _png(lambda target: plot_population(pop, target, unit=UNITS_SI[s.spec.kind], rng=0))
     units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
     drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=f"{s.spec.name}: a new unit"))
@@ -184,7 +202,7 @@ def _population_section(s):
 predictive of a hierarchical fit of {len(pop.labels)} units.</p>
 <p class="model">Common model: <b>{html.escape(' + '.join(pop.model.terms))}</b> (summed evidence over the units);
 {html.escape(check)}; population sampler {'converged' if pop.diagnostics['converged'] else 'NOT CONVERGED'}.</p>
-<table><tr><th>new unit (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>
+<table><tr><th>new unit (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>{sheet}
 <table><tr><th>unit-to-unit spread (ln units)</th><th>5%</th><th>median</th><th>95%</th></tr>{spread}</table>
 <img alt="population of {html.escape(s.spec.name)}" src="{pop_png}">
 <img alt="drift bands of {html.escape(s.spec.name)}" src="{drift_png}">

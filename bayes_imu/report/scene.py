@@ -56,6 +56,9 @@ class SensorSpec:
         How each log is read (everything ``bayes-imu fit`` reads: time column and gaps, a ROS
         bag's topic, increments, out-of-core reading); its ``log`` is left empty. ``None``
         for fit folders.
+    datasheet : tuple or None
+        ``(path, kind, values)`` of the sensor's ``datasheet`` file
+        (:mod:`bayes_imu.noise.datasheet_check`).
     """
 
     name: str
@@ -66,6 +69,7 @@ class SensorSpec:
     units: str
     source: str = "log"
     reading: LogSource = None
+    datasheet: tuple = None
 
     @property
     def log(self):
@@ -141,6 +145,20 @@ class SensorReport:
     def record_s(self):
         return self.posterior.record_s
 
+    @property
+    def datasheet_check(self):
+        """``{"file", "axis", "values", "verdict"}``: the worst axis's probability of each
+        datasheet value being within spec (:func:`~bayes_imu.noise.datasheet_check.check_datasheet`),
+        or ``None`` without a datasheet."""
+        if self.spec.datasheet is None:
+            return None
+        from ..noise.datasheet_check import check_datasheet, verdict
+
+        path, kind, values = self.spec.datasheet
+        checked = check_datasheet(self.posterior, kind, values)
+        return {"file": str(path), "axis": self.axes[self.worst].axis, "values": checked,
+                "verdict": verdict(checked)}
+
 
 @dataclass(frozen=True)
 class Report:
@@ -173,6 +191,8 @@ class Report:
                 entry["unit_to_unit"] = (f"included: the bounds are for a NEW unit of this model (posterior "
                                          f"predictive of a hierarchical fit of {len(s.spec.paths)} units)")
             entry.update(bounds=list(s.bounds), max_outage_s=s.max_outage_s)
+            if s.spec.datasheet is not None:
+                entry["datasheet_check"] = s.datasheet_check
             out.append(entry)
         return {"scene": self.scene.name, "credibility": self.scene.credibility, "outages_s": list(self.scene.outages_s),
                 "requirement": self.scene.requirement, "bias_start": self.scene.bias_start,
@@ -255,11 +275,12 @@ def read_scene(path):
         where = f"{path}: [[sensor]] #{i}"
         if not isinstance(entry, dict):
             raise InputError(f"{where}: expected a table")
-        keys = ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units")
+        keys = ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units", "datasheet")
         _known(entry, keys + _READING, where)
         kind = _get(entry, "kind", str, where)
         if kind not in SENSOR_QUANTITIES:
             raise InputError(f"{where}: kind={kind!r}: expected 'gyro' or 'accel'")
+        sheet = _datasheet(entry, path, kind, where)
         sources = [k for k in ("log", "logs", "fit", "fits") if k in entry]
         if len(sources) != 1:
             raise InputError(f"{where}: expected exactly one of log, logs (several units), fit or fits (fit folders); "
@@ -271,12 +292,12 @@ def read_scene(path):
             for key in ("column", "rate_hz", "units") + _READING:
                 if key in entry:
                     raise InputError(f"{where}: {key} is taken from the fit folder; leave it out with {source}")
-            specs.append(SensorSpec(name, paths, (), None, kind, SI_UNITS[kind], source))
+            specs.append(SensorSpec(name, paths, (), None, kind, SI_UNITS[kind], source, datasheet=sheet))
             continue
         reading = _reading(entry, kind, where)
         columns = _columns(entry, where)
         specs.append(SensorSpec(name, paths, columns, reading.rate, kind, reading.units, source,
-                                dataclasses.replace(reading, column=",".join(columns))))
+                                dataclasses.replace(reading, column=",".join(columns)), sheet))
     names = [s.name for s in specs]
     if len(set(names)) != len(names):
         raise InputError(f"{path}: sensor names must be unique, got {names}")
@@ -311,6 +332,20 @@ def _reading(entry, kind, where):
                          f"for {what}")
     return LogSource(topic=topic, stream=stream, rate=rate, time_column=time_column, gaps=gaps,
                      input=kind_of_input, units=units, sensor=kind)
+def _datasheet(entry, path, kind, where):
+    """``(path, kind, values)`` of a sensor's ``datasheet = "FILE"`` (relative to the scene)."""
+    if "datasheet" not in entry:
+        return None
+    from ..noise.datasheet_check import read_datasheet_spec
+
+    value = entry["datasheet"]
+    if not isinstance(value, str) or not value:
+        raise InputError(f"{where}: datasheet={value!r}: expected the path of a JSON or TOML "
+                         "datasheet file")
+    sheet_kind, values = read_datasheet_spec(path.parent / value)
+    if sheet_kind != kind:
+        raise InputError(f"{where}: datasheet {value}: a {sheet_kind} datasheet for a {kind}")
+    return path.parent / value, kind, values
 
 
 def _paths(entry, key, where):

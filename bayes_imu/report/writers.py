@@ -81,6 +81,9 @@ class FitRequest:
         Drift rows at exactly these times (s) instead of a log grid up to ``horizon``.
     display_units : {"si", "deg"}
         Units of the drift outputs.
+    datasheet : tuple or None
+        ``(path, kind, values)`` of a vendor datasheet to check the fit against
+        (:mod:`bayes_imu.noise.datasheet_check`).
     """
 
     source: LogSource
@@ -95,6 +98,7 @@ class FitRequest:
     models: str = "averaged"
     times: tuple = None
     display_units: str = "si"
+    datasheet: tuple = None
 
 
 @dataclass(frozen=True)

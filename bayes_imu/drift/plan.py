@@ -1,0 +1,239 @@
+"""How long to record: predicted 90% intervals of parameters and drift versus record length.
+
+The answer is the Fisher information of the Allan-variance likelihood the fit itself uses
+(``likelihood="correlated"``, :class:`bayes_imu.inference.likelihood.LogPosterior`): a
+normal likelihood on ``log AVAR`` at the octave cluster sizes a record of ``N`` samples
+gets (1, 2, 4, ... up to ``N / 4``), with the exact covariance of the estimates
+(:func:`bayes_imu.noise.avar_covariance.avar_covariance`) at the planning point. With
+``J = d log AVAR / d log theta`` and ``W`` the likelihood's whitening matrix,
+``F = (W J)' (W J)`` and the posterior covariance of the log-parameters is predicted as
+``F^-1`` (flat prior in log space, the fit's own). The 90% interval of a parameter is then
+``theta exp(+-1.645 sd)``, reported as its width ratio ``q95 / q05 = exp(3.29 sd)``; the
+drift's (1-sigma drift at a horizon, bias calibrated before the outage as in the reports)
+by the delta method on ``log sigma(t)``.
+
+Why Fisher rather than simulate-and-fit: a plan over eight record lengths costs
+milliseconds, against minutes of sampling per length (a 48 h log at 100 Hz is 17 million
+samples); ``scripts/validate_plan.py`` checks the prediction against simulate-and-fit
+(docs/validation/plan.md). What it leaves out: prior bounds (a parameter the record cannot
+identify has a prior-limited interval, narrower than predicted), model selection (the plan
+is for the pilot's model), and non-stationarity.
+"""
+
+from dataclasses import dataclass, field
+from types import SimpleNamespace
+
+import numpy as np
+
+from ..allan.estimator import cluster_sizes
+from ..errors import InputError
+from ..inference.likelihood import LogPosterior
+from ..noise import NoiseModel
+from ..noise.avar_covariance import avar_covariance
+from .bands import DEFAULT_CALIBRATION_S
+from .closed_forms import QUANTITY_ORDER
+
+__all__ = ["PlanResult", "plan_record_length", "plan_from_fit", "DEFAULT_LENGTHS_S", "Z90"]
+
+#: default record lengths: 10 min, 30 min, 1 h, 2 h, 4 h, 8 h, 24 h, 48 h [s]
+DEFAULT_LENGTHS_S = (600.0, 1800.0, 3600.0, 7200.0, 14400.0, 28800.0, 86400.0, 172800.0)
+#: standard normal 95% quantile (half-width of a 90% interval in sd)
+Z90 = 1.6448536269514722
+_STEP = 1e-4
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    """Predicted 90% intervals versus record length.
+
+    Attributes
+    ----------
+    lengths_s : (n_len,) record lengths [s].
+    names : tuple of str
+        Parameter names (``model.parameter_names``).
+    point : dict
+        Name -> the planning value (u units of the parameter).
+    log_sd : (n_len, n_par)
+        Predicted posterior sd of each ``ln(parameter)``.
+    horizons_s : (n_h,) drift horizons [s].
+    quantity : str or None
+    drift : (n_h,) the 1-sigma drift at the planning point [u s^order].
+    drift_log_sd : (n_len, n_h)
+        Predicted posterior sd of ``ln sigma(t)``.
+    rate_hz : float
+    """
+
+    lengths_s: np.ndarray
+    names: tuple
+    point: dict
+    log_sd: np.ndarray
+    horizons_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    quantity: str = None
+    drift: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    drift_log_sd: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    rate_hz: float = float("nan")
+
+    @property
+    def width90(self):
+        """``(n_len, n_par)`` predicted ``q95 / q05`` of each parameter."""
+        return np.exp(2.0 * Z90 * self.log_sd)
+
+    @property
+    def drift_width90(self):
+        """``(n_len, n_h)`` predicted ``q95 / q05`` of the drift at each horizon."""
+        return np.exp(2.0 * Z90 * self.drift_log_sd)
+
+    def rows(self):
+        """Table rows: dicts with ``length_s``, ``what``, ``value`` (planning point), ``q05``,
+        ``q95``, ``width90``."""
+        out = []
+        for i, length in enumerate(self.lengths_s):
+            for j, name in enumerate(self.names):
+                v, s = self.point[name], self.log_sd[i, j]
+                out.append(
+                    {
+                        "length_s": float(length),
+                        "what": name,
+                        "value": v,
+                        "q05": v * np.exp(-Z90 * s),
+                        "q95": v * np.exp(Z90 * s),
+                        "width90": float(np.exp(2 * Z90 * s)),
+                    }
+                )
+            for j, t in enumerate(self.horizons_s):
+                v, s = float(self.drift[j]), self.drift_log_sd[i, j]
+                out.append(
+                    {
+                        "length_s": float(length),
+                        "what": f"{self.quantity} drift at {t:g} s",
+                        "value": v,
+                        "q05": v * np.exp(-Z90 * s),
+                        "q95": v * np.exp(Z90 * s),
+                        "width90": float(np.exp(2 * Z90 * s)),
+                    }
+                )
+        return out
+
+
+def _log_avar_jacobian(post, log_theta):
+    """``(n_tau, n_par)`` central differences of ``log AVAR`` in each log-parameter."""
+    steps = np.eye(log_theta.size) * _STEP
+    up = post.model_log_avar(log_theta + steps)
+    down = post.model_log_avar(log_theta - steps)
+    return ((up - down) / (2.0 * _STEP)).T
+
+
+def _log_drift(model, theta, k, order, n_cal):
+    params = model.unpack(theta)
+    total = sum(
+        t.drift_variance(order, k, params, model.dt, bias_start="calibrated", n_cal=n_cal)
+        for t in model.components
+    )
+    return 0.5 * np.log(total)
+
+
+def _fisher(model, params, n_samples):
+    m = cluster_sizes("octave", int(n_samples))
+    theta = np.array([params[p] for p in model.parameter_names], float)
+    avar = model.avar(m, params)
+    cov = avar_covariance(model, params, m, int(n_samples))
+    allan = SimpleNamespace(m=m, avar=avar, n_samples=int(n_samples))
+    bounds = np.column_stack([np.log(theta) - 1.0, np.log(theta) + 1.0])
+    post = LogPosterior.from_covariance(model, allan, cov, avar, bounds)
+    wj = post.whiten @ _log_avar_jacobian(post, np.log(theta))
+    return wj.T @ wj
+
+
+def plan_record_length(
+    model,
+    params,
+    *,
+    lengths_s=DEFAULT_LENGTHS_S,
+    horizons_s=(),
+    quantity=None,
+    calibration_s=DEFAULT_CALIBRATION_S,
+):
+    """Predicted posterior spread of each parameter (and drift) for records of ``lengths_s``.
+
+    Parameters
+    ----------
+    model : NoiseModel
+    params : dict of float
+        The planning point (a pilot fit's medians, or datasheet values), units of the model.
+    lengths_s : sequence of float
+        Record lengths [s]; each must give at least 16 samples.
+    horizons_s : sequence of float
+        Drift horizons [s] (needs ``quantity``).
+    quantity : {"attitude", "velocity", "position"}, optional
+    calibration_s : float
+        Bias calibration window before an outage [s].
+
+    Returns
+    -------
+    PlanResult
+    """
+    if not isinstance(model, NoiseModel):
+        raise InputError("model: expected a NoiseModel")
+    missing = [
+        p
+        for p in model.parameter_names
+        if not (p in params and np.isfinite(params[p]) and params[p] > 0)
+    ]
+    if missing:
+        raise InputError(f"params: expected positive values of {', '.join(missing)}")
+    lengths = np.asarray(lengths_s, float)
+    n = np.round(lengths / model.dt)
+    if lengths.ndim != 1 or lengths.size == 0 or np.any(~np.isfinite(lengths) | (n < 16)):
+        raise InputError(
+            f"lengths={lengths_s!r}: expected record lengths of at least 16 samples "
+            f"({16 * model.dt:g} s)"
+        )
+    horizons = np.asarray(horizons_s, float)
+    if horizons.size and (
+        quantity not in QUANTITY_ORDER or np.any(~np.isfinite(horizons) | (horizons < model.dt))
+    ):
+        raise InputError(
+            f"horizons={horizons_s!r}, quantity={quantity!r}: expected horizons of at least "
+            "one sample "
+            f"and a quantity ({', '.join(QUANTITY_ORDER)})"
+        )
+    theta = np.array([params[p] for p in model.parameter_names], float)
+    k = np.round(horizons / model.dt)
+    n_cal = float(np.round(calibration_s / model.dt))
+    grad = np.zeros((k.size, theta.size))
+    if k.size:
+        order = QUANTITY_ORDER[quantity]
+        for j in range(theta.size):
+            step = np.zeros(theta.size)
+            step[j] = _STEP
+            grad[:, j] = (
+                _log_drift(model, theta * np.exp(step), k, order, n_cal)
+                - _log_drift(model, theta * np.exp(-step), k, order, n_cal)
+            ) / (2 * _STEP)
+    log_sd, drift_sd = [], []
+    for count in n:
+        cov = np.linalg.inv(_fisher(model, dict(zip(model.parameter_names, theta)), count))
+        log_sd.append(np.sqrt(np.diag(cov)))
+        drift_sd.append(np.sqrt(np.einsum("hi,ij,hj->h", grad, cov, grad)))
+    drift = (
+        np.exp(_log_drift(model, theta, k, QUANTITY_ORDER[quantity], n_cal))
+        if k.size
+        else np.zeros(0)
+    )
+    return PlanResult(
+        lengths,
+        model.parameter_names,
+        dict(zip(model.parameter_names, theta.tolist())),
+        np.array(log_sd),
+        horizons,
+        quantity if k.size else None,
+        drift,
+        np.array(drift_sd).reshape(lengths.size, k.size),
+        1.0 / model.dt,
+    )
+
+
+def plan_from_fit(fit, **options):
+    """:func:`plan_record_length` at a pilot fit's posterior medians (its selected model)."""
+    params = {p: float(np.median(fit.draws(p))) for p in fit.model.parameter_names}
+    return plan_record_length(fit.model, params, **options)

@@ -1,0 +1,63 @@
+"""Record-length plan (:mod:`bayes_imu.drift.plan`).
+
+References: Monte Carlo (the spread of the generalised-least-squares estimate of ``ln q`` from the
+octave Allan variances of simulated white-noise logs, the estimator whose variance the Fisher
+information predicts; n = 400 logs, 4-sigma tolerance on an sd: 4 / sqrt(2 n) = 14%), and the
+exact Jacobian of a white + random-walk model (AVAR linear in each parameter).
+"""
+
+import numpy as np
+import pytest
+
+from bayes_imu.allan import allan_variance
+from bayes_imu.drift.plan import Z90, plan_record_length
+from bayes_imu.errors import InputError
+from bayes_imu.noise import NoiseModel
+from bayes_imu.noise.avar_covariance import avar_covariance
+
+
+def test_white_noise_width_matches_the_spread_of_the_estimate(rng):
+    n, dt, q = 4096, 0.01, 2.0
+    model = NoiseModel(("white",), dt)
+    plan = plan_record_length(model, {"noise_variance": q}, lengths_s=[n * dt])
+    m = 2 ** np.arange(11)  # octave sizes up to n / 4
+    cov = avar_covariance(model, {"noise_variance": q}, m, n)
+    avar = q / m
+    corr_log = cov / np.outer(avar, avar)  # delta method: covariance of log AVAR
+    weights = np.linalg.solve(corr_log, np.ones(m.size))
+    estimates = []
+    for _ in range(400):
+        a = allan_variance(np.sqrt(q) * rng.standard_normal(n), rate_hz=1 / dt, m=m)
+        estimates.append(weights @ (np.log(a.avar) - np.log(1.0 / m)) / weights.sum())
+    assert plan.log_sd[0, 0] == pytest.approx(np.std(estimates, ddof=1), rel=0.14)
+
+
+def test_longer_records_shrink_white_noise_as_one_over_root_length():
+    model = NoiseModel(("white", "random_walk"), 0.01)
+    plan = plan_record_length(
+        model,
+        {"noise_variance": 1e-4, "rate_random_walk": 1e-5},
+        lengths_s=[3600.0, 4 * 3600.0, 16 * 3600.0],
+        horizons_s=[1.0, 100.0],
+        quantity="attitude",
+    )
+    white = plan.log_sd[:, 0]
+    assert white[0] / white[1] == pytest.approx(2.0, rel=0.05) and white[1] / white[
+        2
+    ] == pytest.approx(2.0, rel=0.05)
+    assert np.all(np.diff(plan.log_sd, axis=0) < 0) and np.all(
+        np.diff(plan.drift_log_sd, axis=0) < 0
+    )
+    assert plan.width90 == pytest.approx(np.exp(2 * Z90 * plan.log_sd))
+    rows = plan.rows()
+    assert len(rows) == 3 * 4 and rows[2]["what"] == "attitude drift at 1 s"
+
+
+def test_bad_plans_are_input_errors():
+    model = NoiseModel(("white",), 0.01)
+    with pytest.raises(InputError, match="noise_variance"):
+        plan_record_length(model, {"noise_variance": -1.0})
+    with pytest.raises(InputError, match="16 samples"):
+        plan_record_length(model, {"noise_variance": 1.0}, lengths_s=[0.1])
+    with pytest.raises(InputError, match="quantity"):
+        plan_record_length(model, {"noise_variance": 1.0}, horizons_s=[1.0])
