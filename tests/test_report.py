@@ -78,6 +78,11 @@ def test_better_sensor_ranks_first_and_bounds_are_quantiles(report):
         # flicker, no calibration: two adjacent 300 s means differ by sqrt(2) ADEV (AVAR definition)
         var = var + 2.0 * (2.0 * np.log(2.0) / np.pi) * p.get("bias_instability", 0.0) ** 2 * 300.0**2
         var = var + 2.0 * p.get("quantization", 0.0) ** 2  # white angle noise: e_k - e_0
+        # a line of random phase: dt sum_{t<k} A sin(2 x t + phi) has variance (A^2/2) dt^2 D_k^2,
+        # D_k = sin(k x) / sin(x) the Dirichlet kernel, x = pi f dt, k = 300 s / dt
+        x = np.pi * p.get("vibration_frequency", 1.0) * 0.01
+        dirichlet = np.sin(3e4 * x) / np.sin(x)
+        var = var + 0.5 * p.get("vibration_amplitude", 0.0) ** 2 * (0.01 * dirichlet) ** 2
         k = 300.0 / 0.01
         var = var + p.get("filtered_variance", 0.0) * 0.01**2 * (4.0 * k - 2.0)  # Var(sum of k MA(1) samples)
         if "bias_variance_2" in p:

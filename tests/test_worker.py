@@ -211,11 +211,13 @@ def test_fit_outputs_are_the_same_from_the_worker_and_in_process(tmp_path, rng, 
 
 
 def test_a_widened_fit_command_is_the_same_with_modes_sought_ahead(tmp_path, monkeypatch):
-    """A fit command whose candidates all fail the adequacy check (white noise plus a 3 s sine: every candidate
+    """A fit command whose candidates all fail the adequacy check (white noise plus a 3 s square wave,
+    which a vibration line does not describe either: every candidate
     scored again with the discrepancy term) writes the same summary.json and fit.npz whether its output process
     seeks the widened modes ahead (fit_allan's pool) or the command seeks them all itself."""
     t = np.arange(30_000) / 100.0
-    y = 0.05 * np.random.default_rng(3).standard_normal(t.size) + 0.02 * np.sin(2.0 * np.pi * t / 3.0)
+    y = 0.05 * np.random.default_rng(3).standard_normal(t.size)
+    y += 0.02 * np.sign(np.sin(2.0 * np.pi * t / 3.0))
     log = tmp_path / "log.csv"
     log.write_text("gyro\n" + "\n".join(f"{v:.9g}" for v in y) + "\n")
     outs = {}

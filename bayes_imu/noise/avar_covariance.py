@@ -66,10 +66,10 @@ def avar_covariance(model, params, m, n_samples):
     kinds = {tail.kind for tail in tails}
     if "deterministic" in kinds:
         lags = np.arange(n + 4 * ms.max() + 1)
-        split = {True: 0.0, False: 0.0}
+        split = {True: 0.0, False: 0.0}  # D of the deterministic terms, D of the others
         for term, tail in zip(model.components, tails):
-            split[tail.kind == "deterministic"] = split[tail.kind == "deterministic"] + term.structure(
-                lags, params, model.dt)
+            side = tail.kind == "deterministic"
+            split[side] = split[side] + term.structure(lags, params, model.dt)
         table = np.broadcast_to(np.asarray(split[False], dtype=float), lags.shape)
         sums = exact_pair_sums(table, ms, n, deterministic=np.asarray(split[True], dtype=float))
     elif "generic" in kinds:
@@ -152,7 +152,7 @@ def exact_pair_sums(table, ms, n, *, deterministic=None):
 
 
 def _second_differences(table, b, reach):
-    """``g[j + reach] = sum_q w_q D(|j - q b|)`` for ``|j| <= reach``: D's second difference at step b."""
+    """``g[j + reach] = sum_q w_q D(|j - q b|)``, ``|j| <= reach``: D's second difference, step b."""
     top = table.size - 1  # the table holds D(0..top), top >= n + 4 max(m)
     ext = np.concatenate([table[:0:-1], table])  # ext[j + top] = D(|j|)
     lo, size = top - reach, 2 * reach + 1
@@ -160,7 +160,7 @@ def _second_differences(table, b, reach):
 
 
 def _lag_covariance(g, a, mb, reach, size):
-    """``c(l) = -1/2 sum_p w_p g(p a - l)`` for ``l = -(M_a - 1) .. M_b - 1``: reversed slices of g."""
+    """``c(l) = -1/2 sum_p w_p g(p a - l)``, ``l = -(M_a - 1) .. M_b - 1``: reversed slices of g."""
     c = np.zeros(size)
     for p, w in ((0, 1.0), (1, -2.0), (2, 1.0)):
         first = p * a - (mb - 1) + reach
