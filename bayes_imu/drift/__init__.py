@@ -21,7 +21,7 @@ from .bands import (
     drift_draws,
 )
 from .navigation import NavLoop
-from .nav_bands import NavigationBands, NavQuantity, navigation_bands
+from .nav_bands import NavigationBands, NavQuantity, longest_outage, navigation_bands
 
 __all__ = [
     "QUANTITY_ORDER",
@@ -38,4 +38,5 @@ __all__ = [
     "NavigationBands",
     "NavQuantity",
     "navigation_bands",
+    "longest_outage",
 ]
