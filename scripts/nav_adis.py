@@ -73,6 +73,8 @@ def main(argv=None):
             ",".join(map(str, TIMES)),
             "--calibration",
             "60",
+            "--max-position",
+            "5",
             "--out",
             "nav",
             "--force",
@@ -90,6 +92,9 @@ def main(argv=None):
             f"95% bound {float(r['bound95']):.3g}"
         )
     summary = json.loads((opts.work / "nav" / "summary.json").read_text())
+    req = summary["requirement"]
+    print(f"  bayes-imu nav --max-position 5: within {req['max_error_m']:g} m for "
+          f"{req['longest_outage_s']:g} s")
     for r in summary["rows"]:
         if r["quantity"] == "position":
             top = sorted(r["terms"].items(), key=lambda kv: -kv[1])[:3]

@@ -198,3 +198,38 @@ def test_three_axis_folders_give_the_radius_channels_and_cross_track(folders, tm
         ]
     )
     assert not (tmp_path / "mixed").exists()
+
+
+def test_max_position_requirement(folders, tmp_path, capsys):
+    out = tmp_path / "req"
+    code = main(
+        [
+            "nav",
+            "--gyro",
+            str(folders["gyro"]),
+            "--accel",
+            str(folders["accel"]),
+            "--max-position",
+            "5 m",
+            "--out",
+            str(out),
+        ]
+    )
+    assert code == 0
+    req = json.loads((out / "summary.json").read_text())["requirement"]
+    assert req["max_error_m"] == 5.0 and req["longest_outage_s"] > 0
+    assert f"within 5 m at 95 % for {req['longest_outage_s']:g} s" in capsys.readouterr().out
+    code = main(
+        [
+            "nav",
+            "--gyro",
+            str(folders["gyro"]),
+            "--accel",
+            str(folders["accel"]),
+            "--max-position",
+            "5 parsecs",
+            "--out",
+            str(tmp_path / "bad"),
+        ]
+    )
+    assert code == 2 and "--max-position" in capsys.readouterr().err

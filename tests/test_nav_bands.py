@@ -171,3 +171,17 @@ def test_input_errors(rng):
         navigation_bands(gyro, accel, [10.0], calibration_s=0.001)
     with pytest.raises(InputError, match="t:"):
         navigation_bands(gyro, accel, [-1.0])
+
+
+def test_longest_outage_is_where_the_bound_crosses(rng):
+    from bayes_imu.drift.nav_bands import longest_outage
+
+    gyro, accel = pair(rng)
+    limit = 50.0
+    t = longest_outage(gyro, accel, limit, max_draws=30, rng=0)
+    # independent check: the bound just at and just beyond that time (same draws: same rng)
+    at = navigation_bands(gyro, accel, [t, t + 2.0], max_draws=30, rng=0).quantities["position"]
+    assert at.bound[0] <= limit < at.bound[1]
+    assert longest_outage(gyro, accel, 1e-9, max_draws=30, rng=0) == 0.0
+    with pytest.raises(InputError, match="max_error"):
+        longest_outage(gyro, accel, -1.0)

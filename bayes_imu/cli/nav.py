@@ -42,6 +42,13 @@ def _positive(text):
     return value
 
 
+def _number_or_text(text):
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
 def _seed(text):
     try:
         value = int(text)
@@ -118,6 +125,12 @@ def add_nav_parser(sub):
         help="longest time of nav.png (s), default 2x the longest --times and at least 1200",
     )
     nav.add_argument(
+        "--max-position",
+        metavar="AMOUNT",
+        help="requirement on the horizontal position error at 95 %% (5, '5 m', '0.5 km'): the "
+        "longest outage within it, printed and in summary.json",
+    )
+    nav.add_argument(
         "--seed", type=_seed, default=0, help="random seed of the draw pairing, default 0"
     )
     nav.add_argument(
@@ -135,8 +148,15 @@ def add_nav_parser(sub):
 
 
 def _cmd_nav(args):
+    from ..drift.display import parse_amount
     from ..errors import InputError
     from ..report.nav import NavRequest, run_nav
+
+    limit = (
+        None
+        if args.max_position is None
+        else parse_amount(_number_or_text(args.max_position), "position", "--max-position")
+    )
 
     request = NavRequest(
         args.gyro,
@@ -151,9 +171,10 @@ def _cmd_nav(args):
         args.horizon,
         args.seed,
         args.force,
+        limit,
     )
     try:
-        bands = run_nav(request)
+        bands, summary = run_nav(request)
     except InputError as exc:  # the library names its parameters; say the flags
         text = re.sub(r"^(gyro|accel)=(\S+):", r"--\1 \2:", str(exc))
         raise InputError(
@@ -168,6 +189,12 @@ def _cmd_nav(args):
                 f"{position.bound[i]:.4g} m at 95 % "
                 f"(1-sigma {position.sigma[1][i]:.3g} m, 90 % band {position.sigma[0][i]:.3g}-"
                 f"{position.sigma[-1][i]:.3g} m)",
+                file=sys.stdout,
+            )
+        if limit is not None:
+            print(
+                f"horizontal position within {limit:g} m at 95 % for "
+                f"{summary['requirement']['longest_outage_s']:g} s",
                 file=sys.stdout,
             )
         print(f"wrote {args.out}/nav.csv, nav.png, summary.json", file=sys.stdout)

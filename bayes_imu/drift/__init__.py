@@ -23,7 +23,7 @@ from .bands import (
     drift_draws,
 )
 from .navigation import NavLoop
-from .nav_bands import NavigationBands, NavQuantity, navigation_bands
+from .nav_bands import NavigationBands, NavQuantity, longest_outage, navigation_bands
 from .overbound import OverboundResult, overbound
 from .plan import PlanResult, plan_from_fit, plan_record_length
 
@@ -47,4 +47,5 @@ __all__ = [
     "PlanResult",
     "plan_from_fit",
     "plan_record_length",
+    "longest_outage",
 ]

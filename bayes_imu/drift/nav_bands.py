@@ -32,7 +32,14 @@ from .navigation import EARTH_RADIUS, GRAVITY, QUANTITIES, QUANTITY_UNITS, NavLo
 from ..errors import InputError
 from ..noise import BIAS_STARTS, TERMS
 
-__all__ = ["NavQuantity", "NavigationBands", "navigation_bands", "nav_times", "predictive_bound"]
+__all__ = [
+    "NavQuantity",
+    "NavigationBands",
+    "navigation_bands",
+    "nav_times",
+    "predictive_bound",
+    "longest_outage",
+]
 
 _BISECTIONS = 60
 _ANGLES = 64  # trapezoid points over the half period of the radial CDF's angle integral
@@ -402,3 +409,32 @@ def navigation_bands(
         float("nan") if speed is None else float(speed),
         int(n),
     )
+
+
+def longest_outage(
+    gyro_fit, accel_fit, max_error, *, quantity="position", horizon_s=None, refine=24, **options
+):
+    """Longest outage [s] whose predictive error bound of ``quantity`` stays <= ``max_error``.
+
+    The bound is evaluated on :func:`nav_times` up to ``horizon_s``, then on ``refine`` whole-sample
+    times between the last listed time within the requirement and the first beyond it; ``options``
+    go to :func:`navigation_bands` (the same ``rng`` gives the same draws on both grids). Returns
+    ``0.0`` when even one sample exceeds it and the horizon when it is never exceeded.
+    """
+    if not (np.isfinite(max_error) and max_error > 0):
+        raise InputError(f"max_error={max_error!r}: expected a positive amount in SI units")
+    gyro = _as_axes(gyro_fit, "gyro_fit")
+    dt = gyro[0].model.dt
+    coarse = navigation_bands(gyro_fit, accel_fit, nav_times(dt, (), horizon_s), **options)
+    if quantity not in coarse.quantities:
+        raise InputError(f"quantity={quantity!r}: expected one of {', '.join(coarse.quantities)}")
+    bound = coarse.quantities[quantity].bound
+    over = np.flatnonzero(bound > max_error)
+    if not over.size:
+        return float(coarse.t_s[-1])
+    if over[0] == 0:
+        return 0.0
+    lo, hi = coarse.t_s[over[0] - 1], coarse.t_s[over[0]]
+    fine = np.unique(np.round(np.linspace(lo, hi, refine + 2) / dt)) * dt
+    bands = navigation_bands(gyro_fit, accel_fit, fine, **options)
+    return bands.within(quantity, max_error)

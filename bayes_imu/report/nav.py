@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..drift.nav_bands import nav_times, navigation_bands
+from ..drift.nav_bands import longest_outage, nav_times, navigation_bands
 from ..drift.navigation import schuler_period_s
 from ..errors import InputError
 from .._version import __version__
@@ -41,6 +41,7 @@ class NavRequest:
     horizon_s: float = None
     seed: int = 0
     force: bool = False
+    max_position_m: float = None
 
 
 def load_nav_fits(folder, kind):
@@ -88,7 +89,7 @@ def _named(kind, path, exc):
 
 
 def run_nav(request):
-    """Compute the bands of ``request``, write its folder; return the :class:`NavigationBands`."""
+    """Compute the bands of ``request``, write its folder; return ``(NavigationBands, summary)``."""
     gyro = load_nav_fits(request.gyro, "gyro")
     accel = load_nav_fits(request.accel, "accel")
     if len(gyro) != len(accel):
@@ -103,20 +104,31 @@ def run_nav(request):
         )
     dt = gyro[0].model.dt
     grid = nav_times(dt, times, request.horizon_s)
-    bands = navigation_bands(
-        gyro if len(gyro) == 3 else gyro[0],
-        accel if len(accel) == 3 else accel[0],
-        grid,
-        bias_start=request.bias_start,
-        calibration_s=request.calibration_s,
-        schuler=request.schuler,
-        models=request.models,
-        speed=request.speed,
-        rng=request.seed,
-    )
+    pair = (gyro if len(gyro) == 3 else gyro[0], accel if len(accel) == 3 else accel[0])
+    options = {
+        "bias_start": request.bias_start,
+        "calibration_s": request.calibration_s,
+        "schuler": request.schuler,
+        "models": request.models,
+        "speed": request.speed,
+        "rng": request.seed,
+    }
+    bands = navigation_bands(*pair, grid, **options)
     picked = np.searchsorted(bands.t_s, np.round(times / dt) * dt - 0.25 * dt)
     rows = _rows(bands, picked)
     summary = _summary(bands, request, rows, gyro, accel)
+    if request.max_position_m is not None:
+        longest = longest_outage(
+            *pair, request.max_position_m, horizon_s=request.horizon_s, **options
+        )
+        summary["requirement"] = {
+            "quantity": "position",
+            "max_error_m": request.max_position_m,
+            "credibility": 0.95,
+            "longest_outage_s": longest,
+            "meaning": "longest outage whose predictive 95 % bound of the horizontal position "
+            "error stays within max_error_m (to the refined grid of longest_outage)",
+        }
     with staged_folder(
         request.out, force=request.force, inputs=[request.gyro, request.accel]
     ) as tmp:
@@ -136,7 +148,7 @@ def run_nav(request):
             title=f"{Path(request.gyro).name} + {Path(request.accel).name}",
             record_s=min(f.record_s for f in gyro + accel),
         )
-    return bands
+    return bands, summary
 
 
 def _rows(bands, picked):
