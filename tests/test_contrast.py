@@ -18,10 +18,11 @@ from bayes_imu.noise.contrast_covariance import contrast_edf
 from bayes_imu.noise.simulate import simulate_log
 
 
-def _brute_force(y, k, n_cal, dt):
-    """Mean square of ``dt (sum_{i<k} y_{j+i} - k mean(y_{j-N..j-1}))`` over every start j, by loops."""
+def _brute_force(y, k, n_cal, dt, stride=1):
+    """Mean square of ``dt (sum_{i<k} y_{j+i} - k mean(y_{j-N..j-1}))`` over starts j = N, N + stride, ...
+    by loops."""
     total, count = 0.0, 0
-    for j in range(n_cal, y.size - k + 1):
+    for j in range(n_cal, y.size - k + 1, stride):
         bias = sum(y[j - n_cal:j]) / n_cal
         e = dt * sum(y[i] - bias for i in range(j, j + k))
         total += e * e
@@ -39,13 +40,29 @@ def test_estimator_equals_explicit_loops(rng, k, n_cal):
     assert c.n_terms[0] == count
 
 
+def test_strided_estimator_equals_explicit_loops(rng):
+    """Spans of 32 samples and more average every (k + N) // 32-th start."""
+    from bayes_imu.allan.contrast import contrast_stride
+
+    y = rng.standard_normal(700)
+    for k, n_cal in ((40, 30), (100, 64), (7, 90)):
+        stride = int(contrast_stride(k, n_cal))
+        assert stride == (k + n_cal) // 32 > 1
+        c = phase_contrasts(y, rate_hz=2.0, calibration_s=n_cal / 2.0, k=[k])
+        expected, count = _brute_force(y, k, n_cal, 0.5, stride)
+        np.testing.assert_allclose(c.mean_square[0], expected, rtol=1e-10)
+        assert c.n_terms[0] == count
+
+
 def test_allan_variance_carries_the_contrasts(rng):
     """At k = N the contrast is the Allan variance's second difference: V = 2 tau^2 AVAR(tau)
-    (the same overlapping starts), and unit conversions scale it by the factor squared."""
+    (the same overlapping starts where the span is below 32 samples), and unit conversions scale it by
+    the factor squared."""
     y = rng.standard_normal(4096)
+    a = allan_variance(y, rate_hz=10.0, m=np.array([15]), contrast_span_s=1.5)
+    v = phase_contrasts(y, rate_hz=10.0, calibration_s=1.5, k=[15]).mean_square[0]
+    np.testing.assert_allclose(v, 2 * 1.5**2 * a.avar[0], rtol=1e-9)
     a = allan_variance(y, rate_hz=10.0, m=np.array([64]), contrast_span_s=6.4)
-    v = phase_contrasts(y, rate_hz=10.0, calibration_s=6.4, k=[64]).mean_square[0]
-    np.testing.assert_allclose(v, 2 * 6.4**2 * a.avar[0], rtol=1e-9)
     grid = a.contrasts
     assert grid.n_cal == 64 and grid.k[0] == 1 and grid.k[-1] + 64 <= 2048
     np.testing.assert_allclose(a.scaled(3.0).contrasts.mean_square, 9.0 * grid.mean_square, rtol=1e-15)
@@ -88,7 +105,9 @@ def test_edf_against_monte_carlo(rng, terms, params):
     dt, n, n_cal = 0.1, 2**12, 60
     model = NoiseModel(terms, dt)
     ks = np.array([10, 60, 300, 1000])
-    edf = contrast_edf(model, params, ks, n_cal, n)
+    from bayes_imu.allan.contrast import contrast_stride
+
+    edf = contrast_edf(model, params, ks, n_cal, n, contrast_stride(ks, n_cal))
     v = np.array([phase_contrasts(simulate_log(model, params, n, rng=rng), rate_hz=10.0, calibration_s=6.0,
                                   k=ks).mean_square for _ in range(400)])
     mc = 2 * v.mean(0) ** 2 / v.var(0, ddof=1)
@@ -103,6 +122,8 @@ def test_edf_of_white_noise_at_short_outages():
     model = NoiseModel(("white",), 1.0)
     edf = contrast_edf(model, {"noise_variance": 1.0}, [1], 10000, 200000)
     assert abs(edf[0] / (200000 - 10000) - 1) < 0.01
+    strided = contrast_edf(model, {"noise_variance": 1.0}, [1], 10000, 200000, stride=312)
+    assert abs(strided[0] / ((200000 - 10001) // 312 + 1) - 1) < 0.01  # starts 312 apart: still independent
 
 
 def test_honest_quantiles_contain_the_direct_interval():

@@ -14,12 +14,13 @@ linear trends of ``x``), the overlapping average over every start ``j``
     V_hat(k) = dt^2 / M sum_{j=N}^{n-k} e_j^2,    M = n - N - k + 1,
 
 is an unbiased estimate of the mean-square error ``E e^2`` the drift bands predict: it needs no
-model. Its sampling distribution (the EDF) does depend on the noise and is computed from a model's
+model. Starts closer than a 32nd of the span ``k + N`` carry almost the same error, so the average
+takes every ``max(1, (k + N) // 32)``-th start (the EDF counts exactly the starts used); a record of
+``n`` samples then costs ``O(32 n / (k + N))`` per outage instead of ``O(n)``. Its sampling distribution (the EDF) does depend on the noise and is computed from a model's
 structure function (:func:`bayes_imu.noise.contrast_covariance.contrast_edf`).
 
 :func:`phase_contrasts` evaluates ``V_hat`` on a log-spaced grid of outage lengths (one vectorised
-O(n) pass each over the phase record the Allan variance already builds: one subtraction and
-two dot products per outage), up to spans ``k + N`` of
+strided pass each over the phase record the Allan variance already builds), up to spans ``k + N`` of
 half the record; :meth:`PhaseContrasts.at` interpolates between grid points in log-log.
 """
 
@@ -29,8 +30,8 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["PhaseContrasts", "phase_contrasts", "contrast_mean_square", "DEFAULT_CONTRAST_SPAN_S",
-           "CONTRASTS_PER_DECADE", "MAX_SPAN_FRACTION"]
+__all__ = ["PhaseContrasts", "phase_contrasts", "contrast_mean_square", "contrast_stride", "DEFAULT_CONTRAST_SPAN_S",
+           "CONTRASTS_PER_DECADE", "MAX_SPAN_FRACTION", "STARTS_PER_SPAN"]
 
 #: calibration window of the contrasts computed with every Allan variance [s] (the drift bands' default)
 DEFAULT_CONTRAST_SPAN_S = 60.0
@@ -38,6 +39,8 @@ DEFAULT_CONTRAST_SPAN_S = 60.0
 CONTRASTS_PER_DECADE = 6
 #: longest span ``k + N`` measured, as a fraction of the record
 MAX_SPAN_FRACTION = 0.5
+#: starts averaged per span ``k + N`` (the step between starts is the span / this, at least 1)
+STARTS_PER_SPAN = 32
 
 
 @dataclass(frozen=True)
@@ -53,7 +56,7 @@ class PhaseContrasts:
     mean_square : (n_k,) ndarray
         ``V_hat(k)`` [u^2 s^2] (module docstring).
     n_terms : (n_k,) ndarray of int
-        Starts averaged, ``M = n - N - k + 1``.
+        Starts averaged (every :func:`contrast_stride`-th of the ``n - N - k + 1``).
     rate_hz : float
     n_samples : int
     """
@@ -97,39 +100,27 @@ class PhaseContrasts:
             out[inside] = np.exp(np.interp(np.log(k), np.log(self.k), np.log(self.mean_square)))
         return out
 
-    def n_terms_at(self, t):
-        """``M`` at outages ``t`` [s]."""
-        k = np.round(np.asarray(t, dtype=float) * self.rate_hz)
-        return self.n_samples - self.n_cal - k + 1
 
 
-def contrast_mean_square(x, k, n_cal):
-    """``V_hat / dt^2`` for outage ``k`` and window ``n_cal`` from a phase record ``x`` ``(n + 1,)``.
+def contrast_stride(k, n_cal):
+    """Step between the starts averaged: ``max(1, (k + N) // STARTS_PER_SPAN)`` samples."""
+    return np.maximum(1, (np.asarray(k, dtype=np.int64) + int(n_cal)) // STARTS_PER_SPAN)
+
+
+def contrast_mean_square(x, k, n_cal, stride=1):
+    """``V_hat / dt^2`` for outage ``k`` and window ``n_cal`` from a phase record ``x`` ``(n + 1,)``,
+    averaged over the starts ``N, N + stride, ...``.
 
     ``x`` is the running sum of the rate about any constant (the contrast annihilates it).
     """
-    return float(_mean_squares(x, np.array([k]), n_cal)[0])
-
-
-def _mean_squares(x, ks, n_cal):
-    """``V_hat / dt^2`` at every outage of ``ks``: with ``A = x_{j+k} - x_j`` and ``B = x_j - x_{j-N}``,
-    ``sum e^2 = A.A - 2 r A.B + r^2 B.B``; ``B`` is one array for every ``k`` and ``B.B`` over its first
-    ``M`` entries a running sum, so each outage costs one subtraction and two dot products."""
     n = x.size - 1
-    ks = np.asarray(ks, dtype=np.int64)
-    n_cal = int(n_cal)
-    if ks.size and (ks.min() < 1 or n_cal < 1 or ks.max() + n_cal > n):
-        raise InputError(f"outages {ks.min()}-{ks.max()} + calibration {n_cal} samples: expected 1 <= each, "
-                         f"sum <= {n}")
-    b = x[n_cal:] - x[:-n_cal] if n_cal <= n else np.zeros(0)
-    bb = np.concatenate(([0.0], np.cumsum(b * b)))
-    out = np.empty(ks.size)
-    for i, k in enumerate(ks):
-        m = n + 1 - n_cal - int(k)
-        a = x[n_cal + k:] - x[n_cal:n + 1 - k]
-        r = k / n_cal
-        out[i] = (np.dot(a, a) - 2.0 * r * np.dot(a, b[:m]) + r * r * bb[m]) / m
-    return out
+    k, n_cal, stride = int(k), int(n_cal), int(stride)
+    if k < 1 or n_cal < 1 or k + n_cal > n:
+        raise InputError(f"outage {k} + calibration {n_cal} samples: expected 1 <= each, sum <= {n}")
+    r = k / n_cal
+    mid = x[n_cal:n + 1 - k:stride]
+    e = x[n_cal + k::stride][:mid.size] - (1.0 + r) * mid + r * x[:n + 1 - n_cal - k:stride][:mid.size]
+    return float(np.dot(e, e)) / e.size
 
 
 def contrast_grid(n_samples, n_cal, per_decade=CONTRASTS_PER_DECADE, max_fraction=MAX_SPAN_FRACTION):
@@ -170,5 +161,6 @@ def phase_contrasts(y=None, *, rate_hz, calibration_s=DEFAULT_CONTRAST_SPAN_S, x
     if n_cal < 1:
         raise InputError(f"calibration={calibration_s!r} s: expected at least one sample ({1.0 / rate_hz:g} s)")
     ks = contrast_grid(n, n_cal) if k is None else np.asarray(k, dtype=np.int64)
-    ms = _mean_squares(x, ks, n_cal) / rate_hz**2
-    return PhaseContrasts(ks, n_cal, ms.reshape(ks.shape), n - n_cal - ks + 1, float(rate_hz), int(n))
+    strides = contrast_stride(ks, n_cal)
+    ms = np.array([contrast_mean_square(x, kk, n_cal, st) for kk, st in zip(ks, strides)]) / rate_hz**2
+    return PhaseContrasts(ks, n_cal, ms.reshape(ks.shape), (n - n_cal - ks) // strides + 1, float(rate_hz), int(n))

@@ -27,6 +27,7 @@ import numpy as np
 
 from .._lazy import LazyModule
 from .closed_forms import QUANTITY_ORDER
+from ..allan.contrast import contrast_stride
 from ..noise.contrast_covariance import contrast_edf
 
 special = LazyModule("scipy.special")
@@ -132,8 +133,10 @@ def direct_edf(fit, contrasts, t):
     lo, hi = k.min(), k.max()
     nodes = np.unique(np.round(np.geomspace(lo, hi, max(2, int(np.log10(hi / lo) * _EDF_PER_DECADE) + 2))))
     if nodes.size >= k.size:
-        return contrast_edf(model, params, k, contrasts.n_cal, contrasts.n_samples)
-    edf = contrast_edf(model, params, nodes, contrasts.n_cal, contrasts.n_samples)
+        return contrast_edf(model, params, k, contrasts.n_cal, contrasts.n_samples,
+                            contrast_stride(k, contrasts.n_cal))
+    edf = contrast_edf(model, params, nodes, contrasts.n_cal, contrasts.n_samples,
+                       contrast_stride(nodes, contrasts.n_cal))
     return np.exp(np.interp(np.log(k), np.log(nodes), np.log(edf)))
 
 

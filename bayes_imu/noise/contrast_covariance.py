@@ -6,7 +6,9 @@ starts, ``e_j = sum_p a_p x_{j+p}`` with ``a_{-N} = r``, ``a_0 = -(1 + r)``, ``a
 Allan variance's covariance, :mod:`bayes_imu.noise.avar_covariance`)::
 
     C(d) = Cov(e_j, e_{j+d}) = -1/2 sum_l R(l) D(|l + d|),   R(l) = sum_p a_p a_{p+l}
-    Var(V_hat) = 2 / M^2 [M C(0)^2 + 2 sum_{d=1}^{M-1} (M - d) C(d)^2]
+    Var(V_hat) = 2 / M^2 [M C(0)^2 + 2 sum_{u=1}^{M-1} (M - u) C(s u)^2]
+
+over the ``M`` starts averaged, ``s`` apart (:func:`bayes_imu.allan.contrast.contrast_stride`),
 
 with ``R(0) = 1 + (1 + r)^2 + r^2``, ``R(+-N) = -r (1 + r)``, ``R(+-k) = -(1 + r)``,
 ``R(+-(k + N)) = r``. ``C(d)`` vanishes beyond the span ``L = k + N`` for white noise, random
@@ -44,7 +46,7 @@ def _lags(m, k, n_cal):
     return np.concatenate((exact, mid)), np.concatenate((w, (m - mid) * np.diff(edges)))
 
 
-def contrast_edf(model, params, k, n_cal, n_samples):
+def contrast_edf(model, params, k, n_cal, n_samples, stride=1):
     """EDF of the direct calibrated-outage estimate at outages ``k`` under ``model`` at ``params``.
 
     Parameters
@@ -58,6 +60,8 @@ def contrast_edf(model, params, k, n_cal, n_samples):
         Calibration window [samples].
     n_samples : int
         Record length (rate samples).
+    stride : int or (n_k,) array_like of int
+        Step between the starts averaged (:func:`bayes_imu.allan.contrast.contrast_stride`).
 
     Returns
     -------
@@ -65,13 +69,14 @@ def contrast_edf(model, params, k, n_cal, n_samples):
         ``nu = 2 (E V_hat)^2 / Var(V_hat)`` (module docstring).
     """
     out = []
-    for kk in np.atleast_1d(np.asarray(k, dtype=float)):
+    ks = np.atleast_1d(np.asarray(k, dtype=float))
+    for kk, step in zip(ks, np.broadcast_to(np.asarray(stride, dtype=np.int64), ks.shape)):
         r = kk / n_cal
         lags = np.array([0.0, n_cal, -n_cal, kk, -kk, kk + n_cal, -(kk + n_cal)])
         weights = np.array([1 + (1 + r) ** 2 + r * r, -r * (1 + r), -r * (1 + r), -(1 + r), -(1 + r), r, r])
-        m = int(n_samples - n_cal - kk + 1)
-        d, w = _lags(m, kk, n_cal)
-        d = np.concatenate(([0.0], d))
+        m = int((n_samples - n_cal - kk) // step + 1)  # starts averaged, ``step`` apart
+        u, w = _lags(m, kk / step, n_cal / step)
+        d = step * np.concatenate(([0.0], u))
         table = model.structure_function(np.abs(d[:, None] + lags[None, :]).ravel(), params)
         c = -0.5 * np.asarray(table, dtype=float).reshape(d.size, lags.size) @ weights
         var = 2.0 / m**2 * (m * c[0] ** 2 + 2.0 * np.dot(w, c[1:] ** 2))
