@@ -123,7 +123,8 @@ def run_cli(y, scene, times, workdir):
            "--bias-start", "calibrated", "--calibration", repr(scene.calibration_s),
            "--seed", str(scene.seed), "--quiet", "--out", str(out)]
     subprocess.run(cmd, check=True, capture_output=True)
-    rows = list(csv.DictReader(open(out / "drift.csv")))
+    with open(out / "drift.csv") as fh:
+        rows = list(csv.DictReader(fh))
     bands = {}
     for q, name in (("attitude", "velocity"), ("position", "position")):
         sel = [r for r in rows if r["quantity"] == name]
@@ -131,7 +132,8 @@ def run_cli(y, scene, times, workdir):
         if not np.allclose(t, times, rtol=1e-6):
             raise RuntimeError(f"drift.csv times {t} differ from {times}")
         bands[q] = np.array([[float(r[c]) for r in sel] for c in ("q05", "q50", "q95")])
-    summary = json.load(open(out / "summary.json"))
+    with open(out / "summary.json") as fh:
+        summary = json.load(fh)
     adequacy = summary.get("adequacy", {})
     stat = adequacy.get("stationarity") or {}
     info = {
@@ -290,7 +292,8 @@ def nav_rows(args):
                            check=True, capture_output=True)
             truth = nt.nav_covariance(gyro, accel, times, dt=dt, calibration_s=cal,
                                       g=args.gravity, radius=args.radius)
-            band = list(csv.DictReader(open(out / "nav.csv")))
+            with open(out / "nav.csv") as fh:
+                band = list(csv.DictReader(fh))
             for q in ("position", "velocity"):
                 sel = {round(float(r["t_s"]), 6): r for r in band if r["quantity"] == q}
                 for j, t in enumerate(times):
@@ -324,7 +327,11 @@ def main(argv=None):
     ap.add_argument("--csv", help="write every (scene, quantity, horizon) row here")
     ap.add_argument("--markdown", help="write the table (and the command) here")
     ap.add_argument("--no-nice", action="store_true")
+    ap.add_argument("--quick", action="store_true",
+                    help="smoke run: one short scene of two families")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.per_family, args.max_log2n, args.families = 1, 16.0, "white+gm,white+quant"
     args.families = [f for f in args.families.split(",") if f]
     unknown = [f for f in args.families if f not in sg.FAMILIES]
     if unknown:
