@@ -339,8 +339,8 @@ CALIBRATIONS = (10.0, 30.0, 60.0, 120.0)
 
 
 def _lu(rng, lo, hi):
-    """Log-uniform draw in [lo, hi]."""
-    return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
+    """Log-uniform draw in [lo, hi] (``lo`` when a short record makes ``hi < lo``)."""
+    return float(math.exp(rng.uniform(math.log(lo), math.log(max(lo, hi)))))
 
 
 def _gm(rng, n_white, tau, lo, hi):
@@ -399,6 +399,16 @@ def _family_terms(family, rng, n_white, dt, rec):
                 _gm(rng, n_white, _lu(rng, 1.0, rec / 10), 0.3, 1.5))
     if family == "random_mix":
         return _random_mix(rng, white, n_white, dt, rec)
+    if family == "gm_rrw_overlap":
+        tau = _lu(rng, 2.0, rec / 20)
+        return (white, _gm(rng, n_white, tau, 0.0, 0.6), _rrw(rng, n_white, tau, 3 * tau))
+    if family == "faint_flicker":
+        return (white, _flicker(rng, n_white, rec, rec / 4, 2 * rec))
+    if family == "three_gm":
+        tau1 = _lu(rng, 0.3, rec / 1000)
+        steps = [0.0, rng.uniform(0.8, 1.2), rng.uniform(0.8, 1.2)]
+        taus = [tau1 * 10 ** float(x) for x in np.cumsum(steps)]
+        return (white, *(_gm(rng, n_white, t, 0.0, 0.8) for t in taus))
     raise ValueError(f"unknown family {family!r}; expected one of {FAMILIES}")
 
 
@@ -421,9 +431,12 @@ def _random_mix(rng, white, n_white, dt, rec):
     return tuple(terms)
 
 
-#: labelled families; "white+gm" is a control the candidate models contain exactly
+#: labelled families; "white+gm" is a control the candidate models contain exactly; the last
+#: three (added after the first baseline, so the first seven's scenes are unchanged) sit in the
+#: ambiguous corners: a bias and a random walk of the same time scale, flicker that crosses the
+#: white noise only beyond the record, three biases a decade apart
 FAMILIES = ("white+gm", "gm+rrw", "two_gm", "weak_flicker", "white+quant", "filtered+gm",
-            "random_mix")
+            "random_mix", "gm_rrw_overlap", "faint_flicker", "three_gm")
 
 
 def scene_seed(family, seed):
