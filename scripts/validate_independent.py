@@ -161,6 +161,16 @@ def avar_check(scene, y):
                                       sg.avar_truth(scene, m)))))
 
 
+SHORT_TERMS = (sg.White, sg.Quantization, sg.FilteredWhite)
+
+
+def slow_share(scene, times, order):
+    """Share of the truth's variance from the slow terms (biases, flicker, random walk, ramp)."""
+    short = tuple(t for t in scene.terms if isinstance(t, SHORT_TERMS))
+    total = sg.drift_truth(scene, times, order) ** 2
+    return 1.0 - sg.drift_truth(scene, times, order, terms=short) ** 2 / total
+
+
 def drift_rows(args):
     rows, logs = [], []
     with tempfile.TemporaryDirectory(prefix="validate_independent_") as tmp:
@@ -181,12 +191,15 @@ def drift_rows(args):
                             calibration_s=scene.calibration_s, fit_s=time.perf_counter() - t0,
                             scene=scene.describe())
                 logs.append(info)
+                share = {"attitude": slow_share(scene, times, 1),
+                         "position": slow_share(scene, times, 2)}
                 for q in ("attitude", "position"):
                     for j, t in enumerate(times):
                         lo, med, hi = bands[q][:, j]
                         tr = truth[q][j]
                         rows.append(dict(family=family, seed=seed, quantity=q, t_s=float(t),
                                          truth=tr, q05=lo, q50=med, q95=hi,
+                                         slow_share=float(share[q][j]),
                                          covered=int(lo <= tr <= hi),
                                          side="below" if tr < lo else ("above" if tr > hi else "")))
                 cov = np.mean([r["covered"] for r in rows[-2 * len(times):]])
@@ -218,20 +231,25 @@ def _fmt(p, se_b, se_l):
 
 
 def markdown(rows, logs, args, command):
-    seeds_used = list(seeds(args))
+    seeds_used = sorted({int(r["seed"]) for r in rows})
+    held = seeds_used[0] >= HELD_OUT_START
+    per_scene = Counter((r["family"], r["seed"]) for r in rows if r["quantity"] == "attitude")
     lines = [
-        f"Seeds {seeds_used[0]}..{seeds_used[-1]} ({'HELD-OUT' if args.held_out else 'development'}"
-        f" range), {len(seeds_used)} scenes per family, {args.horizons} horizons per scene "
-        f"(1 s to a quarter of the record), mode `{args.mode}`.", "",
+        f"Seeds {seeds_used[0]}..{seeds_used[-1]} ({'HELD-OUT' if held else 'development'}"
+        f" range), {len(seeds_used)} scenes per family, {max(per_scene.values())} horizons per "
+        f"scene (1 s to a quarter of the record), mode `{args.mode}`.", "",
         "Coverage of the exact truth by the package's 90% band of the 1-sigma error "
         "(goal 90%); `+- a (b)`: binomial standard error (a) and between-log standard error (b); "
+        "`slow terms dominate`: attitude points where biases, flicker, random walk or ramp "
+        "give more than half the true variance (the points that test the model); "
         "`below`: share of the misses where the truth lies below the band; `AVAR check`: the "
         "largest |ln(measured / exact Allan variance)| over the family's records at octave "
         "sizes up to n/16 (scene sanity: sampling scatter only).", "",
-        "| family | logs | attitude | position | attitude 1-10 s | 10-100 s | >100 s | "
+        "| family | logs | attitude | position | attitude 1-10 s | 10-100 s | >100 s | slow terms "
+        "dominate | "
         "below | models selected (count) | adequacy flagged | non-stationary | widened | "
         "AVAR check |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     fams = list(dict.fromkeys(r["family"] for r in rows)) + ["all"]
     for fam in fams:
@@ -242,6 +260,7 @@ def markdown(rows, logs, args, command):
         bins = [[r for r in att if lo <= r["t_s"] < hi]
                 for lo, hi in ((0, 10.0 - 1e-9), (10.0 - 1e-9, 100.0), (100.0, np.inf))]
         a, p = _cov(att), _cov(pos)
+        bins.append([r for r in att if float(r["slow_share"]) > 0.5])
         binned = [f"{100 * c[0]:.0f}% ({c[4]})" if c[4] else "-" for c in map(_cov, bins)]
         models = Counter(x["model"] for x in fl)
         top = ", ".join(f"{m} ({c})" for m, c in models.most_common(3 if fam != "all" else 4))
@@ -325,6 +344,36 @@ def nav_rows(args):
 
 # ----------------------------------------------------------------------------- main
 
+def read_rows(path):
+    """Rows and per-log records written by ``--csv`` (to tabulate again without refitting)."""
+    def conv(v):
+        if v in ("True", "False"):
+            return v == "True"
+        try:
+            return int(v)
+        except ValueError:
+            try:
+                return float(v)
+            except ValueError:
+                return v
+    with open(path) as fh:
+        rows = [{k: conv(v) for k, v in r.items()} for r in csv.DictReader(fh)]
+    with open(Path(path).with_suffix(".logs.csv")) as fh:
+        logs = [{k: conv(v) for k, v in r.items()} for r in csv.DictReader(fh)]
+    for r in rows:
+        r["t_s"] = float(r["t_s"])
+    if rows and "slow_share" not in rows[0]:                 # rows from before that column
+        groups = defaultdict(list)
+        for r in rows:
+            groups[(r["family"], r["seed"], r["quantity"])].append(r)
+        for (family, seed, q), grp in groups.items():
+            scene = sg.make_scene(family, seed)
+            share = slow_share(scene, [r["t_s"] for r in grp], 1 if q == "attitude" else 2)
+            for r, v in zip(grp, share):
+                r["slow_share"] = float(v)
+    return rows, logs
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--per-family", type=int, default=8, help="scenes per family (default 8)")
@@ -339,6 +388,7 @@ def main(argv=None):
     ap.add_argument("--radius", type=float, default=nt.R_EARTH)
     ap.add_argument("--csv", help="write every (scene, quantity, horizon) row here")
     ap.add_argument("--markdown", help="write the table (and the command) here")
+    ap.add_argument("--from-csv", help="tabulate rows written earlier by --csv (no fitting)")
     ap.add_argument("--no-nice", action="store_true")
     ap.add_argument("--quick", action="store_true",
                     help="smoke run: one short scene of two families")
@@ -361,22 +411,26 @@ def main(argv=None):
                   f" of {n} points; misses below the band {100 * below:.0f}%")
         logs = []
     else:
-        rows, logs = drift_rows(args)
+        rows, logs = read_rows(args.from_csv) if args.from_csv else drift_rows(args)
         table = markdown(rows, logs, args, command)
         print(table)
         if args.markdown:
             Path(args.markdown).write_text(table + "\n")
-    if args.csv:
-        with open(args.csv, "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            w.writeheader()
-            w.writerows(rows)
+    if args.csv and not args.from_csv:
+        write_csv(args.csv, rows)
         if logs:
-            with open(Path(args.csv).with_suffix(".logs.csv"), "w", newline="") as fh:
-                w = csv.DictWriter(fh, fieldnames=list(logs[0]))
-                w.writeheader()
-                w.writerows(logs)
+            write_csv(Path(args.csv).with_suffix(".logs.csv"), logs)
     return 0
+
+
+def write_csv(path, rows):
+    """Rows as CSV, floats to 7 significant digits."""
+    def fmt(v):
+        return f"{v:.7g}" if isinstance(v, float) else v
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows({k: fmt(v) for k, v in r.items()} for r in rows)
 
 
 if __name__ == "__main__":
