@@ -119,7 +119,7 @@ def test_monte_carlo_allan_variance_of_a_scene():
                                                    TERMS["flicker"]))
     rng = np.random.default_rng(7)
     m = np.array([1, 4, 32, 256])
-    est = sg.overlapping_avar(scene.simulate(rng, (2000,)), m, scene.dt)
+    est = sg.overlapping_avar(scene.simulate(rng, (1000,)), m, scene.dt)
     exact = sg.avar_truth(scene, m)
     for j in range(len(m)):
         _mc_check(est[:, j], exact[j])

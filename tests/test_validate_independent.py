@@ -41,3 +41,38 @@ def test_held_out_seeds_are_disjoint_from_development():
     A.held_out, A.seed_start = False, vi.HELD_OUT_START - 10
     with pytest.raises(SystemExit):
         vi.seeds(A)
+
+
+STUB = '''#!{python}
+import os, sys
+args = sys.argv[1:]
+out = args[args.index("--out") + 1]
+os.makedirs(out)
+if args[0] == "nav":
+    wide = os.environ["STUB_MODE"] == "wide"
+    with open(os.path.join(out, "nav.csv"), "w") as fh:
+        fh.write("t_s,quantity,q05,q50,q95,unit\\n")
+        for t in args[args.index("--times") + 1].split(","):
+            for q, u in (("tilt", "rad"), ("velocity", "m/s"), ("position", "m")):
+                hi = 1e300 if wide else 0.0
+                fh.write(f"{{float(t)}},{{q}},0,0,{{hi}},{{u}}\\n")
+'''
+
+
+@pytest.mark.parametrize("mode, expected", [("wide", "100.0%"), ("empty", "0.0%")])
+def test_nav_mode_reads_the_documented_nav_csv(tmp_path, mode, expected):
+    """The --nav plumbing against a stand-in ``bayes-imu`` that writes the interface of issue 36
+    (``nav.csv``: ``t_s,quantity,q05,q50,q95,unit``): bands that hold everything cover every
+    point, empty bands none."""
+    import os
+
+    stub = tmp_path / "bayes-imu"
+    stub.write_text(STUB.format(python=sys.executable))
+    stub.chmod(0o755)
+    env = dict(os.environ, PATH=f"{tmp_path}{os.pathsep}{os.environ['PATH']}", STUB_MODE=mode)
+    proc = subprocess.run([sys.executable, str(SCRIPT), "--nav", "--per-family", "1",
+                           "--max-log2n", "18", "--no-nice"],
+                          capture_output=True, text=True, timeout=600, env=env)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    for q in ("position", "velocity"):
+        assert f"nav {q}: {expected}" in proc.stdout, proc.stdout
