@@ -37,7 +37,7 @@ from .._version import __version__
 from ..report.output import safe_folder_name, staged_file, staged_folder
 from ..report.plots import import_plotting, plot_allan_fit, plot_corner
 from ..report.worker import OutputWriter, background_default
-from .._progress import show_progress
+from .._progress import progress_bar, show_progress
 from .sources import SourceOptions, allan_results
 from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, SENSOR_QUANTITIES
 from ..drift.display import DISPLAY_CHOICES, display_unit
@@ -525,12 +525,32 @@ def _cmd_report(args):
 
     scene = read_scene(args.scene)
     inputs = [args.scene] + [p for s in scene.sensors for p in s.paths]
-    with staged_folder(args.out, force=args.force, inputs=inputs) as tmp:
-        report = build_report(scene, rng=args.seed)
+    staged = staged_folder(args.out, force=args.force, inputs=inputs)
+    with staged as tmp, _sensor_progress(args, scene) as progress:
+        report = build_report(scene, rng=args.seed, progress=progress)
         write_report(report, tmp)
     _say(args, f"ranking: {', '.join(report.ranking)} ({report.reason})")
     _say(args, f"wrote {args.out}/report.json and report.html")
     return 0
+
+
+@contextlib.contextmanager
+def _sensor_progress(args, scene):
+    """Progress of a report on standard error: a bar on a terminal, else one line per sensor."""
+    if getattr(args, "quiet", False):
+        yield None
+        return
+    start = time.perf_counter()
+    with progress_bar(total=len(scene.sensors), desc="sensors", unit="sensor", enabled=args.progress) as bar:
+        def progress(done, total, name):
+            if args.progress:
+                bar.update(1)
+                bar.set_postfix_str(name)
+            else:
+                seconds = time.perf_counter() - start
+                print(f"sensor {done}/{total} done: {name} ({seconds:.1f} s)", file=sys.stderr, flush=True)
+
+        yield progress
 
 
 def _cmd_kalibr(args):
