@@ -13,7 +13,7 @@ process). The issue's goal is a ratio of at most 2.
 
     python scripts/bench_fit.py [--runs 3] [--samples 1000000]
     python scripts/bench_fit.py --real [--runs 1]   # the six ADIS16405 gyro x logs (../shared), one run each
-    python scripts/bench_fit.py --load 2 [--runs 3]  # under load: 2 CPU-bound processes run meanwhile
+    python scripts/bench_fit.py --load 2 [--runs 3]  # 2 CPU-bound processes run meanwhile
 
 ``--load N`` starts N busy processes (a pure-Python loop each, one per core on a 2-core machine)
 before the first run and stops them after the last: both tools are timed on a machine as busy as a
@@ -42,7 +42,8 @@ def main(argv=None):
     parser.add_argument("--real", action="store_true",
                         help="instead, the real ADIS16405 logs' gyro x axes (../shared, read as given: gzip CSV, "
                              "deg/s, 100 Hz), one run each unless --runs says otherwise")
-    parser.add_argument("--load", type=int, default=0, help="busy processes to run meanwhile (default 0: idle)")
+    parser.add_argument("--load", type=int, default=0,
+                        help="busy processes to run meanwhile (default 0: idle)")
     args = parser.parse_args(argv)
     with _busy(args.load):
         _run(args)
@@ -109,7 +110,8 @@ def _compare(logs, runs):
                       f"{proc.stdout.splitlines()[0]}")
     if peer:
         print(f"\nmedian: bayes-imu fit {np.median(ours):.2f} s, allan-variance {np.median(theirs):.2f} s, "
-              f"ratio {np.median(ours) / np.median(theirs):.2f} (goals: <= 1.6 idle, <= 2.5 under load)")
+              f"ratio {np.median(ours) / np.median(theirs):.2f} "
+              "(goals: <= 1.6 idle, <= 2.5 under load)")
     else:
         print("\nallan-variance not installed (pip install allan-variance): no peer timing")
 

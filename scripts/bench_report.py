@@ -33,10 +33,11 @@ DATA = Path(__file__).resolve().parents[2] / "shared" / "data_real" / "smac_imud
 REPO = Path(__file__).resolve().parents[1]
 CASES = ("accel", "gyro", "scene4", "refit2")
 REFIT_SAMPLES = 500_000
-HEAD = "[scene]\nname = \"{name}\"\noutages_s = [10, 60, 300]\n[requirement]\nquantity = \"{q}\"\nmax_error = \"{e}\"\n"
-FOLDER = "[[sensor]]\nname = \"{name}\"\nkind = \"{kind}\"\nfit = \"{path}\"\n"
-LOG = ("[[sensor]]\nname = \"{name}\"\nkind = \"accel\"\nlog = \"{path}\"\ncolumn = \"accel_x_g\"\nrate_hz = 100\n"
-       "units = \"g\"\n")
+HEAD = ('[scene]\nname = "{name}"\noutages_s = [10, 60, 300]\n'
+        '[requirement]\nquantity = "{q}"\nmax_error = "{e}"\n')
+FOLDER = '[[sensor]]\nname = "{name}"\nkind = "{kind}"\nfit = "{path}"\n'
+LOG = ('[[sensor]]\nname = "{name}"\nkind = "accel"\nlog = "{path}"\ncolumn = "accel_x_g"\n'
+       'rate_hz = 100\nunits = "g"\n')
 
 
 def _child(cmd, env):
@@ -49,7 +50,8 @@ def _child(cmd, env):
     err = proc.stderr.read().decode(errors="replace")
     proc.stderr.close()
     if proc.returncode != 0:
-        print(f"  failed ({proc.returncode}): {' '.join(map(str, cmd))}\n{err[-2000:]}", file=sys.stderr)
+        command = " ".join(map(str, cmd))
+        print(f"  failed ({proc.returncode}): {command}\n{err[-2000:]}", file=sys.stderr)
     return wall, usage.ru_maxrss / 1024.0, proc.returncode
 
 
@@ -60,8 +62,8 @@ def _cli(*args):
 def _fit(log, column, unit, kind, out, env, n=None):
     if (out / "summary.json").exists():
         return None
-    return _child(_cli("fit", log, "--column", column, "--units", unit, "--rate", 100, "--sensor", kind,
-                       "--out", out, "--quiet", "--seed", 0), env)
+    return _child(_cli("fit", log, "--column", column, "--units", unit, "--rate", 100,
+                       "--sensor", kind, "--out", out, "--quiet", "--seed", 0), env)
 
 
 def _short_log(imu, work):
@@ -99,12 +101,17 @@ def _report(scene, env):
 
 def main(argv=None):
     global DATA
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--cases", default=",".join(CASES), help="comma-separated subset of " + ", ".join(CASES))
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--cases", default=",".join(CASES),
+                        help="comma-separated subset of " + ", ".join(CASES))
     parser.add_argument("--runs", type=int, default=1)
-    parser.add_argument("--work", type=Path, default=Path(tempfile.gettempdir()) / "bayes_imu_bench_report")
-    parser.add_argument("--data", type=Path, default=DATA, help="the smac_imudata folder (default ../shared/...)")
-    parser.add_argument("--pythonpath", type=Path, default=REPO, help="checkout to time (default this one)")
+    parser.add_argument("--work", type=Path,
+                        default=Path(tempfile.gettempdir()) / "bayes_imu_bench_report")
+    parser.add_argument("--data", type=Path, default=DATA,
+                        help="the smac_imudata folder (default ../shared/...)")
+    parser.add_argument("--pythonpath", type=Path, default=REPO,
+                        help="checkout to time (default this one)")
     args = parser.parse_args(argv)
     if not args.data.exists():
         print(f"skipped: {args.data} not found")
@@ -147,8 +154,8 @@ def main(argv=None):
                          f"(x1.2: {1.2 * total:.1f} s), peak {max(f[1] for f in fits):.0f} MB; "
                          f"memory <= {2 * REFIT_SAMPLES * 8 / 2**20 + 300:.0f} MB")
             wall, peak, rc = _report(_scene(args.work, case, scene), env)
-            print(f"{case:8s} {run:3d} {wall:8.1f} {peak:8.0f}  {bound}{'' if rc == 0 else f'  FAILED ({rc})'}",
-                  flush=True)
+            status = "" if rc == 0 else f"  FAILED ({rc})"
+            print(f"{case:8s} {run:3d} {wall:8.1f} {peak:8.0f}  {bound}{status}", flush=True)
     print(f"load average at end {os.getloadavg()[0]:.1f}")
 
 

@@ -235,9 +235,9 @@ def test_lean_sampler_refuses_what_emcee_refuses_with_its_message(coords, densit
 
 
 def test_reserved_chain_storage_keeps_the_chain_and_grows_past_its_capacity():
-    """A backend reserved for ``capacity`` steps (no copy of the chain at each run) stores the same chain,
-    log densities and acceptances, bit for bit, as emcee's growing one: with room to spare, and with a
-    capacity the run outgrows (emcee's growth from there)."""
+    """A backend reserved for ``capacity`` steps (no copy of the chain at each run) stores the same
+    chain, log densities and acceptances, bit for bit, as emcee's growing one: with room to spare,
+    and with a capacity the run outgrows (emcee's growth from there)."""
     runs = []
     for capacity in (None, 1000, 200):
         rng = np.random.default_rng(5)

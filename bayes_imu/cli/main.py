@@ -541,14 +541,16 @@ def _sensor_progress(args, scene):
         yield None
         return
     start = time.perf_counter()
-    with progress_bar(total=len(scene.sensors), desc="sensors", unit="sensor", enabled=args.progress) as bar:
+    n = len(scene.sensors)
+    with progress_bar(total=n, desc="sensors", unit="sensor", enabled=args.progress) as bar:
         def progress(done, total, name):
             if args.progress:
                 bar.update(1)
                 bar.set_postfix_str(name)
             else:
                 seconds = time.perf_counter() - start
-                print(f"sensor {done}/{total} done: {name} ({seconds:.1f} s)", file=sys.stderr, flush=True)
+                print(f"sensor {done}/{total} done: {name} ({seconds:.1f} s)", file=sys.stderr,
+                      flush=True)
 
         yield progress
 

@@ -22,7 +22,8 @@ never visited it; with the move all eight converge, 3-5% of their draws there
 import numpy as np
 
 __all__ = ["AUTOCORR_MULTIPLE", "RELABEL_SHARE", "ensemble_sampler", "relabel_move", "import_emcee", "autocorr_time",
-           "long_enough", "burn_and_thin", "one_blas_thread", "reserved_backend", "steps_to_next_check", "GEOMETRIC_FROM"]
+           "long_enough", "burn_and_thin", "one_blas_thread", "steps_to_next_check",
+           "GEOMETRIC_FROM", "reserved_backend"]
 
 #: chain length, in integrated autocorrelation times, before the sampler may stop
 AUTOCORR_MULTIPLE = 50
@@ -38,8 +39,8 @@ def ensemble_sampler(target, start, rng, exchangeable=None, capacity=None):
     global random state). ``exchangeable``: ``(variance_columns, time_columns, bounds)`` of two or
     more Gauss-Markov biases with one prior (:func:`relabel_move`, on :data:`RELABEL_SHARE` of the
     steps); ``None`` (or fewer than two): differential evolution and stretch moves only, as before.
-    ``capacity``: the most steps the caller will run (:func:`reserved_backend`), or ``None`` (emcee's
-    own storage, copied whole at every ``run_mcmc``)."""
+    ``capacity``: the most steps the caller will run (:func:`reserved_backend`), or ``None``
+    (emcee's own storage, copied whole at every ``run_mcmc``)."""
     emcee = import_emcee()
 
     n_walkers, n_par = start.shape
@@ -57,11 +58,11 @@ def ensemble_sampler(target, start, rng, exchangeable=None, capacity=None):
 def reserved_backend(emcee, capacity):
     """An emcee in-memory backend whose chain is reserved once for ``capacity`` steps.
 
-    emcee's backend grows its chain at each ``run_mcmc`` by ``numpy.concatenate``: a fit that checks
-    its chain every few hundred steps copies all of it each time, and holds the old and the new chain
-    at once (a 40 000-step accelerometer fit: 2 x 245 MB at its end; issue 39). This one reserves
-    ``capacity`` steps with ``numpy.empty`` on the first run (memory pages are committed only as the
-    steps are written) and grows only past them, as emcee does. The stored steps are the same.
+    emcee's backend grows its chain at each ``run_mcmc`` by ``numpy.concatenate``: a fit that
+    checks its chain every few hundred steps copies all of it each time, and holds the old and the
+    new chain at once (issue 39). This one reserves ``capacity`` steps with ``numpy.empty`` on the
+    first run (memory pages are committed only as the steps are written) and grows only past them,
+    as emcee does. The stored steps are the same.
     """
     class Reserved(emcee.backends.Backend):
         def grow(self, ngrow, blobs):
