@@ -29,6 +29,7 @@ Drift semantics (``bias_start``), with the paper's Euler integral of ``e_i = y_i
     flicker included (:func:`calibrated_contrast`).
 """
 
+import threading
 from dataclasses import dataclass
 from fractions import Fraction
 
@@ -289,6 +290,7 @@ class Term:
 #: remembered unit drifts: key -> (term, read-only array); the oldest is dropped beyond the limit
 _UNIT_DRIFTS = {}
 _UNIT_DRIFTS_MAX = 512
+_UNIT_DRIFTS_LOCK = threading.Lock()  # drift bands may be computed on several threads
 
 
 def _unit_drift_cache(term, key):
@@ -300,7 +302,8 @@ def _unit_drift_cache(term, key):
     n_cal = None if n_key is None else np.frombuffer(n_key[1], dtype=float).reshape(n_key[0]).copy()
     out = np.array(term.unit_drift(order, k, dt, bias_start, n_cal), dtype=float)
     out.setflags(write=False)
-    if len(_UNIT_DRIFTS) >= _UNIT_DRIFTS_MAX:
-        _UNIT_DRIFTS.pop(next(iter(_UNIT_DRIFTS)))
-    _UNIT_DRIFTS[key] = (term, out)
+    with _UNIT_DRIFTS_LOCK:
+        if len(_UNIT_DRIFTS) >= _UNIT_DRIFTS_MAX:
+            _UNIT_DRIFTS.pop(next(iter(_UNIT_DRIFTS)))
+        _UNIT_DRIFTS[key] = (term, out)
     return out
