@@ -2,8 +2,11 @@
 
 Same data (white + random-walk rate noise), same octave cluster sizes, same values
 (maximum relative difference printed). Prints one table row per record length:
-allantools time, bayes_imu time (values only: mean, running sum and sums; and the full result
-with noise identification, EDF, intervals and the segment Allan variances), the speed-ups,
+allantools time, bayes_imu time (``values_s``: the kernel ``allan_sums`` alone, mean, running
+sum and sums; ``full_s``: the public ``bayes_imu.allan_variance(y, rate_hz=..., m=...)`` with the
+defaults a fit uses: noise identification, EDF, exact intervals and the four parts' Allan
+variances for the stationarity check: what users call, and what claims of speed should quote),
+the speed-ups,
 the threads used, and peak memory of the bayes_imu call relative to the input array
 (tracemalloc, numpy allocations).
 

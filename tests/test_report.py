@@ -269,7 +269,9 @@ def test_a_sensors_numbers_do_not_depend_on_the_sensors_beside_it(tmp_path, repo
     assert other != SCENE
     path = tmp_path / "scene.toml"
     path.write_text(other.format(data=DATA))
-    again = build_report(read_scene(path), rng=0)
+    calls = []  # progress after each sensor changes no number
+    again = build_report(read_scene(path), rng=0, progress=lambda *a: calls.append(a))
+    assert calls == [(1, 2, "budget"), (2, 2, "tactical")]
     assert again.sensors[0].bounds != rep.sensors[0].bounds  # the first sensor did change
     assert again.sensors[1].bounds == rep.sensors[1].bounds
     assert again.sensors[1].max_outage_s == rep.sensors[1].max_outage_s

@@ -232,3 +232,22 @@ def test_lean_sampler_refuses_what_emcee_refuses_with_its_message(coords, densit
     with pytest.raises(ValueError) as theirs:
         emcee.EnsembleSampler(4, 2, log_prob, vectorize=True).compute_log_prob(coords)
     assert message in str(theirs.value) and str(ours.value) == str(theirs.value)
+
+
+def test_reserved_chain_storage_keeps_the_chain_and_grows_past_its_capacity():
+    """A backend reserved for ``capacity`` steps (no copy of the chain at each run) stores the same
+    chain, log densities and acceptances, bit for bit, as emcee's growing one: with room to spare,
+    and with a capacity the run outgrows (emcee's growth from there)."""
+    runs = []
+    for capacity in (None, 1000, 200):
+        rng = np.random.default_rng(5)
+        start = 0.1 * rng.standard_normal((16, 4))
+        sampler = ensemble_sampler(_banana, start, rng, capacity=capacity)
+        state = start
+        for chunk in (150, 100, 250):
+            state = sampler.run_mcmc(state, chunk, progress=False)
+        runs.append((sampler.get_chain(), sampler.get_log_prob(), sampler.backend.accepted.copy()))
+        assert sampler.iteration == 500 and len(sampler.backend.chain) == max(500, capacity or 0)
+    for other in runs[1:]:
+        for a, b in zip(runs[0], other):
+            np.testing.assert_array_equal(a, b)

@@ -378,15 +378,21 @@ def noise_from_phase_samples(samples, ms, *, max_differences=2):
     return out
 
 
+def _dot(a, b):
+    """``sum(a * b)`` of two vectors by numpy's own loop: not BLAS, whose threads, on a busy
+    machine, made each product of 2**18 terms take 30 ms instead of 0.07 ms (issue 39)."""
+    return np.einsum("i,i->", a, b)
+
+
 def _lag1_alpha(series, max_differences):
     t = np.arange(series.size, dtype=float) - (series.size - 1) / 2.0
     z = series - series.mean()
-    z = z - (np.dot(t, z) / np.dot(t, t)) * t  # remove the least-squares line
+    z = z - (_dot(t, z) / _dot(t, t)) * t  # remove the least-squares line
     d = 0
     while True:
         z = z - z.mean()
-        denom = np.dot(z, z)
-        r1 = np.dot(z[:-1], z[1:]) / denom if denom > 0 else 0.0
+        denom = _dot(z, z)
+        r1 = _dot(z[:-1], z[1:]) / denom if denom > 0 else 0.0
         delta = r1 / (1.0 + r1)
         if delta < 0.25 or d >= max_differences:
             return int(np.clip(-np.round(2.0 * delta) - 2 * d, -2, 2))

@@ -38,7 +38,7 @@ from ..report.writers import (FitRequest, axis_summary, batch_summary, drift_che
                               drift_outputs, fit_summary,
                               population_summary, write_allan_csv, write_drift, write_json,
                               write_sigma_csv)
-from .._progress import show_progress
+from .._progress import progress_bar, show_progress
 from ..allan.pipeline import LogSource, allan_from_source
 from .extra import add_commands, add_fit_options, datasheet_hook
 from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES
@@ -445,12 +445,34 @@ def _cmd_report(args):
 
     scene = read_scene(args.scene)
     inputs = [args.scene] + [p for s in scene.sensors for p in s.paths]
-    with staged_folder(args.out, force=args.force, inputs=inputs) as tmp:
-        report = build_report(scene, rng=args.seed)
+    staged = staged_folder(args.out, force=args.force, inputs=inputs)
+    with staged as tmp, _sensor_progress(args, scene) as progress:
+        report = build_report(scene, rng=args.seed, progress=progress)
         write_report(report, tmp)
     _say(args, f"ranking: {', '.join(report.ranking)} ({report.reason})")
     _say(args, f"wrote {args.out}/report.json and report.html")
     return 0
+
+
+@contextlib.contextmanager
+def _sensor_progress(args, scene):
+    """Progress of a report on standard error: a bar on a terminal, else one line per sensor."""
+    if getattr(args, "quiet", False):
+        yield None
+        return
+    start = time.perf_counter()
+    n = len(scene.sensors)
+    with progress_bar(total=n, desc="sensors", unit="sensor", enabled=args.progress) as bar:
+        def progress(done, total, name):
+            if args.progress:
+                bar.update(1)
+                bar.set_postfix_str(name)
+            else:
+                seconds = time.perf_counter() - start
+                print(f"sensor {done}/{total} done: {name} ({seconds:.1f} s)", file=sys.stderr,
+                      flush=True)
+
+        yield progress
 
 
 def _cmd_kalibr(args):

@@ -758,7 +758,7 @@ def exchangeable_biases(post):
 
 def _sample(post, start, rng, max_steps, progress=False):
     n_walkers, n_par = start.shape
-    sampler = ensemble_sampler(post, start, rng, exchangeable_biases(post))
+    sampler = ensemble_sampler(post, start, rng, exchangeable_biases(post), capacity=max_steps)
     chunk, state, tau_old = min(250, max_steps), start, np.inf
     converged = False
     with progress_bar(desc="sampling", unit="step", enabled=progress) as bar:

@@ -408,7 +408,7 @@ def _sample_hyper(target, rng, max_steps):
     box = target.mean_box
     start[:, :p] = np.clip(start[:, :p], box[:, 0] + 1e-6, box[:, 1] - 1e-6)
     start[:, p:] = np.clip(start[:, p:], np.log(SPREAD_BOUNDS[0]) + 1e-6, np.log(SPREAD_BOUNDS[1]) - 1e-6)
-    sampler = ensemble_sampler(target, start, rng)
+    sampler = ensemble_sampler(target, start, rng, capacity=max_steps)
     state, tau_old, converged, tau_max = start, np.inf, False, np.nan
     while sampler.iteration < max_steps:
         state = sampler.run_mcmc(state, 500, progress=False)

@@ -43,7 +43,9 @@ Drift semantics (``bias_start``), with the paper's Euler integral of ``e_i = y_i
     flicker included (:func:`calibrated_contrast`).
 """
 
+import threading
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
 
@@ -101,7 +103,7 @@ class CovarianceTail:
     flicker: float = 0.0
 
 
-def calibrated_contrast(structure, order, k, n_cal):
+def calibrated_contrast(structure, order, k, n_cal, *, sums=None):
     """Variance of the calibrated-start error contrast, in phase units (multiply by ``dt**(2 order)``).
 
     Parameters
@@ -113,6 +115,13 @@ def calibrated_contrast(structure, order, k, n_cal):
         Outage lengths in samples.
     n_cal : float or (n_t,) float
         Calibration window in samples (``>= 1``).
+    sums : callable, optional
+        ``sums(n) -> (D(n), F(n), G(n))`` for a Python ``int`` ``n >= 0``, exactly
+        (``fractions.Fraction``) or in extended precision (``numpy.longdouble``). Used for
+        order 2 when ``k + N`` exceeds :data:`TABLE_MAX` samples, where the table of ``D``
+        would cost ``k + N`` evaluations and 48 bytes per sample (an outage of 1e6 s at
+        100 Hz: 4.8 GB); without it, such a table is accumulated in blocks (bounded memory,
+        the same sums bit for bit).
 
     Returns
     -------
@@ -145,9 +154,14 @@ def calibrated_contrast(structure, order, k, n_cal):
         out = (1.0 + r) * structure(k) - r * structure(k + n) + r * (1.0 + r) * structure(n)
         return np.where(k > 0, out, 0.0)
     top = int(np.max(k + n)) + 1 if k.size else 1
-    table = np.asarray(structure(np.arange(top + 1, dtype=float)), dtype=np.longdouble)
-    f = np.cumsum(table)  # F(n) (D(0) = 0)
-    g = np.cumsum(f)
+    if top > TABLE_MAX:
+        if sums is not None:
+            return _contrast_from_sums(sums, k, n)
+        table, f, g = _blocked_sums(structure, top, np.concatenate([k - 2, k - 1, n + k - 1, n]))
+    else:
+        table = np.asarray(structure(np.arange(top + 1, dtype=float)), dtype=np.longdouble)
+        f = np.cumsum(table)  # F(n) (D(0) = 0)
+        g = np.cumsum(f)
     ki = k.astype(np.int64)
     ni = n.astype(np.int64)
     c = k * (k - 1.0) / (2.0 * n)
@@ -158,6 +172,67 @@ def calibrated_contrast(structure, order, k, n_cal):
 
     out = -(at(g, ki - 2) + a0 * at(f, ki - 1) + c * (at(f, ni + ki - 1) - at(f, ni)) + a0 * c * at(table, ni))
     return np.where(k > 1, np.asarray(out, dtype=float), 0.0)
+
+
+#: longest table of ``D`` (samples) that :func:`calibrated_contrast` builds whole
+#: (2**20 samples: 48 MB of extended-precision sums, about 0.1 s)
+TABLE_MAX = 2**20
+
+
+def _contrast_from_sums(sums, k, n):
+    """Order-2 contrast from exact or extended-precision ``D, F, G`` at the four points needed."""
+    out = np.zeros(k.shape)
+    for i, (kk, nn) in enumerate(zip(k.tolist(), n.tolist())):
+        kk, nn = int(kk), int(nn)
+        if kk <= 1:
+            continue
+        d_n, f_n, _ = sums(nn)
+        f_k = sums(kk - 1)[1]
+        g_k = sums(kk - 2)[2]
+        f_nk = sums(nn + kk - 1)[1]
+        c = Fraction(kk * (kk - 1), 2 * nn)
+        if not isinstance(d_n, Fraction):  # extended precision: c rounded once
+            c = np.longdouble(c.numerator) / np.longdouble(c.denominator)
+        a0 = -(kk - 1) - c
+        out[i] = float(-(g_k + a0 * f_k + c * (f_nk - f_n) + a0 * c * d_n))
+    return out
+
+
+def _blocked_sums(structure, top, wanted, block=TABLE_MAX):
+    """``D, F, G`` at the indices ``wanted`` (others zero), summed in blocks of ``block`` samples.
+
+    The running sums are carried into each block's first element before its ``cumsum``, so
+    every value is the one a single ``cumsum`` over the whole table gives, bit for bit.
+    """
+    wanted = np.unique(wanted[(wanted >= 0) & (wanted <= top)].astype(np.int64))
+    size = top + 1
+    table, f, g = {}, {}, {}
+    f_run = g_run = np.longdouble(0.0)
+    for lo in range(0, size, block):
+        hi = min(lo + block, size)
+        d = np.asarray(structure(np.arange(lo, hi, dtype=float)), dtype=np.longdouble)
+        fb = d.copy()
+        fb[0] += f_run
+        np.cumsum(fb, out=fb)
+        gb = fb.copy()
+        gb[0] += g_run
+        np.cumsum(gb, out=gb)
+        f_run, g_run = fb[-1], gb[-1]
+        for j in wanted[(wanted >= lo) & (wanted < hi)].tolist():
+            table[j], f[j], g[j] = d[j - lo], fb[j - lo], gb[j - lo]
+    return _Sparse(table), _Sparse(f), _Sparse(g)
+
+
+class _Sparse:
+    """A few entries of a long array, read by an integer index array (others zero)."""
+
+    def __init__(self, values):
+        self.values = values
+
+    def __getitem__(self, idx):
+        idx = np.asarray(idx)
+        return np.array([self.values.get(int(i), np.longdouble(0.0)) for i in idx.ravel()],
+                        dtype=np.longdouble).reshape(idx.shape)
 
 
 @dataclass(frozen=True)
@@ -309,7 +384,23 @@ class Term:
         """:meth:`drift_variance` after its checks. The default serves terms whose drift is
         linear in one squared amplitude (:meth:`unit_drift`)."""
         amplitude = self.amplitude2(params)
-        return np.asarray(amplitude, float)[..., None] * self.unit_drift(order, k, dt, bias_start, n_cal)
+        unit = self.cached_unit_drift(order, k, dt, bias_start, n_cal)
+        return np.asarray(amplitude, float)[..., None] * unit
+
+    def cached_unit_drift(self, order, k, dt, bias_start, n_cal):
+        """:meth:`unit_drift`, remembered (a read-only array): it depends on no parameter, and a
+        report asks for the same times once per model of the mixture and per search step."""
+        k = np.asarray(k, dtype=float)
+        n = None if n_cal is None else np.asarray(n_cal, dtype=float)
+        key = (type(self), self.name, order, k.shape, k.tobytes(), float(dt), bias_start,
+               None if n is None else (n.shape, n.tobytes()))
+        return _unit_drift_cache(self, key)
+
+    #: ``structure_sums(n, dt) -> (D(n), F(n), G(n))`` at unit squared amplitude for an ``int``
+    #: ``n`` (``F(n) = sum_{l<=n} D(l)``, ``G(n) = sum_{l<=n} F(l)``), exact or in extended
+    #: precision, for the order-2 contrast of long outages (:func:`calibrated_contrast`);
+    #: ``None`` where a term has no closed form (the contrast then sums a table in blocks)
+    structure_sums = None
 
     # --- helpers of terms linear in a squared amplitude ---------------------------------
     def amplitude2(self, params):
@@ -319,8 +410,9 @@ class Term:
     def unit_drift(self, order, k, dt, bias_start, n_cal):
         """Drift variance at unit squared amplitude ``(n_t,)``; default: the calibrated contrast."""
         unit = {p: 1.0 for p in self.parameters}
+        sums = None if self.structure_sums is None else (lambda n: self.structure_sums(n, dt))
         return dt ** (2 * order) * calibrated_contrast(lambda lag: self.structure(lag, unit, dt) / self.amplitude2(unit),
-                                                       order, k, n_cal)
+                                                       order, k, n_cal, sums=sums)
 
     @property
     def plot_label(self):
@@ -366,3 +458,25 @@ def nav_system(f, g, h, d, p_zero, p_stationary=None, p_calibration=None):
     arrays = (f, g, h, d, p_zero, p_stationary, p_calibration)
     keys = ("F", "G", "H", "D", "P_zero", "P_stationary", "P_calibration")
     return {key: np.asarray(value, float) for key, value in zip(keys, arrays)}
+
+
+#: remembered unit drifts: key -> (term, read-only array); the oldest is dropped beyond the limit
+_UNIT_DRIFTS = {}
+_UNIT_DRIFTS_MAX = 512
+_UNIT_DRIFTS_LOCK = threading.Lock()  # drift bands may be computed on several threads
+
+
+def _unit_drift_cache(term, key):
+    hit = _UNIT_DRIFTS.get(key)
+    if hit is not None and hit[0] is term:
+        return hit[1]
+    _, _, order, k_shape, k_bytes, dt, bias_start, n_key = key
+    k = np.frombuffer(k_bytes, dtype=float).reshape(k_shape).copy()
+    n_cal = None if n_key is None else np.frombuffer(n_key[1], dtype=float).reshape(n_key[0]).copy()
+    out = np.array(term.unit_drift(order, k, dt, bias_start, n_cal), dtype=float)
+    out.setflags(write=False)
+    with _UNIT_DRIFTS_LOCK:
+        if len(_UNIT_DRIFTS) >= _UNIT_DRIFTS_MAX:
+            _UNIT_DRIFTS.pop(next(iter(_UNIT_DRIFTS)))
+        _UNIT_DRIFTS[key] = (term, out)
+    return out

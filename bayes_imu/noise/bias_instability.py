@@ -21,7 +21,7 @@ from ..errors import ModelError
 from ._base import CovarianceTail, Term
 from .quantities import DEG, UG
 
-__all__ = ["BIAS_INSTABILITY", "flicker_difference_acov", "flicker_increment_acov"]
+__all__ = ["BIAS_INSTABILITY", "flicker_difference_acov", "flicker_increment_acov", "power_log_sum"]
 
 FLAT = 2.0 * np.log(2.0) / np.pi
 
@@ -36,6 +36,47 @@ def flicker_difference_acov(n, bias_instability):
     dm1 = d[np.abs(lag - 1)]
     dm2 = d[np.abs(lag - 2)]
     return -0.5 * (6.0 * d[lag] - 4.0 * d[lag + 1] - 4.0 * dm1 + d[lag + 2] + dm2)
+
+
+#: below this ``n`` :func:`power_log_sum` adds the terms; above, the first ``_DIRECT`` terms plus
+#: the Euler-Maclaurin tail (four Bernoulli corrections: truncation below 1e-22 of the sum)
+_DIRECT = 4096
+_BERNOULLI = (1.0 / 6.0, -1.0 / 30.0, 1.0 / 42.0, -1.0 / 30.0)  # B_2, B_4, B_6, B_8
+
+
+def power_log_sum(p, n):
+    """``S_p(n) = sum_{l=1}^n l^p ln l`` in extended precision (``numpy.longdouble``), ``n`` an int.
+
+    Direct summation up to :data:`_DIRECT` terms; beyond, ``S_p(n0)`` plus the Euler-Maclaurin
+    formula for ``sum_{n0 < l <= n} f(l)``, ``f(x) = x^p ln x``: the integral
+    ``[x^(p+1) (ln x / (p + 1) - 1 / (p + 1)^2)]``, the end correction ``(f(n) - f(n0)) / 2`` and
+    ``sum_j B_2j / (2j)! [f^(2j-1)]``, with ``f^(m)(x) = x^(p-m) (a_m ln x + b_m)``,
+    ``a_(m+1) = (p - m) a_m``, ``b_(m+1) = (p - m) b_m + a_m``. Cost independent of ``n``.
+    """
+    one = np.longdouble(1.0)
+    if n <= _DIRECT:
+        ls = np.arange(1, max(n, 0) + 1, dtype=np.longdouble)
+        return np.sum(ls**p * np.log(ls)) if n > 0 else 0 * one
+    n0 = _DIRECT
+    head = power_log_sum(p, n0)
+
+    def primitive(x):
+        return x ** (p + 1) * (np.log(x) / (p + 1) - one / (p + 1) ** 2)
+
+    def derivative(m, x):
+        a, b = one, 0 * one
+        for i in range(m):
+            a, b = (p - i) * a, (p - i) * b + a
+        return x ** (p - m) * (a * np.log(x) + b)
+
+    hi, lo = np.longdouble(n), np.longdouble(n0)
+    tail = primitive(hi) - primitive(lo) + (derivative(0, hi) - derivative(0, lo)) / 2
+    factorial = one
+    for j, bernoulli in enumerate(_BERNOULLI, start=1):
+        factorial *= (2 * j - 1) * (2 * j)
+        step = derivative(2 * j - 1, hi) - derivative(2 * j - 1, lo)
+        tail += np.longdouble(bernoulli) / factorial * step
+    return head + tail
 
 
 class _BiasInstability(Term):
@@ -87,6 +128,14 @@ class _BiasInstability(Term):
 
     def amplitude2(self, params):
         return np.asarray(params["bias_instability"], float) ** 2
+
+    def structure_sums(self, n, dt):
+        """``D = -n^2 ln n / pi``, ``F = -S_2(n) / pi``, ``G = -((n + 1) S_2(n) - S_3(n)) / pi``, in
+        extended precision, with ``S_p(n) = sum_{l<=n} l^p ln l`` (:func:`power_log_sum`)."""
+        pi = np.longdouble(np.pi)  # the table's D uses the double-precision pi too
+        s2, s3 = power_log_sum(2, n), power_log_sum(3, n)
+        d = -np.longdouble(n) ** 2 * np.log(np.longdouble(max(n, 1))) / pi
+        return d, -s2 / pi, -((n + 1) * s2 - s3) / pi
 
     def unit_drift(self, order, k, dt, bias_start, n_cal):
         return super().unit_drift(order, k, dt, "calibrated", n_cal if bias_start == "calibrated" else np.maximum(k, 1.0))

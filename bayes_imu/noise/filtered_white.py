@@ -13,6 +13,8 @@ Drift (zero and stationary start are the same: the process has no slow state):
 calibrated start from the contrast of :mod:`._base`.
 """
 
+from fractions import Fraction
+
 import numpy as np
 
 from ._base import Term, nav_system
@@ -50,6 +52,12 @@ class _FilteredWhite(Term):
     def white_equivalent(self, params, dt):
         """Per-sample variance of the white noise it amounts to at ``tau >> dt``: ``4 c``."""
         return 4.0 * np.asarray(params["filtered_variance"], float)
+
+    def structure_sums(self, n, dt):
+        """``D = 4 n - 2``, ``F = 2 n^2``, ``G = n (n + 1) (2 n + 1) / 3`` (exact, ``n >= 1``)."""
+        if n <= 0:
+            return Fraction(0), Fraction(0), Fraction(0)
+        return Fraction(4 * n - 2), Fraction(2 * n * n), Fraction(n * (n + 1) * (2 * n + 1), 3)
 
     def unit_drift(self, order, k, dt, bias_start, n_cal):
         if bias_start == "calibrated":

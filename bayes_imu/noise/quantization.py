@@ -8,6 +8,8 @@ Drift: the integrated error is ``e_k - e_0``: ``2 Q^2`` (single integral) and
 whatever the start; calibrated start from the contrast of :mod:`._base`.
 """
 
+from fractions import Fraction
+
 import numpy as np
 
 from ._base import Term, nav_system
@@ -43,6 +45,11 @@ class _Quantization(Term):
 
     def amplitude2(self, params):
         return np.asarray(params["quantization"], float) ** 2
+
+    def structure_sums(self, n, dt):
+        """``D = 2 / dt^2`` (``n >= 1``), ``F = n D``, ``G = n (n + 1) D / 2`` (exact)."""
+        level = 2 / Fraction(dt) ** 2 if n > 0 else Fraction(0)
+        return level, n * level, Fraction(n * (n + 1), 2) * level
 
     def unit_drift(self, order, k, dt, bias_start, n_cal):
         if bias_start == "calibrated":

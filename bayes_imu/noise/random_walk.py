@@ -7,6 +7,8 @@ same, a walk has no stationary state) ``K^2 dt^(2r+1) V_r(k, 0)`` (:mod:`bayes_i
 calibrated start from the contrast of :mod:`._base`.
 """
 
+from fractions import Fraction
+
 import numpy as np
 
 from .euler_sums import gm_sum
@@ -50,6 +52,15 @@ class _RandomWalk(Term):
 
     def amplitude2(self, params):
         return np.asarray(params["rate_random_walk"], float) ** 2
+
+    def structure_sums(self, n, dt):
+        """``D = dt (n - n^3) / 6``; with ``T_n = n (n + 1) / 2`` (``sum l^3 = T_n^2``),
+        ``F = dt (T_n - T_n^2) / 6`` and ``G = dt (C / 6 - C (3 n^2 + 6 n + 1) / 60) / 6``,
+        ``C = n (n + 1) (n + 2)`` (exact)."""
+        scale = Fraction(dt) / 6
+        t, cube = Fraction(n * (n + 1), 2), n * (n + 1) * (n + 2)
+        return (scale * (n - n**3), scale * (t - t * t),
+                scale * (Fraction(cube, 6) - Fraction(cube * (3 * n * n + 6 * n + 1), 60)))
 
     def unit_drift(self, order, k, dt, bias_start, n_cal):
         if bias_start == "calibrated":

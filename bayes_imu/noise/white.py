@@ -6,6 +6,8 @@ Drift: ``q dt^2 k`` (paper eq 5) and ``q dt^4 (k-1) k (2k-1) / 6`` (eq 11 correc
 zero or stationary start; calibrated start from the contrast of :mod:`._base`.
 """
 
+from fractions import Fraction
+
 import numpy as np
 
 from ._base import Term, calibrated_contrast, nav_system
@@ -44,9 +46,15 @@ class _White(Term):
     def amplitude2(self, params):
         return params["noise_variance"]
 
+    def structure_sums(self, n, dt):
+        """``D = n``, ``F = n (n + 1) / 2``, ``G = n (n + 1) (n + 2) / 6`` (exact)."""
+        return Fraction(n), Fraction(n * (n + 1), 2), Fraction(n * (n + 1) * (n + 2), 6)
+
     def unit_drift(self, order, k, dt, bias_start, n_cal):
         if bias_start == "calibrated":
-            return dt ** (2 * order) * calibrated_contrast(lambda lag: np.asarray(lag, float), order, k, n_cal)
+            contrast = calibrated_contrast(lambda lag: np.asarray(lag, float), order, k, n_cal,
+                                           sums=lambda n: self.structure_sums(n, dt))
+            return dt ** (2 * order) * contrast
         shape = k if order == 1 else (k - 1.0) * k * (2.0 * k - 1.0) / 6.0
         return dt ** (2 * order) * np.where(k > 0, shape, 0.0)
 

@@ -408,14 +408,15 @@ def max_outage(fit, quantity, max_error, credibility, bias_start="calibrated", c
     return float(lo)
 
 
-def build_report(scene, *, rng=None):
+def build_report(scene, *, rng=None, progress=None):
     """Fit (or read) every sensor of ``scene`` and compute its bounds (module docstring).
 
     A sensor with several logs or fit folders is a population of units: its bounds are for a
     new unit of the model (:func:`bayes_imu.inference.population.fit_population`). Several axes: each
     outage's bound is the worst axis's. Each sensor draws from its own stream spawned from ``rng``
     (:meth:`numpy.random.Generator.spawn`): its numbers are the same whichever sensors are listed
-    beside it (tested).
+    beside it (tested). ``progress``, if given, is called as ``progress(done, total, name)`` after
+    each sensor (``done`` of ``total`` sensors finished, the last one's name).
     """
     rng = np.random.default_rng(rng)
     reports = []
@@ -446,6 +447,8 @@ def build_report(scene, *, rng=None):
             longest = min(max_outage(a.posterior, req["quantity"], req["max_error"], scene.credibility,
                                      scene.bias_start, scene.calibration_s, rng=sensor_rng) for a in axes)
         reports.append(SensorReport(spec, tuple(axes), bounds, longest, bands, worst))
+        if progress is not None:
+            progress(len(reports), len(scene.sensors), spec.name)
     ranking, reason = _rank(scene, reports)
     return Report(scene, tuple(reports), ranking, reason)
 
