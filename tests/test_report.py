@@ -92,9 +92,6 @@ def test_better_sensor_ranks_first_and_bounds_are_quantiles(report):
         if "correlated_variance" in p:  # Var(sum of k stationary AR(1) samples)
             phi = np.exp(-0.01 / p["correlated_time_constant"])
             var = var + p["correlated_variance"] * 0.01**2 * (k * (1 - phi**2) - 2 * phi * (1 - phi**k)) / (1 - phi) ** 2
-        if "vibration_amplitude" in p:  # random phase: (A^2/2) dt^2 |sum_{i<k} e^(i omega i)|^2 (Dirichlet)
-            half = np.pi * p["vibration_frequency"] * 0.01
-            var = var + 0.5 * p["vibration_amplitude"] ** 2 * 0.01**2 * (np.sin(k * half) / np.sin(half)) ** 2
         sig.append(np.sqrt(var))
     assert budget["bounds"][2]["bound"] == pytest.approx(np.quantile(np.concatenate(sig), 0.95), rel=1e-10)
 
