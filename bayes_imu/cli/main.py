@@ -49,7 +49,7 @@ from ..inference.fit import DISCREPANCY_MODES, warm_up as warm_up_fit
 from ..inference.likelihood import LIKELIHOODS
 from ..inference.sampling import import_emcee
 from ..noise import BIAS_STARTS, TERMS
-from ..io.timebase import GAP_POLICIES, RATE_RANGE
+from ..io.timebase import GAP_POLICIES, RATE_RANGE, TIME_UNITS
 
 __all__ = ["main"]
 
@@ -107,7 +107,7 @@ _SCENE_HELP = """scene format (TOML; paths relative to the scene file):
 
 #: options of ``fit`` that ``fit-batch`` forwards to every log: (dest, flag)
 _FORWARDED = (("column", "--column"), ("topic", "--topic"), ("stream", "--stream"), ("rate", "--rate"),
-              ("time_column", "--time-column"), ("gaps", "--gaps"), ("units", "--units"), ("seed", "--seed"),
+              ("time_column", "--time-column"), ("time_unit", "--time-unit"), ("gaps", "--gaps"), ("units", "--units"), ("seed", "--seed"),
               ("terms", "--terms"), ("likelihood", "--likelihood"), ("sensor", "--sensor"), ("horizon", "--horizon"),
               ("bias_start", "--bias-start"), ("calibration", "--calibration"), ("models", "--models"),
               ("times", "--times"), ("discrepancy", "--discrepancy"), ("input", "--input"),
@@ -129,7 +129,10 @@ def _input_options(batch=False, optional_log=False):
                         help="read a text log out of core, in chunks (automatic for .npy and raw binary logs)")
     common.add_argument("--rate", type=_rate_type,
                         help=f"sample rate (Hz, {RATE_RANGE[0]:g} to {RATE_RANGE[1]:g}); optional with --time-column")
-    common.add_argument("--time-column", help="time stamps (s): the rate is derived from them and checked")
+    common.add_argument("--time-column", help="time stamps: the rate is derived from them and checked")
+    common.add_argument("--time-unit", choices=tuple(TIME_UNITS),
+                        help="unit of the --time-column stamps (default: from the column's name, e.g. t_ms, "
+                             "time_us, else the one agreeing with --rate, else s)")
     common.add_argument("--gaps", choices=GAP_POLICIES, default="error",
                         help="irregular time steps: error (default) or fit the longest regular segment")
     common.add_argument("--input", choices=("rate", "increments"), default="rate",
@@ -320,6 +323,7 @@ def _cmd_allan(args):
 def _allan(args):
     columns, results, unit, info = allan_results(SourceOptions.from_namespace(args), "allan", args.grid)
     info["log"] = _log_label(args)
+    _say_time_unit(args, info)
     result = results[0]
     from ..report.plots import plot_allan
 
@@ -360,6 +364,7 @@ def _fit(args):
     with OutputWriter(background=background, warm=(import_plotting, warm_up_fit)) as writer:
         columns, results, unit, info = allan_results(SourceOptions.from_namespace(args), "fit")
         info["log"] = _log_label(args)
+        _say_time_unit(args, info)
         terms = "auto" if args.terms == "auto" else tuple(t.strip() for t in args.terms.split(","))
         with staged_folder(args.out, force=args.force, inputs=[args.log or args.allan_table]) as tmp:
             if len(columns) == 1:
@@ -376,6 +381,11 @@ def _fit(args):
             writer.wait()  # every output in the staging folder before it is moved into place
     _say(args, f"wrote {args.out}")
     return 0
+
+
+def _say_time_unit(args, info):
+    if "time_unit" in info:
+        _say(args, f"time stamps in {info['time_unit']} ({info['time_unit_source']}): {info['rate_hz']:.6g} Hz")
 
 
 def _folder_names(columns):
@@ -890,7 +900,10 @@ _FLAGS = ((re.compile(r"\bforce=True\b"), "--force"), (re.compile(r"\bscheduler=
                                                              "give --rate HZ or a --time-column"),
           (re.compile(r"^(out|scheduler)="), r"--\1 "), (re.compile(r"^columns="), "--column "),
           (re.compile(r"\bbut rate_hz is\b"), "but --rate is"), (re.compile(r"\(is rate_hz right\?\)"), "(is --rate right?)"),
-          (re.compile(r"\bgive a column\b"), "give --column"))
+          (re.compile(r"\bgive a column\b"), "give --column"), (re.compile(r"\btime_unit='(\w+)'"), r"--time-unit \1"),
+          (re.compile(r"\bgive rate_hz="), "give --rate "),
+          (re.compile(r"\bgive rate_hz\b"), "give --rate HZ"), (re.compile(r"\bgive time_unit\b"), "give --time-unit"), (re.compile(r"\bthe time column and give\b"),
+                                                                     "--time-column and give"))
 
 
 def as_flags(message):

@@ -30,6 +30,7 @@ class SourceOptions:
     stream: bool = False
     rate: float = None
     time_column: str = None
+    time_unit: str = None
     gaps: str = "error"
     input: str = "rate"
     units: str = None
@@ -124,7 +125,7 @@ def _table(opts):
 def _streamed(opts, command, grid):
     from ..allan.outofcore import allan_variance_file
 
-    if opts.time_column is not None:
+    if opts.time_column is not None or opts.time_unit is not None:
         raise InputError(f"{opts.log}: --time-column is not available out of core; give --rate HZ")
     binary = opts.log.suffix.lower() in BINARY_SUFFIXES
     if binary and opts.column is not None:
@@ -144,13 +145,20 @@ def _read(opts, command):
     if is_bag(opts.log):
         if opts.topic is None:
             raise InputError(f"{opts.log}: a ROS bag needs --topic (a sensor_msgs/Imu topic)")
+        if opts.time_unit is not None:
+            raise InputError(f"{opts.log}: a ROS bag's header stamps are seconds and nanoseconds; leave out "
+                             "--time-unit")
         data = read_imu_bag(opts.log, topic=opts.topic, columns=columns)
         where, what = f"{opts.log}: {opts.topic} header stamps", "message"
     else:
         data = read_columns(opts.log, columns=columns, time_column=opts.time_column, progress=opts.progress)
         where, what = f"{opts.log}: column {opts.time_column!r}", "line"
+    if opts.time_unit is not None and data.time_s is None:
+        raise InputError(f"{opts.log}: --time-unit {opts.time_unit} goes with --time-column (no time column given)")
     timebase = check_time(data.time_s, rate_hz=opts.rate, gaps=opts.gaps, lines=data.lines, where=where,
-                          n_samples=data.values.shape[0], what=what)
+                          n_samples=data.values.shape[0], what=what,
+                          time_unit="s" if is_bag(opts.log) else opts.time_unit,
+                          column=getattr(data, "time_name", None))
     values = data.values[timebase.start:timebase.stop]
     _require_samples(opts, values.shape[0], command)
     info = {"log": str(opts.log), "columns": list(data.columns), "delimiter": data.delimiter, "header": data.header,

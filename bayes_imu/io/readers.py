@@ -120,6 +120,8 @@ class LogData:
         ``"comma"``, ``"semicolon"``, ``"tab"`` or ``"whitespace"``.
     header : bool
         Whether the file has a header row.
+    time_name : str or None
+        The time column's name (its unit may be in it: :func:`bayes_imu.io.timebase.unit_from_name`).
     """
 
     values: np.ndarray
@@ -129,6 +131,7 @@ class LogData:
     lines: np.ndarray | None = None
     delimiter: str = "comma"
     header: bool = True
+    time_name: str | None = None
 
     @property
     def column(self):
@@ -139,7 +142,8 @@ class LogData:
 def read_log(path, *, column, time_column=None, progress=False):
     """Read one numeric column (and optionally a time column, s) of a log; see :func:`read_columns`."""
     data = read_columns(path, columns=[column], time_column=time_column, progress=progress)
-    return LogData(data.values[:, 0], data.columns, data.path, data.time_s, data.lines, data.delimiter, data.header)
+    return LogData(data.values[:, 0], data.columns, data.path, data.time_s, data.lines, data.delimiter, data.header,
+                   data.time_name)
 
 
 def read_columns(path, *, columns, time_column=None, progress=False):
@@ -152,7 +156,7 @@ def read_columns(path, *, columns, time_column=None, progress=False):
         Header names, or 0-based column indices (an integer-looking string is an index
         unless the header has a column of that name).
     time_column : str or int, optional
-        Time stamps in seconds; checked by :mod:`bayes_imu.io.timebase`.
+        Time stamps (their unit is resolved by :mod:`bayes_imu.io.timebase`, which checks them).
     progress : bool
         Show a progress bar (bytes read) on standard error.
 
@@ -186,7 +190,8 @@ def read_columns(path, *, columns, time_column=None, progress=False):
     if time_column is not None:
         time_s = np.ascontiguousarray(table[:, -1])
         lines = _data_line_numbers(path, fmt)
-    return LogData(values, names[: len(columns)], str(path), time_s, lines, fmt["delimiter_name"], fmt["header"])
+    return LogData(values, names[: len(columns)], str(path), time_s, lines, fmt["delimiter_name"], fmt["header"],
+                   names[-1] if time_column is not None and fmt["header"] else None)
 
 
 def check_signal(values, *, where):

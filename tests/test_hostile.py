@@ -1,0 +1,101 @@
+"""Hostile and careless input (issue 37): each class of the issue, its reproductions, in the default suite.
+
+Every case asserts the outcome a user needs: the right number, or exit status 2 with one line
+naming what was wrong, and never a file lost. Logs are small (a few hundred samples), so the
+whole corpus runs in seconds; the commands run in-process (``main``).
+"""
+
+import hashlib
+import json
+
+import numpy as np
+import pytest
+
+from bayes_imu.cli.main import main
+from bayes_imu.errors import InputError
+from bayes_imu.io.timebase import TIME_UNITS, check_time, unit_from_name
+
+
+def _snapshot(folder):
+    """Every file and folder below ``folder`` with a hash of its content."""
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "dir"
+            for p in sorted(folder.rglob("*"))}
+
+
+def _log(path, n=400, *, time=None, name="time", columns=("gx",), rng=None, scale=0.05):
+    """A small CSV log: an optional time column ``name`` holding ``time`` (raw stamps), white noise columns."""
+    rng = np.random.default_rng(7) if rng is None else rng
+    x = scale * rng.standard_normal((n, len(columns)))
+    head = ([name] if time is not None else []) + list(columns)
+    rows = [",".join(([repr(float(time[i]))] if time is not None else []) + [f"{v:.6f}" for v in x[i]])
+            for i in range(n)]
+    path.write_text(",".join(head) + "\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    return path
+
+
+def _one_error(capsys, *fragments):
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("bayes-imu: error: "), err
+    for f in fragments:
+        assert f in err, err
+    return err
+
+
+# ------------------------------------------------------------------ 1. time stamps
+
+@pytest.mark.parametrize("name, unit", [("t_ms", "ms"), ("time_us", "us"), ("timestamp_ns", "ns"), ("time [s]", "s"),
+                                        ("Time (msec)", "ms"), ("t_\u00b5s", "us"), ("time", None), ("stamp", None),
+                                        ("t", None), ("gyro_x", None), ("samples", None)])
+def test_time_unit_from_column_name(name, unit):
+    assert unit_from_name(name) == unit
+
+
+@pytest.mark.parametrize("unit", list(TIME_UNITS))
+def test_stamps_in_every_unit_give_the_true_rate(unit):
+    """100 Hz stamped in each unit: named in the column, given, or agreeing with the rate: 100 Hz, never 0.1."""
+    raw = np.arange(500) * (0.01 / TIME_UNITS[unit])
+    for kwargs in ({"column": f"t_{unit}"}, {"time_unit": unit}, {"rate_hz": 100.0}):
+        base = check_time(raw, **kwargs)
+        assert base.rate_hz == pytest.approx(100.0, rel=1e-12) and base.time_unit == unit, kwargs
+        assert base.to_json()["time_unit"] == unit
+
+
+def test_unstated_units_are_refused_with_the_likely_one():
+    """Milliseconds or microseconds read as seconds (issue 37): refused, naming every unit's rate and the likely
+    unit (microseconds no longer hinted as nanoseconds); time_unit='s' keeps seconds where they are meant."""
+    with pytest.raises(InputError, match=r"0\.1 Hz if its stamps are seconds.*ms: 100 Hz.*likely unit is ms"):
+        check_time(np.arange(500) * 10.0, column="t")
+    with pytest.raises(InputError, match=r"us: 100 Hz.*likely unit is us: give time_unit='us'"):
+        check_time(np.arange(500) * 1e4, column="t")
+    assert check_time(np.arange(500) * 10.0, time_unit="s").rate_hz == pytest.approx(0.1)
+    # the column's unit and the rate disagree: one line naming both
+    with pytest.raises(InputError, match=r"gives 100 Hz .*stamps in ms \(column name 't_ms'\).* but rate_hz is 50 Hz"):
+        check_time(np.arange(500) * 10.0, column="t_ms", rate_hz=50)
+    with pytest.raises(InputError, match=r"none agrees with the rate given \(50 Hz\)"):
+        check_time(np.arange(500) * 10.0, rate_hz=50)
+
+
+def test_bursty_host_stamps_are_answered_with_the_mean_rate(rng):
+    """Stamps of a host reading a 99.3 Hz sensor in bursts: both gap policies name the mean rate and --rate."""
+    n = 3000
+    steps = np.where(rng.random(n - 1) < 0.7, 1e-3 * (1 + 0.1 * rng.standard_normal(n - 1)), 0.0)
+    steps[steps == 0] = ((n - 1) / 99.3 - steps.sum()) / np.count_nonzero(steps == 0)
+    t = np.concatenate(([0.0], np.cumsum(steps)))
+    for gaps in ("error", "longest"):
+        with pytest.raises(InputError, match=r"mean rate over the log is 99\.3 Hz.*give rate_hz=99\.3"):
+            check_time(t, gaps=gaps)
+
+
+def test_cli_time_unit_printed_stored_and_checked(tmp_path, capsys):
+    """fit on a 100 Hz log stamped in ms (column t_ms): 100 Hz, the unit printed and in summary.json."""
+    log = _log(tmp_path / "ms.csv", time=np.arange(400) * 10.0, name="t_ms")
+    assert main(["allan", str(log), "--column", "gx", "--time-column", "t_ms", "--out", str(tmp_path / "a")]) == 0
+    assert "time stamps in ms (column name 't_ms'): 100 Hz" in capsys.readouterr().out
+    plain = _log(tmp_path / "plain.csv", time=np.arange(400) * 10.0, name="t")
+    assert main(["allan", str(plain), "--column", "gx", "--time-column", "t", "--out", str(tmp_path / "b")]) == 2
+    _one_error(capsys, "likely unit is ms: give --time-unit ms", "--time-unit s keeps seconds")
+    assert main(["allan", str(plain), "--column", "gx", "--time-column", "t", "--time-unit", "ms",
+                 "--out", str(tmp_path / "b")]) == 0
+    assert main(["allan", str(plain), "--column", "gx", "--rate", "100", "--time-unit", "ms",
+                 "--out", str(tmp_path / "c")]) == 2
+    _one_error(capsys, "--time-unit ms goes with --time-column")
