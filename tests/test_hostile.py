@@ -99,3 +99,97 @@ def test_cli_time_unit_printed_stored_and_checked(tmp_path, capsys):
     assert main(["allan", str(plain), "--column", "gx", "--rate", "100", "--time-unit", "ms",
                  "--out", str(tmp_path / "c")]) == 2
     _one_error(capsys, "--time-unit ms goes with --time-column")
+
+
+# ------------------------------------------------------------------ 2. --force and markers
+
+def _result(target, files, force=False):
+    """A bayes_imu result written through staged_folder: ``files`` = {relative path: text}."""
+    from bayes_imu.report.output import staged_folder
+
+    with staged_folder(target, force=force) as tmp:
+        for rel, text in files.items():
+            (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
+            (tmp / rel).write_text(text)
+
+
+def test_force_refuses_foreign_files_in_sub_folders(tmp_path):
+    """A user's notes in a sub-folder of a previous result: --force refuses naming it; nothing is removed. Without
+    them the previous files (whose hashes match) are replaced, sub-folders included."""
+    out = tmp_path / "res"
+    _result(out, {"summary.json": "{}", "gx/summary.json": "1", "gy/fit.npz": "2"})
+    (out / "gx" / "notes.txt").write_text("mine")
+    before = _snapshot(out)
+    with pytest.raises(InputError, match=r"force=True would leave 'gx/notes.txt'"):
+        _result(out, {"summary.json": "{}"}, force=True)
+    assert _snapshot(out) == before
+    (out / "gx" / "notes.txt").unlink()
+    (out / "gy" / "empty_user_folder").mkdir()
+    with pytest.raises(InputError, match=r"'gy/empty_user_folder'"):
+        _result(out, {"summary.json": "{}"}, force=True)
+    (out / "gy" / "empty_user_folder").rmdir()
+    _result(out, {"summary.json": "new", "gz/a.csv": "3"}, force=True)
+    assert sorted(_snapshot(out)) == [".bayes_imu.json", "gz", "gz/a.csv", "summary.json"]
+
+
+def test_force_refuses_a_changed_file_and_a_forged_marker(tmp_path):
+    """A file edited since the run, or listed by a forged marker (a hash that is not its content, or an older
+    marker without hashes): refused by name, the file kept."""
+    out = tmp_path / "res"
+    _result(out, {"drift.csv": "1", "a/b.txt": "2"})
+    (out / "a" / "b.txt").write_text("edited by the user")
+    with pytest.raises(InputError, match=r"'a/b\.txt'.*or changed since"):
+        _result(out, {"x": "1"}, force=True)
+    assert (out / "a" / "b.txt").read_text() == "edited by the user"
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    (victim / "thesis.tex").write_text("years of work")
+    forged = {"bayes_imu": "0", "entries": ["thesis.tex"],
+              "files": {"thesis.tex": hashlib.sha256(b"something else").hexdigest()}, "folders": []}
+    (victim / ".bayes_imu.json").write_text(json.dumps(forged))
+    with pytest.raises(InputError, match="'thesis.tex'"):
+        _result(victim, {"x": "1"}, force=True)
+    (victim / ".bayes_imu.json").write_text(json.dumps({"bayes_imu": "0", "entries": ["thesis.tex"]}))
+    with pytest.raises(InputError, match="no .bayes_imu.json marker with file hashes"):
+        _result(victim, {"x": "1"}, force=True)
+    assert (victim / "thesis.tex").read_text() == "years of work"
+
+
+def test_force_on_a_multi_column_fit_keeps_notes_in_its_sub_folders(tmp_path, capsys):
+    """The issue's reproduction: fit gx,gy into res, notes into res/gx, fit again with --force: exit 2 naming
+    res/gx/notes.txt, which stays; the previous result byte for byte."""
+    log = _log(tmp_path / "imu.csv", n=256, columns=("gx", "gy"))
+    args = ["fit", str(log), "--column", "gx,gy", "--rate", "100", "--terms", "white", "--out", str(tmp_path / "res"),
+            "--quiet"]
+    assert main(args) == 0
+    (tmp_path / "res" / "gx" / "notes.txt").write_text("notes")
+    before = _snapshot(tmp_path / "res")
+    assert main(args + ["--force"]) == 2
+    _one_error(capsys, "--force would leave 'gx/notes.txt'")
+    assert _snapshot(tmp_path / "res") == before
+
+
+def test_file_target_force_needs_its_own_marker(tmp_path):
+    """kalibr --out FILE --force: a file bayes_imu wrote (sidecar marker with its hash) is replaced; a user's file
+    that merely looks like one (a '# bayes_imu' first line, a JSON object with bayes_imu_version: another fit
+    folder's summary.json), or ours edited since, is refused."""
+    from bayes_imu.report.output import staged_file
+
+    target = tmp_path / "imu.yaml"
+    with staged_file(target) as tmp:
+        tmp.write_text("# bayes_imu one\n")
+    with staged_file(target, force=True) as tmp:
+        tmp.write_text("# bayes_imu two\n")
+    assert target.read_text() == "# bayes_imu two\n"
+    for name, text in (("notes.yaml", "# bayes_imu is great\nmy notes\n"),
+                       ("summary.json", '{"bayes_imu_version": "1", "unit": "rad/s"}')):
+        (tmp_path / name).write_text(text)
+        with pytest.raises(InputError, match="replaces only a file a bayes_imu run wrote"):
+            with staged_file(tmp_path / name, force=True) as tmp:
+                tmp.write_text("x")
+        assert (tmp_path / name).read_text() == text
+    target.write_text("# bayes_imu two\nedited\n")
+    with pytest.raises(InputError, match="or was changed since"):
+        with staged_file(target, force=True) as tmp:
+            tmp.write_text("x")
+    assert target.read_text() == "# bayes_imu two\nedited\n"
