@@ -193,3 +193,74 @@ def test_file_target_force_needs_its_own_marker(tmp_path):
         with staged_file(target, force=True) as tmp:
             tmp.write_text("x")
     assert target.read_text() == "# bayes_imu two\nedited\n"
+
+
+# ------------------------------------------------------------------ 3. numbers before pictures
+
+def test_dollar_signs_in_names_keep_the_fit(tmp_path, capsys):
+    """``run$1_$2.csv``, column ``g$x$`` (issue 37: mathtext rejected the label, exit 1, the fit discarded): exit 0,
+    every output written, the label drawn literally."""
+    from bayes_imu.report.plots import plain_text
+
+    log = _log(tmp_path / "run$1_$2.csv", n=256, columns=("g$x$",))
+    out = tmp_path / "fit"
+    assert main(["fit", str(log), "--column", "g$x$", "--rate", "100", "--terms", "white", "--sensor", "gyro",
+                 "--horizon", "10", "--out", str(out), "--quiet"]) == 0
+    assert {"summary.json", "fit.npz", "allan_fit.png", "corner.png", "drift.csv", "drift.png"} <= {
+        p.name for p in out.iterdir()}
+    assert plain_text("run$1_$2") == r"run\$1_\$2" and plain_text("a\x1b[2Jb") == "a?[2Jb"
+
+
+def test_a_failing_picture_costs_only_the_picture(tmp_path, capsys, monkeypatch):
+    """Any error while drawing: one warning line, exit status 3 (PICTURE_FAILED_STATUS), the numbers kept and
+    moved into place, no partial picture."""
+    import bayes_imu.report.plots as plots
+    from bayes_imu.report.worker import PICTURE_FAILED_STATUS, PictureFailure, _call, draw_picture
+
+    def broken(*args, **kwargs):
+        with open(args[1], "wb") as f:
+            f.write(b"partial")
+        raise ValueError("mathtext: unknown symbol\nsecond line")
+
+    monkeypatch.setattr(plots, "plot_allan", broken)
+    log = _log(tmp_path / "log.csv")
+    out = tmp_path / "a"
+    assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(out), "--quiet"]) == 3
+    err = capsys.readouterr().err
+    assert err == ("bayes-imu: warning: allan.png was not drawn (ValueError: mathtext: unknown symbol); the numbers "
+                   "were written\n")
+    assert sorted(p.name for p in out.iterdir()) == [".bayes_imu.json", "allan.csv"] and PICTURE_FAILED_STATUS == 3
+    # the worker's path: a picture's failure comes back as a record, not an exception that stops the others
+    outcome = _call((draw_picture, (broken, None, tmp_path / "x.png"), {}))
+    assert isinstance(outcome, PictureFailure) and not (tmp_path / "x.png").exists()
+
+
+@pytest.mark.parametrize("option, value", [("--horizon", "1e300"), ("--times", "1,1e300"), ("--calibration", "1e300"),
+                                           ("--horizon", "inf"), ("--calibration", "0")])
+def test_huge_option_values_refused_before_any_work(tmp_path, capsys, option, value):
+    log = _log(tmp_path / "log.csv")
+    before = _snapshot(tmp_path)
+    assert main(["fit", str(log), "--column", "gx", "--rate", "100", "--sensor", "gyro", option, value,
+                 "--out", str(tmp_path / "o")]) == 2
+    _one_error(capsys, option, "from 1e-06", "1e+09")
+    assert _snapshot(tmp_path) == before
+
+
+def test_drift_json_and_scene_values_have_ranges(tmp_path, capsys):
+    sensor = tmp_path / "s.json"
+    for key, value, fragment in (("noise_density", 1e300, "expected a number from 0 to 1e+100"),
+                                 ("time_constant", 1e300, "expected a number from 1e-09 to 1e+15 s (or inf)"),
+                                 ("rate_hz", 1e300, "expected 0.01 Hz to 1e+06 Hz")):
+        doc = {"kind": "gyro", "rate_hz": 100, "noise_density": 1e-3, key: value}
+        sensor.write_text(json.dumps(doc))
+        assert main(["drift", str(sensor), "--out", str(tmp_path / "d")]) == 2
+        _one_error(capsys, key, fragment)
+    from bayes_imu.report.scene import read_scene
+
+    scene = tmp_path / "scene.toml"
+    for line, fragment in (("calibration_s = 1e308", "calibration_s=1e+308: expected a number from 1e-06 to 1e+09 s"),
+                           ("outages_s = [10, 1e308]", "each from 1e-06 to 1e+09")):
+        text = f'[scene]\n{line}\n' + ("outages_s = [10]\n" if "outages" not in line else "")
+        scene.write_text(text + '[[sensor]]\nname = "a"\nkind = "gyro"\nfit = "f"\n')
+        with pytest.raises(InputError, match=fragment.replace("(", r"\(").replace("+", r"\+").replace(")", r"\)")):
+            read_scene(scene)

@@ -36,7 +36,7 @@ import numpy as np
 from .._version import __version__
 from ..report.output import safe_folder_name, staged_file, staged_folder
 from ..report.plots import import_plotting, plot_allan_fit, plot_corner
-from ..report.worker import OutputWriter, background_default
+from ..report.worker import PICTURE_FAILED_STATUS, OutputWriter, background_default, draw_picture
 from .._progress import show_progress
 from .sources import SourceOptions, allan_results
 from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, SENSOR_QUANTITIES
@@ -49,7 +49,8 @@ from ..inference.fit import DISCREPANCY_MODES, warm_up as warm_up_fit
 from ..inference.likelihood import LIKELIHOODS
 from ..inference.sampling import import_emcee
 from ..noise import BIAS_STARTS, TERMS
-from ..io.timebase import GAP_POLICIES, RATE_RANGE, TIME_UNITS
+from ..io.limits import RANGES, check_range
+from ..io.timebase import GAP_POLICIES, RATE_RANGE, TIME_UNITS, check_rate
 
 __all__ = ["main"]
 
@@ -211,7 +212,7 @@ def _build_parser():
     population.add_argument("--terms", default="auto",
                             help="'auto' (the common structure chosen by the units' summed evidence) or a "
                                  "comma-separated list of terms: " + ", ".join(TERMS))
-    population.add_argument("--spread-scale", type=_positive_number, default=1.0, metavar="S",
+    population.add_argument("--spread-scale", type=_ranged("spread_scale"), default=1.0, metavar="S",
                             help="scale of the half-normal prior on the unit-to-unit spread of each "
                                  "ln-parameter (default 1: a factor e, weakly informative)")
     _drift_options(population)
@@ -251,7 +252,8 @@ def _build_parser():
                             "time_constant, random_walk, and units (of the values: rad/s default, deg/s, deg/h; "
                             "m/s^2 default, g, mg)")
     drift.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
-    drift.add_argument("--horizon", type=_positive_number, default=3600.0, help="longest time (s), default 3600")
+    drift.add_argument("--horizon", type=_ranged("time_s"), default=3600.0,
+                       help="longest time (s, 1e-6 to 1e9), default 3600")
     drift.add_argument("--bias-start", choices=DRIFT_BIAS_STARTS, default="zero",
                        help="bias at the start: zero (the paper, default) or stationary")
     drift.add_argument("--display-units", choices=DISPLAY_CHOICES, default="si",
@@ -334,10 +336,11 @@ def _allan(args):
             for t, m, a, lo, hi, e in zip(result.tau, result.m, result.adev, result.adev_low, result.adev_high, result.edf)
         ]
         (tmp / "allan.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
-        plot_allan(result, tmp / "allan.png", label=f"{Path(_log_label(args)).name}: {columns[0]} [{unit}]", unit=unit)
+        failure = draw_picture(plot_allan, result, tmp / "allan.png",
+                               label=f"{Path(_log_label(args)).name}: {columns[0]} [{unit}]", unit=unit)
     _say(args, f"{result.tau.size} cluster sizes from {result.n_samples} samples ({info['action']}); "
                f"wrote {args.out / 'allan.csv'} and allan.png")
-    return 0
+    return _pictures_status([failure])
 
 
 def _cmd_fit(args):
@@ -380,7 +383,15 @@ def _fit(args):
                 _write_json(tmp / "summary.json", summary)
             writer.wait()  # every output in the staging folder before it is moved into place
     _say(args, f"wrote {args.out}")
-    return 0
+    return _pictures_status(writer.picture_failures)
+
+
+def _pictures_status(failures):
+    """0, or :data:`PICTURE_FAILED_STATUS` with one warning line per picture not drawn (the numbers were kept)."""
+    failures = [f for f in failures if f is not None]
+    for failure in failures:
+        _warn(str(failure))
+    return PICTURE_FAILED_STATUS if failures else 0
 
 
 def _say_time_unit(args, info):
@@ -411,7 +422,7 @@ def _fit_axis(args, allan, unit, info, terms, column, out, writer):
     figures = [(plot_allan_fit, result, out / "allan_fit.png", {"label": label, "unit": unit, "rng": args.seed}),
                (plot_corner, result, out / "corner.png", {"unit": unit})]
     for plot, *arguments, options in (figures[::-1] if result.samples.shape[1] >= 4 else figures):
-        writer.submit(plot, *arguments, **options)
+        writer.picture(plot, *arguments, **options)
     summary = result.summary(unit=unit)
     summary.update(log=_log_label(args), column=column, unit=unit, input=info)
     _say(args, f"model: {' + '.join(result.model.terms)}  (converged: {result.diagnostics['converged']})")
@@ -519,9 +530,9 @@ def _write_drift(result, args, unit, out, writer=None):
               "the log the bands extrapolate the fitted model (drift.csv column 'extrapolated')")
     (out / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
     if writer is None:
-        plot_drift(bands, out / "drift.png", units=[u for u, _ in shown])
+        args.picture_failures.append(draw_picture(plot_drift, bands, out / "drift.png", units=[u for u, _ in shown]))
     else:
-        writer.submit(plot_drift, bands, out / "drift.png", units=[u for u, _ in shown])
+        writer.picture(plot_drift, bands, out / "drift.png", units=[u for u, _ in shown])
     return at_horizon, bands, [u for u, _ in shown]
 
 
@@ -537,10 +548,10 @@ def _cmd_report(args):
     inputs = [args.scene] + [p for s in scene.sensors for p in s.paths]
     with staged_folder(args.out, force=args.force, inputs=inputs) as tmp:
         report = build_report(scene, rng=args.seed)
-        write_report(report, tmp)
+        failure = write_report(report, tmp)
     _say(args, f"ranking: {', '.join(report.ranking)} ({report.reason})")
     _say(args, f"wrote {args.out}/report.json and report.html")
-    return 0
+    return _pictures_status([failure])
 
 
 def _cmd_kalibr(args):
@@ -581,12 +592,12 @@ def _fit_options(parser):
 def _drift_options(parser):
     parser.add_argument("--sensor", choices=("gyro", "accel"),
                         help="also write drift.csv / drift.png: attitude (gyro) or velocity and position (accel)")
-    parser.add_argument("--horizon", type=_positive_number, default=3600.0,
-                        help="longest drift time (s), default 3600")
+    parser.add_argument("--horizon", type=_ranged("time_s"), default=3600.0,
+                        help="longest drift time (s, 1e-6 to 1e9), default 3600")
     parser.add_argument("--bias-start", choices=BIAS_STARTS, default="calibrated",
                         help="bias at the start of the outage: calibrated (default: the mean of the --calibration "
                              "seconds before it is removed), zero (the paper) or stationary (never estimated)")
-    parser.add_argument("--calibration", type=_positive_number, default=DEFAULT_CALIBRATION_S, metavar="S",
+    parser.add_argument("--calibration", type=_ranged("calibration_s"), default=DEFAULT_CALIBRATION_S, metavar="S",
                         help=f"calibration window of --bias-start calibrated (s), default {DEFAULT_CALIBRATION_S:g}")
     parser.add_argument("--times", type=_times, metavar="T1,T2,...",
                         help="write drift.csv rows at exactly these times (s) instead of a log grid up to --horizon")
@@ -640,11 +651,11 @@ def _cmd_fit_population(args):
             unit_bands = [drift_bands(f, bands.t_s, quantity=bands.quantity, bias_start=args.bias_start,
                                       calibration_s=args.calibration, rng=args.seed).scaled(factor)
                           for f in pop.unit_fits]
-        plot_population(pop, tmp / "population.png", unit=unit, bands=bands, unit_bands=unit_bands, rng=args.seed,
-                        drift_unit=drift_unit)
         _write_json(tmp / "summary.json", summary)
+        args.picture_failures.append(draw_picture(plot_population, pop, tmp / "population.png", unit=unit, bands=bands,
+                                                  unit_bands=unit_bands, rng=args.seed, drift_unit=drift_unit))
     _say(args, f"wrote {args.out}")
-    return 0
+    return _pictures_status(args.picture_failures)
 
 
 def _cmd_fit_batch(args):
@@ -671,11 +682,11 @@ def _cmd_fit_batch(args):
         seconds = time.perf_counter() - start
         samples = 0
         for r in results:
-            if r.status == 0:
+            if r.status in (0, PICTURE_FAILED_STATUS):
                 summary = json.loads((staging / r.name / "summary.json").read_text())
                 samples += (sum(a["n_samples"] for a in summary["axes"].values()) if "axes" in summary
                             else summary["n_samples"])
-        failed = [r for r in results if r.status]
+        failed = [r for r in results if r.status not in (0, PICTURE_FAILED_STATUS)]
         doc = {"logs": [dict(r.to_json(), log=str(log)) for r, log in zip(results, args.logs)],
                "n_logs": len(results), "n_failed": len(failed), "seconds": seconds,
                "logs_per_minute": 60 * len(results) / seconds, "samples_per_second": samples / seconds,
@@ -685,7 +696,10 @@ def _cmd_fit_batch(args):
         print(f"bayes-imu: error: {r.name}: {r.error.removeprefix('bayes-imu: error: ')}", file=sys.stderr)
     _say(args, f"{len(results) - len(failed)} of {len(results)} logs fitted in {seconds:.1f} s "
                f"({doc['logs_per_minute']:.1f} logs/min); wrote {args.out / 'batch.json'}")
-    return 2 if failed else 0
+    unpictured = [r for r in results if r.status == PICTURE_FAILED_STATUS]
+    for r in unpictured:
+        _warn(f"{r.name}: a picture was not drawn; the numbers were written")
+    return 2 if failed else PICTURE_FAILED_STATUS if unpictured else 0
 
 
 def _fleet_fit(job):
@@ -697,6 +711,7 @@ def _fleet_fit(job):
         raise InputError(str(exc)) from None
     args.progress = False
     args.in_batch = True
+    args.picture_failures = []
     with warnings.catch_warnings():
         warnings.simplefilter("default")
         warnings.showwarning = _one_line_warning
@@ -735,7 +750,10 @@ def _positive_float(path, spec, key, default=None):
         raise InputError(f"{path}: {key}={value!r}: expected a number") from None
     if not value > 0 and not (value == 0 and default is not None):
         raise InputError(f"{path}: {key}={value!r}: expected a positive number")
-    return value
+    if key == "rate_hz":
+        return check_rate(value, source="rate_hz", where=str(path))
+    return check_range("time_constant" if key == "time_constant" else "parameter", value, f"{path}: {key}",
+                       allow_inf=key == "time_constant")
 
 
 def _cmd_drift(args):
@@ -795,13 +813,21 @@ _rate_type = _checked(float, lambda v: np.isfinite(v) and RATE_RANGE[0] <= v <= 
 _positive_number = _checked(float, lambda v: np.isfinite(v) and v > 0, "a positive number")
 
 
+def _ranged(kind):
+    """An argparse type: a number in :data:`bayes_imu.io.limits.RANGES` ``[kind]``."""
+    low, high, unit = RANGES[kind]
+    return _checked(float, lambda v: np.isfinite(v) and low <= v <= high and v > 0,
+                    f"a number from {low:g} to {high:g}{' ' + unit if unit else ''}")
+
+
 def _times(text):
     try:
         values = [float(v) for v in text.split(",") if v.strip()]
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected comma-separated times in seconds, got {text!r}") from None
-    if not values or not all(np.isfinite(v) and v > 0 for v in values):
-        raise argparse.ArgumentTypeError(f"expected positive times in seconds, got {text!r}")
+    low, high, _ = RANGES["time_s"]
+    if not values or not all(np.isfinite(v) and low <= v <= high for v in values):
+        raise argparse.ArgumentTypeError(f"expected times from {low:g} s to {high:g} s, got {text[:80]!r}")
     return tuple(sorted(set(values)))
 
 
@@ -840,6 +866,7 @@ def main(argv=None):
         print(f"bayes-imu: error: {exc}", file=sys.stderr)
         return 2
     args.progress = show_progress(getattr(args, "quiet", False))
+    args.picture_failures = []
     logging.basicConfig(level=logging.WARNING, format="%(message)s")  # third-party loggers stay quiet
     log.setLevel(logging.INFO)
     with warnings.catch_warnings(), _sigterm_as_interrupt():  # warnings shown the command's way

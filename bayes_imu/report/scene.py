@@ -28,6 +28,7 @@ from ..drift.display import parse_amount
 from ..errors import InputError
 from ..inference.fit import fit_allan
 from ..drift.closed_forms import SI_OUTPUT_UNITS
+from ..io.limits import RANGES, check_range
 from ..io.readers import SI_UNITS, UNITS, read_log, read_text, to_si
 
 __all__ = ["Scene", "SensorSpec", "SensorReport", "Report", "read_scene", "build_report", "OUTPUT_UNITS"]
@@ -177,18 +178,24 @@ def _si_unit(kind):
     return SI_UNITS[kind]
 
 
+def _excerpt(value, limit=80):
+    """``repr(value)``, control characters as ``?``, at most ``limit`` characters: a value quoted in an error."""
+    text = "".join(c if c.isprintable() else "?" for c in repr(value))
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def _get(table, key, kind, where, default=None, required=True):
     if key not in table:
         if required:
-            raise InputError(f"{where}: missing key {key!r}")
+            raise InputError(f"{where}: missing key {_excerpt(key)}")
         return default
     value = table[key]
     if kind is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
-            raise InputError(f"{where}: {key}={value!r}: expected a positive number")
+            raise InputError(f"{where}: {key}={_excerpt(value)}: expected a positive number")
         return float(value)
     if not isinstance(value, str) or not value:
-        raise InputError(f"{where}: {key}={value!r}: expected a non-empty string")
+        raise InputError(f"{where}: {key}={_excerpt(value)}: expected a non-empty string")
     return value
 
 
@@ -196,7 +203,7 @@ def _known(table, keys, where):
     """Reject the first key of ``table`` not in ``keys``, by name."""
     unknown = [k for k in table if k not in keys]
     if unknown:
-        raise InputError(f"{where}: unknown key {unknown[0]!r}; expected keys: {', '.join(keys)}")
+        raise InputError(f"{where}: unknown key {_excerpt(unknown[0])}; expected keys: {', '.join(keys)}")
 
 
 def read_scene(path):
@@ -212,19 +219,21 @@ def read_scene(path):
         raise InputError(f"{path}: missing [scene] table")
     _known(scene, ("name", "outages_s", "credibility", "bias_start", "calibration_s"), f"{path}: [scene]")
     outages = scene.get("outages_s")
+    low, high, _ = RANGES["time_s"]
     if not isinstance(outages, list) or not outages or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) and v > 0 for v in outages):
-        raise InputError(f"{path}: [scene] outages_s={outages!r}: expected a non-empty list of positive seconds")
+            isinstance(v, (int, float)) and not isinstance(v, bool) and low <= v <= high for v in outages):
+        raise InputError(f"{path}: [scene] outages_s={_excerpt(outages)}: expected a non-empty list of seconds, each "
+                         f"from {low:g} to {high:g}")
     cred = scene.get("credibility", 0.95)
     if isinstance(cred, bool) or not isinstance(cred, (int, float)) or not 0.5 <= cred < 1:
-        raise InputError(f"{path}: [scene] credibility={cred!r}: expected a number in [0.5, 1)")
+        raise InputError(f"{path}: [scene] credibility={_excerpt(cred)}: expected a number in [0.5, 1)")
     bias_start = scene.get("bias_start", "calibrated")
     if bias_start not in BIAS_STARTS:
-        raise InputError(f"{path}: [scene] bias_start={bias_start!r}: expected one of {', '.join(BIAS_STARTS)}")
+        raise InputError(f"{path}: [scene] bias_start={_excerpt(bias_start)}: expected one of {', '.join(BIAS_STARTS)}")
     calibration = scene.get("calibration_s", DEFAULT_CALIBRATION_S)
-    if isinstance(calibration, bool) or not isinstance(calibration, (int, float)) or not (
-            np.isfinite(calibration) and calibration > 0):
-        raise InputError(f"{path}: [scene] calibration_s={calibration!r}: expected a positive number of seconds")
+    if isinstance(calibration, bool) or not isinstance(calibration, (int, float)):
+        raise InputError(f"{path}: [scene] calibration_s={_excerpt(calibration)}: expected a number of seconds")
+    check_range("calibration_s", calibration, f"{path}: [scene] calibration_s")
     requirement = doc.get("requirement")
     if requirement is not None:
         where = f"{path}: [requirement]"
@@ -233,7 +242,7 @@ def read_scene(path):
         _known(requirement, ("quantity", "max_error"), where)
         quantity = _get(requirement, "quantity", str, where)
         if quantity not in OUTPUT_UNITS:
-            raise InputError(f"{where} quantity={quantity!r}: expected one of {', '.join(OUTPUT_UNITS)}")
+            raise InputError(f"{where} quantity={_excerpt(quantity)}: expected one of {', '.join(OUTPUT_UNITS)}")
         if "max_error" not in requirement:
             raise InputError(f"{where}: missing key 'max_error'")
         given = requirement["max_error"]
@@ -250,7 +259,7 @@ def read_scene(path):
         _known(entry, ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units"), where)
         kind = _get(entry, "kind", str, where)
         if kind not in SENSOR_QUANTITIES:
-            raise InputError(f"{where}: kind={kind!r}: expected 'gyro' or 'accel'")
+            raise InputError(f"{where}: kind={_excerpt(kind)}: expected 'gyro' or 'accel'")
         sources = [k for k in ("log", "logs", "fit", "fits") if k in entry]
         if len(sources) != 1:
             raise InputError(f"{where}: expected exactly one of log, logs (several units), fit or fits (fit folders); "
@@ -267,7 +276,7 @@ def read_scene(path):
         units = _get(entry, "units", str, where)
         if units not in UNITS or UNITS[units][0] != kind:
             allowed = [u for u, (k, _) in UNITS.items() if k == kind]
-            raise InputError(f"{where}: units={units!r}: expected one of {', '.join(allowed)} for a {kind}")
+            raise InputError(f"{where}: units={_excerpt(units)}: expected one of {', '.join(allowed)} for a {kind}")
         specs.append(SensorSpec(name, paths, _columns(entry, where), _get(entry, "rate_hz", float, where), kind, units,
                                 source))
     names = [s.name for s in specs]
@@ -281,9 +290,9 @@ def _paths(entry, key, where):
     value = entry[key]
     many = key in ("logs", "fits")
     if many and (not isinstance(value, list) or len(value) < 2 or not all(isinstance(v, str) and v for v in value)):
-        raise InputError(f"{where}: {key}={value!r}: expected a list of at least 2 paths (one per unit)")
+        raise InputError(f"{where}: {key}={_excerpt(value)}: expected a list of at least 2 paths (one per unit)")
     if not many and (not isinstance(value, str) or not value):
-        raise InputError(f"{where}: {key}={value!r}: expected a path")
+        raise InputError(f"{where}: {key}={_excerpt(value)}: expected a path")
     return value if many else [value]
 
 
@@ -293,7 +302,7 @@ def _columns(entry, where):
         return (value,)
     if isinstance(value, list) and value and all(isinstance(v, str) and v for v in value):
         return tuple(value)
-    raise InputError(f"{where}: column={value!r}: expected a column name or a list of names (several axes: "
+    raise InputError(f"{where}: column={_excerpt(value)}: expected a column name or a list of names (several axes: "
                      "the worst one is bounded)")
 
 
@@ -383,7 +392,7 @@ def _axes(spec, rng):
     """The :class:`AxisResult` of each axis of a sensor (fitting its logs or reading its fit folders)."""
     from ..inference.population import fit_population
 
-    where = f"sensor {spec.name!r}: "
+    where = f"sensor {_excerpt(spec.name)}: "
     if spec.source in ("fit", "fits"):
         per_unit = [_saved_axes(p, spec, where) for p in spec.paths]
         names = [n for n, _ in per_unit[0]]
@@ -422,7 +431,7 @@ def _saved_axes(folder, spec, where):
         for axis, place, summary in fit_axes(folder):
             unit = summary.get("unit")
             if unit != spec.units:
-                raise InputError(f"{place}: fitted in {unit!r}; a {spec.kind} report needs a fit in {spec.units} "
+                raise InputError(f"{place}: fitted in {_excerpt(unit)}; a {spec.kind} report needs a fit in {spec.units} "
                                  f"(run bayes-imu fit with --units)")
             out.append((axis, load_fit(place)))
     except InputError as exc:
