@@ -264,3 +264,187 @@ def test_drift_json_and_scene_values_have_ranges(tmp_path, capsys):
         scene.write_text(text + '[[sensor]]\nname = "a"\nkind = "gyro"\nfit = "f"\n')
         with pytest.raises(InputError, match=fragment.replace("(", r"\(").replace("+", r"\+").replace(")", r"\)")):
             read_scene(scene)
+
+
+# ------------------------------------------------------------------ 5. untrusted input
+
+SCENE_HEAD = '[scene]\noutages_s = [10]\n'
+
+
+def _sensor(source, value, extra='column = "gx"\nrate_hz = 100\nunits = "deg/s"\n'):
+    shown = json.dumps(value)
+    return f'[[sensor]]\nname = "s"\nkind = "gyro"\n{source} = {shown}\n' + (extra if source.startswith("log") else "")
+
+
+def test_scene_paths_are_confined_to_the_scene_folder(tmp_path):
+    """log = "/etc/passwd" or "../..": refused before anything is read, the file's content never quoted;
+    allow_outside (in the scene, or the argument) lets a trusted scene reach out."""
+    from bayes_imu.report.scene import read_scene
+
+    secret = tmp_path / "secret.csv"
+    secret.write_text("root:SECRET-HASH\n" * 50)
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    scene = folder / "scene.toml"
+    for given in ("/etc/passwd", "../secret.csv", str(secret)):
+        scene.write_text(SCENE_HEAD + _sensor("log", given))
+        with pytest.raises(InputError, match="lies outside the scene's folder") as info:
+            read_scene(scene)
+        assert "SECRET" not in str(info.value)
+    (folder / "link.csv").symlink_to(secret)  # a link inside pointing out is outside too
+    scene.write_text(SCENE_HEAD + _sensor("log", "link.csv"))
+    with pytest.raises(InputError, match="lies outside"):
+        read_scene(scene)
+    assert read_scene(scene, allow_outside=True).sensors[0].paths == (folder / "link.csv",)
+    scene.write_text(SCENE_HEAD.replace("[scene]\n", "[scene]\nallow_outside = true\n") + _sensor("log", "../secret.csv"))
+    assert read_scene(scene).sensors[0].paths == (folder / "../secret.csv",)
+    # an error about such a file quotes at most a short, sanitised excerpt
+    from bayes_imu.io.readers import read_log
+
+    secret.write_text("a" * 10**6 + "\x1b[31m,b\n1,2\n3,4\n")
+    with pytest.raises(InputError) as info:
+        read_log(secret, column="zz")
+    assert len(str(info.value)) < 250 and "\x1b" not in str(info.value)
+
+
+def test_scene_units_and_population_logs_must_be_distinct(tmp_path, capsys):
+    """The same log twice, a copy of it, or one fit folder twice: refused by name (one unit counted twice)."""
+    from bayes_imu.report.scene import read_scene
+
+    a = _log(tmp_path / "a.csv")
+    (tmp_path / "copy.csv").write_bytes(a.read_bytes())
+    scene = tmp_path / "scene.toml"
+    for logs, fragment in ((["a.csv", "./a.csv"], "the same file or folder"),
+                           (["a.csv", "copy.csv"], "files with the same content")):
+        scene.write_text(SCENE_HEAD + _sensor("logs", logs))
+        with pytest.raises(InputError, match=fragment):
+            read_scene(scene)
+    (tmp_path / "fit1").mkdir()
+    scene.write_text(SCENE_HEAD + _sensor("fits", ["fit1", "fit1/"]))
+    with pytest.raises(InputError, match="the same file or folder"):
+        read_scene(scene)
+    assert main(["fit-population", str(a), str(tmp_path / "copy.csv"), "--column", "gx", "--rate", "100",
+                 "--out", str(tmp_path / "pop")]) == 2
+    _one_error(capsys, "copy.csv", "are files with the same content")
+
+
+@pytest.fixture(scope="module")
+def fit_folder(tmp_path_factory):
+    """One small white-noise fit folder (gyro, SI), shared by the archive and label tests."""
+    folder = tmp_path_factory.mktemp("fit")
+    log = _log(folder / "g.csv", n=256)
+    assert main(["fit", str(log), "--column", "gx", "--rate", "100", "--units", "deg/s", "--terms", "white",
+                 "--out", str(folder / "g"), "--quiet"]) == 0
+    return folder / "g"
+
+
+def _rewrite_archive(source, target, **changes):
+    with np.load(source / "fit.npz") as z:
+        data = {k: z[k] for k in z.files}
+    data.update(changes)
+    target.mkdir()
+    for name in ("summary.json",):
+        (target / name).write_bytes((source / name).read_bytes())
+    np.savez_compressed(target / "fit.npz", **data)
+    return target
+
+
+@pytest.mark.parametrize("field, value", [("samples", np.nan), ("samples", 0.0), ("allan_avar", -1.0),
+                                          ("allan_tau", np.inf), ("covariance", np.nan)])
+def test_damaged_archives_are_refused_naming_the_field(tmp_path, capsys, fit_folder, field, value):
+    """NaN or zero noise values from a crafted fit.npz must not reach imu.yaml: exit 2 naming the field."""
+    from bayes_imu.inference.archive import load_fit
+
+    with np.load(fit_folder / "fit.npz") as z:
+        array = z[field].copy()
+    array.flat[0] = value
+    bad = _rewrite_archive(fit_folder, tmp_path / "bad", **{field: array})
+    with pytest.raises(InputError, match=f"field '{field}'"):
+        load_fit(bad)
+    assert main(["kalibr", "--gyro", str(bad), "--out", str(tmp_path / "imu.yaml")]) == 2
+    _one_error(capsys, f"field '{field}'")
+    assert not (tmp_path / "imu.yaml").exists()
+
+
+def test_archive_sizes_checked_before_allocation(tmp_path, fit_folder):
+    """A small archive whose array header declares 6 GiB: refused from the header, nothing allocated; shapes
+    that disagree with the model's terms are refused too."""
+    import zipfile
+
+    from bayes_imu.inference.archive import load_fit
+
+    bad = _rewrite_archive(fit_folder, tmp_path / "huge")
+    header = np.lib.format.header_data_from_array_1_0(np.zeros(1))
+    header["shape"] = (6 * 2**30 // 8,)
+    buffer = __import__("io").BytesIO()
+    np.lib.format.write_array_header_1_0(buffer, header)
+    with zipfile.ZipFile(bad / "fit.npz", "a") as z:
+        z.writestr("huge.npy", buffer.getvalue() + b"\0" * 64)
+    with pytest.raises(InputError, match="declare .* bytes, more than 64 times"):
+        load_fit(bad)
+    with np.load(fit_folder / "fit.npz") as z:
+        samples = z["samples"]
+    two = _rewrite_archive(fit_folder, tmp_path / "shape", samples=np.hstack([samples, samples]))
+    with pytest.raises(InputError, match=r"field 'samples' has shape .*expected \(draws, 1\) for white"):
+        load_fit(two)
+
+
+def test_datasheet_of_an_unknown_kind_raises(fit_folder):
+    from bayes_imu.inference.archive import load_fit
+    from bayes_imu.noise.datasheet import datasheet
+
+    fit = load_fit(fit_folder)
+    assert datasheet(fit, "gyro").keys() != datasheet(fit, "accel").keys()  # each kind its own table
+    with pytest.raises(InputError, match="'magnetometer': expected 'gyro' or 'accel'"):
+        datasheet(fit, "magnetometer")
+
+
+def test_a_folder_name_cannot_inject_yaml_keys(tmp_path, fit_folder):
+    """A fit folder named 'g\\naccelerometer_noise_density: 1e-12' (and other line breaks): imu.yaml parses to the
+    Kalibr keys alone, with the fit's values."""
+    import shutil
+
+    import yaml
+
+    evil = tmp_path / "g\naccelerometer_noise_density: 1e-12\r\x85\u2028x"
+    shutil.copytree(fit_folder, evil)
+    other = tmp_path / "h"
+    shutil.copytree(fit_folder, other)
+    out = tmp_path / "imu.yaml"
+    assert main(["kalibr", "--gyro", str(evil), str(other), "--out", str(out)]) == 0
+    doc = yaml.safe_load(out.read_text())
+    assert set(doc) == {"gyroscope_noise_density", "gyroscope_random_walk", "rostopic", "update_rate"}
+    assert main(["kalibr", "--gyro", str(other), "--topic", "/imu0\nupdate_rate: 1", "--out",
+                 str(tmp_path / "x.yaml")]) == 2
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device", "bom", "deep_json", "deep_toml"])
+def test_special_files_answer_at_once(tmp_path, capsys, kind):
+    """A FIFO (no writer) or /dev/urandom as a scene, sensor JSON or summary.json: one line, exit 2, no wait, no
+    read without end; a UTF-8 BOM is accepted; deeply nested TOML / JSON is a user error (exit 2), not 1."""
+    import os
+
+    if kind == "fifo":
+        path = tmp_path / "scene.toml"
+        os.mkfifo(path)
+        argvs = [["report", str(path)], ["drift", str(path)], ["kalibr", "--gyro", str(tmp_path)]]
+        (tmp_path / "summary.json").unlink(missing_ok=True)
+        os.mkfifo(tmp_path / "summary.json")
+        fragment = "not a regular file"
+    elif kind == "device":
+        argvs, fragment = [["report", "/dev/urandom"], ["drift", "/dev/zero"]], "not a regular file"
+    elif kind == "bom":
+        scene = tmp_path / "scene.toml"
+        scene.write_text("\ufeff" + SCENE_HEAD + _sensor("fit", "nowhere"), encoding="utf-8")
+        argvs, fragment = [["report", str(scene)]], "nowhere"  # parsed: the error is the missing fit folder
+    elif kind == "deep_json":
+        path = tmp_path / "s.json"
+        path.write_text("[" * 100000 + "]" * 100000)
+        argvs, fragment = [["drift", str(path)]], "nested too deeply"
+    else:
+        path = tmp_path / "s.toml"
+        path.write_text("a = " + "[" * 100000 + "]" * 100000)
+        argvs, fragment = [["report", str(path)]], "nested too deeply"
+    for argv in argvs:
+        assert main(argv + ["--out", str(tmp_path / "out")]) == 2, argv
+        _one_error(capsys, fragment)

@@ -228,6 +228,8 @@ def _build_parser():
     report.add_argument("--seed", type=_seed_type, default=0, help="random seed (0 to 2**32 - 1), default 0")
     report.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
     report.add_argument("--quiet", action="store_true", help="no progress messages")
+    report.add_argument("--allow-outside", action="store_true",
+                        help="read logs and fit folders outside the scene's folder (default: refused)")
     report.set_defaults(handler=_cmd_report)
 
     kalibr = sub.add_parser(
@@ -544,7 +546,7 @@ def _cmd_report(args):
     from ..report.scene import build_report, read_scene
     from ..report.html import write_report
 
-    scene = read_scene(args.scene)
+    scene = read_scene(args.scene, allow_outside=args.allow_outside)
     inputs = [args.scene] + [p for s in scene.sensors for p in s.paths]
     with staged_folder(args.out, force=args.force, inputs=inputs) as tmp:
         report = build_report(scene, rng=args.seed)
@@ -616,6 +618,9 @@ def _cmd_fit_population(args):
         raise InputError(f"--column {args.column!r}: fit-population takes one column (one axis of every unit)")
     if len(args.logs) < 2:
         raise InputError(f"fit-population: {len(args.logs)} log given; expected the logs of at least 2 units")
+    from ..report.scene import distinct_units
+
+    distinct_units(args.logs, where="fit-population")
     if args.units is not None and args.sensor is None:
         args.sensor = UNITS[args.units][0]
     allans, labels, infos, unit = [], [], [], None

@@ -30,6 +30,7 @@ from .._progress import progress_bar
 from ..errors import InputError
 
 __all__ = ["LogData", "read_log", "read_columns", "read_text", "check_signal", "SignalExtent", "positive_number",
+           "excerpt", "read_json_object", "MAX_TEXT_BYTES",
            "UNITS", "to_si", "MAX_MAGNITUDE"]
 
 #: input units and their factor to SI (rad/s for rates, m/s^2 for specific force)
@@ -57,6 +58,14 @@ _SNIFF_BYTES = 1 << 16
 _DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab"}
 
 
+def excerpt(value, limit=80, *, quoted=True):
+    """``repr(value)`` (or ``str`` with ``quoted=False``) for an error message: control characters as ``?``, at
+    most ``limit`` characters (a file's content is never quoted at length: a 100 MB field, or the first line of
+    a private file)."""
+    text = "".join(c if c.isprintable() else "?" for c in (repr(value) if quoted else str(value)))
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def read_json_object(path, what):
     """A JSON file holding one object (``what`` names it in the errors): the dict, or one-line errors."""
     import json
@@ -65,21 +74,53 @@ def read_json_object(path, what):
         doc = json.loads(read_text(path))
     except json.JSONDecodeError as exc:
         raise InputError(f"{path}: line {exc.lineno} column {exc.colno}: invalid JSON ({exc.msg})") from None
+    except RecursionError:
+        raise InputError(f"{path}: JSON nested too deeply; expected {what}") from None
     if not isinstance(doc, dict):
         raise InputError(f"{path}: expected a JSON object ({what})")
     return doc
 
 
+#: largest scene, sensor or summary file read (bytes): a larger one, a pipe or a device is refused unread
+MAX_TEXT_BYTES = 16 * 2**20
+
+
 def read_text(path):
-    """A small UTF-8 text file (scene, sensor or summary file), with one-line errors."""
+    """A small UTF-8 text file (scene, sensor or summary file), with one-line errors.
+
+    Only a regular file of at most :data:`MAX_TEXT_BYTES` is read (a named pipe, ``/dev/zero`` or
+    ``/dev/urandom`` is refused at once, never waited on or read without end); a UTF-8 byte-order
+    mark is dropped."""
+    import errno
+    import os
+    import stat
+
     try:
-        return Path(path).read_text(encoding="utf-8")
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # a pipe with no writer: no wait
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except IsADirectoryError:
         raise InputError(f"{path}: is a directory; expected a file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read ({exc})") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read ({exc.strerror or errno.errorcode.get(exc.errno, exc)})") from None
+    try:
+        info = os.fstat(fd)
+        if stat.S_ISDIR(info.st_mode):
+            raise InputError(f"{path}: is a directory; expected a file")
+        if not stat.S_ISREG(info.st_mode):
+            raise InputError(f"{path}: not a regular file (a pipe or device); expected a text file")
+        if info.st_size > MAX_TEXT_BYTES:
+            raise InputError(f"{path}: {info.st_size} bytes; expected a text file of at most {MAX_TEXT_BYTES} bytes")
+        os.set_blocking(fd, True)
+        with os.fdopen(fd, "rb", closefd=False) as f:
+            data = f.read(MAX_TEXT_BYTES + 1)
+        return data.decode("utf-8").removeprefix("\ufeff")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    finally:
+        os.close(fd)
 
 
 def positive_number(name, value, *, what="number"):
@@ -87,7 +128,7 @@ def positive_number(name, value, *, what="number"):
     try:
         number = float(value)
     except (TypeError, ValueError):
-        raise InputError(f"{name}={value!r}: expected a positive, finite {what}") from None
+        raise InputError(f"{name}={excerpt(value)}: expected a positive, finite {what}") from None
     if not np.isfinite(number) or number <= 0:
         raise InputError(f"{name}={number!r}: expected a positive, finite {what}")
     return number
@@ -96,7 +137,7 @@ def positive_number(name, value, *, what="number"):
 def to_si(values, unit, *, where=""):
     """Convert samples from ``unit`` (a key of :data:`UNITS`) to SI (rad/s or m/s^2)."""
     if unit not in UNITS:
-        raise InputError(f"{where}unit {unit!r}: expected one of {', '.join(UNITS)}")
+        raise InputError(f"{where}unit {excerpt(unit)}: expected one of {', '.join(UNITS)}")
     return np.asarray(values, dtype=np.float64) * UNITS[unit][1]
 
 
@@ -184,7 +225,7 @@ def read_columns(path, *, columns, time_column=None, progress=False):
     table = table[:, order]
     names = tuple(fmt["names"][i] for i in wanted)
     for j, name in enumerate(names[: len(columns)]):
-        check_signal(table[:, j], where=f"{path}: column {name!r}")
+        check_signal(table[:, j], where=f"{path}: column {excerpt(name, 40)}")
     values = np.ascontiguousarray(table[:, : len(columns)])
     time_s = lines = None
     if time_column is not None:
@@ -353,7 +394,7 @@ def _refuse_decimal_commas(path, rows):
         for sep in (";", "\t"):
             fields = [_unquote(f.strip()) for f in content.split(sep)]
             if len(fields) > 1 and any(_DECIMAL_COMMA.match(f) for f in fields):
-                raise InputError(f"{path}: line {number}: {content[:40]!r} uses decimal commas; expected decimal "
+                raise InputError(f"{path}: line {number}: {excerpt(content[:40])} uses decimal commas; expected decimal "
                                  "points (export the log with '.' as the decimal separator)")
 
 
@@ -375,14 +416,14 @@ def resolve_column(path, fmt, column):
     key = str(column).strip()
     if key in names:
         if key in fmt["dupes"]:
-            raise InputError(f"{path}: column name {key!r} appears more than once in the header; "
+            raise InputError(f"{path}: column name {excerpt(key, 40)} appears more than once in the header; "
                              "give the column by its 0-based index")
         return names.index(key)
     try:
         index = int(key)
     except ValueError:
-        shown = ", ".join(repr(n) for n in names[:12]) + (", ..." if len(names) > 12 else "")
-        raise InputError(f"{path}: no column {key!r}; expected one of the header names ({shown}) "
+        shown = excerpt(", ".join(repr(n) for n in names[:12]) + (", ..." if len(names) > 12 else ""), quoted=False)
+        raise InputError(f"{path}: no column {excerpt(key, 40)}; expected one of the header names ({shown}) "
                          "or a 0-based column index") from None
     if not 0 <= index < len(names):
         raise InputError(f"{path}: column index {index} out of range; the file has {len(names)} columns "
@@ -574,8 +615,8 @@ def _find_bad_line(path, fmt, usecols):
             except ValueError:
                 value = None
             if value is None or not np.isfinite(value):
-                found = repr(text) if text else "an empty field"
-                raise InputError(f"{path}: line {number}, column {fmt['names'][i]!r}: got {found}; "
+                found = excerpt(text, 40) if text else "an empty field"
+                raise InputError(f"{path}: line {number}, column {excerpt(fmt['names'][i], 40)}: got {found}; "
                                  "expected a finite number")
 
 

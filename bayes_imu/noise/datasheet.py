@@ -15,6 +15,7 @@ use the white-equivalent short-term ``noise_density`` (what ADEV(1 s) reads).
 
 import numpy as np
 
+from ..errors import InputError
 from ..io.readers import SI_UNITS
 
 __all__ = ["datasheet", "KIND_OF_UNIT", "G"]
@@ -69,7 +70,11 @@ def datasheet(posterior, kind):
     posterior : FitResult or UnitPosterior
         Fitted in SI (rad/s for a gyro, m/s^2 for an accelerometer).
     kind : {"gyro", "accel"}
+        Any other kind (``"magnetometer"``) is an :class:`~bayes_imu.errors.InputError`, never another
+        sensor's table.
     """
+    if kind not in ("gyro", "accel"):
+        raise InputError(f"kind={str(kind)[:40]!r}: expected 'gyro' or 'accel' (datasheet units exist for those)")
     table = _GYRO if kind == "gyro" else _ACCEL
     names = set(posterior.parameter_names) | {"noise_density"}
     out = {}

@@ -100,7 +100,8 @@ def _source_text(s):
         where = "fit folder" + ("s " if spec.population else " ") + ", ".join(p.name for p in spec.paths)
     else:
         where = ("logs " if spec.population else "log ") + ", ".join(p.name for p in spec.paths)
-        where += f", column {spec.column}, input {spec.units}, {spec.rate_hz:g} Hz"
+        rate = f"{spec.rate_hz:g} Hz" if spec.rate_hz is not None else f"rate from column {spec.time_column}"
+        where += f", column {spec.column}, input {spec.units}, {rate}"
     axes = f"; worst of axes {', '.join(a.axis for a in s.axes)}: {s.axes[s.worst].axis}" if len(s.axes) > 1 else ""
     return f"{spec.kind}, {where}{axes}"
 

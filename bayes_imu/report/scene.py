@@ -10,6 +10,15 @@ selection (each sensor carries only the terms its data support), and computes:
 * ``max_outage_s``: the longest outage whose bound on the required quantity stays within
   ``max_error``, found by bisection on a continuous time (the bound increases with t).
 
+Paths (``log``, ``logs``, ``fit``, ``fits``) are relative to the scene's folder and confined to it
+(after resolving ``..`` and links): a scene is a file a user may be handed, and ``log = "/etc/shadow"``
+must not make the report read it. ``allow_outside = true`` in ``[scene]`` (or ``allow_outside=True``,
+the command's ``--allow-outside``) lifts the rule. The units of one sensor (``logs``, ``fits``) must
+be distinct: the same file or folder twice, or two files with the same content, would count one
+unit twice in the unit-to-unit spread (refused by name). A log may be a ``.npy`` file (one channel;
+``column = "0"``), and text logs may give ``time_column`` (and ``time_unit``) instead of, or
+besides, ``rate_hz``, as the command line does.
+
 Ranking: longest ``max_outage_s`` first, ties (and scenes without a requirement) by the
 bound at the longest outage; sensors that cannot provide the required quantity (a gyro
 for a position requirement) rank last.
@@ -29,9 +38,11 @@ from ..errors import InputError
 from ..inference.fit import fit_allan
 from ..drift.closed_forms import SI_OUTPUT_UNITS
 from ..io.limits import RANGES, check_range
+from ..io.timebase import TIME_UNITS, check_rate, check_time
 from ..io.readers import SI_UNITS, UNITS, read_log, read_text, to_si
 
-__all__ = ["Scene", "SensorSpec", "SensorReport", "Report", "read_scene", "build_report", "OUTPUT_UNITS"]
+__all__ = ["Scene", "SensorSpec", "SensorReport", "Report", "read_scene", "build_report", "distinct_units",
+           "OUTPUT_UNITS"]
 
 OUTPUT_UNITS = SI_OUTPUT_UNITS
 MAX_SEARCH_S = 1e6
@@ -50,6 +61,8 @@ class SensorSpec:
         Axes to bound (the worst one counts); empty for fit folders (their axes are used).
     rate_hz : float or None
     source : {"log", "logs", "fit", "fits"}
+    time_column, time_unit : str or None
+        The time stamps' column and unit (text logs; :func:`bayes_imu.io.timebase.check_time`).
     """
 
     name: str
@@ -59,6 +72,8 @@ class SensorSpec:
     kind: str
     units: str
     source: str = "log"
+    time_column: str | None = None
+    time_unit: str | None = None
 
     @property
     def log(self):
@@ -206,18 +221,26 @@ def _known(table, keys, where):
         raise InputError(f"{where}: unknown key {_excerpt(unknown[0])}; expected keys: {', '.join(keys)}")
 
 
-def read_scene(path):
-    """Parse and validate a scene TOML file; paths are relative to the file."""
+def read_scene(path, *, allow_outside=False):
+    """Parse and validate a scene TOML file; paths are relative to the file and confined to its folder unless
+    ``allow_outside`` (or ``allow_outside = true`` in ``[scene]``); the units of a sensor must be distinct."""
     path = Path(path)
     try:
         doc = tomllib.loads(read_text(path))
     except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"{path}: invalid TOML ({exc})") from None
+        raise InputError(f"{path}: invalid TOML ({_excerpt(str(exc).splitlines()[0] if str(exc) else exc)})") from None
+    except RecursionError:
+        raise InputError(f"{path}: TOML nested too deeply; expected a scene file") from None
     _known(doc, ("scene", "requirement", "sensor"), f"{path}: top level")
     scene = doc.get("scene")
     if not isinstance(scene, dict):
         raise InputError(f"{path}: missing [scene] table")
-    _known(scene, ("name", "outages_s", "credibility", "bias_start", "calibration_s"), f"{path}: [scene]")
+    _known(scene, ("name", "outages_s", "credibility", "bias_start", "calibration_s", "allow_outside"),
+           f"{path}: [scene]")
+    outside = scene.get("allow_outside", False)
+    if not isinstance(outside, bool):
+        raise InputError(f"{path}: [scene] allow_outside={_excerpt(outside)}: expected true or false")
+    allow_outside = allow_outside or outside
     outages = scene.get("outages_s")
     low, high, _ = RANGES["time_s"]
     if not isinstance(outages, list) or not outages or not all(
@@ -256,7 +279,8 @@ def read_scene(path):
         where = f"{path}: [[sensor]] #{i}"
         if not isinstance(entry, dict):
             raise InputError(f"{where}: expected a table")
-        _known(entry, ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units"), where)
+        _known(entry, ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units", "time_column",
+                       "time_unit"), where)
         kind = _get(entry, "kind", str, where)
         if kind not in SENSOR_QUANTITIES:
             raise InputError(f"{where}: kind={_excerpt(kind)}: expected 'gyro' or 'accel'")
@@ -265,10 +289,12 @@ def read_scene(path):
             raise InputError(f"{where}: expected exactly one of log, logs (several units), fit or fits (fit folders); "
                              f"got {', '.join(sources) or 'none'}")
         source = sources[0]
-        paths = tuple(path.parent / p for p in _paths(entry, source, where))
+        paths = tuple(_confined(path, p, source, where, allow_outside) for p in _paths(entry, source, where))
+        if len(paths) > 1:
+            distinct_units(paths, where=where)
         name = _get(entry, "name", str, where)
         if source in ("fit", "fits"):
-            for key in ("column", "rate_hz", "units"):
+            for key in ("column", "rate_hz", "units", "time_column", "time_unit"):
                 if key in entry:
                     raise InputError(f"{where}: {key} is taken from the fit folder; leave it out with {source}")
             specs.append(SensorSpec(name, paths, (), None, kind, SI_UNITS[kind], source))
@@ -277,13 +303,66 @@ def read_scene(path):
         if units not in UNITS or UNITS[units][0] != kind:
             allowed = [u for u, (k, _) in UNITS.items() if k == kind]
             raise InputError(f"{where}: units={_excerpt(units)}: expected one of {', '.join(allowed)} for a {kind}")
-        specs.append(SensorSpec(name, paths, _columns(entry, where), _get(entry, "rate_hz", float, where), kind, units,
-                                source))
+        time_column = _get(entry, "time_column", str, where, required=False)
+        time_unit = _get(entry, "time_unit", str, where, required=False)
+        if time_unit is not None and (time_column is None or time_unit not in TIME_UNITS):
+            raise InputError(f"{where}: time_unit={_excerpt(time_unit)}: expected one of {', '.join(TIME_UNITS)}, "
+                             "with time_column")
+        rate = _get(entry, "rate_hz", float, where, required=time_column is None)
+        if rate is not None:
+            check_rate(rate, source="rate_hz", where=where)
+        specs.append(SensorSpec(name, paths, _columns(entry, where), rate, kind, units, source, time_column,
+                                time_unit))
     names = [s.name for s in specs]
     if len(set(names)) != len(names):
         raise InputError(f"{path}: sensor names must be unique, got {names}")
     return Scene(str(scene.get("name", path.stem)), tuple(float(v) for v in outages), float(cred), tuple(specs),
                  requirement, bias_start, str(path), float(calibration))
+
+
+def _confined(scene_path, given, key, where, allow_outside):
+    """``given`` (relative to the scene's folder), refused where it resolves outside that folder."""
+    folder = scene_path.parent
+    candidate = folder / given
+    if allow_outside:
+        return candidate
+    try:
+        inside = candidate.resolve().is_relative_to(folder.resolve())
+    except (OSError, RuntimeError):  # a symlink loop
+        inside = False
+    if not inside:
+        raise InputError(f"{where}: {key} path {_excerpt(given)} lies outside the scene's folder; paths are confined "
+                         "to it unless allow_outside = true in [scene] (or allow_outside=True)")
+    return candidate
+
+
+def distinct_units(paths, *, where):
+    """Refuse two units of one sensor that are the same: the same file or folder (after resolving links and
+    ``..``), or files with the same content (SHA-256; a folder by its ``fit.npz``). Each would be counted as a
+    separate unit in the unit-to-unit spread."""
+    import hashlib
+
+    seen = {}
+    for p in paths:
+        target = Path(p)
+        keys = []
+        try:
+            keys.append(("path", str(target.resolve())))
+            file = target / "fit.npz" if target.is_dir() else target
+            if file.is_file():
+                digest = hashlib.sha256()
+                with open(file, "rb") as f:
+                    while chunk := f.read(1 << 20):
+                        digest.update(chunk)
+                keys.append(("content", digest.hexdigest()))
+        except (OSError, RuntimeError):
+            continue  # reported when it is read
+        for key in keys:
+            if key in seen:
+                same = "the same file or folder" if key[0] == "path" else "files with the same content"
+                raise InputError(f"{where}: {_excerpt(str(seen[key]))} and {_excerpt(str(p))} are {same}: one unit "
+                                 "counted twice would make the unit-to-unit spread wrong; give each unit once")
+            seen[key] = p
 
 
 def _paths(entry, key, where):
@@ -404,8 +483,7 @@ def _axes(spec, rng):
     else:
         fits, allans = {}, {}
         for column in spec.columns:
-            allans[column] = [allan_variance(to_si(read_log(p, column=column).values, spec.units, where=where),
-                                             rate_hz=spec.rate_hz) for p in spec.paths]
+            allans[column] = [_log_allan(p, column, spec, where) for p in spec.paths]
             fits[column] = [fit_allan(a, rng=rng) for a in allans[column]]
     out = []
     for axis in fits:
@@ -416,6 +494,23 @@ def _axes(spec, rng):
             pop = fit_population(allans[axis], labels=labels, unit_fits=fits[axis], rng=rng)
             out.append(AxisResult(axis, pop.new_unit, None, pop))
     return out
+
+
+def _log_allan(path, column, spec, where):
+    """The Allan variance (SI) of one column of one log of a sensor: a text log (with its time column, if given)
+    or a ``.npy`` file (one channel, read out of core)."""
+    from ..allan.outofcore import BINARY_SUFFIXES, allan_variance_file
+
+    factor = UNITS[spec.units][1]
+    if path.suffix.lower() in BINARY_SUFFIXES:
+        if column not in ("0",) or spec.time_column is not None:
+            raise InputError(f"{where}{path.name}: a binary log has one channel: give column = \"0\" and rate_hz, "
+                             "no time_column")
+        return allan_variance_file(path, rate_hz=spec.rate_hz).scaled(factor)
+    data = read_log(path, column=column, time_column=spec.time_column)
+    base = check_time(data.time_s, rate_hz=spec.rate_hz, lines=data.lines, n_samples=data.values.size,
+                      where=f"{where}{path}", time_unit=spec.time_unit, column=data.time_name)
+    return allan_variance(to_si(data.values[base.start:base.stop], spec.units, where=where), rate_hz=base.rate_hz)
 
 
 def _label(path, i):
