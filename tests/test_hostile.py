@@ -448,3 +448,42 @@ def test_special_files_answer_at_once(tmp_path, capsys, kind):
     for argv in argvs:
         assert main(argv + ["--out", str(tmp_path / "out")]) == 2, argv
         _one_error(capsys, fragment)
+
+
+# ------------------------------------------------------------------ 4. bounds on memory and time
+
+def test_gzip_bomb_refused_as_it_streams(tmp_path, capsys, monkeypatch):
+    """A gzip expanding far beyond MAX_GZIP_RATIO is refused once its output passes the bound (here lowered
+    to 64 KiB, so the test reads 1 MB): memory and time bounded by the compressed size."""
+    import gzip
+
+    import bayes_imu.io.readers as readers
+
+    monkeypatch.setattr(readers, "GZIP_ALLOWANCE", 1 << 16)
+    log = tmp_path / "bomb.csv.gz"
+    log.write_bytes(gzip.compress(b"gx\n" + b"0.1\n" * 250_000, 9))
+    assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "o")]) == 2
+    _one_error(capsys, "expands more than 100 times")
+    ordinary = tmp_path / "ok.csv.gz"  # an ordinary log compresses a few times: read as before
+    ordinary.write_bytes(gzip.compress(_log(tmp_path / "x.csv", n=4000).read_bytes()))
+    assert main(["allan", str(ordinary), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "o")]) == 0
+
+
+def test_long_preamble_and_long_field_answer_in_one_short_line(tmp_path, capsys, monkeypatch):
+    import bayes_imu.io.readers as readers
+
+    monkeypatch.setattr(readers, "MAX_SNIFF_BYTES", 1 << 18)
+    log = tmp_path / "pre.csv"
+    log.write_text("#" * (1 << 19) + "\ngx\n1\n2\n")
+    assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "o")]) == 2
+    _one_error(capsys, "no header and data row within the first 262144 bytes")
+    field = tmp_path / "field.csv"
+    field.write_text("gx\n" + "1\n" * 10 + "9" * 10**6 + "x\n" + "2\n" * 10)
+    assert main(["allan", str(field), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "o")]) == 2
+    err = _one_error(capsys, "line 12, column 'gx'")
+    assert len(err) < 300
+    monkeypatch.setattr(readers, "MAX_LINE_BYTES", 1 << 16)  # beyond it, refused as the line streams past
+    for text in ("gx\n" + "1\n" * 10 + "9" * (1 << 18) + "\n", "gx\n" + "1\n" * 10 + "9" * 1000 + "\n"):
+        field.write_text(text)
+        assert main(["allan", str(field), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "o")]) == 2
+        _one_error(capsys, "a line longer than 65536 bytes" if len(text) > 1 << 16 else "got '99999")

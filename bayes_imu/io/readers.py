@@ -279,12 +279,50 @@ class SignalExtent:
                              "(smaller values underflow the Allan variance: rescale the column)")
 
 
+#: a gzip log may decompress to at most this many times its compressed size (plus :data:`GZIP_ALLOWANCE`): a
+#: numeric log compresses 3-10x; a 6 MB file of 4 GiB is a decompression bomb, refused as it streams
+MAX_GZIP_RATIO = 100
+GZIP_ALLOWANCE = 16 * 2**20
+#: the format is detected from at most this many bytes: a longer comment preamble or first line is refused
+MAX_SNIFF_BYTES = 16 * 2**20
+
+
+class _Bounded(io.RawIOBase):
+    """A gzip stream that raises :class:`InputError` once it has given more than :data:`MAX_GZIP_RATIO` times the
+    compressed bytes read so far (plus :data:`GZIP_ALLOWANCE`): memory and time bounded by the file's size."""
+
+    def __init__(self, stream, raw, path):
+        self._stream, self._raw, self._path, self._out = stream, raw, path, 0
+
+    def readable(self):
+        return True
+
+    def readinto(self, buffer):
+        data = self._stream.read(len(buffer))
+        self._out += len(data)
+        if self._out > GZIP_ALLOWANCE and self._out > MAX_GZIP_RATIO * self._raw.tell():
+            raise InputError(f"{self._path}: the gzip data expands more than {MAX_GZIP_RATIO} times "
+                             f"({self._out} bytes from {self._raw.tell()}); expected a compressed log, not a "
+                             "decompression bomb (decompress it yourself if it is meant)")
+        buffer[: len(data)] = data
+        return len(data)
+
+    def read(self, size=-1):
+        if size is None or size < 0:
+            chunks = []
+            while chunk := super().read(1 << 20):
+                chunks.append(chunk)
+            return b"".join(chunks)
+        return super().read(size)
+
+
 def open_binary(path):
-    """File object of the (decompressed) bytes; gzip detected by its magic number."""
+    """File object of the (decompressed) bytes; gzip detected by its magic number, its expansion bounded
+    (:data:`MAX_GZIP_RATIO`)."""
     raw = open(path, "rb")
     magic = raw.read(2)
     raw.seek(0)
-    return (gzip.GzipFile(fileobj=raw), raw) if magic == b"\x1f\x8b" else (raw, raw)
+    return (_Bounded(gzip.GzipFile(fileobj=raw), raw, path), raw) if magic == b"\x1f\x8b" else (raw, raw)
 
 
 def _head(path, size=_SNIFF_BYTES):
@@ -311,7 +349,8 @@ def _first_line(exc):
 
 def sniff_file(path):
     """Delimiter, header and column names of a text log (:func:`_sniff` on a window that grows
-    until it holds data rows, so a long comment preamble or a very long line is read whole)."""
+    until it holds data rows, so a long comment preamble or a long line is read whole, up to
+    :data:`MAX_SNIFF_BYTES`)."""
     size = _SNIFF_BYTES
     while True:
         head = _head(path, size)
@@ -321,7 +360,10 @@ def sniff_file(path):
             return fmt
         if complete:
             raise InputError(f"{path}: no data rows (only blank or comment lines); expected a header row and samples")
-        size *= 4
+        if size >= MAX_SNIFF_BYTES:
+            raise InputError(f"{path}: no header and data row within the first {MAX_SNIFF_BYTES} bytes (a comment "
+                             "preamble or a line longer than that); expected a delimited text log")
+        size = min(4 * size, MAX_SNIFF_BYTES)
 
 
 def _sniff(path, head, *, complete=None):
@@ -494,7 +536,7 @@ def _parse_plain(path, fmt, usecols, bar):
         return None
     read = sorted(set(usecols) | {n_columns - 1}) if wide else None
     stream, raw = open_binary(path)
-    counting = _Counting(stream, raw, bar, ord(delimiter) if wide else None)
+    counting = _Counting(stream, raw, bar, ord(delimiter) if wide else None, path)
     try:
         with raw, io.TextIOWrapper(io.BufferedReader(counting, buffer_size=1 << 20), encoding="utf-8-sig",
                                    newline=None) as text, warnings.catch_warnings():
@@ -502,6 +544,8 @@ def _parse_plain(path, fmt, usecols, bar):
             warnings.simplefilter("error")  # "input contained no data": pandas' path says what is wrong
             table = np.loadtxt(text, dtype=np.float64, delimiter=delimiter, comments="#",
                                skiprows=1 if fmt["header"] else 0, ndmin=2, usecols=read)
+    except InputError:  # a decompression bomb: no second reader tries it
+        raise
     except (ValueError, UserWarning, UnicodeDecodeError, OSError, EOFError, zlib.error):
         return None
     if wide:
@@ -534,8 +578,10 @@ def _parse_pandas(path, fmt, usecols, progress):
         stream, raw = open_binary(path)
         try:
             with raw:
-                frame = pd.read_csv(io.BufferedReader(_Counting(stream, raw, bar), buffer_size=1 << 20),
+                frame = pd.read_csv(io.BufferedReader(_Counting(stream, raw, bar, path=path), buffer_size=1 << 20),
                                     low_memory=False, **csv_options(fmt, usecols))
+        except InputError:
+            raise
         except (ValueError, pd.errors.ParserError, UnicodeDecodeError):
             diagnose_text(path, fmt, usecols)
         except (OSError, EOFError, zlib.error) as exc:
@@ -555,19 +601,26 @@ def csv_options(fmt, usecols):
             "skipinitialspace": True, "engine": "c"}
 
 
+#: longest line of a text log (bytes): a longer one is refused as it streams past (memory stays bounded)
+MAX_LINE_BYTES = 1 << 20
+
+
 class _Counting(io.RawIOBase):
     """Byte stream that advances a progress bar by the compressed bytes consumed, and counts the byte
-    ``delimiter`` (an ASCII code) in what it passes on (:attr:`delimiters`) when given one."""
+    ``delimiter`` (an ASCII code) in what it passes on (:attr:`delimiters`) when given one. A line longer than
+    :data:`MAX_LINE_BYTES` raises :class:`InputError` (naming ``path``) as it passes."""
 
-    def __init__(self, stream, raw, bar, delimiter=None):
+    def __init__(self, stream, raw, bar, delimiter=None, path="log"):
         self._stream, self._raw, self._bar, self._seen = stream, raw, bar, 0
         self._delimiter, self.delimiters = delimiter, 0
+        self._path, self._run = path, 0  # bytes since the last line end
 
     def readable(self):
         return True
 
     def readinto(self, buffer):
         data = self._stream.read(len(buffer))
+        self._check_lines(data)
         buffer[: len(data)] = data
         if self._delimiter is not None:  # numpy's comparison: 3-4x bytes.count's speed on megabyte chunks
             self.delimiters += int(np.count_nonzero(np.frombuffer(data, np.uint8) == self._delimiter))
@@ -575,6 +628,22 @@ class _Counting(io.RawIOBase):
         self._bar.update(position - self._seen)
         self._seen = position
         return len(data)
+
+    def _check_lines(self, data):
+        if len(data) > MAX_LINE_BYTES:  # a line may lie wholly inside: every line end
+            codes = np.frombuffer(data, np.uint8)
+            ends = np.flatnonzero((codes == 10) | (codes == 13))
+        else:  # only the line running across the chunk's start can be long
+            last = max(data.rfind(b"\n"), data.rfind(b"\r"))
+            first = min((i for i in (data.find(b"\n"), data.find(b"\r")) if i >= 0), default=-1)
+            ends = np.array([first, last] if first >= 0 else [], dtype=np.int64)
+        longest = self._run + (int(ends[0]) if ends.size else len(data))
+        if ends.size > 1:
+            longest = max(longest, int(np.max(np.diff(ends))) - 1)
+        self._run = len(data) - 1 - int(ends[-1]) if ends.size else self._run + len(data)
+        if longest > MAX_LINE_BYTES:
+            raise InputError(f"{self._path}: a line longer than {MAX_LINE_BYTES} bytes; expected the rows of a "
+                             "delimited text log")
 
 
 def _data_lines(path, fmt):
