@@ -487,3 +487,74 @@ def test_long_preamble_and_long_field_answer_in_one_short_line(tmp_path, capsys,
         field.write_text(text)
         assert main(["allan", str(field), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "o")]) == 2
         _one_error(capsys, "a line longer than 65536 bytes" if len(text) > 1 << 16 else "got '99999")
+
+
+# ------------------------------------------------------------------ 7. exit statuses: 2 for what the user can fix
+
+def test_path_errors_exit_2_with_one_line(tmp_path, capsys, monkeypatch):
+    """--out under a regular file, a name too long, a symbolic-link loop, a read-only file system, a full
+    TMPDIR while spooling standard input: exit 2 and one line (they exited 1, "internal error", before)."""
+    import errno
+    import io
+    import os
+    import sys
+
+    log = _log(tmp_path / "log.csv")
+    base = ["allan", str(log), "--column", "gx", "--rate", "100", "--quiet", "--out"]
+    (tmp_path / "loop1").symlink_to(tmp_path / "loop2")
+    (tmp_path / "loop2").symlink_to(tmp_path / "loop1")
+    for out, fragment in ((log / "x", "Not a directory"), (tmp_path / ("a" * 300), "File name too long"),
+                          (tmp_path / "loop1" / "x", "a loop of symbolic links")):
+        assert main(base + [str(out)]) == 2, out
+        _one_error(capsys, "cannot write there", fragment)
+    assert main(["allan", str(tmp_path / ("b" * 300 + ".csv")), "--column", "gx", "--rate", "100", "--out",
+                 str(tmp_path / "o")]) == 2
+    _one_error(capsys, "File name too long")
+
+    real_mkdir = os.mkdir
+
+    def read_only(path, *args, **kwargs):
+        if "ro_out" in str(path):
+            raise OSError(errno.EROFS, "Read-only file system", str(path))
+        return real_mkdir(path, *args, **kwargs)
+
+    monkeypatch.setattr(os, "mkdir", read_only)
+    assert main(base + [str(tmp_path / "ro_out")]) == 2
+    _one_error(capsys, "Read-only file system")
+    monkeypatch.undo()
+
+    import tempfile
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device", "/tmp/spool")
+
+    monkeypatch.setattr(tempfile, "mkdtemp", full)
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(log.read_bytes())))
+    assert main(["allan", "-", "--column", "gx", "--rate", "100", "--out", str(tmp_path / "s")]) == 2
+    _one_error(capsys, "No space left on device")
+
+
+def test_valid_inputs_refused_before_are_accepted(tmp_path):
+    """A flat Allan deviation table (bias instability alone), a quoted field holding the delimiter, a scene with
+    a UTF-8 byte-order mark and a .npy log (read_scene and the report's reader)."""
+    from bayes_imu.allan.table import read_allan_table
+    from bayes_imu.io.readers import read_log
+    from bayes_imu.report.scene import SensorSpec, _log_allan, read_scene
+
+    flat = tmp_path / "flat.csv"
+    flat.write_text("tau,adev\n" + "".join(f"{0.01 * 2**k},1e-3\n" for k in range(10)))
+    result, _ = read_allan_table(flat, rate_hz=100)
+    assert np.all(result.adev == 1e-3)
+    quoted = tmp_path / "quoted.csv"
+    quoted.write_text('name,gx\n' + "".join(f'"unit 1, left",{i * 0.25}\n' for i in range(8)))
+    assert read_log(quoted, column="gx").values.tolist() == [i * 0.25 for i in range(8)]
+    scene = tmp_path / "scene.toml"
+    scene.write_bytes("\ufeff".encode() + (SCENE_HEAD + _sensor("log", "x.npy", 'column = "0"\nrate_hz = 100\n'
+                                                                             'units = "deg/s"\n')).encode())
+    spec = read_scene(scene).sensors[0]
+    x = np.random.default_rng(1).standard_normal(512)
+    np.save(tmp_path / "x.npy", x)
+    allan = _log_allan(spec.paths[0], "0", spec, "")
+    m1 = np.mean(np.diff(x * np.pi / 180) ** 2) / 2  # AVAR at m = 1 of the samples in rad/s, from its definition
+    assert allan.m[0] == 1 and allan.avar[0] == pytest.approx(m1, rel=1e-12)
+    assert isinstance(spec, SensorSpec)

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from .._version import __version__
-from ..report.output import safe_folder_name, staged_file, staged_folder
+from ..report.output import safe_folder_name, staged_file, staged_folder, user_os_error
 from ..report.plots import import_plotting, plot_allan_fit, plot_corner
 from ..report.worker import PICTURE_FAILED_STATUS, OutputWriter, background_default, draw_picture
 from .._progress import show_progress
@@ -965,6 +965,10 @@ def _run(args):
     except Exception as exc:  # an internal error: one line, the traceback with --debug
         if args.debug or os.environ.get("BAYES_IMU_DEBUG") == "1":
             raise
+        reason = user_os_error(exc)  # a path, permission or full disk: the user's to fix (exit 2), not a bug
+        if reason is not None:
+            print(f"bayes-imu: error: {reason}", file=sys.stderr)
+            return 2
         text = str(exc).strip().splitlines()
         print(f"bayes-imu: internal error: {type(exc).__name__}: {text[0] if text else ''} "
               "(rerun with --debug for the traceback, and please report it)", file=sys.stderr)

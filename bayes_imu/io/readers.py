@@ -187,7 +187,7 @@ def read_log(path, *, column, time_column=None, progress=False):
                    data.time_name)
 
 
-def read_columns(path, *, columns, time_column=None, progress=False):
+def read_columns(path, *, columns, time_column=None, progress=False, signal=True):
     """Read numeric columns of a delimited text log (module docstring for the accepted forms).
 
     Parameters
@@ -200,6 +200,9 @@ def read_columns(path, *, columns, time_column=None, progress=False):
         Time stamps (their unit is resolved by :mod:`bayes_imu.io.timebase`, which checks them).
     progress : bool
         Show a progress bar (bytes read) on standard error.
+    signal : bool
+        Check each column as a sensor signal (:func:`check_signal`: not constant, not absurdly large);
+        ``False`` for tables of other numbers (an Allan deviation table, whose column may be flat).
 
     Returns
     -------
@@ -224,7 +227,7 @@ def read_columns(path, *, columns, time_column=None, progress=False):
     order = [sorted(set(wanted)).index(i) for i in wanted]
     table = table[:, order]
     names = tuple(fmt["names"][i] for i in wanted)
-    for j, name in enumerate(names[: len(columns)]):
+    for j, name in enumerate(names[: len(columns)] if signal else ()):
         check_signal(table[:, j], where=f"{path}: column {excerpt(name, 40)}")
     values = np.ascontiguousarray(table[:, : len(columns)])
     time_s = lines = None
@@ -424,7 +427,14 @@ def _delimiter(rows):
 
 
 def _split(content, delimiter):
-    return content.split() if delimiter is None else content.split(delimiter)
+    """The fields of one row; a quoted field may hold the delimiter (``"a,b",1.5``), as pandas reads it."""
+    if delimiter is None:
+        return content.split()
+    if '"' in content:
+        import csv
+
+        return next(csv.reader([content], delimiter=delimiter, skipinitialspace=True))
+    return content.split(delimiter)
 
 
 _DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+([eE][+-]?\d+)?$")

@@ -40,8 +40,8 @@ from pathlib import Path
 
 from ..errors import InputError
 
-__all__ = ["staged_folder", "staged_file", "safe_folder_name", "file_hashes", "MARKER", "FILE_MARKER_SUFFIX",
-           "MIN_FREE_BYTES"]
+__all__ = ["staged_folder", "staged_file", "safe_folder_name", "file_hashes", "user_os_error", "MARKER",
+           "FILE_MARKER_SUFFIX", "MIN_FREE_BYTES", "USER_ERRNOS"]
 
 #: marker file of a bayes_imu result folder: JSON ``{"bayes_imu": version, "entries": [top-level names],
 #: "files": {relative path: sha256}, "folders": [relative paths]}``
@@ -53,6 +53,35 @@ _MARKER_FORMAT = 2
 _CLAIM = ".bayes_imu.claim"
 #: free space a run needs on the target's file system before it starts
 MIN_FREE_BYTES = 64 * 2**20
+
+
+#: system errors that are the user's to fix (a path, a permission, a full disk), never a bug: exit status 2
+USER_ERRNOS = frozenset({errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOTDIR, errno.EISDIR, errno.ENAMETOOLONG,
+                         errno.ELOOP, errno.ENOSPC, errno.EDQUOT, errno.ENOENT, errno.EXDEV,
+                         errno.EMLINK, errno.ETXTBSY})
+
+
+def user_os_error(exc):
+    """One line for a system error the user can fix (:data:`USER_ERRNOS`, a symbolic link loop), else None."""
+    if isinstance(exc, RuntimeError) and "Symlink loop" in str(exc):
+        return f"{_short(str(exc).removeprefix('Symlink loop from '), 160)}: a loop of symbolic links"
+    if not isinstance(exc, OSError) or exc.errno not in USER_ERRNOS:
+        return None
+    where = exc.filename if exc.filename is not None else "a file"
+    return f"{_short(where, 160)}: {exc.strerror or os.strerror(exc.errno)}"
+
+
+@contextmanager
+def _claiming(target):
+    """Turn a system error while claiming ``target`` (read-only file system, a file in its path, a name too long,
+    a symbolic link loop, no permission) into a one-line :class:`InputError`: nothing was written."""
+    try:
+        yield
+    except (OSError, RuntimeError) as exc:
+        reason = user_os_error(exc)
+        if reason is None:
+            raise
+        raise InputError(f"out={_short(target, 160)}: cannot write there ({reason}); nothing was written") from None
 
 
 def _check_inputs(target, inputs):
@@ -223,17 +252,20 @@ def staged_folder(target, *, force=False, inputs=()):
     from .._version import __version__
 
     target = Path(target)
-    _check_inputs(target, inputs)
-    created = _make_parents(target)
+    with _claiming(target):
+        _check_inputs(target, inputs)
+        created = _make_parents(target)
     try:
-        _check_space(target.parent, target)
-        made, previous = _claim_folder(target, force)
+        with _claiming(target):
+            _check_space(target.parent, target)
+            made, previous = _claim_folder(target, force)
     except BaseException:
         _remove_created(created)
         raise
     tmp = None
     try:
-        tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.partial-", dir=target.parent))
+        with _claiming(target):
+            tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.partial-", dir=target.parent))
         _umask_mode(tmp, 0o777)
         yield tmp
         entries = sorted(p.name for p in tmp.iterdir())
@@ -303,15 +335,17 @@ def staged_file(target, *, force=False, inputs=()):
     from .._version import __version__
 
     target = Path(target)
-    if target.is_dir():
-        raise InputError(f"out={target}: is a folder; expected a file name")
-    _check_inputs(target, inputs)
-    created = _make_parents(target)
+    with _claiming(target):
+        if target.is_dir():
+            raise InputError(f"out={target}: is a folder; expected a file name")
+        _check_inputs(target, inputs)
+        created = _make_parents(target)
     made = False
     try:
         _check_space(target.parent, target)
         try:
-            os.close(os.open(target, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
+            with _claiming(target):
+                os.close(os.open(target, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
             made = True
         except FileExistsError:
             if not force:
