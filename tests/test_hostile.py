@@ -558,3 +558,170 @@ def test_valid_inputs_refused_before_are_accepted(tmp_path):
     m1 = np.mean(np.diff(x * np.pi / 180) ** 2) / 2  # AVAR at m = 1 of the samples in rad/s, from its definition
     assert allan.m[0] == 1 and allan.avar[0] == pytest.approx(m1, rel=1e-12)
     assert isinstance(spec, SensorSpec)
+
+
+# ------------------------------------------------------------------ 6. plausibility of units, steps
+
+def test_units_a_static_log_contradicts_are_named(rng):
+    """A deg/s gyro log (bias 4.5 deg/s) declared rad/s: 4.5 rad/s, implausible, deg/s named; three accelerometer
+    axes in g declared mg: a 0.001 g norm, g named; the right units pass; a log no unit explains is fatal."""
+    from bayes_imu.io.plausible import check_units
+
+    n = 5000
+    gyro = 4.5 + 0.1 * rng.standard_normal(n)
+    found = check_units(gyro, "rad/s", 100.0)
+    assert "mean rate of 4.5 rad/s" in str(found) and found.likely == ("deg/s",) and not found.fatal
+    assert check_units(gyro, "deg/s", 100.0) is None
+    accel = np.column_stack([0.004 * rng.standard_normal(n), 0.004 * rng.standard_normal(n),
+                             1.0 + 0.004 * rng.standard_normal(n)])
+    found = check_units(accel, "mg", 100.0)
+    assert "norm of 0.001 g" in str(found) and found.likely == ("g",)
+    assert check_units(accel, "g", 100.0) is None
+    assert check_units(1e9 + rng.standard_normal(n), "deg/h", 100.0).fatal
+
+
+def test_a_step_in_the_middle_is_flagged(rng):
+    """A 20-sigma step halfway: found where it is, its size within 1 sigma of 20 (the window means' noise is 0.18
+    sigma); white noise and a random walk of the same per-sample noise are not flagged."""
+    from bayes_imu.io.plausible import find_step
+
+    x = rng.standard_normal(20000)
+    assert find_step(x) is None
+    assert find_step(x + np.cumsum(0.01 * rng.standard_normal(20000))) is None
+    x[10000:] += 20.0
+    at, size = find_step(x)
+    assert at == 10000 and abs(size - 20.0) < 1.0
+
+
+def test_cli_warns_of_units_and_steps_and_refuses_nonsense(tmp_path, capsys):
+    gyro = tmp_path / "gyro.csv"
+    values = 4.5 + 0.1 * np.random.default_rng(3).standard_normal(400)
+    gyro.write_text("gx\n" + "".join(f"{v:.6f}\n" for v in values))
+    args = ["allan", str(gyro), "--column", "gx", "--rate", "100", "--quiet", "--units", "rad/s"]
+    assert main(args + ["--out", str(tmp_path / "a")]) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "warning" in err and "plausible in deg/s" in err
+    assert main(args + ["--out", str(tmp_path / "b"), "--trust-units"]) == 0
+    assert capsys.readouterr().err == ""
+    nonsense = tmp_path / "n.csv"
+    nonsense.write_text("gx\n" + "".join(f"{1e9 + v:.6f}\n" for v in values))
+    assert main(["allan", str(nonsense), "--column", "gx", "--rate", "100", "--units", "deg/h",
+                 "--out", str(tmp_path / "c")]) == 2
+    _one_error(capsys, "no unit makes it plausible", "--trust-units")
+    step = tmp_path / "step.csv"
+    x = np.random.default_rng(4).standard_normal(2000)
+    x[1000:] += 20
+    step.write_text("gx\n" + "".join(f"{v:.6f}\n" for v in x))
+    assert main(["allan", str(step), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "d"), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "its level steps by" in err and "at sample 1001" in err, err
+
+
+# ------------------------------------------------------------------ 8. names through every output format
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+#: pieces of hostile names: shell, YAML, HTML, TeX/mathtext, control and line-separator characters
+_PIECES = ["$", "$x$", "\\", "_", "^", "{", "}", "%", "#", "&", "<script>", "</b>", "'", '"', "`", ";", "|", "&&",
+           "$(rm -rf ~)", "\n", "\r", "\x85", "\u2028", "\u2029", "\x1b[2J", "\t", "\x00", ": ", "- ", "key: 1e-12",
+           "---", "...", "!!python/object", "*alias", "&anchor", "--terms=white", "-", ".", "..", "/", "~", "=",
+           "\u00b5", "\U0001f600", " "]
+_NAMES = st.lists(st.sampled_from(_PIECES) | st.text(max_size=3), min_size=1, max_size=8).map("".join)
+
+
+@settings(max_examples=60, deadline=None)
+@given(name=_NAMES)
+def test_hostile_names_through_yaml_json_folders_and_messages(name):
+    """A name made of shell, YAML, HTML, TeX and control characters: imu.yaml still parses to exactly the Kalibr
+    keys and values (the name only in sanitised comments), JSON round-trips it, a folder made from it is one plain
+    path component, and an error excerpt of it is one printable line of at most 80 characters."""
+    import tempfile
+    from pathlib import Path
+
+    import yaml
+
+    from bayes_imu.io.readers import excerpt
+    from bayes_imu.report.kalibr import KalibrValues, write_kalibr_yaml
+    from bayes_imu.report.output import safe_folder_name
+
+    values = {"gyroscope_noise_density": 1.5e-4, "gyroscope_random_walk": 2.5e-6, "update_rate": 200.0}
+    per_axis = {"gyroscope_noise_density": [(name, 1.5e-4), ("b", 1e-4)],
+                "gyroscope_random_walk": [(name, 2.5e-6), ("b", 1e-6)]}
+    result = KalibrValues(values, per_axis, "posterior medians", (name,))
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "imu.yaml"
+        write_kalibr_yaml(result, path)
+        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+    assert doc == {**values, "rostopic": "/imu0"}
+    assert json.loads(json.dumps({"name": name}))["name"] == name
+    folder = safe_folder_name(name)
+    assert folder not in ("", ".", "..") and all(c.isalnum() and c.isascii() or c in "_.-" for c in folder)
+    line = excerpt(name)
+    assert len(line) <= 80 and line.isprintable()
+
+
+@pytest.fixture(scope="module")
+def small_report(fit_folder):
+    """A report of one sensor read from the shared fit folder (no refit)."""
+    from bayes_imu.report.scene import build_report, read_scene
+
+    scene = fit_folder.parent / "scene.toml"
+    scene.write_text(SCENE_HEAD + '[[sensor]]\nname = "s"\nkind = "gyro"\nfit = "g"\n')
+    return build_report(read_scene(scene), rng=0)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(name=_NAMES)
+def test_hostile_names_through_html(small_report, name):
+    """The same names as a sensor's name: the HTML page has exactly the elements and attributes it has for a plain
+    name (no tag, script or attribute of the name survives), and shows the name's text as often as the plain one
+    (the sections' pictures are left out here: tests below draw them)."""
+    import dataclasses
+    from html.parser import HTMLParser
+    from unittest import mock
+
+    import bayes_imu.report.html as report_html_module
+
+    sensor = small_report.sensors[0]
+
+    def page_of(text):
+        renamed = dataclasses.replace(sensor, spec=dataclasses.replace(sensor.spec, name=text))
+        report = dataclasses.replace(small_report, sensors=(renamed,), ranking=(text,))
+        with mock.patch.object(report_html_module, "_png", lambda *args, **kwargs: ""):
+            return report_html_module.report_html(report, b"")
+
+    class Collect(HTMLParser):
+        def __init__(self, page):
+            super().__init__(convert_charrefs=True)
+            self.tags, self.text = [], []
+            self.feed(page)
+            self.close()
+
+        def handle_starttag(self, tag, attrs):
+            self.tags.append((tag, sorted(k for k, _ in attrs)))
+
+        def handle_data(self, data):
+            self.text.append(data)
+
+    plain, parsed = Collect(page_of("PLAIN")), Collect(page_of(name))
+    assert parsed.tags == plain.tags
+    if name.strip() and not any(c in name for c in "\r\x00"):  # HTML parsing normalises CR and drops NUL
+        assert "".join(parsed.text).count(name) >= "".join(plain.text).count("PLAIN") > 0
+
+
+@pytest.mark.parametrize("name", ["run$1_$2", "$x^2$ \\frac{a}{b}", "<script>alert(1)</script>", "a\nb\r\x1b[2J",
+                                  "\u2028\x85 & \\$"])
+def test_hostile_names_through_pictures(small_report, name):
+    """A sensor or log name of TeX, HTML and control characters: the comparison chart and a labelled Allan plot
+    draw (no mathtext from user text)."""
+    import dataclasses
+    import io
+
+    from bayes_imu.report.html import _comparison_figure
+    from bayes_imu.report.plots import plot_allan
+
+    sensor = small_report.sensors[0]
+    renamed = dataclasses.replace(sensor, spec=dataclasses.replace(sensor.spec, name=name))
+    _comparison_figure(dataclasses.replace(small_report, sensors=(renamed,), ranking=(name,)), io.BytesIO())
+    plot_allan(sensor.fit.allan, io.BytesIO(), label=name)

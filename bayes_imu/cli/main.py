@@ -112,7 +112,7 @@ _FORWARDED = (("column", "--column"), ("topic", "--topic"), ("stream", "--stream
               ("terms", "--terms"), ("likelihood", "--likelihood"), ("sensor", "--sensor"), ("horizon", "--horizon"),
               ("bias_start", "--bias-start"), ("calibration", "--calibration"), ("models", "--models"),
               ("times", "--times"), ("discrepancy", "--discrepancy"), ("input", "--input"),
-              ("display_units", "--display-units"))
+              ("display_units", "--display-units"), ("trust_units", "--trust-units"))
 
 
 def _input_options(batch=False, optional_log=False):
@@ -142,6 +142,8 @@ def _input_options(batch=False, optional_log=False):
     common.add_argument("--units", "--unit", dest="units", choices=tuple(UNITS) + tuple(INCREMENT_UNITS),
                         help="units of the column(s), converted to SI (rad/s, m/s^2): rates " + ", ".join(UNITS)
                              + "; increments " + ", ".join(INCREMENT_UNITS) + "; default: left as they are")
+    common.add_argument("--trust-units", action="store_true",
+                        help="skip the check that a static log is plausible in --units (a moving log, a test rig)")
     common.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
     common.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
     common.add_argument("--quiet", action="store_true", help="no progress bars or messages")

@@ -38,6 +38,7 @@ class SourceOptions:
     allan_table: Path = None
     samples: int = None
     progress: bool = False
+    trust_units: bool = False
 
     @classmethod
     def from_namespace(cls, args):
@@ -161,9 +162,34 @@ def _read(opts, command):
                           column=getattr(data, "time_name", None))
     values = data.values[timebase.start:timebase.stop]
     _require_samples(opts, values.shape[0], command)
+    _plausible(opts, values, timebase.rate_hz, data.columns)
     info = {"log": str(opts.log), "columns": list(data.columns), "delimiter": data.delimiter, "header": data.header,
             "read": "in memory", **timebase.to_json()}
     return data.columns, values, timebase.rate_hz, info
+
+
+def _plausible(opts, values, rate_hz, columns):
+    """Warn of a step in a column, and of declared units a static log contradicts (an error where no unit fits,
+    unless --trust-units): :mod:`bayes_imu.io.plausible`."""
+    import warnings
+
+    from ..io.plausible import PlausibilityWarning, check_units, find_step
+
+    for j, column in enumerate(columns):
+        step = find_step(values[:, j])
+        if step is not None:
+            warnings.warn(f"{opts.log}: column {column!r}: its level steps by {step[1]:.3g} sigma of its noise at "
+                          f"sample {step[0] + 1}; a step is not noise (the fit treats it as slow drift): cut the log "
+                          "there, or check the sensor", PlausibilityWarning, stacklevel=2)
+    if opts.units is None or opts.units not in UNITS or opts.input != "rate" or opts.trust_units:
+        return
+    found = check_units(values, opts.units, rate_hz)
+    if found is None:
+        return
+    if found.fatal:
+        raise InputError(f"{opts.log}: {found}; give --trust-units if the log is what it should be")
+    warnings.warn(f"{opts.log}: {found} (--units {opts.units} as given; --trust-units silences this)",
+                  PlausibilityWarning, stacklevel=2)
 
 
 def _require_samples(opts, n, command):
