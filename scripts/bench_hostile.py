@@ -54,13 +54,23 @@ def build(folder):
     os.mkfifo(fifo)
     outside = folder / "scenes" / "outside.toml"
     outside.parent.mkdir()
-    outside.write_text('[scene]\noutages_s = [10]\n[[sensor]]\nname = "s"\nkind = "gyro"\nlog = "/etc/passwd"\n'
-                       'column = "0"\nrate_hz = 100\nunits = "deg/s"\n')
+    outside.write_text(
+        '[scene]\noutages_s = [10]\n[[sensor]]\nname = "s"\nkind = "gyro"\nlog = "/etc/passwd"\n'
+        'column = "0"\nrate_hz = 100\nunits = "deg/s"\n'
+    )
     sensor = folder / "sensor.json"
     sensor.write_text(json.dumps({"kind": "gyro", "rate_hz": 100, "noise_density": 1e-3}))
-    return {"good.csv": good, "bomb.csv.gz (1 GiB in 1 MB)": bomb, "preamble.csv (40 MiB comment)": preamble,
-            "field.csv (100 MiB field)": field, "fifo.toml (no writer)": fifo, "outside.toml": outside,
-            "sensor.json": sensor, "/dev/zero": Path("/dev/zero"), "/dev/urandom": Path("/dev/urandom")}
+    return {
+        "good.csv": good,
+        "bomb.csv.gz (1 GiB in 1 MB)": bomb,
+        "preamble.csv (40 MiB comment)": preamble,
+        "field.csv (100 MiB field)": field,
+        "fifo.toml (no writer)": fifo,
+        "outside.toml": outside,
+        "sensor.json": sensor,
+        "/dev/zero": Path("/dev/zero"),
+        "/dev/urandom": Path("/dev/urandom"),
+    }
 
 
 def crafted_fit(folder, fit):
@@ -79,23 +89,34 @@ def crafted_fit(folder, fit):
 
 
 def run(argv, limit, timeout):
-    """``(status, seconds, peak MiB)`` of ``bayes-imu argv`` in a fresh, limited process."""
+    """``(status, seconds, peak MiB, last stderr line)`` of ``bayes-imu argv`` in a fresh, limited
+    process."""
+
     def limited():
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
 
     env = dict(os.environ, PYTHONPATH=str(ROOT), BAYES_IMU_OUTPUT_PROCESS="0")
-    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
     start = time.perf_counter()
-    try:
-        done = subprocess.run([sys.executable, "-m", "bayes_imu.cli", *argv], env=env, preexec_fn=limited,
-                              capture_output=True, text=True, timeout=timeout)
-        status, err = done.returncode, done.stderr.strip().splitlines()
-    except subprocess.TimeoutExpired:
-        status, err = "timeout", []
+    with tempfile.TemporaryFile("w+") as err:
+        child = subprocess.Popen([sys.executable, "-m", "bayes_imu.cli", *argv], env=env,
+                                 preexec_fn=limited, stdout=subprocess.DEVNULL, stderr=err, text=True)
+        deadline = start + timeout
+        while True:  # this child's own resource usage (wait4), polled until it ends or times out
+            pid, status, usage = os.wait4(child.pid, os.WNOHANG)
+            if pid:
+                break
+            if time.perf_counter() > deadline:
+                child.kill()
+                pid, status, usage = os.wait4(child.pid, 0)
+                status = None
+                break
+            time.sleep(0.02)
+        child.returncode = 0  # reaped here: keep Popen from waiting again
+        err.seek(0)
+        lines = err.read().strip().splitlines()
     seconds = time.perf_counter() - start
-    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    # ru_maxrss of children is the largest of any child so far: a case that used less shows the earlier peak
-    return status, seconds, max(peak, before) / 1024.0, (err[-1][:110] if err else "")
+    code = "timeout" if status is None else os.waitstatus_to_exitcode(status)
+    return code, seconds, usage.ru_maxrss / 1024.0, (lines[-1][:110] if lines else "")
 
 
 def main():
@@ -109,11 +130,36 @@ def main():
         inputs = build(folder)
         out = folder / "out"
         cases = [
-            ("fit", inputs["good.csv"], ["--column", "gx", "--rate", "100", "--units", "deg/s", "--terms", "white",
-                                          "--out", str(folder / "fit")], 0),
-            ("allan", inputs["bomb.csv.gz (1 GiB in 1 MB)"], ["--column", "gx", "--rate", "100"], 2),
+            (
+                "fit",
+                inputs["good.csv"],
+                [
+                    "--column",
+                    "gx",
+                    "--rate",
+                    "100",
+                    "--units",
+                    "deg/s",
+                    "--terms",
+                    "white",
+                    "--out",
+                    str(folder / "fit"),
+                ],
+                0,
+            ),
+            (
+                "allan",
+                inputs["bomb.csv.gz (1 GiB in 1 MB)"],
+                ["--column", "gx", "--rate", "100"],
+                2,
+            ),
             ("fit", inputs["bomb.csv.gz (1 GiB in 1 MB)"], ["--column", "gx", "--rate", "100"], 2),
-            ("allan", inputs["preamble.csv (40 MiB comment)"], ["--column", "gx", "--rate", "100"], 2),
+            (
+                "allan",
+                inputs["preamble.csv (40 MiB comment)"],
+                ["--column", "gx", "--rate", "100"],
+                2,
+            ),
             ("allan", inputs["field.csv (100 MiB field)"], ["--column", "gx", "--rate", "100"], 2),
             ("report", inputs["fifo.toml (no writer)"], [], 2),
             ("report", inputs["/dev/urandom"], [], 2),
@@ -124,7 +170,10 @@ def main():
             ("drift", inputs["sensor.json"], [], 0),
         ]
         print(f"address-space limit {args.limit_gib:g} GiB, time limit {args.timeout:g} s")
-        print(f"{'command':8s} {'input':32s} {'status':>7s} {'want':>5s} {'wall s':>7s} {'peak MiB':>9s}  message")
+        print(
+            f"{'command':8s} {'input':32s} {'status':>7s} {'want':>5s} {'wall s':>7s} "
+            f"{'peak MiB':>9s}  message"
+        )
         rows = []
         for command, path, extra, want in cases:
             argv = [command, str(path), *extra]
@@ -133,12 +182,24 @@ def main():
             rows.append((command, path, *run(argv, limit, args.timeout), want))
             if command == "fit" and want == 0:
                 crafted = crafted_fit(folder, folder / "fit")
-        rows.append(("kalibr", Path("crafted_fit (6 GiB header)"),
-                     *run(["kalibr", "--gyro", str(crafted), "--out", str(folder / "imu.yaml")], limit, args.timeout),
-                     2))
+        rows.append(
+            (
+                "kalibr",
+                Path("crafted_fit (6 GiB header)"),
+                *run(
+                    ["kalibr", "--gyro", str(crafted), "--out", str(folder / "imu.yaml")],
+                    limit,
+                    args.timeout,
+                ),
+                2,
+            )
+        )
         for command, path, status, seconds, peak, message, want in rows:
             name = next((k for k, v in inputs.items() if v == path), path.name)
-            print(f"{command:8s} {name:32s} {status!s:>7s} {want:>5d} {seconds:7.2f} {peak:9.0f}  {message}")
+            print(
+                f"{command:8s} {name:32s} {status!s:>7s} {want:>5d} {seconds:7.2f} "
+                f"{peak:9.0f}  {message}"
+            )
         bad = [r for r in rows if r[2] != r[-1]]
         print("all as expected" if not bad else f"{len(bad)} case(s) not as expected")
         return 1 if bad else 0

@@ -202,7 +202,8 @@ def test_files_saved_into_out_during_the_run_are_kept(tmp_path, log, monkeypatch
         (tmp_path / "out2" / "notes.txt").write_text("mine")
         raise ValueError("boom")
 
-    # a failure that is not a picture's (a picture's own failure keeps the numbers: tests/test_hostile.py)
+    # a failure that is not a picture's (a picture's own failure keeps the numbers:
+    # tests/test_hostile.py)
     monkeypatch.setattr(importlib.import_module("bayes_imu.cli.main"), "draw_picture", fails_after_notes)
     assert main(args + ["--out", str(tmp_path / "out2")]) == 1
     assert sorted(p.name for p in (tmp_path / "out2").iterdir()) == ["notes.txt"]

@@ -11,7 +11,8 @@ Every output is written to a temporary folder beside ``--out`` and moved into pl
 when complete; an existing non-empty ``--out`` is refused unless ``--force``.
 
 Exit status: 0 success, 2 a user error (one line on stderr, no traceback unless
-``--debug``), 1 an unexpected internal error (one line; ``--debug`` for the traceback).
+``--debug``), 3 the numbers written but a picture not drawn (one warning line each), 1 an
+unexpected internal error (one line; ``--debug`` for the traceback).
 """
 
 import argparse
@@ -391,7 +392,8 @@ def _fit(args):
 
 
 def _pictures_status(failures):
-    """0, or :data:`PICTURE_FAILED_STATUS` with one warning line per picture not drawn (the numbers were kept)."""
+    """0, or :data:`PICTURE_FAILED_STATUS` with one warning line per picture not drawn (the numbers
+    were kept)."""
     failures = [f for f in failures if f is not None]
     for failure in failures:
         _warn(str(failure))

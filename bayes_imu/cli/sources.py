@@ -169,7 +169,8 @@ def _read(opts, command):
 
 
 def _plausible(opts, values, rate_hz, columns):
-    """Warn of a step in a column, and of declared units a static log contradicts (an error where no unit fits,
+    """Warn of a step in a column, and of declared units a static log contradicts (an error where
+    no unit fits,
     unless --trust-units): :mod:`bayes_imu.io.plausible`."""
     import warnings
 

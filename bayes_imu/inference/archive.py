@@ -33,7 +33,8 @@ from .stationarity import Stationarity
 __all__ = ["save_fit", "load_fit", "fit_axes", "write_netcdf", "ARCHIVE_NAME"]
 
 ARCHIVE_NAME = "fit.npz"
-#: largest ratio of the arrays' declared bytes to the archive's size (``savez_compressed`` of a fit: about 1.3)
+#: largest ratio of the arrays' declared bytes to the archive's size (``savez_compressed`` of a
+#: fit: about 1.3)
 MAX_EXPANSION = 64
 _FORMAT = 1
 _ALLAN_ARRAYS = ("tau", "m", "avar", "adev", "n_terms", "edf", "alpha", "avar_low", "avar_high")
@@ -137,7 +138,8 @@ def _short(value, limit=80):
 
 
 def _check_sizes(file):
-    """Refuse an archive whose arrays declare more than :data:`MAX_EXPANSION` times its size, or hold objects,
+    """Refuse an archive whose arrays declare more than :data:`MAX_EXPANSION` times its size, or
+    hold objects,
     from the headers alone (nothing allocated)."""
     size = file.stat().st_size
     total = 0

@@ -26,8 +26,19 @@ import numpy as np
 
 from .readers import UNITS
 
-__all__ = ["check_units", "find_step", "Plausibility", "PlausibilityWarning", "MAX_GYRO_MEAN", "MAX_ACCEL_MEAN", "GRAVITY_NORM",
-           "GYRO_DENSITY", "ACCEL_DENSITY", "STEP_SIGMAS", "STEP_WINDOW"]
+__all__ = [
+    "check_units",
+    "find_step",
+    "Plausibility",
+    "PlausibilityWarning",
+    "MAX_GYRO_MEAN",
+    "MAX_ACCEL_MEAN",
+    "GRAVITY_NORM",
+    "GYRO_DENSITY",
+    "ACCEL_DENSITY",
+    "STEP_SIGMAS",
+    "STEP_WINDOW",
+]
 
 G = 9.80665
 EARTH_RATE = 7.292115e-5
@@ -39,7 +50,8 @@ MAX_ACCEL_MEAN = 1.5 * G
 GRAVITY_NORM = (0.7 * G, 1.3 * G)
 #: plausible white-noise density of a gyro (rad/s/sqrt(Hz)): 0.01 deg/sqrt(h) .. 170 deg/sqrt(h)
 GYRO_DENSITY = (5e-8, 0.05)
-#: plausible white-noise density of an accelerometer (m/s^2/sqrt(Hz)): 1 ug/sqrt(Hz) .. 5 mg/sqrt(Hz)
+#: plausible white-noise density of an accelerometer (m/s^2/sqrt(Hz)): 1 ug/sqrt(Hz) .. 5
+#: mg/sqrt(Hz)
 ACCEL_DENSITY = (9.8e-6, 0.05)
 #: a level shift of this many per-sample sigmas between adjacent windows is a step
 STEP_SIGMAS = 10.0
@@ -52,7 +64,8 @@ class PlausibilityWarning(UserWarning):
 
 
 class Plausibility:
-    """What :func:`check_units` found: ``message`` (one line), ``likely`` (units under which the log would pass)
+    """What :func:`check_units` found: ``message`` (one line), ``likely`` (units under which the
+    log would pass)
     and ``fatal`` (no unit passes)."""
 
     def __init__(self, message, likely, fatal):
@@ -63,7 +76,8 @@ class Plausibility:
 
 
 def _density(values, rate_hz):
-    """White-noise density from first differences: ``sd(diff) / sqrt(2 rate)`` (robust: MAD, else sd)."""
+    """White-noise density from first differences: ``sd(diff) / sqrt(2 rate)`` (robust: MAD, else
+    sd)."""
     d = np.diff(values, axis=0)
     mad = np.median(np.abs(d - np.median(d, axis=0)), axis=0) / 0.6744897501960817
     sd = np.where(mad > 0, mad, np.std(d, axis=0))
@@ -71,21 +85,31 @@ def _density(values, rate_hz):
 
 
 def _problems(mean, density, kind):
-    """What is implausible about SI axis means and densities of a static ``kind`` log ([] if nothing)."""
+    """What is implausible about SI axis means and densities of a static ``kind`` log ([] if
+    nothing)."""
     out = []
     if kind == "gyro":
         worst = float(np.max(np.abs(mean)))
         if worst > MAX_GYRO_MEAN:
-            out.append(f"a mean rate of {worst:.3g} rad/s (a static gyro reads at most about {MAX_GYRO_MEAN:g})")
+            out.append(
+                f"a mean rate of {worst:.3g} rad/s "
+                f"(a static gyro reads at most about {MAX_GYRO_MEAN:g})"
+            )
         low, high = GYRO_DENSITY
     else:
         worst = float(np.max(np.abs(mean)))
         if worst > MAX_ACCEL_MEAN:
-            out.append(f"a mean of {worst / G:.3g} g on one axis (a static accelerometer reads at most about 1 g)")
+            out.append(
+                f"a mean of {worst / G:.3g} g on one axis "
+                "(a static accelerometer reads at most about 1 g)"
+            )
         if mean.size == 3:
             norm = float(np.linalg.norm(mean))
             if not GRAVITY_NORM[0] <= norm <= GRAVITY_NORM[1]:
-                out.append(f"three axes whose means have a norm of {norm / G:.3g} g (a static accelerometer: 1 g)")
+                out.append(
+                    f"three axes whose means have a norm of {norm / G:.3g} g "
+                    "(a static accelerometer: 1 g)"
+                )
         low, high = ACCEL_DENSITY
     for d in np.atleast_1d(density):
         if d > 0 and not low <= d <= high:
@@ -95,7 +119,8 @@ def _problems(mean, density, kind):
 
 
 def check_units(values, units, rate_hz):
-    """Whether a static log in ``units`` (a key of :data:`~bayes_imu.io.readers.UNITS`) is plausible.
+    """Whether a static log in ``units`` (a key of :data:`~bayes_imu.io.readers.UNITS`) is
+    plausible.
 
     Parameters
     ----------
@@ -116,20 +141,32 @@ def check_units(values, units, rate_hz):
     found = _problems(mean * factor, density * factor, kind)
     if not found:
         return None
-    likely = [u for u, (k, f) in UNITS.items() if k == kind and u != units and not _problems(mean * f, density * f, kind)]
+    likely = [
+        u
+        for u, (k, f) in UNITS.items()
+        if k == kind and u != units and not _problems(mean * f, density * f, kind)
+    ]
     if likely:
-        advice = (f"the log is plausible in {likely[0]}: is that its unit?" if len(likely) == 1 else
-                  f"the log is plausible in {' or '.join(likely)}: is its unit one of them?")
+        advice = (
+            f"the log is plausible in {likely[0]}: is that its unit?"
+            if len(likely) == 1
+            else f"the log is plausible in {' or '.join(likely)}: is its unit one of them?"
+        )
     else:
         advice = "no unit makes it plausible (a moving or broken sensor, a wrong column?)"
-    return Plausibility(f"in {units} the log shows {'; '.join(found)}; {advice}", likely, not likely)
+    return Plausibility(
+        f"in {units} the log shows {'; '.join(found)}; {advice}", likely, not likely
+    )
 
 
 def find_step(values, *, sigmas=STEP_SIGMAS, window=STEP_WINDOW):
-    """The largest level shift between two adjacent ``window``-sample means, if it is at least ``sigmas`` times
-    the per-sample noise: ``(index of the first sample after the step, size in sigmas)``, else ``None``.
+    """The largest level shift between two adjacent ``window``-sample means, if it is at least
+    ``sigmas`` times
+    the per-sample noise: ``(index of the first sample after the step, size in sigmas)``, else
+    ``None``.
 
-    The per-sample noise is the robust spread of first differences over sqrt(2) (a step is one difference,
+    The per-sample noise is the robust spread of first differences over sqrt(2) (a step is one
+    difference,
     it does not inflate it). A log shorter than four windows, or without spread, is not checked.
     """
     x = np.asarray(values, dtype=np.float64)

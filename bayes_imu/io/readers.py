@@ -59,8 +59,10 @@ _DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab"}
 
 
 def excerpt(value, limit=80, *, quoted=True):
-    """``repr(value)`` (or ``str`` with ``quoted=False``) for an error message: control characters as ``?``, at
-    most ``limit`` characters (a file's content is never quoted at length: a 100 MB field, or the first line of
+    """``repr(value)`` (or ``str`` with ``quoted=False``) for an error message: control characters
+    as ``?``, at
+    most ``limit`` characters (a file's content is never quoted at length: a 100 MB field, or the
+    first line of
     a private file)."""
     text = "".join(c if c.isprintable() else "?" for c in (repr(value) if quoted else str(value)))
     return text if len(text) <= limit else text[: limit - 3] + "..."
@@ -81,7 +83,8 @@ def read_json_object(path, what):
     return doc
 
 
-#: largest scene, sensor or summary file read (bytes): a larger one, a pipe or a device is refused unread
+#: largest scene, sensor or summary file read (bytes): a larger one, a pipe or a device is refused
+#: unread
 MAX_TEXT_BYTES = 16 * 2**20
 
 
@@ -162,7 +165,8 @@ class LogData:
     header : bool
         Whether the file has a header row.
     time_name : str or None
-        The time column's name (its unit may be in it: :func:`bayes_imu.io.timebase.unit_from_name`).
+        The time column's name (its unit may be in it:
+        :func:`bayes_imu.io.timebase.unit_from_name`).
     """
 
     values: np.ndarray
@@ -201,7 +205,8 @@ def read_columns(path, *, columns, time_column=None, progress=False, signal=True
     progress : bool
         Show a progress bar (bytes read) on standard error.
     signal : bool
-        Check each column as a sensor signal (:func:`check_signal`: not constant, not absurdly large);
+        Check each column as a sensor signal (:func:`check_signal`: not constant, not absurdly
+        large);
         ``False`` for tables of other numbers (an Allan deviation table, whose column may be flat).
 
     Returns
@@ -282,17 +287,21 @@ class SignalExtent:
                              "(smaller values underflow the Allan variance: rescale the column)")
 
 
-#: a gzip log may decompress to at most this many times its compressed size (plus :data:`GZIP_ALLOWANCE`): a
+#: a gzip log may decompress to at most this many times its compressed size (plus
+#: :data:`GZIP_ALLOWANCE`): a
 #: numeric log compresses 3-10x; a 6 MB file of 4 GiB is a decompression bomb, refused as it streams
 MAX_GZIP_RATIO = 100
 GZIP_ALLOWANCE = 16 * 2**20
-#: the format is detected from at most this many bytes: a longer comment preamble or first line is refused
+#: the format is detected from at most this many bytes: a longer comment preamble or first line is
+#: refused
 MAX_SNIFF_BYTES = 16 * 2**20
 
 
 class _Bounded(io.RawIOBase):
-    """A gzip stream that raises :class:`InputError` once it has given more than :data:`MAX_GZIP_RATIO` times the
-    compressed bytes read so far (plus :data:`GZIP_ALLOWANCE`): memory and time bounded by the file's size."""
+    """A gzip stream that raises :class:`InputError` once it has given more than
+    :data:`MAX_GZIP_RATIO` times the
+    compressed bytes read so far (plus :data:`GZIP_ALLOWANCE`): memory and time bounded by the
+    file's size."""
 
     def __init__(self, stream, raw, path):
         self._stream, self._raw, self._path, self._out = stream, raw, path, 0
@@ -320,7 +329,8 @@ class _Bounded(io.RawIOBase):
 
 
 def open_binary(path):
-    """File object of the (decompressed) bytes; gzip detected by its magic number, its expansion bounded
+    """File object of the (decompressed) bytes; gzip detected by its magic number, its expansion
+    bounded
     (:data:`MAX_GZIP_RATIO`)."""
     raw = open(path, "rb")
     magic = raw.read(2)
@@ -427,7 +437,8 @@ def _delimiter(rows):
 
 
 def _split(content, delimiter):
-    """The fields of one row; a quoted field may hold the delimiter (``"a,b",1.5``), as pandas reads it."""
+    """The fields of one row; a quoted field may hold the delimiter (``"a,b",1.5``), as pandas
+    reads it."""
     if delimiter is None:
         return content.split()
     if '"' in content:
@@ -611,13 +622,15 @@ def csv_options(fmt, usecols):
             "skipinitialspace": True, "engine": "c"}
 
 
-#: longest line of a text log (bytes): a longer one is refused as it streams past (memory stays bounded)
+#: longest line of a text log (bytes): a longer one is refused as it streams past (memory stays
+#: bounded)
 MAX_LINE_BYTES = 1 << 20
 
 
 class _Counting(io.RawIOBase):
     """Byte stream that advances a progress bar by the compressed bytes consumed, and counts the byte
-    ``delimiter`` (an ASCII code) in what it passes on (:attr:`delimiters`) when given one. A line longer than
+    ``delimiter`` (an ASCII code) in what it passes on (:attr:`delimiters`) when given one. A line
+    longer than
     :data:`MAX_LINE_BYTES` raises :class:`InputError` (naming ``path``) as it passes."""
 
     def __init__(self, stream, raw, bar, delimiter=None, path="log"):

@@ -42,7 +42,8 @@ STEP_TOLERANCE = 0.5
 RATE_TOLERANCE = 0.01
 #: plausible sample rates of an inertial sensor log (Hz)
 RATE_RANGE = (0.01, 1e6)
-#: the rates of nearly every IMU log (Hz): stamps in an unstated unit giving a rate outside it, where another
+#: the rates of nearly every IMU log (Hz): stamps in an unstated unit giving a rate outside it,
+#: where another
 #: unit gives one inside it, are refused (:func:`check_time`)
 TYPICAL_RATE_RANGE = (1.0, 1e4)
 #: units of time stamps and their factor to seconds
@@ -56,7 +57,8 @@ _NAME_PARTS = re.compile(r"[^0-9a-z\u00b5\u03bc]+")
 
 
 def unit_from_name(name):
-    """The time unit a column's name states (``t_ms`` -> ``"ms"``, ``time [us]`` -> ``"us"``), or ``None``.
+    """The time unit a column's name states (``t_ms`` -> ``"ms"``, ``time [us]`` -> ``"us"``), or
+    ``None``.
 
     The name is split at every character other than a letter or digit; the last part that is a
     unit word (:data:`TIME_UNITS`' keys, ``sec``, ``msec``, ``usec``, ``nsec``, ``micros``,
@@ -78,7 +80,8 @@ def check_rate(rate_hz, source="--rate", where=None):
 
 
 def _unit_rates(step_raw):
-    """``{unit: rate_hz}`` of a median step in raw stamp units, for every unit of :data:`TIME_UNITS`."""
+    """``{unit: rate_hz}`` of a median step in raw stamp units, for every unit of
+    :data:`TIME_UNITS`."""
     return {unit: 1.0 / (step_raw * factor) for unit, factor in TIME_UNITS.items()}
 
 
@@ -93,7 +96,8 @@ def _likely_units(step_raw):
 
 
 def _stamp_hint(step_raw, given):
-    """Every unit's rate for a median step ``step_raw`` (raw units) and the likely unit, for an error message."""
+    """Every unit's rate for a median step ``step_raw`` (raw units) and the likely unit, for an
+    error message."""
     rates = ", ".join(f"{u}: {r:.4g} Hz" for u, r in _unit_rates(step_raw).items())
     likely = [u for u in _likely_units(step_raw) if u != given]
     if not likely:
@@ -278,14 +282,16 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
 
 
 def _unlikely(step_raw):
-    """Seconds (assumed) give a rate outside :data:`TYPICAL_RATE_RANGE` while another unit gives one inside."""
+    """Seconds (assumed) give a rate outside :data:`TYPICAL_RATE_RANGE` while another unit gives
+    one inside."""
     lo, hi = TYPICAL_RATE_RANGE
     rates = _unit_rates(step_raw)
     return not lo <= rates["s"] <= hi and any(lo <= r <= hi for r in rates.values())
 
 
 def _bursty_hint(n_bad, n_steps, mean_rate, *, gaps_ok):
-    """The way out of irregular stamps: the longest segment where they are few, the mean rate where they are many
+    """The way out of irregular stamps: the longest segment where they are few, the mean rate where
+    they are many
     (a host's bursty stamps: no long regular segment exists)."""
     if mean_rate is not None and n_bad > 0.01 * n_steps and RATE_RANGE[0] <= mean_rate <= RATE_RANGE[1]:
         return (f"; {n_bad} of {n_steps} steps are irregular (bursty stamps?): the mean rate over the log is "

@@ -70,7 +70,8 @@ def datasheet(posterior, kind):
     posterior : FitResult or UnitPosterior
         Fitted in SI (rad/s for a gyro, m/s^2 for an accelerometer).
     kind : {"gyro", "accel"}
-        Any other kind (``"magnetometer"``) is an :class:`~bayes_imu.errors.InputError`, never another
+        Any other kind (``"magnetometer"``) is an :class:`~bayes_imu.errors.InputError`, never
+        another
         sensor's table.
     """
     if kind not in ("gyro", "accel"):

@@ -234,10 +234,12 @@ def _fmt_time(t):
 
 
 def write_report(report, out_dir):
-    """Write ``report.json``, ``report.html`` and ``comparison.png`` into ``out_dir`` (created if needed).
+    """Write ``report.json``, ``report.html`` and ``comparison.png`` into ``out_dir`` (created if
+    needed).
 
     The numbers first: ``report.json`` is written before any picture is drawn. Returns the
-    :class:`~bayes_imu.report.worker.PictureFailure` of the comparison chart where it could not be drawn
+    :class:`~bayes_imu.report.worker.PictureFailure` of the comparison chart where it could not be
+    drawn
     (``comparison.png`` then absent, the page without it), else ``None``."""
     from .worker import draw_picture
 

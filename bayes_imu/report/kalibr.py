@@ -144,13 +144,15 @@ def kalibr_values_from_folders(gyro_dirs=(), accel_dirs=(), *, credibility=None)
 
 
 def _comment(text):
-    """A label inside a YAML comment: every character that could end the comment line (newlines, other control
+    """A label inside a YAML comment: every character that could end the comment line (newlines,
+    other control
     and line-separator characters) as ``?``, so that no label injects a key."""
     return "".join(c if c.isprintable() else "?" for c in str(text))
 
 
 def write_kalibr_yaml(result, path, *, topic="/imu0"):
-    """Write the Kalibr ``imu.yaml`` (flat keys: no YAML library needed). Labels (fit folder names) appear only
+    """Write the Kalibr ``imu.yaml`` (flat keys: no YAML library needed). Labels (fit folder names)
+    appear only
     in comments, sanitised (:func:`_comment`); the topic is checked to be a ROS name."""
     if not isinstance(topic, str) or not re.fullmatch(r"(/[A-Za-z][A-Za-z0-9_]*)+", topic):
         raise InputError(f"topic={_comment(topic)[:80]!r}: expected a ROS topic name such as /imu0 (letters, digits, "

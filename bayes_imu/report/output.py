@@ -43,10 +43,12 @@ from ..errors import InputError
 __all__ = ["staged_folder", "staged_file", "safe_folder_name", "file_hashes", "user_os_error", "MARKER",
            "FILE_MARKER_SUFFIX", "MIN_FREE_BYTES", "USER_ERRNOS"]
 
-#: marker file of a bayes_imu result folder: JSON ``{"bayes_imu": version, "entries": [top-level names],
+#: marker file of a bayes_imu result folder: JSON ``{"bayes_imu": version, "entries": [top-level
+#: names],
 #: "files": {relative path: sha256}, "folders": [relative paths]}``
 MARKER = ".bayes_imu.json"
-#: a file target's marker: ``.NAME`` + this suffix beside it, JSON ``{"bayes_imu": version, "file": NAME,
+#: a file target's marker: ``.NAME`` + this suffix beside it, JSON ``{"bayes_imu": version, "file":
+#: NAME,
 #: "sha256": hash}``
 FILE_MARKER_SUFFIX = ".bayes_imu.json"
 _MARKER_FORMAT = 2
@@ -55,14 +57,16 @@ _CLAIM = ".bayes_imu.claim"
 MIN_FREE_BYTES = 64 * 2**20
 
 
-#: system errors that are the user's to fix (a path, a permission, a full disk), never a bug: exit status 2
+#: system errors that are the user's to fix (a path, a permission, a full disk), never a bug: exit
+#: status 2
 USER_ERRNOS = frozenset({errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOTDIR, errno.EISDIR, errno.ENAMETOOLONG,
                          errno.ELOOP, errno.ENOSPC, errno.EDQUOT, errno.ENOENT, errno.EXDEV,
                          errno.EMLINK, errno.ETXTBSY})
 
 
 def user_os_error(exc):
-    """One line for a system error the user can fix (:data:`USER_ERRNOS`, a symbolic link loop), else None."""
+    """One line for a system error the user can fix (:data:`USER_ERRNOS`, a symbolic link loop),
+    else None."""
     if isinstance(exc, RuntimeError) and "Symlink loop" in str(exc):
         return f"{_short(str(exc).removeprefix('Symlink loop from '), 160)}: a loop of symbolic links"
     if not isinstance(exc, OSError) or exc.errno not in USER_ERRNOS:
@@ -73,8 +77,10 @@ def user_os_error(exc):
 
 @contextmanager
 def _claiming(target):
-    """Turn a system error while claiming ``target`` (read-only file system, a file in its path, a name too long,
-    a symbolic link loop, no permission) into a one-line :class:`InputError`: nothing was written."""
+    """Turn a system error while claiming ``target`` (read-only file system, a file in its path, a
+    name too long,
+    a symbolic link loop, no permission) into a one-line :class:`InputError`: nothing was
+    written."""
     try:
         yield
     except (OSError, RuntimeError) as exc:
@@ -142,7 +148,8 @@ def _sha256(path):
 
 
 def file_hashes(folder):
-    """``({relative path: sha256}, [relative folders])`` of everything below ``folder`` (no link followed).
+    """``({relative path: sha256}, [relative folders])`` of everything below ``folder`` (no link
+    followed).
 
     Paths use ``/``; a symbolic link or anything that is not a plain file or folder is listed
     in the files with the hash ``None`` (it never matches a recorded one)."""
@@ -164,7 +171,8 @@ def file_hashes(folder):
 
 
 def previous_result(folder):
-    """What a previous bayes_imu run recorded in ``folder``'s marker: ``(files, folders)``, or None where there is
+    """What a previous bayes_imu run recorded in ``folder``'s marker: ``(files, folders)``, or None
+    where there is
     no readable marker of this format (none, damaged, or an older bayes_imu's without hashes)."""
     try:
         doc = json.loads((folder / MARKER).read_text(encoding="utf-8"))
@@ -179,7 +187,8 @@ def previous_result(folder):
 
 
 def _foreign(target, previous):
-    """``(foreign, ours, folders)``: what below ``target`` the previous run did not write (or was changed since),
+    """``(foreign, ours, folders)``: what below ``target`` the previous run did not write (or was
+    changed since),
     the files whose content still matches the marker's hashes, and the run's folders present."""
     files, folders = previous
     present, present_folders = file_hashes(target)
@@ -191,13 +200,15 @@ def _foreign(target, previous):
 
 
 def _short(text, limit=80):
-    """``text`` with control characters as ``?``, at most ``limit`` characters (an excerpt in a one-line error)."""
+    """``text`` with control characters as ``?``, at most ``limit`` characters (an excerpt in a
+    one-line error)."""
     text = "".join(c if c.isprintable() else "?" for c in str(text))
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _claim_folder(target, force):
-    """Claim ``target``: returns ``(made_it, previous)``, ``previous`` being ``None`` or ``(recorded, files,
+    """Claim ``target``: returns ``(made_it, previous)``, ``previous`` being ``None`` or
+    ``(recorded, files,
     folders)`` of the result being replaced; raises InputError if it is not ours to write."""
     if target.exists() and not target.is_dir():
         raise InputError(f"out={target}: exists and is not a folder; expected a folder to write into")
@@ -318,7 +329,8 @@ def _file_marker(target):
 
 
 def _is_ours(target):
-    """Whether ``target`` is what a bayes_imu run wrote there: its sidecar marker records this name and the
+    """Whether ``target`` is what a bayes_imu run wrote there: its sidecar marker records this name
+    and the
     file's current SHA-256 (nothing is guessed from the file's content)."""
     try:
         doc = json.loads(_file_marker(target).read_text(encoding="utf-8"))
@@ -330,8 +342,10 @@ def _is_ours(target):
 
 @contextmanager
 def staged_file(target, *, force=False, inputs=()):
-    """Yield a temporary file path that replaces ``target`` when the block succeeds (rules above); the sidecar
-    marker ``.NAME.bayes_imu.json`` beside it records its hash, so that ``force`` may replace it later."""
+    """Yield a temporary file path that replaces ``target`` when the block succeeds (rules above);
+    the sidecar
+    marker ``.NAME.bayes_imu.json`` beside it records its hash, so that ``force`` may replace it
+    later."""
     from .._version import __version__
 
     target = Path(target)

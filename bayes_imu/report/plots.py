@@ -9,8 +9,10 @@ __all__ = ["plot_allan", "plot_allan_fit", "plot_corner", "plot_drift", "plot_po
 
 
 def plain_text(text):
-    """User text (a file, column, sensor or unit name) as matplotlib draws it literally: every ``$`` escaped, so
-    that no pair of them starts mathtext (whose parser rejects ``run$1_$2``), control characters as ``?``."""
+    """User text (a file, column, sensor or unit name) as matplotlib draws it literally: every
+    ``$`` escaped, so
+    that no pair of them starts mathtext (whose parser rejects ``run$1_$2``), control characters as
+    ``?``."""
     text = "".join(c if c.isprintable() or c == "\n" else "?" for c in str(text))
     return text.replace("$", r"\$")
 

@@ -11,8 +11,10 @@ selection (each sensor carries only the terms its data support), and computes:
   ``max_error``, found by bisection on a continuous time (the bound increases with t).
 
 Paths (``log``, ``logs``, ``fit``, ``fits``) are relative to the scene's folder and confined to it
-(after resolving ``..`` and links): a scene is a file a user may be handed, and ``log = "/etc/shadow"``
-must not make the report read it. ``allow_outside = true`` in ``[scene]`` (or ``allow_outside=True``,
+(after resolving ``..`` and links): a scene is a file a user may be handed, and ``log =
+"/etc/shadow"``
+must not make the report read it. ``allow_outside = true`` in ``[scene]`` (or
+``allow_outside=True``,
 the command's ``--allow-outside``) lifts the rule. The units of one sensor (``logs``, ``fits``) must
 be distinct: the same file or folder twice, or two files with the same content, would count one
 unit twice in the unit-to-unit spread (refused by name). A log may be a ``.npy`` file (one channel;
@@ -194,7 +196,8 @@ def _si_unit(kind):
 
 
 def _excerpt(value, limit=80):
-    """``repr(value)``, control characters as ``?``, at most ``limit`` characters: a value quoted in an error."""
+    """``repr(value)``, control characters as ``?``, at most ``limit`` characters: a value quoted
+    in an error."""
     text = "".join(c if c.isprintable() else "?" for c in repr(value))
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
@@ -222,8 +225,10 @@ def _known(table, keys, where):
 
 
 def read_scene(path, *, allow_outside=False):
-    """Parse and validate a scene TOML file; paths are relative to the file and confined to its folder unless
-    ``allow_outside`` (or ``allow_outside = true`` in ``[scene]``); the units of a sensor must be distinct."""
+    """Parse and validate a scene TOML file; paths are relative to the file and confined to its
+    folder unless
+    ``allow_outside`` (or ``allow_outside = true`` in ``[scene]``); the units of a sensor must be
+    distinct."""
     path = Path(path)
     try:
         doc = tomllib.loads(read_text(path))
@@ -337,8 +342,10 @@ def _confined(scene_path, given, key, where, allow_outside):
 
 
 def distinct_units(paths, *, where):
-    """Refuse two units of one sensor that are the same: the same file or folder (after resolving links and
-    ``..``), or files with the same content (SHA-256; a folder by its ``fit.npz``). Each would be counted as a
+    """Refuse two units of one sensor that are the same: the same file or folder (after resolving
+    links and
+    ``..``), or files with the same content (SHA-256; a folder by its ``fit.npz``). Each would be
+    counted as a
     separate unit in the unit-to-unit spread."""
     import hashlib
 
@@ -497,7 +504,8 @@ def _axes(spec, rng):
 
 
 def _log_allan(path, column, spec, where):
-    """The Allan variance (SI) of one column of one log of a sensor: a text log (with its time column, if given)
+    """The Allan variance (SI) of one column of one log of a sensor: a text log (with its time
+    column, if given)
     or a ``.npy`` file (one channel, read out of core)."""
     from ..allan.outofcore import BINARY_SUFFIXES, allan_variance_file
 

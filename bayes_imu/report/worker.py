@@ -61,8 +61,10 @@ class PictureFailure:
 
 
 def draw_picture(fn, *args, **kwargs):
-    """``fn(*args, **kwargs)``, a function drawing a picture into ``args[1]`` (its path, or ``path=``): ``None``,
-    or a :class:`PictureFailure` (the partial file removed) where it raised an ``Exception``. Ctrl-C, SIGTERM,
+    """``fn(*args, **kwargs)``, a function drawing a picture into ``args[1]`` (its path, or
+    ``path=``): ``None``,
+    or a :class:`PictureFailure` (the partial file removed) where it raised an ``Exception``.
+    Ctrl-C, SIGTERM,
     exits and a full disk still stop the run."""
     import errno
 
@@ -161,7 +163,8 @@ class OutputWriter:
         self._pending += 1
 
     def picture(self, fn, *args, **kwargs):
-        """:meth:`submit` of a picture: a failure to draw it is recorded in :attr:`picture_failures`, not raised
+        """:meth:`submit` of a picture: a failure to draw it is recorded in
+        :attr:`picture_failures`, not raised
         (:func:`draw_picture`)."""
         if not self.background:
             failure = draw_picture(fn, *args, **kwargs)
