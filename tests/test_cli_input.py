@@ -90,7 +90,8 @@ CASES = [  # (id, file bytes or None, extra arguments, message fragment)
      ["allan", "{log}", "--column", "0", "--rate", "100"], "uses decimal commas"),
     ("nanosecond_stamps", ("t,gx\n" + "".join(f"{1403636579758555392 + i * 10_000_000},{np.sin(i):.5f}\n"
                                                for i in range(99))).encode(),
-     ["fit", "{log}", "--column", "gx", "--time-column", "t"], "the likely unit is ns: give --time-unit ns"),
+     ["fit", "{log}", "--column", "gx", "--time-column", "t"], "the likely unit is ns: give "
+                                                               "--time-unit ns"),
     ("implausible_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "1e-300"],
      "--rate: expected a sample rate from 0.01 Hz"),
     ("negative_seed", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "100", "--seed", "-1"],

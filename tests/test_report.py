@@ -149,7 +149,8 @@ def test_html_renders_in_headless_chromium(report):
     if chromium is None and os.environ.get("BAYES_IMU_NO_BROWSER") == "1":
         pytest.skip("BAYES_IMU_NO_BROWSER=1: no chromium on this machine (.ci/run installs it)")
     assert chromium is not None, ("no chromium binary: apt install chromium (.ci/run does), or set "
-                                  "BAYES_IMU_NO_BROWSER=1 to skip this check on a machine without one")
+                                  "BAYES_IMU_NO_BROWSER=1 to skip this check on a machine without "
+                                  "one")
     _, out = report
     with playwright.sync_playwright() as p:
         browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])

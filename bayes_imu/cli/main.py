@@ -131,9 +131,11 @@ def _input_options(batch=False, optional_log=False):
                         help="read a text log out of core, in chunks (automatic for .npy and raw binary logs)")
     common.add_argument("--rate", type=_rate_type,
                         help=f"sample rate (Hz, {RATE_RANGE[0]:g} to {RATE_RANGE[1]:g}); optional with --time-column")
-    common.add_argument("--time-column", help="time stamps: the rate is derived from them and checked")
+    common.add_argument("--time-column", help="time stamps: the rate is derived from them and "
+                                              "checked")
     common.add_argument("--time-unit", choices=tuple(TIME_UNITS),
-                        help="unit of the --time-column stamps (default: from the column's name, e.g. t_ms, "
+                        help="unit of the --time-column stamps (default: from the column's name, "
+                             "e.g. t_ms, "
                              "time_us, else the one agreeing with --rate, else s)")
     common.add_argument("--gaps", choices=GAP_POLICIES, default="error",
                         help="irregular time steps: error (default) or fit the longest regular segment")
@@ -144,7 +146,8 @@ def _input_options(batch=False, optional_log=False):
                         help="units of the column(s), converted to SI (rad/s, m/s^2): rates " + ", ".join(UNITS)
                              + "; increments " + ", ".join(INCREMENT_UNITS) + "; default: left as they are")
     common.add_argument("--trust-units", action="store_true",
-                        help="skip the check that a static log is plausible in --units (a moving log, a test rig)")
+                        help="skip the check that a static log is plausible in --units (a moving "
+                             "log, a test rig)")
     common.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
     common.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
     common.add_argument("--quiet", action="store_true", help="no progress bars or messages")
@@ -232,7 +235,8 @@ def _build_parser():
     report.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
     report.add_argument("--quiet", action="store_true", help="no progress messages")
     report.add_argument("--allow-outside", action="store_true",
-                        help="read logs and fit folders outside the scene's folder (default: refused)")
+                        help="read logs and fit folders outside the scene's folder (default: "
+                             "refused)")
     report.set_defaults(handler=_cmd_report)
 
     kalibr = sub.add_parser(
@@ -402,7 +406,8 @@ def _pictures_status(failures):
 
 def _say_time_unit(args, info):
     if "time_unit" in info:
-        _say(args, f"time stamps in {info['time_unit']} ({info['time_unit_source']}): {info['rate_hz']:.6g} Hz")
+        _say(args, f"time stamps in {info['time_unit']} ({info['time_unit_source']}): "
+                   f"{info['rate_hz']:.6g} Hz")
 
 
 def _folder_names(columns):
@@ -836,7 +841,8 @@ def _times(text):
         raise argparse.ArgumentTypeError(f"expected comma-separated times in seconds, got {text!r}") from None
     low, high, _ = RANGES["time_s"]
     if not values or not all(np.isfinite(v) and low <= v <= high for v in values):
-        raise argparse.ArgumentTypeError(f"expected times from {low:g} s to {high:g} s, got {text[:80]!r}")
+        raise argparse.ArgumentTypeError(f"expected times from {low:g} s to {high:g} s, got "
+                                         f"{text[:80]!r}")
     return tuple(sorted(set(values)))
 
 

@@ -147,7 +147,8 @@ def _read(opts, command):
         if opts.topic is None:
             raise InputError(f"{opts.log}: a ROS bag needs --topic (a sensor_msgs/Imu topic)")
         if opts.time_unit is not None:
-            raise InputError(f"{opts.log}: a ROS bag's header stamps are seconds and nanoseconds; leave out "
+            raise InputError(f"{opts.log}: a ROS bag's header stamps are seconds and nanoseconds; "
+                             "leave out "
                              "--time-unit")
         data = read_imu_bag(opts.log, topic=opts.topic, columns=columns)
         where, what = f"{opts.log}: {opts.topic} header stamps", "message"
@@ -155,7 +156,8 @@ def _read(opts, command):
         data = read_columns(opts.log, columns=columns, time_column=opts.time_column, progress=opts.progress)
         where, what = f"{opts.log}: column {opts.time_column!r}", "line"
     if opts.time_unit is not None and data.time_s is None:
-        raise InputError(f"{opts.log}: --time-unit {opts.time_unit} goes with --time-column (no time column given)")
+        raise InputError(f"{opts.log}: --time-unit {opts.time_unit} goes with --time-column (no "
+                         "time column given)")
     timebase = check_time(data.time_s, rate_hz=opts.rate, gaps=opts.gaps, lines=data.lines, where=where,
                           n_samples=data.values.shape[0], what=what,
                           time_unit="s" if is_bag(opts.log) else opts.time_unit,
@@ -179,8 +181,10 @@ def _plausible(opts, values, rate_hz, columns):
     for j, column in enumerate(columns):
         step = find_step(values[:, j])
         if step is not None:
-            warnings.warn(f"{opts.log}: column {column!r}: its level steps by {step[1]:.3g} sigma of its noise at "
-                          f"sample {step[0] + 1}; a step is not noise (the fit treats it as slow drift): cut the log "
+            warnings.warn(f"{opts.log}: column {column!r}: its level steps by {step[1]:.3g} sigma "
+                          "of its noise at "
+                          f"sample {step[0] + 1}; a step is not noise (the fit treats it as slow "
+                          "drift): cut the log "
                           "there, or check the sensor", PlausibilityWarning, stacklevel=2)
     if opts.units is None or opts.units not in UNITS or opts.input != "rate" or opts.trust_units:
         return
@@ -189,7 +193,8 @@ def _plausible(opts, values, rate_hz, columns):
         return
     if found.fatal:
         raise InputError(f"{opts.log}: {found}; give --trust-units if the log is what it should be")
-    warnings.warn(f"{opts.log}: {found} (--units {opts.units} as given; --trust-units silences this)",
+    warnings.warn(f"{opts.log}: {found} (--units {opts.units} as given; --trust-units silences "
+                  "this)",
                   PlausibilityWarning, stacklevel=2)
 
 

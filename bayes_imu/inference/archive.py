@@ -104,7 +104,8 @@ def load_fit(path):
         raise InputError(f"{file}: not a readable bayes_imu fit archive ({_short(exc)})") from None
     if not isinstance(meta, dict) or meta.get("format") != _FORMAT:
         shown = meta.get("format") if isinstance(meta, dict) else None
-        raise InputError(f"{file}: archive format {_short(shown)}; this bayes_imu reads format {_FORMAT}")
+        raise InputError(f"{file}: archive format {_short(shown)}; this bayes_imu reads format "
+                         f"{_FORMAT}")
     try:
         _validate(meta, data)
     except (KeyError, TypeError, ValueError, IndexError) as exc:
@@ -152,12 +153,14 @@ def _check_sizes(file):
                             else np.lib.format.read_array_header_2_0)
                     shape, _, dtype = read(member)
                 if dtype.hasobject:
-                    raise InputError(f"{file}: field {_short(info.filename)} holds Python objects; expected numbers")
+                    raise InputError(f"{file}: field {_short(info.filename)} holds Python "
+                                     "objects; expected numbers")
                 total += math.prod(shape) * dtype.itemsize
     except (OSError, ValueError, EOFError, zipfile.BadZipFile, RuntimeError) as exc:
         raise InputError(f"{file}: not a readable bayes_imu fit archive ({_short(exc)})") from None
     if total > MAX_EXPANSION * size + 2**20:
-        raise InputError(f"{file}: its arrays declare {total:.3g} bytes, more than {MAX_EXPANSION} times the archive's "
+        raise InputError(f"{file}: its arrays declare {total:.3g} bytes, more than "
+                         f"{MAX_EXPANSION} times the archive's "
                          f"{size} bytes; a damaged or crafted archive (nothing was allocated)")
 
 
@@ -187,10 +190,12 @@ def _validate(meta, data):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
             raise ValueError(f"field {key!r} = {value!r}; expected a positive number")
     if abs(meta["dt"] * meta["allan"]["rate_hz"] - 1.0) > 1e-9:
-        raise ValueError(f"fields 'dt' and 'allan.rate_hz' disagree ({meta['dt']!r} s, {meta['allan']['rate_hz']!r} Hz)")
+        raise ValueError(f"fields 'dt' and 'allan.rate_hz' disagree ({meta['dt']!r} s, "
+                         f"{meta['allan']['rate_hz']!r} Hz)")
     n_samples = meta["allan"]["n_samples"]
     if isinstance(n_samples, bool) or not isinstance(n_samples, int) or n_samples < 4:
-        raise ValueError(f"field 'allan.n_samples' = {n_samples!r}; expected a whole number of at least 4")
+        raise ValueError(f"field 'allan.n_samples' = {n_samples!r}; expected a whole number of at "
+                         "least 4")
     n_tau = field("allan_tau", positive=True, ndim=1).shape[0]
     for k in _ALLAN_ARRAYS:
         field(f"allan_{k}", positive=k in ("tau", "m", "avar", "adev", "n_terms", "edf", "avar_low", "avar_high"),
@@ -198,25 +203,30 @@ def _validate(meta, data):
     n_parameters = len(NoiseModel(tuple(terms), meta["dt"]).parameter_names) + bool(meta["widened"])
     samples = field("samples", positive=True, ndim=2)
     if samples.shape[1] != n_parameters or samples.shape[0] < 1:
-        raise ValueError(f"field 'samples' has shape {samples.shape}; expected (draws, {n_parameters}) for "
+        raise ValueError(f"field 'samples' has shape {samples.shape}; expected (draws, "
+                         f"{n_parameters}) for "
                          f"{' + '.join(terms)}")
     field("log_prob", ndim=1, length=samples.shape[0])
     covariance = field("covariance", ndim=2)
     if covariance.shape != (n_tau, n_tau):
-        raise ValueError(f"field 'covariance' has shape {covariance.shape}; expected ({n_tau}, {n_tau})")
+        raise ValueError(f"field 'covariance' has shape {covariance.shape}; expected ({n_tau}, "
+                         f"{n_tau})")
     for i, c in enumerate(meta["mixture"]):
         mix = field(f"mixture_{i}", positive=True, ndim=2)
         if mix.shape[1] - len(NoiseModel(tuple(c["terms"]), meta["dt"]).parameter_names) not in (0, 1):
-            raise ValueError(f"field 'mixture_{i}' has shape {mix.shape}; expected one column per parameter of "
+            raise ValueError(f"field 'mixture_{i}' has shape {mix.shape}; expected one column per "
+                             "parameter of "
                              f"{' + '.join(map(str, c['terms']))}")
         p = c["probability"]
         if isinstance(p, bool) or not isinstance(p, (int, float)) or not 0 <= p <= 1:
-            raise ValueError(f"field 'mixture[{i}].probability' = {p!r}; expected a number in [0, 1]")
+            raise ValueError(f"field 'mixture[{i}].probability' = {p!r}; expected a number in [0, "
+                             "1]")
     for i, _ in enumerate(meta["candidates"]):
         field(f"mode_{i}")
     field("probabilities")
     if not 0 <= meta["selected"] < len(meta["candidates"]):
-        raise ValueError(f"field 'selected' = {meta['selected']!r}; expected an index of the {len(meta['candidates'])} "
+        raise ValueError(f"field 'selected' = {meta['selected']!r}; expected an index of the "
+                         f"{len(meta['candidates'])} "
                          "candidates")
     if meta.get("adequacy") is not None:
         field("residuals", ndim=1)

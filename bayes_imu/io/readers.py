@@ -105,7 +105,8 @@ def read_text(path):
     except IsADirectoryError:
         raise InputError(f"{path}: is a directory; expected a file") from None
     except OSError as exc:
-        raise InputError(f"{path}: cannot read ({exc.strerror or errno.errorcode.get(exc.errno, exc)})") from None
+        raise InputError(f"{path}: cannot read "
+                         f"({exc.strerror or errno.errorcode.get(exc.errno, exc)})") from None
     try:
         info = os.fstat(fd)
         if stat.S_ISDIR(info.st_mode):
@@ -113,13 +114,15 @@ def read_text(path):
         if not stat.S_ISREG(info.st_mode):
             raise InputError(f"{path}: not a regular file (a pipe or device); expected a text file")
         if info.st_size > MAX_TEXT_BYTES:
-            raise InputError(f"{path}: {info.st_size} bytes; expected a text file of at most {MAX_TEXT_BYTES} bytes")
+            raise InputError(f"{path}: {info.st_size} bytes; expected a text file of at most "
+                             f"{MAX_TEXT_BYTES} bytes")
         os.set_blocking(fd, True)
         with os.fdopen(fd, "rb", closefd=False) as f:
             data = f.read(MAX_TEXT_BYTES + 1)
         return data.decode("utf-8").removeprefix("\ufeff")
     except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})") from None
+        raise InputError(f"{path}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset "
+                         f"{exc.start})") from None
     except OSError as exc:
         raise InputError(f"{path}: cannot read ({exc.strerror or exc})") from None
     finally:
@@ -313,8 +316,10 @@ class _Bounded(io.RawIOBase):
         data = self._stream.read(len(buffer))
         self._out += len(data)
         if self._out > GZIP_ALLOWANCE and self._out > MAX_GZIP_RATIO * self._raw.tell():
-            raise InputError(f"{self._path}: the gzip data expands more than {MAX_GZIP_RATIO} times "
-                             f"({self._out} bytes from {self._raw.tell()}); expected a compressed log, not a "
+            raise InputError(f"{self._path}: the gzip data expands more than {MAX_GZIP_RATIO} "
+                             "times "
+                             f"({self._out} bytes from {self._raw.tell()}); expected a compressed "
+                             "log, not a "
                              "decompression bomb (decompress it yourself if it is meant)")
         buffer[: len(data)] = data
         return len(data)
@@ -374,7 +379,8 @@ def sniff_file(path):
         if complete:
             raise InputError(f"{path}: no data rows (only blank or comment lines); expected a header row and samples")
         if size >= MAX_SNIFF_BYTES:
-            raise InputError(f"{path}: no header and data row within the first {MAX_SNIFF_BYTES} bytes (a comment "
+            raise InputError(f"{path}: no header and data row within the first {MAX_SNIFF_BYTES} "
+                             "bytes (a comment "
                              "preamble or a line longer than that); expected a delimited text log")
         size = min(4 * size, MAX_SNIFF_BYTES)
 
@@ -457,7 +463,8 @@ def _refuse_decimal_commas(path, rows):
         for sep in (";", "\t"):
             fields = [_unquote(f.strip()) for f in content.split(sep)]
             if len(fields) > 1 and any(_DECIMAL_COMMA.match(f) for f in fields):
-                raise InputError(f"{path}: line {number}: {excerpt(content[:40])} uses decimal commas; expected decimal "
+                raise InputError(f"{path}: line {number}: {excerpt(content[:40])} uses decimal "
+                                 "commas; expected decimal "
                                  "points (export the log with '.' as the decimal separator)")
 
 
@@ -479,14 +486,16 @@ def resolve_column(path, fmt, column):
     key = str(column).strip()
     if key in names:
         if key in fmt["dupes"]:
-            raise InputError(f"{path}: column name {excerpt(key, 40)} appears more than once in the header; "
+            raise InputError(f"{path}: column name {excerpt(key, 40)} appears more than once in "
+                             "the header; "
                              "give the column by its 0-based index")
         return names.index(key)
     try:
         index = int(key)
     except ValueError:
         shown = excerpt(", ".join(repr(n) for n in names[:12]) + (", ..." if len(names) > 12 else ""), quoted=False)
-        raise InputError(f"{path}: no column {excerpt(key, 40)}; expected one of the header names ({shown}) "
+        raise InputError(f"{path}: no column {excerpt(key, 40)}; expected one of the header names "
+                         f"({shown}) "
                          "or a 0-based column index") from None
     if not 0 <= index < len(names):
         raise InputError(f"{path}: column index {index} out of range; the file has {len(names)} columns "
@@ -665,7 +674,8 @@ class _Counting(io.RawIOBase):
             longest = max(longest, int(np.max(np.diff(ends))) - 1)
         self._run = len(data) - 1 - int(ends[-1]) if ends.size else self._run + len(data)
         if longest > MAX_LINE_BYTES:
-            raise InputError(f"{self._path}: a line longer than {MAX_LINE_BYTES} bytes; expected the rows of a "
+            raise InputError(f"{self._path}: a line longer than {MAX_LINE_BYTES} bytes; expected "
+                             "the rows of a "
                              "delimited text log")
 
 
@@ -708,7 +718,8 @@ def _find_bad_line(path, fmt, usecols):
                 value = None
             if value is None or not np.isfinite(value):
                 found = excerpt(text, 40) if text else "an empty field"
-                raise InputError(f"{path}: line {number}, column {excerpt(fmt['names'][i], 40)}: got {found}; "
+                raise InputError(f"{path}: line {number}, column {excerpt(fmt['names'][i], 40)}: "
+                                 f"got {found}; "
                                  "expected a finite number")
 
 

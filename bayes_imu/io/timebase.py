@@ -102,7 +102,8 @@ def _stamp_hint(step_raw, given):
     likely = [u for u in _likely_units(step_raw) if u != given]
     if not likely:
         return f" (median step {step_raw:.6g}; as {rates})"
-    return (f" (median step {step_raw:.6g}; as {rates}); the likely unit is {' or '.join(likely)}: give "
+    return (f" (median step {step_raw:.6g}; as {rates}); the likely unit is "
+            f"{' or '.join(likely)}: give "
             f"time_unit={likely[0]!r}, or drop the time column and give rate_hz")
 
 
@@ -110,7 +111,8 @@ def _resolve_unit(time_unit, column, step_raw, rate_hz, where):
     """``(unit, source)``: the unit of the stamps and where it came from (module docstring)."""
     if time_unit is not None:
         if time_unit not in TIME_UNITS:
-            raise InputError(f"{where}: time_unit={time_unit!r}: expected one of {', '.join(TIME_UNITS)}")
+            raise InputError(f"{where}: time_unit={time_unit!r}: expected one of "
+                             f"{', '.join(TIME_UNITS)}")
         return time_unit, "given"
     named = unit_from_name(column)
     if named is not None:
@@ -121,8 +123,10 @@ def _resolve_unit(time_unit, column, step_raw, rate_hz, where):
             return agree[0], f"agrees with rate_hz={rate_hz:g}"
         if not agree and _unlikely(step_raw):
             rates = ", ".join(f"{u}: {r:.4g} Hz" for u, r in _unit_rates(step_raw).items())
-            raise InputError(f"{where}: the time column (median step {step_raw:.6g}) gives, as {rates}; none agrees "
-                             f"with the rate given ({rate_hz:g} Hz); give time_unit, or only one of them")
+            raise InputError(f"{where}: the time column (median step {step_raw:.6g}) gives, as "
+                             f"{rates}; none agrees "
+                             f"with the rate given ({rate_hz:g} Hz); give time_unit, or only one "
+                             "of them")
     return "s", "assumed"
 
 
@@ -225,11 +229,13 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
     raw = np.asarray(time_s, dtype=np.float64)
     lines = np.arange(2, raw.size + 2) if lines is None else np.asarray(lines)
     if raw.size < 3:
-        raise InputError(f"{where}: {raw.size} time stamps; expected at least 3 to derive a sample rate")
+        raise InputError(f"{where}: {raw.size} time stamps; expected at least 3 to derive a "
+                         "sample rate")
     steps = np.diff(raw)
     positive = steps[steps > 0]
     if positive.size == 0:
-        raise InputError(f"{where}: time stamps never increase ({what} {lines[0]}: {float(raw[0])!r}); "
+        raise InputError(f"{where}: time stamps never increase ({what} {lines[0]}: "
+                         f"{float(raw[0])!r}); "
                          "expected increasing stamps")
     step_raw = float(np.median(positive))
     unit, source = _resolve_unit(time_unit, column, step_raw, rate_hz, where)
@@ -239,11 +245,14 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
     mean_rate = (t.size - 1) / float(t[-1] - t[0]) if t[-1] > t[0] else None
     stated = f"stamps in {unit}" + ("" if source == "given" else f" ({source})")
     if not RATE_RANGE[0] <= 1.0 / step <= RATE_RANGE[1]:
-        raise InputError(f"{where}: the time column gives {1.0 / step:.6g} Hz with {stated}; expected "
+        raise InputError(f"{where}: the time column gives {1.0 / step:.6g} Hz with {stated}; "
+                         "expected "
                          f"{RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz" + _stamp_hint(step_raw, unit))
     if source == "assumed" and _unlikely(step_raw):
-        raise InputError(f"{where}: the time column gives {1.0 / step:.6g} Hz if its stamps are seconds (no unit "
-                         f"given or in its name), unusual for an IMU (most log at {TYPICAL_RATE_RANGE[0]:g} Hz to "
+        raise InputError(f"{where}: the time column gives {1.0 / step:.6g} Hz if its stamps are "
+                         "seconds (no unit "
+                         "given or in its name), unusual for an IMU (most log at "
+                         f"{TYPICAL_RATE_RANGE[0]:g} Hz to "
                          f"{TYPICAL_RATE_RANGE[1]:g} Hz)" + _stamp_hint(step_raw, None)
                          + "; time_unit='s' keeps seconds")
     bad = ~((steps >= (1 - STEP_TOLERANCE) * step) & (steps <= (1 + STEP_TOLERANCE) * step))
@@ -258,7 +267,8 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
     k = int(np.argmax(np.diff(cuts)))
     start, stop = int(cuts[k]), int(cuts[k + 1])
     if stop - start < 3:
-        raise InputError(f"{where}: no regular segment of at least 3 time stamps; expected steps of {step:.6g} s"
+        raise InputError(f"{where}: no regular segment of at least 3 time stamps; expected steps "
+                         f"of {step:.6g} s"
                          + _bursty_hint(n_bad, steps.size, mean_rate, gaps_ok=False))
     # least-noise rate: every stamp of the segment counts (clock jitter averages out)
     rate = (stop - start - 1) / float(t[stop - 1] - t[start])
@@ -266,14 +276,17 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
         raise InputError(f"{where}: the time column gives {rate:.6g} Hz with {stated}; expected "
                          f"{RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz" + _stamp_hint(step_raw, unit))
     if rate_hz is not None and abs(rate / rate_hz - 1.0) > RATE_TOLERANCE:
-        raise InputError(f"{where}: the time column gives {rate:.6g} Hz (step {1 / rate:.6g} s, {stated}) but "
-                         f"rate_hz is {rate_hz:g} Hz; expected them to agree within {RATE_TOLERANCE:.0%} (or give "
+        raise InputError(f"{where}: the time column gives {rate:.6g} Hz (step {1 / rate:.6g} s, "
+                         f"{stated}) but "
+                         f"rate_hz is {rate_hz:g} Hz; expected them to agree within "
+                         f"{RATE_TOLERANCE:.0%} (or give "
                          "only one)")
     if not n_bad:
         return TimeBase(rate, "time column", 0, t.size, int(lines[0]), int(lines[-1]), time_unit=unit,
                         time_unit_source=source)
     if stop - start < 0.5 * t.size and n_bad > 0.01 * steps.size and mean_rate is not None:
-        raise InputError(f"{where}: the longest regular segment holds only {stop - start} of {t.size} samples"
+        raise InputError(f"{where}: the longest regular segment holds only {stop - start} of "
+                         f"{t.size} samples"
                          + _bursty_hint(n_bad, steps.size, mean_rate, gaps_ok=False))
     action = (f"{n_bad} irregular time steps; used the longest regular segment, {what}s {lines[start]}-{lines[stop - 1]} "
               f"({stop - start} of {t.size} samples)")
@@ -294,8 +307,10 @@ def _bursty_hint(n_bad, n_steps, mean_rate, *, gaps_ok):
     they are many
     (a host's bursty stamps: no long regular segment exists)."""
     if mean_rate is not None and n_bad > 0.01 * n_steps and RATE_RANGE[0] <= mean_rate <= RATE_RANGE[1]:
-        return (f"; {n_bad} of {n_steps} steps are irregular (bursty stamps?): the mean rate over the log is "
-                f"{mean_rate:.6g} Hz; if the sensor samples on its own clock, drop the time column and give "
+        return (f"; {n_bad} of {n_steps} steps are irregular (bursty stamps?): the mean rate over "
+                "the log is "
+                f"{mean_rate:.6g} Hz; if the sensor samples on its own clock, drop the time "
+                "column and give "
                 f"rate_hz={mean_rate:.6g}")
     return "; use gaps='longest' to fit the longest regular segment" if gaps_ok else ""
 

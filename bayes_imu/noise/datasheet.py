@@ -75,7 +75,8 @@ def datasheet(posterior, kind):
         sensor's table.
     """
     if kind not in ("gyro", "accel"):
-        raise InputError(f"kind={str(kind)[:40]!r}: expected 'gyro' or 'accel' (datasheet units exist for those)")
+        raise InputError(f"kind={str(kind)[:40]!r}: expected 'gyro' or 'accel' (datasheet units "
+                         "exist for those)")
     table = _GYRO if kind == "gyro" else _ACCEL
     names = set(posterior.parameter_names) | {"noise_density"}
     out = {}

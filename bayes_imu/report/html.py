@@ -81,7 +81,8 @@ def _comparison_figure(report, target):
                 t_max = s.max_outage_s
                 if t_max is not None and 0 < t_max < MAX_SEARCH_S:
                     ax.plot([t_max], [req["max_error"]], marker="v", ms=8, color=f"C{i}", ls="none",
-                            label=f"{plain_text(s.spec.name)}: longest acceptable outage {t_max:.3g} s")
+                            label=f"{plain_text(s.spec.name)}: longest acceptable outage "
+                                  f"{t_max:.3g} s")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("outage duration (s)")

@@ -155,7 +155,8 @@ def write_kalibr_yaml(result, path, *, topic="/imu0"):
     appear only
     in comments, sanitised (:func:`_comment`); the topic is checked to be a ROS name."""
     if not isinstance(topic, str) or not re.fullmatch(r"(/[A-Za-z][A-Za-z0-9_]*)+", topic):
-        raise InputError(f"topic={_comment(topic)[:80]!r}: expected a ROS topic name such as /imu0 (letters, digits, "
+        raise InputError(f"topic={_comment(topic)[:80]!r}: expected a ROS topic name such as "
+                         "/imu0 (letters, digits, "
                          "_ between slashes)")
     v = result.values
     several = any(len(rows) > 1 for rows in result.per_axis.values())
@@ -163,7 +164,8 @@ def write_kalibr_yaml(result, path, *, topic="/imu0"):
              + (", worst axis of each sensor" if several else "")]
     if not result.adequate:
         lines.append("# WARNING: the noise model failed its goodness-of-fit check for "
-                     + ", ".join(_comment(a) for a in result.inadequate) + " (intervals widened; values less certain than stated)")
+                     + ", ".join(_comment(a) for a in result.inadequate) + " (intervals widened; "
+                                                                           "values less certain than stated)")
     for key in ("accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density",
                 "gyroscope_random_walk"):
         if key in v:

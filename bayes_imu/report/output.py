@@ -87,7 +87,8 @@ def _claiming(target):
         reason = user_os_error(exc)
         if reason is None:
             raise
-        raise InputError(f"out={_short(target, 160)}: cannot write there ({reason}); nothing was written") from None
+        raise InputError(f"out={_short(target, 160)}: cannot write there ({reason}); nothing was "
+                         "written") from None
 
 
 def _check_inputs(target, inputs):
@@ -231,12 +232,14 @@ def _claim_folder(target, force):
                                  "folder, or force=True to replace a previous bayes_imu result there")
             if recorded is None:
                 raise InputError(f"out={target}: force=True replaces only a previous bayes_imu result, and this folder "
-                                 f"holds {_names(present)} with no {MARKER} marker with file hashes (none, damaged, "
+                                 f"holds {_names(present)} with no {MARKER} marker with file "
+                                 "hashes (none, damaged, "
                                  "or an older bayes_imu's); choose another folder")
             foreign, ours, folders = _foreign(target, recorded)
             if foreign:
                 raise InputError(f"out={target}: force=True would leave {_names(foreign)}, which no bayes_imu run "
-                                 "wrote there (or changed since); move them away or choose another folder")
+                                 "wrote there (or changed since); move them away or choose "
+                                 "another folder")
             previous = (recorded, ours, folders)
     try:
         os.close(os.open(target / _CLAIM, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644))
@@ -287,7 +290,8 @@ def staged_folder(target, *, force=False, inputs=()):
         if previous is not None:  # checked again now: a file saved below --out during the run stops the run
             foreign, ours, old_folders = _foreign(target, previous[0])
             if foreign:
-                raise InputError(f"out={target}: {_names(foreign)} appeared there during the run; nothing was "
+                raise InputError(f"out={target}: {_names(foreign)} appeared there during the run; "
+                                 "nothing was "
                                  "replaced (the new results were not kept)")
             for rel in ours:  # only files whose content is what the previous run wrote
                 (target / rel).unlink(missing_ok=True)
@@ -366,8 +370,10 @@ def staged_file(target, *, force=False, inputs=()):
                 raise InputError(f"out={target}: file exists; use force=True to replace a previous bayes_imu file") \
                     from None
             if not _is_ours(target):
-                raise InputError(f"out={target}: force=True replaces only a file a bayes_imu run wrote there (its "
-                                 f"marker {_file_marker(target).name} records its content), and this one is not, "
+                raise InputError(f"out={target}: force=True replaces only a file a bayes_imu run "
+                                 "wrote there (its "
+                                 f"marker {_file_marker(target).name} records its content), and "
+                                 "this one is not, "
                                  "or was changed since; choose another name") from None
     except BaseException:
         _remove_created(created)

@@ -221,7 +221,8 @@ def _known(table, keys, where):
     """Reject the first key of ``table`` not in ``keys``, by name."""
     unknown = [k for k in table if k not in keys]
     if unknown:
-        raise InputError(f"{where}: unknown key {_excerpt(unknown[0])}; expected keys: {', '.join(keys)}")
+        raise InputError(f"{where}: unknown key {_excerpt(unknown[0])}; expected keys: "
+                         f"{', '.join(keys)}")
 
 
 def read_scene(path, *, allow_outside=False):
@@ -233,7 +234,8 @@ def read_scene(path, *, allow_outside=False):
     try:
         doc = tomllib.loads(read_text(path))
     except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"{path}: invalid TOML ({_excerpt(str(exc).splitlines()[0] if str(exc) else exc)})") from None
+        raise InputError(f"{path}: invalid TOML "
+                         f"({_excerpt(str(exc).splitlines()[0] if str(exc) else exc)})") from None
     except RecursionError:
         raise InputError(f"{path}: TOML nested too deeply; expected a scene file") from None
     _known(doc, ("scene", "requirement", "sensor"), f"{path}: top level")
@@ -244,23 +246,28 @@ def read_scene(path, *, allow_outside=False):
            f"{path}: [scene]")
     outside = scene.get("allow_outside", False)
     if not isinstance(outside, bool):
-        raise InputError(f"{path}: [scene] allow_outside={_excerpt(outside)}: expected true or false")
+        raise InputError(f"{path}: [scene] allow_outside={_excerpt(outside)}: expected true or "
+                         "false")
     allow_outside = allow_outside or outside
     outages = scene.get("outages_s")
     low, high, _ = RANGES["time_s"]
     if not isinstance(outages, list) or not outages or not all(
             isinstance(v, (int, float)) and not isinstance(v, bool) and low <= v <= high for v in outages):
-        raise InputError(f"{path}: [scene] outages_s={_excerpt(outages)}: expected a non-empty list of seconds, each "
+        raise InputError(f"{path}: [scene] outages_s={_excerpt(outages)}: expected a non-empty "
+                         "list of seconds, each "
                          f"from {low:g} to {high:g}")
     cred = scene.get("credibility", 0.95)
     if isinstance(cred, bool) or not isinstance(cred, (int, float)) or not 0.5 <= cred < 1:
-        raise InputError(f"{path}: [scene] credibility={_excerpt(cred)}: expected a number in [0.5, 1)")
+        raise InputError(f"{path}: [scene] credibility={_excerpt(cred)}: expected a number in "
+                         "[0.5, 1)")
     bias_start = scene.get("bias_start", "calibrated")
     if bias_start not in BIAS_STARTS:
-        raise InputError(f"{path}: [scene] bias_start={_excerpt(bias_start)}: expected one of {', '.join(BIAS_STARTS)}")
+        raise InputError(f"{path}: [scene] bias_start={_excerpt(bias_start)}: expected one of "
+                         f"{', '.join(BIAS_STARTS)}")
     calibration = scene.get("calibration_s", DEFAULT_CALIBRATION_S)
     if isinstance(calibration, bool) or not isinstance(calibration, (int, float)):
-        raise InputError(f"{path}: [scene] calibration_s={_excerpt(calibration)}: expected a number of seconds")
+        raise InputError(f"{path}: [scene] calibration_s={_excerpt(calibration)}: expected a "
+                         "number of seconds")
     check_range("calibration_s", calibration, f"{path}: [scene] calibration_s")
     requirement = doc.get("requirement")
     if requirement is not None:
@@ -270,7 +277,8 @@ def read_scene(path, *, allow_outside=False):
         _known(requirement, ("quantity", "max_error"), where)
         quantity = _get(requirement, "quantity", str, where)
         if quantity not in OUTPUT_UNITS:
-            raise InputError(f"{where} quantity={_excerpt(quantity)}: expected one of {', '.join(OUTPUT_UNITS)}")
+            raise InputError(f"{where} quantity={_excerpt(quantity)}: expected one of "
+                             f"{', '.join(OUTPUT_UNITS)}")
         if "max_error" not in requirement:
             raise InputError(f"{where}: missing key 'max_error'")
         given = requirement["max_error"]
@@ -307,11 +315,13 @@ def read_scene(path, *, allow_outside=False):
         units = _get(entry, "units", str, where)
         if units not in UNITS or UNITS[units][0] != kind:
             allowed = [u for u, (k, _) in UNITS.items() if k == kind]
-            raise InputError(f"{where}: units={_excerpt(units)}: expected one of {', '.join(allowed)} for a {kind}")
+            raise InputError(f"{where}: units={_excerpt(units)}: expected one of "
+                             f"{', '.join(allowed)} for a {kind}")
         time_column = _get(entry, "time_column", str, where, required=False)
         time_unit = _get(entry, "time_unit", str, where, required=False)
         if time_unit is not None and (time_column is None or time_unit not in TIME_UNITS):
-            raise InputError(f"{where}: time_unit={_excerpt(time_unit)}: expected one of {', '.join(TIME_UNITS)}, "
+            raise InputError(f"{where}: time_unit={_excerpt(time_unit)}: expected one of "
+                             f"{', '.join(TIME_UNITS)}, "
                              "with time_column")
         rate = _get(entry, "rate_hz", float, where, required=time_column is None)
         if rate is not None:
@@ -336,7 +346,8 @@ def _confined(scene_path, given, key, where, allow_outside):
     except (OSError, RuntimeError):  # a symlink loop
         inside = False
     if not inside:
-        raise InputError(f"{where}: {key} path {_excerpt(given)} lies outside the scene's folder; paths are confined "
+        raise InputError(f"{where}: {key} path {_excerpt(given)} lies outside the scene's folder; "
+                         "paths are confined "
                          "to it unless allow_outside = true in [scene] (or allow_outside=True)")
     return candidate
 
@@ -367,8 +378,10 @@ def distinct_units(paths, *, where):
         for key in keys:
             if key in seen:
                 same = "the same file or folder" if key[0] == "path" else "files with the same content"
-                raise InputError(f"{where}: {_excerpt(str(seen[key]))} and {_excerpt(str(p))} are {same}: one unit "
-                                 "counted twice would make the unit-to-unit spread wrong; give each unit once")
+                raise InputError(f"{where}: {_excerpt(str(seen[key]))} and {_excerpt(str(p))} are "
+                                 f"{same}: one unit "
+                                 "counted twice would make the unit-to-unit spread wrong; give "
+                                 "each unit once")
             seen[key] = p
 
 
@@ -376,7 +389,8 @@ def _paths(entry, key, where):
     value = entry[key]
     many = key in ("logs", "fits")
     if many and (not isinstance(value, list) or len(value) < 2 or not all(isinstance(v, str) and v for v in value)):
-        raise InputError(f"{where}: {key}={_excerpt(value)}: expected a list of at least 2 paths (one per unit)")
+        raise InputError(f"{where}: {key}={_excerpt(value)}: expected a list of at least 2 paths "
+                         "(one per unit)")
     if not many and (not isinstance(value, str) or not value):
         raise InputError(f"{where}: {key}={_excerpt(value)}: expected a path")
     return value if many else [value]
@@ -388,7 +402,8 @@ def _columns(entry, where):
         return (value,)
     if isinstance(value, list) and value and all(isinstance(v, str) and v for v in value):
         return tuple(value)
-    raise InputError(f"{where}: column={_excerpt(value)}: expected a column name or a list of names (several axes: "
+    raise InputError(f"{where}: column={_excerpt(value)}: expected a column name or a list of "
+                     "names (several axes: "
                      "the worst one is bounded)")
 
 
@@ -512,7 +527,8 @@ def _log_allan(path, column, spec, where):
     factor = UNITS[spec.units][1]
     if path.suffix.lower() in BINARY_SUFFIXES:
         if column not in ("0",) or spec.time_column is not None:
-            raise InputError(f"{where}{path.name}: a binary log has one channel: give column = \"0\" and rate_hz, "
+            raise InputError(f"{where}{path.name}: a binary log has one channel: give column = "
+                             "\"0\" and rate_hz, "
                              "no time_column")
         return allan_variance_file(path, rate_hz=spec.rate_hz).scaled(factor)
     data = read_log(path, column=column, time_column=spec.time_column)
@@ -534,7 +550,8 @@ def _saved_axes(folder, spec, where):
         for axis, place, summary in fit_axes(folder):
             unit = summary.get("unit")
             if unit != spec.units:
-                raise InputError(f"{place}: fitted in {_excerpt(unit)}; a {spec.kind} report needs a fit in {spec.units} "
+                raise InputError(f"{place}: fitted in {_excerpt(unit)}; a {spec.kind} report "
+                                 f"needs a fit in {spec.units} "
                                  f"(run bayes-imu fit with --units)")
             out.append((axis, load_fit(place)))
     except InputError as exc:
