@@ -352,6 +352,12 @@ def _confined(scene_path, given, key, where, allow_outside):
     return candidate
 
 
+def _tail(path, limit=80):
+    """A path for a message: its last ``limit`` characters (the file's name is what tells two apart), sanitised."""
+    text = "".join(c if c.isprintable() else "?" for c in str(path))
+    return repr(text if len(text) <= limit else "..." + text[3 - limit:])
+
+
 def distinct_units(paths, *, where):
     """Refuse two units of one sensor that are the same: the same file or folder (after resolving
     links and
@@ -378,7 +384,7 @@ def distinct_units(paths, *, where):
         for key in keys:
             if key in seen:
                 same = "the same file or folder" if key[0] == "path" else "files with the same content"
-                raise InputError(f"{where}: {_excerpt(str(seen[key]))} and {_excerpt(str(p))} are "
+                raise InputError(f"{where}: {_tail(seen[key])} and {_tail(p)} are "
                                  f"{same}: one unit "
                                  "counted twice would make the unit-to-unit spread wrong; give "
                                  "each unit once")
