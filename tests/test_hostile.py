@@ -1175,19 +1175,22 @@ def test_hostile_names_through_pictures(small_report, name):
 
 
 def test_scene_time_column_and_unit(tmp_path):
-    """A scene's sensor may give time_column (its unit from the name, or time_unit) instead of rate_hz: the log
-    stamped in ms gives 100 Hz, and a unit that contradicts --rate is refused naming both."""
+    """A scene's sensor may give time_column (its unit from the name, or time_unit) instead of
+    rate_hz: the log stamped in ms gives 100 Hz, and a contradicting rate is refused naming both."""
     from bayes_imu.report.scene import _log_allan, read_scene
 
     _log(tmp_path / "ms.csv", n=512, time=np.arange(512) * 10.0, name="t_ms")
     _log(tmp_path / "plain.csv", n=512, time=np.arange(512) * 10.0, name="t")
     scene = tmp_path / "scene.toml"
-    for log, extra in (("ms.csv", 'time_column = "t_ms"\n'), ("plain.csv", 'time_column = "t"\ntime_unit = "ms"\n')):
-        scene.write_text(SCENE_HEAD + _sensor("log", log, 'column = "gx"\nunits = "deg/s"\n' + extra))
+    columns = 'column = "gx"\nunits = "deg/s"\n'
+    for log, extra in (("ms.csv", 'time_column = "t_ms"\n'),
+                       ("plain.csv", 'time_column = "t"\ntime_unit = "ms"\n')):
+        scene.write_text(SCENE_HEAD + _sensor("log", log, columns + extra))
         spec = read_scene(scene).sensors[0]
-        assert spec.rate_hz is None and _log_allan(spec.paths[0], "gx", spec, "").rate_hz == pytest.approx(100.0)
-    scene.write_text(SCENE_HEAD + _sensor("log", "ms.csv", 'column = "gx"\nunits = "deg/s"\nrate_hz = 50\n'
-                                                            'time_column = "t_ms"\n'))
+        allan = _log_allan(spec.paths[0], "gx", spec, "")
+        assert spec.rate_hz is None and allan.rate_hz == pytest.approx(100.0)
+    extra = 'rate_hz = 50\ntime_column = "t_ms"\n'
+    scene.write_text(SCENE_HEAD + _sensor("log", "ms.csv", columns + extra))
     spec = read_scene(scene).sensors[0]
     with pytest.raises(InputError, match="gives 100 Hz.*but rate_hz is 50 Hz"):
         _log_allan(spec.paths[0], "gx", spec, "")
