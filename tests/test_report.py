@@ -17,6 +17,7 @@ DATA = Path(__file__).resolve().parents[1] / "data_synthetic"
 SCENE = """
 [scene]
 name = "test scene"
+allow_outside = true
 outages_s = [10, 60, 300]
 credibility = 0.95
 bias_start = "zero"

@@ -14,6 +14,7 @@ DATA = Path(__file__).resolve().parents[1] / "data_synthetic"
 SCENE = """
 [scene]
 name = "datasheet scene"
+allow_outside = true
 outages_s = [10, 60]
 [[sensor]]
 name = "budget"

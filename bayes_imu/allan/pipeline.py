@@ -70,6 +70,11 @@ class LogSource:
         An Allan deviation table to fit instead of a log (``rate`` is its log's rate).
     samples : int or None
         With ``allan_table``: samples in the log it came from.
+    time_unit : {"s", "ms", "us", "ns"} or None
+        Unit of the time stamps (``None``: from the column's name, or the unit agreeing with
+        ``rate``, else seconds; :func:`~bayes_imu.io.timebase.check_time`).
+    trust_units : bool
+        Skip the plausibility check of ``units`` against a static log (:mod:`bayes_imu.io.plausible`).
     label : str or None
         The name outputs give the log (default: ``log`` as given).
     calibration : float or None
@@ -83,6 +88,7 @@ class LogSource:
     stream: bool = False
     rate: float = None
     time_column: str = None
+    time_unit: str = None
     gaps: str = "error"
     input: str = "rate"
     units: str = None
@@ -91,6 +97,7 @@ class LogSource:
     samples: int = None
     label: str = None
     calibration: float = DEFAULT_CONTRAST_SPAN_S
+    trust_units: bool = False
 
     @property
     def shown(self):
@@ -268,11 +275,11 @@ def _table(opts):
 def _streamed(opts, purpose, grid, progress):
     from .outofcore import allan_variance_file
 
-    if opts.time_column is not None:
+    if opts.time_column is not None or opts.time_unit is not None:
         raise InputError(f"{opts.log}: a time column is not available out of core; give rate_hz")
     binary = opts.log.suffix.lower() in BINARY_SUFFIXES
-    if binary and opts.column is not None:
-        raise InputError(f"{opts.log}: a binary log has one channel; leave out column")
+    if binary and opts.column not in (None, "0"):  # its one channel is column "0" (a scene names it)
+        raise InputError(f"{opts.log}: a binary log has one channel; leave out column (or give '0')")
     columns = ["0"] if binary else _columns(opts, purpose)
     results = [
         allan_variance_file(
@@ -299,6 +306,9 @@ def _read(opts, purpose, progress):
     if is_bag(opts.log):
         if opts.topic is None:
             raise InputError(f"{opts.log}: a ROS bag needs a topic (a sensor_msgs/Imu topic)")
+        if opts.time_unit is not None:
+            raise InputError(f"{opts.log}: a ROS bag's header stamps are seconds and nanoseconds; "
+                             "leave out time_unit")
         data = read_imu_bag(opts.log, topic=opts.topic, columns=columns)
         where, what = f"{opts.log}: {opts.topic} header stamps", "message"
     else:
@@ -306,6 +316,9 @@ def _read(opts, purpose, progress):
             opts.log, columns=columns, time_column=opts.time_column, progress=progress
         )
         where, what = f"{opts.log}: column {opts.time_column!r}", "line"
+    if opts.time_unit is not None and data.time_s is None:
+        raise InputError(f"{opts.log}: time_unit={opts.time_unit!r} goes with a time column (no "
+                         "time column given)")
     timebase = check_time(
         data.time_s,
         rate_hz=opts.rate,
@@ -314,9 +327,12 @@ def _read(opts, purpose, progress):
         where=where,
         n_samples=data.values.shape[0],
         what=what,
+        time_unit="s" if is_bag(opts.log) else opts.time_unit,
+        column=getattr(data, "time_name", None),
     )
     values = data.values[timebase.start : timebase.stop]
     _require_samples(opts, values.shape[0], purpose)
+    _plausible(opts, values, timebase.rate_hz, data.columns)
     info = {
         "log": str(opts.log),
         "columns": list(data.columns),
@@ -326,6 +342,31 @@ def _read(opts, purpose, progress):
         **timebase.to_json(),
     }
     return data.columns, values, timebase.rate_hz, info
+
+
+def _plausible(opts, values, rate_hz, columns):
+    """Warn of a step in a column, and of declared units a static log contradicts (an error where
+    no unit fits, unless ``trust_units``): :mod:`bayes_imu.io.plausible`."""
+    import warnings
+
+    from ..io.plausible import PlausibilityWarning, check_units, find_step
+
+    for j, column in enumerate(columns):
+        step = find_step(values[:, j])
+        if step is not None:
+            warnings.warn(f"{opts.log}: column {column!r}: its level steps by {step[1]:.3g} sigma "
+                          f"of its noise at sample {step[0] + 1}; a step is not noise (the fit "
+                          "treats it as slow drift): cut the log there, or check the sensor",
+                          PlausibilityWarning, stacklevel=2)
+    if opts.units is None or opts.units not in UNITS or opts.input != "rate" or opts.trust_units:
+        return
+    found = check_units(values, opts.units, rate_hz)
+    if found is None:
+        return
+    if found.fatal:
+        raise InputError(f"{opts.log}: {found}; give trust_units if the log is what it should be")
+    warnings.warn(f"{opts.log}: {found} (units={opts.units} as given; trust_units silences this)",
+                  PlausibilityWarning, stacklevel=2)
 
 
 def _require_samples(opts, n, purpose):

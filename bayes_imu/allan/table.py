@@ -103,7 +103,7 @@ def read_allan_table(path, *, rate_hz, n_samples=None, confidence=0.683):
                          f"optionally 'edf'; found {', '.join(repr(n) for n in names[:8])}")
     value = "adev" if "adev" in lower else "avar"
     wanted = [lower["tau"], lower[value]] + ([lower["edf"]] if "edf" in lower else [])
-    data = read_columns(path, columns=wanted).values
+    data = read_columns(path, columns=wanted, signal=False).values  # a flat ADEV (bias instability) is valid
     if value == "avar" and np.any(data[:, 1] <= 0):
         raise InputError(f"{path}: avar must be positive on every row")
     adev = data[:, 1] if value == "adev" else np.sqrt(data[:, 1])

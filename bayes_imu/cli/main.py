@@ -11,7 +11,8 @@ Every output is written to a temporary folder beside ``--out`` and moved into pl
 when complete; an existing non-empty ``--out`` is refused unless ``--force``.
 
 Exit status: 0 success, 2 a user error (one line on stderr, no traceback unless
-``--debug``), 1 an unexpected internal error (one line; ``--debug`` for the traceback).
+``--debug``), 3 the numbers written but a picture not drawn (one warning line each), 1 an
+unexpected internal error (one line; ``--debug`` for the traceback).
 """
 
 import argparse
@@ -31,9 +32,9 @@ from pathlib import Path
 import numpy as np
 
 from .._version import __version__
-from ..report.output import safe_folder_name, staged_file, staged_folder
+from ..report.output import safe_folder_name, staged_file, staged_folder, user_os_error
 from ..report.plots import import_plotting, plot_allan_fit, plot_corner
-from ..report.worker import OutputWriter, background_default
+from ..report.worker import PICTURE_FAILED_STATUS, OutputWriter, background_default, draw_picture
 from ..report.writers import (FitRequest, axis_summary, batch_summary, drift_check_summary,
                               drift_outputs, fit_summary,
                               population_summary, write_allan_csv, write_drift, write_json,
@@ -52,7 +53,8 @@ from ..inference.fit import DISCREPANCY_MODES, warm_up as warm_up_fit
 from ..inference.likelihood import LIKELIHOODS
 from ..inference.sampling import import_emcee
 from ..noise import BIAS_STARTS, TERMS
-from ..io.timebase import GAP_POLICIES, RATE_RANGE
+from ..io.limits import RANGES
+from ..io.timebase import GAP_POLICIES, RATE_RANGE, TIME_UNITS
 
 __all__ = ["main"]
 
@@ -119,7 +121,12 @@ def _input_options(batch=False, optional_log=False):
                         help="read a text log out of core, in chunks (automatic for .npy and raw binary logs)")
     common.add_argument("--rate", type=_rate_type,
                         help=f"sample rate (Hz, {RATE_RANGE[0]:g} to {RATE_RANGE[1]:g}); optional with --time-column")
-    common.add_argument("--time-column", help="time stamps (s): the rate is derived from them and checked")
+    common.add_argument("--time-column", help="time stamps: the rate is derived from them and "
+                                              "checked")
+    common.add_argument("--time-unit", choices=tuple(TIME_UNITS),
+                        help="unit of the --time-column stamps (default: from the column's name, "
+                             "e.g. t_ms, "
+                             "time_us, else the one agreeing with --rate, else s)")
     common.add_argument("--gaps", choices=GAP_POLICIES, default="error",
                         help="irregular time steps: error (default) or fit the longest regular segment")
     common.add_argument("--input", choices=("rate", "increments"), default="rate",
@@ -128,6 +135,9 @@ def _input_options(batch=False, optional_log=False):
     common.add_argument("--units", "--unit", dest="units", choices=tuple(UNITS) + tuple(INCREMENT_UNITS),
                         help="units of the column(s), converted to SI (rad/s, m/s^2): rates " + ", ".join(UNITS)
                              + "; increments " + ", ".join(INCREMENT_UNITS) + "; default: left as they are")
+    common.add_argument("--trust-units", action="store_true",
+                        help="skip the check that a static log is plausible in --units (a moving "
+                             "log, a test rig)")
     common.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
     common.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
     common.add_argument("--quiet", action="store_true", help="no progress bars or messages")
@@ -200,7 +210,7 @@ def _build_parser():
     population.add_argument("--terms", default="auto",
                             help="'auto' (the common structure chosen by the units' summed evidence) or a "
                                  "comma-separated list of terms: " + ", ".join(TERMS))
-    population.add_argument("--spread-scale", type=_positive_number, default=1.0, metavar="S",
+    population.add_argument("--spread-scale", type=_ranged("spread_scale"), default=1.0, metavar="S",
                             help="scale of the half-normal prior on the unit-to-unit spread of each "
                                  "ln-parameter (default 1: a factor e, weakly informative)")
     _drift_options(population)
@@ -216,6 +226,9 @@ def _build_parser():
     report.add_argument("--seed", type=_seed_type, default=0, help="random seed (0 to 2**32 - 1), default 0")
     report.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
     report.add_argument("--quiet", action="store_true", help="no progress messages")
+    report.add_argument("--allow-outside", action="store_true",
+                        help="read logs and fit folders outside the scene's folder (default: "
+                             "refused)")
     report.set_defaults(handler=_cmd_report)
 
     kalibr = sub.add_parser(
@@ -241,7 +254,8 @@ def _build_parser():
                             "time_constant, random_walk, and units (of the values: rad/s default, deg/s, deg/h; "
                             "m/s^2 default, g, mg)")
     drift.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
-    drift.add_argument("--horizon", type=_positive_number, default=3600.0, help="longest time (s), default 3600")
+    drift.add_argument("--horizon", type=_ranged("time_s"), default=3600.0,
+                       help="longest time (s, 1e-6 to 1e9), default 3600")
     drift.add_argument("--bias-start", choices=DRIFT_BIAS_STARTS, default="zero",
                        help="bias at the start: zero (the paper, default) or stationary")
     drift.add_argument("--display-units", choices=DISPLAY_CHOICES, default="si",
@@ -272,15 +286,16 @@ def _cmd_allan(args):
     source = _source(args)
     read = allan_from_source(source, purpose="allan", grid=args.grid, progress=args.progress)
     columns, result, unit, info = read.columns, read.results[0], read.unit, read.info
+    _say_time_unit(args, info)
     from ..report.plots import plot_allan
 
     with staged_folder(args.out, force=args.force, inputs=_inputs(args.log)) as tmp:
         write_allan_csv(result, tmp / "allan.csv", unit=unit)
         label = f"{Path(source.shown).name}: {columns[0]} [{unit}]"
-        plot_allan(result, tmp / "allan.png", label=label, unit=unit)
+        failure = draw_picture(plot_allan, result, tmp / "allan.png", label=label, unit=unit)
     _say(args, f"{result.tau.size} cluster sizes from {result.n_samples} samples ({info['action']}); "
                f"wrote {args.out / 'allan.csv'} and allan.png")
-    return 0
+    return _pictures_status([failure])
 
 
 def _fit_request(args, **source_changes):
@@ -314,6 +329,7 @@ def _fit(request, args, in_batch=False):
     with OutputWriter(background=background, warm=(import_plotting, warm_up_fit)) as writer:
         read = allan_from_source(request.source, purpose="fit", progress=args.progress)
         columns, unit, info = read.columns, read.unit, read.info
+        _say_time_unit(args, info)
         inputs = _inputs(request.source.log, request.source.allan_table)
         with staged_folder(args.out, force=args.force, inputs=inputs) as tmp:
             folders = [None] if len(columns) == 1 else _folder_names(columns)
@@ -328,7 +344,22 @@ def _fit(request, args, in_batch=False):
                 write_json(tmp / "summary.json", summary)
             writer.wait()  # every output in the staging folder before it is moved into place
     _say(args, f"wrote {args.out}")
-    return 0
+    return _pictures_status(writer.picture_failures)
+
+
+def _pictures_status(failures):
+    """0, or :data:`PICTURE_FAILED_STATUS` with one warning line per picture not drawn (the numbers
+    were kept)."""
+    failures = [f for f in failures if f is not None]
+    for failure in failures:
+        _warn(str(failure))
+    return PICTURE_FAILED_STATUS if failures else 0
+
+
+def _say_time_unit(args, info):
+    if "time_unit" in info:
+        _say(args, f"time stamps in {info['time_unit']} ({info['time_unit_source']}): "
+                   f"{info['rate_hz']:.6g} Hz")
 
 
 def _folder_names(columns):
@@ -356,7 +387,7 @@ def _fit_axis(request, args, allan, unit, info, column, out, writer):
                 {"label": label, "unit": unit, "rng": request.seed}),
                (plot_corner, result, out / "corner.png", {"unit": unit})]
     for plot, *arguments, options in (figures[::-1] if result.samples.shape[1] >= 4 else figures):
-        writer.submit(plot, *arguments, **options)
+        writer.picture(plot, *arguments, **options)
     drift = drift_outputs(result, request, unit) if request.sensor else None
     summary = axis_summary(result, unit=unit, info=info, column=column, drift=drift)
     _say(args, _model_line(summary, result.diagnostics["converged"]))
@@ -443,15 +474,15 @@ def _cmd_report(args):
     from ..report.scene import build_report, read_scene
     from ..report.html import write_report
 
-    scene = read_scene(args.scene)
+    scene = read_scene(args.scene, allow_outside=args.allow_outside)
     inputs = [args.scene] + [p for s in scene.sensors for p in s.paths]
     staged = staged_folder(args.out, force=args.force, inputs=inputs)
     with staged as tmp, _sensor_progress(args, scene) as progress:
         report = build_report(scene, rng=args.seed, progress=progress)
-        write_report(report, tmp)
+        failure = write_report(report, tmp)
     _say(args, f"ranking: {', '.join(report.ranking)} ({report.reason})")
     _say(args, f"wrote {args.out}/report.json and report.html")
-    return 0
+    return _pictures_status([failure])
 
 
 @contextlib.contextmanager
@@ -513,12 +544,12 @@ def _fit_options(parser):
 def _drift_options(parser):
     parser.add_argument("--sensor", choices=("gyro", "accel"),
                         help="also write drift.csv / drift.png: attitude (gyro) or velocity and position (accel)")
-    parser.add_argument("--horizon", type=_positive_number, default=3600.0,
-                        help="longest drift time (s), default 3600")
+    parser.add_argument("--horizon", type=_ranged("time_s"), default=3600.0,
+                        help="longest drift time (s, 1e-6 to 1e9), default 3600")
     parser.add_argument("--bias-start", choices=BIAS_STARTS, default="calibrated",
                         help="bias at the start of the outage: calibrated (default: the mean of the --calibration "
                              "seconds before it is removed), zero (the paper) or stationary (never estimated)")
-    parser.add_argument("--calibration", type=_positive_number, default=DEFAULT_CALIBRATION_S, metavar="S",
+    parser.add_argument("--calibration", type=_ranged("calibration_s"), default=DEFAULT_CALIBRATION_S, metavar="S",
                         help=f"calibration window of --bias-start calibrated (s), default {DEFAULT_CALIBRATION_S:g}")
     parser.add_argument("--times", type=_times, metavar="T1,T2,...",
                         help="write drift.csv rows at exactly these times (s) instead of a log grid up to --horizon")
@@ -537,6 +568,9 @@ def _cmd_fit_population(args):
         raise InputError(f"--column {args.column!r}: fit-population takes one column (one axis of every unit)")
     if len(args.logs) < 2:
         raise InputError(f"fit-population: {len(args.logs)} log given; expected the logs of at least 2 units")
+    from ..report.scene import distinct_units
+
+    distinct_units(args.logs, where="fit-population")
     if args.units is not None and args.sensor is None:
         args.sensor = UNITS[args.units][0]
     request = _fit_request(args, log=args.logs[0])
@@ -572,11 +606,12 @@ def _cmd_fit_population(args):
             unit_bands = [drift_bands(f, bands.t_s, quantity=bands.quantity, bias_start=args.bias_start,
                                       calibration_s=args.calibration, rng=args.seed).scaled(factor)
                           for f in pop.unit_fits]
-        plot_population(pop, tmp / "population.png", unit=unit, bands=bands, unit_bands=unit_bands, rng=args.seed,
-                        drift_unit=drift_unit)
         write_json(tmp / "summary.json", summary)
+        args.picture_failures.append(draw_picture(plot_population, pop, tmp / "population.png", unit=unit,
+                                                  bands=bands, unit_bands=unit_bands, rng=args.seed,
+                                                  drift_unit=drift_unit))
     _say(args, f"wrote {args.out}")
-    return 0
+    return _pictures_status(args.picture_failures)
 
 
 def _cmd_fit_batch(args):
@@ -598,18 +633,21 @@ def _cmd_fit_batch(args):
         doc = batch_summary(results, args.logs, staging, seconds=seconds, scheduler=scheduler,
                             seed=args.seed)
         write_json(staging / "batch.json", doc)
-    failed = [r for r in results if r.status]
+    failed = [r for r in results if r.status not in (0, PICTURE_FAILED_STATUS)]
     for r in failed:
         print(f"bayes-imu: error: {r.name}: {r.error.removeprefix('bayes-imu: error: ')}", file=sys.stderr)
     _say(args, f"{len(results) - len(failed)} of {len(results)} logs fitted in {seconds:.1f} s "
                f"({doc['logs_per_minute']:.1f} logs/min); wrote {args.out / 'batch.json'}")
-    return 2 if failed else 0
+    unpictured = [r for r in results if r.status == PICTURE_FAILED_STATUS]
+    for r in unpictured:
+        _warn(f"{r.name}: a picture was not drawn; the numbers were written")
+    return 2 if failed else PICTURE_FAILED_STATUS if unpictured else 0
 
 
 def _fleet_fit(job):
     """One log of ``fit-batch`` (the fleet's task): exactly ``bayes-imu fit`` of the job's request,
     its outputs written in this process."""
-    args = argparse.Namespace(out=job.out, force=False, quiet=True, progress=False)
+    args = argparse.Namespace(out=job.out, force=False, quiet=True, progress=False, picture_failures=[])
     with warnings.catch_warnings():
         warnings.simplefilter("default")
         warnings.showwarning = _one_line_warning
@@ -660,13 +698,22 @@ _rate_type = _checked(float, lambda v: np.isfinite(v) and RATE_RANGE[0] <= v <= 
 _positive_number = _checked(float, lambda v: np.isfinite(v) and v > 0, "a positive number")
 
 
+def _ranged(kind):
+    """An argparse type: a number in :data:`bayes_imu.io.limits.RANGES` ``[kind]``."""
+    low, high, unit = RANGES[kind]
+    return _checked(float, lambda v: np.isfinite(v) and low <= v <= high and v > 0,
+                    f"a number from {low:g} to {high:g}{' ' + unit if unit else ''}")
+
+
 def _times(text):
     try:
         values = [float(v) for v in text.split(",") if v.strip()]
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected comma-separated times in seconds, got {text!r}") from None
-    if not values or not all(np.isfinite(v) and v > 0 for v in values):
-        raise argparse.ArgumentTypeError(f"expected positive times in seconds, got {text!r}")
+    low, high, _ = RANGES["time_s"]
+    if not values or not all(np.isfinite(v) and low <= v <= high for v in values):
+        raise argparse.ArgumentTypeError(f"expected times from {low:g} s to {high:g} s, got "
+                                         f"{text[:80]!r}")
     return tuple(sorted(set(values)))
 
 
@@ -705,6 +752,7 @@ def main(argv=None):
         print(f"bayes-imu: error: {exc}", file=sys.stderr)
         return 2
     args.progress = show_progress(getattr(args, "quiet", False))
+    args.picture_failures = []
     logging.basicConfig(level=logging.WARNING, format="%(message)s")  # third-party loggers stay quiet
     log.setLevel(logging.INFO)
     with warnings.catch_warnings(), _sigterm_as_interrupt():  # warnings shown the command's way
@@ -766,6 +814,14 @@ _FLAGS = ((re.compile(r"\bforce=True\b"), "--force"), (re.compile(r"\bscheduler=
           (re.compile(r"^(out|scheduler)="), r"--\1 "), (re.compile(r"^columns="), "--column "),
           (re.compile(r"\bbut rate_hz is\b"), "but --rate is"), (re.compile(r"\(is rate_hz right\?\)"), "(is --rate right?)"),
           (re.compile(r"\bgive a column\b"), "give --column"),
+          (re.compile(r"\btime_unit='(\w+)'"), r"--time-unit \1"),
+          (re.compile(r"\btime_unit\b"), "--time-unit"),
+          (re.compile(r"\btrust_units\b"), "--trust-units"),
+          (re.compile(r"\bunits=(\S+) as given"), r"--units \1 as given"),
+          (re.compile(r"\bgive rate_hz="), "give --rate "),
+          (re.compile(r"\bgive rate_hz\b"), "give --rate HZ"),
+          (re.compile(r"\bthe time column and give\b"), "--time-column and give"),
+          (re.compile(r"\bgoes with a time column\b"), "goes with --time-column"),
           (re.compile(r"^horizon_s="), "--horizon="),
           # allan.pipeline's LogSource fields
           (re.compile(r"^(column|units)="), r"--\1 "),
@@ -808,6 +864,10 @@ def _run(args):
     except Exception as exc:  # an internal error: one line, the traceback with --debug
         if args.debug or os.environ.get("BAYES_IMU_DEBUG") == "1":
             raise
+        reason = user_os_error(exc)  # a path, permission or full disk: the user's to fix (exit 2), not a bug
+        if reason is not None:
+            print(f"bayes-imu: error: {reason}", file=sys.stderr)
+            return 2
         text = str(exc).strip().splitlines()
         print(f"bayes-imu: internal error: {type(exc).__name__}: {text[0] if text else ''} "
               "(rerun with --debug for the traceback, and please report it)", file=sys.stderr)

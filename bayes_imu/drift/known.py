@@ -9,7 +9,9 @@ sensor on a log grid of times.
 import numpy as np
 
 from ..errors import InputError
+from ..io.limits import check_range
 from ..io.readers import SI_UNITS, UNITS, read_json_object
+from ..io.timebase import check_rate
 from .bands import SENSOR_QUANTITIES
 from .closed_forms import drift_sigma
 
@@ -60,7 +62,10 @@ def _positive_float(path, spec, key, default=None):
         raise InputError(f"{path}: {key}={value!r}: expected a number") from None
     if not value > 0 and not (value == 0 and default is not None):
         raise InputError(f"{path}: {key}={value!r}: expected a positive number")
-    return value
+    if key == "rate_hz":
+        return check_rate(value, source="rate_hz", where=str(path))
+    return check_range("time_constant" if key == "time_constant" else "parameter", value,
+                       f"{path}: {key}", allow_inf=key == "time_constant")
 
 
 def known_drift(path, spec, *, horizon_s, bias_start="zero", n_times=200):

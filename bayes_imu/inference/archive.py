@@ -4,9 +4,19 @@
 needs except the ArviZ ``InferenceData`` (``posterior.nc`` beside it): the Allan variance,
 the draws of the selected model and of every model-averaging component, the candidates'
 evidences, the adequacy and stationarity checks, the covariance and the diagnostics.
+
+An archive is untrusted input (a report reads fit folders it did not write): :func:`load_fit`
+reads the arrays' headers first and refuses an archive whose arrays declare more bytes than
+:data:`MAX_EXPANSION` times its size (a 6 MB file asking for a 6 GiB array), or an object
+array; then checks every field (:func:`_validate`: finite values, positive where physical,
+consistent shapes, a known format and terms) and refuses a damaged or crafted one with a
+one-line :class:`~bayes_imu.errors.InputError` naming the field, instead of putting NaN or
+zero noise values into ``imu.yaml``.
 """
 
 import json
+import math
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +34,9 @@ from .stationarity import Stationarity
 __all__ = ["save_fit", "load_fit", "fit_axes", "write_netcdf", "ARCHIVE_NAME"]
 
 ARCHIVE_NAME = "fit.npz"
+#: largest ratio of the arrays' declared bytes to the archive's size (``savez_compressed`` of a
+#: fit: about 1.3)
+MAX_EXPANSION = 64
 _FORMAT = 1
 _ALLAN_ARRAYS = ("tau", "m", "avar", "adev", "n_terms", "edf", "alpha", "avar_low", "avar_high")
 
@@ -87,14 +100,21 @@ def load_fit(path):
     if not file.is_file():
         hint = " (a folder written by an older bayes_imu: run bayes-imu fit again)" if path.is_dir() else ""
         raise InputError(f"{path}: no {ARCHIVE_NAME}; expected a folder written by bayes-imu fit{hint}")
+    _check_sizes(file)
     try:
         with np.load(file, allow_pickle=False) as z:
             data = {k: z[k] for k in z.files}
         meta = json.loads(str(data["meta"]))
-    except (OSError, ValueError, KeyError) as exc:
-        raise InputError(f"{file}: not a readable bayes_imu fit archive ({exc})") from None
-    if meta.get("format") != _FORMAT:
-        raise InputError(f"{file}: archive format {meta.get('format')!r}; this bayes_imu reads format {_FORMAT}")
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, RecursionError) as exc:
+        raise InputError(f"{file}: not a readable bayes_imu fit archive ({_short(exc)})") from None
+    if not isinstance(meta, dict) or meta.get("format") != _FORMAT:
+        shown = meta.get("format") if isinstance(meta, dict) else None
+        raise InputError(f"{file}: archive format {_short(shown)}; this bayes_imu reads format "
+                         f"{_FORMAT}")
+    try:
+        _validate(meta, data)
+    except (KeyError, TypeError, ValueError, IndexError) as exc:
+        raise InputError(f"{file}: damaged or crafted fit archive: {_short(exc)}") from None
     seg = meta.get("segments")
     segments = None if seg is None else SegmentAllan(data["segments_m"], data["segments_avar"], seg["n_samples"])
     con = meta.get("contrasts")
@@ -122,6 +142,105 @@ def load_fit(path):
     return FitResult(model, data["samples"], data["log_prob"], allan, candidates, meta["selected"], meta["diagnostics"],
                      meta["likelihood"], data["covariance"], meta["seed"], None, adequacy, probabilities, mixture,
                      meta["widened"], steady)
+
+
+def _short(value, limit=80):
+    text = "".join(c if c.isprintable() else "?" for c in str(value))
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _check_sizes(file):
+    """Refuse an archive whose arrays declare more than :data:`MAX_EXPANSION` times its size, or
+    hold objects,
+    from the headers alone (nothing allocated)."""
+    size = file.stat().st_size
+    total = 0
+    try:
+        with zipfile.ZipFile(file) as z:
+            for info in z.infolist():
+                with z.open(info) as member:
+                    version = np.lib.format.read_magic(member)
+                    read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                            else np.lib.format.read_array_header_2_0)
+                    shape, _, dtype = read(member)
+                if dtype.hasobject:
+                    raise InputError(f"{file}: field {_short(info.filename)} holds Python "
+                                     "objects; expected numbers")
+                total += math.prod(shape) * dtype.itemsize
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, RuntimeError) as exc:
+        raise InputError(f"{file}: not a readable bayes_imu fit archive ({_short(exc)})") from None
+    if total > MAX_EXPANSION * size + 2**20:
+        raise InputError(f"{file}: its arrays declare {total:.3g} bytes, more than "
+                         f"{MAX_EXPANSION} times the archive's "
+                         f"{size} bytes; a damaged or crafted archive (nothing was allocated)")
+
+
+def _validate(meta, data):
+    """Raise ``ValueError`` naming the first field of a loaded archive that no fit writes."""
+    from ..noise import TERMS
+
+    def field(name, *, positive=False, ndim=None, length=None, finite=True):
+        a = data[name]
+        if a.dtype.kind not in "fiu":
+            raise ValueError(f"field {name!r} has dtype {a.dtype}; expected numbers")
+        if ndim is not None and a.ndim != ndim:
+            raise ValueError(f"field {name!r} has shape {a.shape}; expected {ndim} dimension(s)")
+        if length is not None and a.shape[0] != length:
+            raise ValueError(f"field {name!r} has {a.shape[0]} rows; expected {length}")
+        if finite and not np.all(np.isfinite(a)):
+            raise ValueError(f"field {name!r} holds NaN or infinite values")
+        if positive and not np.all(a > 0):
+            raise ValueError(f"field {name!r} holds zero or negative values; expected positive ones")
+        return a
+
+    terms = meta["terms"]
+    if not isinstance(terms, list) or not terms or not all(t in TERMS for t in terms):
+        raise ValueError(f"field 'terms' = {terms!r}; expected a list of {', '.join(TERMS)}")
+    for key, value in (("dt", meta["dt"]), ("allan.rate_hz", meta["allan"]["rate_hz"]),
+                       ("allan.confidence", meta["allan"]["confidence"])):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+            raise ValueError(f"field {key!r} = {value!r}; expected a positive number")
+    if abs(meta["dt"] * meta["allan"]["rate_hz"] - 1.0) > 1e-9:
+        raise ValueError(f"fields 'dt' and 'allan.rate_hz' disagree ({meta['dt']!r} s, "
+                         f"{meta['allan']['rate_hz']!r} Hz)")
+    n_samples = meta["allan"]["n_samples"]
+    if isinstance(n_samples, bool) or not isinstance(n_samples, int) or n_samples < 4:
+        raise ValueError(f"field 'allan.n_samples' = {n_samples!r}; expected a whole number of at "
+                         "least 4")
+    n_tau = field("allan_tau", positive=True, ndim=1).shape[0]
+    for k in _ALLAN_ARRAYS:
+        field(f"allan_{k}", positive=k in ("tau", "m", "avar", "adev", "n_terms", "edf", "avar_low", "avar_high"),
+              ndim=1, length=n_tau)
+    n_parameters = len(NoiseModel(tuple(terms), meta["dt"]).parameter_names) + bool(meta["widened"])
+    samples = field("samples", positive=True, ndim=2)
+    if samples.shape[1] != n_parameters or samples.shape[0] < 1:
+        raise ValueError(f"field 'samples' has shape {samples.shape}; expected (draws, "
+                         f"{n_parameters}) for "
+                         f"{' + '.join(terms)}")
+    field("log_prob", ndim=1, length=samples.shape[0])
+    covariance = field("covariance", ndim=2)
+    if covariance.shape != (n_tau, n_tau):
+        raise ValueError(f"field 'covariance' has shape {covariance.shape}; expected ({n_tau}, "
+                         f"{n_tau})")
+    for i, c in enumerate(meta["mixture"]):
+        mix = field(f"mixture_{i}", positive=True, ndim=2)
+        if mix.shape[1] - len(NoiseModel(tuple(c["terms"]), meta["dt"]).parameter_names) not in (0, 1):
+            raise ValueError(f"field 'mixture_{i}' has shape {mix.shape}; expected one column per "
+                             "parameter of "
+                             f"{' + '.join(map(str, c['terms']))}")
+        p = c["probability"]
+        if isinstance(p, bool) or not isinstance(p, (int, float)) or not 0 <= p <= 1:
+            raise ValueError(f"field 'mixture[{i}].probability' = {p!r}; expected a number in [0, "
+                             "1]")
+    for i, _ in enumerate(meta["candidates"]):
+        field(f"mode_{i}")
+    field("probabilities")
+    if not 0 <= meta["selected"] < len(meta["candidates"]):
+        raise ValueError(f"field 'selected' = {meta['selected']!r}; expected an index of the "
+                         f"{len(meta['candidates'])} "
+                         "candidates")
+    if meta.get("adequacy") is not None:
+        field("residuals", ndim=1)
 
 
 def write_netcdf(fit, path):

@@ -30,6 +30,7 @@ from .._progress import progress_bar
 from ..errors import InputError
 
 __all__ = ["LogData", "read_log", "read_columns", "read_text", "check_signal", "SignalExtent", "positive_number",
+           "excerpt", "read_json_object", "MAX_TEXT_BYTES",
            "UNITS", "to_si", "MAX_MAGNITUDE"]
 
 #: input units and their factor to SI (rad/s for rates, m/s^2 for specific force)
@@ -57,6 +58,16 @@ _SNIFF_BYTES = 1 << 16
 _DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab"}
 
 
+def excerpt(value, limit=80, *, quoted=True):
+    """``repr(value)`` (or ``str`` with ``quoted=False``) for an error message: control characters
+    as ``?``, at
+    most ``limit`` characters (a file's content is never quoted at length: a 100 MB field, or the
+    first line of
+    a private file)."""
+    text = "".join(c if c.isprintable() else "?" for c in (repr(value) if quoted else str(value)))
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def read_json_object(path, what):
     """A JSON file holding one object (``what`` names it in the errors): the dict, or one-line errors."""
     import json
@@ -65,21 +76,57 @@ def read_json_object(path, what):
         doc = json.loads(read_text(path))
     except json.JSONDecodeError as exc:
         raise InputError(f"{path}: line {exc.lineno} column {exc.colno}: invalid JSON ({exc.msg})") from None
+    except RecursionError:
+        raise InputError(f"{path}: JSON nested too deeply; expected {what}") from None
     if not isinstance(doc, dict):
         raise InputError(f"{path}: expected a JSON object ({what})")
     return doc
 
 
+#: largest scene, sensor or summary file read (bytes): a larger one, a pipe or a device is refused
+#: unread
+MAX_TEXT_BYTES = 16 * 2**20
+
+
 def read_text(path):
-    """A small UTF-8 text file (scene, sensor or summary file), with one-line errors."""
+    """A small UTF-8 text file (scene, sensor or summary file), with one-line errors.
+
+    Only a regular file of at most :data:`MAX_TEXT_BYTES` is read (a named pipe, ``/dev/zero`` or
+    ``/dev/urandom`` is refused at once, never waited on or read without end); a UTF-8 byte-order
+    mark is dropped."""
+    import errno
+    import os
+    import stat
+
     try:
-        return Path(path).read_text(encoding="utf-8")
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # a pipe with no writer: no wait
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except IsADirectoryError:
         raise InputError(f"{path}: is a directory; expected a file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read ({exc})") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read "
+                         f"({exc.strerror or errno.errorcode.get(exc.errno, exc)})") from None
+    try:
+        info = os.fstat(fd)
+        if stat.S_ISDIR(info.st_mode):
+            raise InputError(f"{path}: is a directory; expected a file")
+        if not stat.S_ISREG(info.st_mode):
+            raise InputError(f"{path}: not a regular file (a pipe or device); expected a text file")
+        if info.st_size > MAX_TEXT_BYTES:
+            raise InputError(f"{path}: {info.st_size} bytes; expected a text file of at most "
+                             f"{MAX_TEXT_BYTES} bytes")
+        os.set_blocking(fd, True)
+        with os.fdopen(fd, "rb", closefd=False) as f:
+            data = f.read(MAX_TEXT_BYTES + 1)
+        return data.decode("utf-8").removeprefix("\ufeff")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset "
+                         f"{exc.start})") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    finally:
+        os.close(fd)
 
 
 def positive_number(name, value, *, what="number"):
@@ -87,7 +134,7 @@ def positive_number(name, value, *, what="number"):
     try:
         number = float(value)
     except (TypeError, ValueError):
-        raise InputError(f"{name}={value!r}: expected a positive, finite {what}") from None
+        raise InputError(f"{name}={excerpt(value)}: expected a positive, finite {what}") from None
     if not np.isfinite(number) or number <= 0:
         raise InputError(f"{name}={number!r}: expected a positive, finite {what}")
     return number
@@ -96,7 +143,7 @@ def positive_number(name, value, *, what="number"):
 def to_si(values, unit, *, where=""):
     """Convert samples from ``unit`` (a key of :data:`UNITS`) to SI (rad/s or m/s^2)."""
     if unit not in UNITS:
-        raise InputError(f"{where}unit {unit!r}: expected one of {', '.join(UNITS)}")
+        raise InputError(f"{where}unit {excerpt(unit)}: expected one of {', '.join(UNITS)}")
     return np.asarray(values, dtype=np.float64) * UNITS[unit][1]
 
 
@@ -120,6 +167,9 @@ class LogData:
         ``"comma"``, ``"semicolon"``, ``"tab"`` or ``"whitespace"``.
     header : bool
         Whether the file has a header row.
+    time_name : str or None
+        The time column's name (its unit may be in it:
+        :func:`bayes_imu.io.timebase.unit_from_name`).
     """
 
     values: np.ndarray
@@ -129,6 +179,7 @@ class LogData:
     lines: np.ndarray | None = None
     delimiter: str = "comma"
     header: bool = True
+    time_name: str | None = None
 
     @property
     def column(self):
@@ -139,10 +190,11 @@ class LogData:
 def read_log(path, *, column, time_column=None, progress=False):
     """Read one numeric column (and optionally a time column, s) of a log; see :func:`read_columns`."""
     data = read_columns(path, columns=[column], time_column=time_column, progress=progress)
-    return LogData(data.values[:, 0], data.columns, data.path, data.time_s, data.lines, data.delimiter, data.header)
+    return LogData(data.values[:, 0], data.columns, data.path, data.time_s, data.lines, data.delimiter, data.header,
+                   data.time_name)
 
 
-def read_columns(path, *, columns, time_column=None, progress=False):
+def read_columns(path, *, columns, time_column=None, progress=False, signal=True):
     """Read numeric columns of a delimited text log (module docstring for the accepted forms).
 
     Parameters
@@ -152,9 +204,13 @@ def read_columns(path, *, columns, time_column=None, progress=False):
         Header names, or 0-based column indices (an integer-looking string is an index
         unless the header has a column of that name).
     time_column : str or int, optional
-        Time stamps in seconds; checked by :mod:`bayes_imu.io.timebase`.
+        Time stamps (their unit is resolved by :mod:`bayes_imu.io.timebase`, which checks them).
     progress : bool
         Show a progress bar (bytes read) on standard error.
+    signal : bool
+        Check each column as a sensor signal (:func:`check_signal`: not constant, not absurdly
+        large);
+        ``False`` for tables of other numbers (an Allan deviation table, whose column may be flat).
 
     Returns
     -------
@@ -179,14 +235,15 @@ def read_columns(path, *, columns, time_column=None, progress=False):
     order = [sorted(set(wanted)).index(i) for i in wanted]
     table = table[:, order]
     names = tuple(fmt["names"][i] for i in wanted)
-    for j, name in enumerate(names[: len(columns)]):
-        check_signal(table[:, j], where=f"{path}: column {name!r}")
+    for j, name in enumerate(names[: len(columns)] if signal else ()):
+        check_signal(table[:, j], where=f"{path}: column {excerpt(name, 40)}")
     values = np.ascontiguousarray(table[:, : len(columns)])
     time_s = lines = None
     if time_column is not None:
         time_s = np.ascontiguousarray(table[:, -1])
         lines = _data_line_numbers(path, fmt)
-    return LogData(values, names[: len(columns)], str(path), time_s, lines, fmt["delimiter_name"], fmt["header"])
+    return LogData(values, names[: len(columns)], str(path), time_s, lines, fmt["delimiter_name"], fmt["header"],
+                   names[-1] if time_column is not None and fmt["header"] else None)
 
 
 def check_signal(values, *, where):
@@ -233,12 +290,57 @@ class SignalExtent:
                              "(smaller values underflow the Allan variance: rescale the column)")
 
 
+#: a gzip log may decompress to at most this many times its compressed size (plus
+#: :data:`GZIP_ALLOWANCE`): a
+#: numeric log compresses 3-10x; a 6 MB file of 4 GiB is a decompression bomb, refused as it streams
+MAX_GZIP_RATIO = 100
+GZIP_ALLOWANCE = 16 * 2**20
+#: the format is detected from at most this many bytes: a longer comment preamble or first line is
+#: refused
+MAX_SNIFF_BYTES = 16 * 2**20
+
+
+class _Bounded(io.RawIOBase):
+    """A gzip stream that raises :class:`InputError` once it has given more than
+    :data:`MAX_GZIP_RATIO` times the
+    compressed bytes read so far (plus :data:`GZIP_ALLOWANCE`): memory and time bounded by the
+    file's size."""
+
+    def __init__(self, stream, raw, path):
+        self._stream, self._raw, self._path, self._out = stream, raw, path, 0
+
+    def readable(self):
+        return True
+
+    def readinto(self, buffer):
+        data = self._stream.read(len(buffer))
+        self._out += len(data)
+        if self._out > GZIP_ALLOWANCE and self._out > MAX_GZIP_RATIO * self._raw.tell():
+            raise InputError(f"{self._path}: the gzip data expands more than {MAX_GZIP_RATIO} "
+                             "times "
+                             f"({self._out} bytes from {self._raw.tell()}); expected a compressed "
+                             "log, not a "
+                             "decompression bomb (decompress it yourself if it is meant)")
+        buffer[: len(data)] = data
+        return len(data)
+
+    def read(self, size=-1):
+        if size is None or size < 0:
+            chunks = []
+            while chunk := super().read(1 << 20):
+                chunks.append(chunk)
+            return b"".join(chunks)
+        return super().read(size)
+
+
 def open_binary(path):
-    """File object of the (decompressed) bytes; gzip detected by its magic number."""
+    """File object of the (decompressed) bytes; gzip detected by its magic number, its expansion
+    bounded
+    (:data:`MAX_GZIP_RATIO`)."""
     raw = open(path, "rb")
     magic = raw.read(2)
     raw.seek(0)
-    return (gzip.GzipFile(fileobj=raw), raw) if magic == b"\x1f\x8b" else (raw, raw)
+    return (_Bounded(gzip.GzipFile(fileobj=raw), raw, path), raw) if magic == b"\x1f\x8b" else (raw, raw)
 
 
 def _head(path, size=_SNIFF_BYTES):
@@ -265,7 +367,8 @@ def _first_line(exc):
 
 def sniff_file(path):
     """Delimiter, header and column names of a text log (:func:`_sniff` on a window that grows
-    until it holds data rows, so a long comment preamble or a very long line is read whole)."""
+    until it holds data rows, so a long comment preamble or a long line is read whole, up to
+    :data:`MAX_SNIFF_BYTES`)."""
     size = _SNIFF_BYTES
     while True:
         head = _head(path, size)
@@ -275,7 +378,11 @@ def sniff_file(path):
             return fmt
         if complete:
             raise InputError(f"{path}: no data rows (only blank or comment lines); expected a header row and samples")
-        size *= 4
+        if size >= MAX_SNIFF_BYTES:
+            raise InputError(f"{path}: no header and data row within the first {MAX_SNIFF_BYTES} "
+                             "bytes (a comment "
+                             "preamble or a line longer than that); expected a delimited text log")
+        size = min(4 * size, MAX_SNIFF_BYTES)
 
 
 def _sniff(path, head, *, complete=None):
@@ -336,7 +443,15 @@ def _delimiter(rows):
 
 
 def _split(content, delimiter):
-    return content.split() if delimiter is None else content.split(delimiter)
+    """The fields of one row; a quoted field may hold the delimiter (``"a,b",1.5``), as pandas
+    reads it."""
+    if delimiter is None:
+        return content.split()
+    if '"' in content:
+        import csv
+
+        return next(csv.reader([content], delimiter=delimiter, skipinitialspace=True))
+    return content.split(delimiter)
 
 
 _DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+([eE][+-]?\d+)?$")
@@ -348,7 +463,8 @@ def _refuse_decimal_commas(path, rows):
         for sep in (";", "\t"):
             fields = [_unquote(f.strip()) for f in content.split(sep)]
             if len(fields) > 1 and any(_DECIMAL_COMMA.match(f) for f in fields):
-                raise InputError(f"{path}: line {number}: {content[:40]!r} uses decimal commas; expected decimal "
+                raise InputError(f"{path}: line {number}: {excerpt(content[:40])} uses decimal "
+                                 "commas; expected decimal "
                                  "points (export the log with '.' as the decimal separator)")
 
 
@@ -370,14 +486,16 @@ def resolve_column(path, fmt, column):
     key = str(column).strip()
     if key in names:
         if key in fmt["dupes"]:
-            raise InputError(f"{path}: column name {key!r} appears more than once in the header; "
+            raise InputError(f"{path}: column name {excerpt(key, 40)} appears more than once in "
+                             "the header; "
                              "give the column by its 0-based index")
         return names.index(key)
     try:
         index = int(key)
     except ValueError:
-        shown = ", ".join(repr(n) for n in names[:12]) + (", ..." if len(names) > 12 else "")
-        raise InputError(f"{path}: no column {key!r}; expected one of the header names ({shown}) "
+        shown = excerpt(", ".join(repr(n) for n in names[:12]) + (", ..." if len(names) > 12 else ""), quoted=False)
+        raise InputError(f"{path}: no column {excerpt(key, 40)}; expected one of the header names "
+                         f"({shown}) "
                          "or a 0-based column index") from None
     if not 0 <= index < len(names):
         raise InputError(f"{path}: column index {index} out of range; the file has {len(names)} columns "
@@ -448,7 +566,7 @@ def _parse_plain(path, fmt, usecols, bar):
         return None
     read = sorted(set(usecols) | {n_columns - 1}) if wide else None
     stream, raw = open_binary(path)
-    counting = _Counting(stream, raw, bar, ord(delimiter) if wide else None)
+    counting = _Counting(stream, raw, bar, ord(delimiter) if wide else None, path)
     try:
         with raw, io.TextIOWrapper(io.BufferedReader(counting, buffer_size=1 << 20), encoding="utf-8-sig",
                                    newline=None) as text, warnings.catch_warnings():
@@ -456,6 +574,8 @@ def _parse_plain(path, fmt, usecols, bar):
             warnings.simplefilter("error")  # "input contained no data": pandas' path says what is wrong
             table = np.loadtxt(text, dtype=np.float64, delimiter=delimiter, comments="#",
                                skiprows=1 if fmt["header"] else 0, ndmin=2, usecols=read)
+    except InputError:  # a decompression bomb: no second reader tries it
+        raise
     except (ValueError, UserWarning, UnicodeDecodeError, OSError, EOFError, zlib.error):
         return None
     if wide:
@@ -488,8 +608,10 @@ def _parse_pandas(path, fmt, usecols, progress):
         stream, raw = open_binary(path)
         try:
             with raw:
-                frame = pd.read_csv(io.BufferedReader(_Counting(stream, raw, bar), buffer_size=1 << 20),
+                frame = pd.read_csv(io.BufferedReader(_Counting(stream, raw, bar, path=path), buffer_size=1 << 20),
                                     low_memory=False, **csv_options(fmt, usecols))
+        except InputError:
+            raise
         except (ValueError, pd.errors.ParserError, UnicodeDecodeError):
             diagnose_text(path, fmt, usecols)
         except (OSError, EOFError, zlib.error) as exc:
@@ -509,19 +631,28 @@ def csv_options(fmt, usecols):
             "skipinitialspace": True, "engine": "c"}
 
 
+#: longest line of a text log (bytes): a longer one is refused as it streams past (memory stays
+#: bounded)
+MAX_LINE_BYTES = 1 << 20
+
+
 class _Counting(io.RawIOBase):
     """Byte stream that advances a progress bar by the compressed bytes consumed, and counts the byte
-    ``delimiter`` (an ASCII code) in what it passes on (:attr:`delimiters`) when given one."""
+    ``delimiter`` (an ASCII code) in what it passes on (:attr:`delimiters`) when given one. A line
+    longer than
+    :data:`MAX_LINE_BYTES` raises :class:`InputError` (naming ``path``) as it passes."""
 
-    def __init__(self, stream, raw, bar, delimiter=None):
+    def __init__(self, stream, raw, bar, delimiter=None, path="log"):
         self._stream, self._raw, self._bar, self._seen = stream, raw, bar, 0
         self._delimiter, self.delimiters = delimiter, 0
+        self._path, self._run = path, 0  # bytes since the last line end
 
     def readable(self):
         return True
 
     def readinto(self, buffer):
         data = self._stream.read(len(buffer))
+        self._check_lines(data)
         buffer[: len(data)] = data
         if self._delimiter is not None:  # numpy's comparison: 3-4x bytes.count's speed on megabyte chunks
             self.delimiters += int(np.count_nonzero(np.frombuffer(data, np.uint8) == self._delimiter))
@@ -529,6 +660,23 @@ class _Counting(io.RawIOBase):
         self._bar.update(position - self._seen)
         self._seen = position
         return len(data)
+
+    def _check_lines(self, data):
+        if len(data) > MAX_LINE_BYTES:  # a line may lie wholly inside: every line end
+            codes = np.frombuffer(data, np.uint8)
+            ends = np.flatnonzero((codes == 10) | (codes == 13))
+        else:  # only the line running across the chunk's start can be long
+            last = max(data.rfind(b"\n"), data.rfind(b"\r"))
+            first = min((i for i in (data.find(b"\n"), data.find(b"\r")) if i >= 0), default=-1)
+            ends = np.array([first, last] if first >= 0 else [], dtype=np.int64)
+        longest = self._run + (int(ends[0]) if ends.size else len(data))
+        if ends.size > 1:
+            longest = max(longest, int(np.max(np.diff(ends))) - 1)
+        self._run = len(data) - 1 - int(ends[-1]) if ends.size else self._run + len(data)
+        if longest > MAX_LINE_BYTES:
+            raise InputError(f"{self._path}: a line longer than {MAX_LINE_BYTES} bytes; expected "
+                             "the rows of a "
+                             "delimited text log")
 
 
 def _data_lines(path, fmt):
@@ -569,8 +717,9 @@ def _find_bad_line(path, fmt, usecols):
             except ValueError:
                 value = None
             if value is None or not np.isfinite(value):
-                found = repr(text) if text else "an empty field"
-                raise InputError(f"{path}: line {number}, column {fmt['names'][i]!r}: got {found}; "
+                found = excerpt(text, 40) if text else "an empty field"
+                raise InputError(f"{path}: line {number}, column {excerpt(fmt['names'][i], 40)}: "
+                                 f"got {found}; "
                                  "expected a finite number")
 
 

@@ -11,9 +11,20 @@ clock is accepted; the Allan variance assumes uniform sampling). Irregular steps
 
 ``gaps="error"`` (default) rejects any irregular step with a one-line error naming its
 file line and size; ``gaps="longest"`` keeps the longest run of regular steps and records
-what was dropped (:class:`TimeBase`), so the outputs can say what was done.
+what was dropped (:class:`TimeBase`), so the outputs can say what was done. Where most steps
+are irregular (a host's bursty stamps) the errors state the mean rate over the whole log and
+suggest giving it as the rate instead of the time column.
+
+Units of the stamps (:data:`TIME_UNITS`): given (``time_unit``), else read from the column's
+name (``t_ms``, ``time_us``, ``timestamp_ns``, ``time [s]``: :func:`unit_from_name`), else,
+when a rate is given too, the one unit whose rate agrees with it, else seconds. Seconds
+assumed but not stated are refused where they give a rate outside :data:`TYPICAL_RATE_RANGE`
+while another unit gives one inside it (a 100 Hz log stamped in milliseconds reads as
+0.1 Hz): the error names every unit's rate and the likely one. The unit used and where it
+came from are recorded in :class:`TimeBase`.
 """
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,7 +32,8 @@ import numpy as np
 from ..errors import InputError
 from .readers import positive_number
 
-__all__ = ["TimeBase", "check_time", "check_rate", "GAP_POLICIES", "STEP_TOLERANCE", "RATE_TOLERANCE", "RATE_RANGE"]
+__all__ = ["TimeBase", "check_time", "check_rate", "unit_from_name", "GAP_POLICIES", "STEP_TOLERANCE",
+           "RATE_TOLERANCE", "RATE_RANGE", "TIME_UNITS", "TYPICAL_RATE_RANGE"]
 
 GAP_POLICIES = ("error", "longest")
 #: accepted relative deviation of one step from the median step
@@ -30,6 +42,32 @@ STEP_TOLERANCE = 0.5
 RATE_TOLERANCE = 0.01
 #: plausible sample rates of an inertial sensor log (Hz)
 RATE_RANGE = (0.01, 1e6)
+#: the rates of nearly every IMU log (Hz): stamps in an unstated unit giving a rate outside it,
+#: where another
+#: unit gives one inside it, are refused (:func:`check_time`)
+TYPICAL_RATE_RANGE = (1.0, 1e4)
+#: units of time stamps and their factor to seconds
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+_UNIT_WORDS = {"s": ("s", "sec", "secs", "second", "seconds"),
+               "ms": ("ms", "msec", "msecs", "millis", "millisecond", "milliseconds"),
+               "us": ("us", "\u00b5s", "\u03bcs", "usec", "usecs", "micros", "microsecond", "microseconds"),
+               "ns": ("ns", "nsec", "nsecs", "nanos", "nanosecond", "nanoseconds")}
+_WORD_UNIT = {w: u for u, words in _UNIT_WORDS.items() for w in words}
+_NAME_PARTS = re.compile(r"[^0-9a-z\u00b5\u03bc]+")
+
+
+def unit_from_name(name):
+    """The time unit a column's name states (``t_ms`` -> ``"ms"``, ``time [us]`` -> ``"us"``), or
+    ``None``.
+
+    The name is split at every character other than a letter or digit; the last part that is a
+    unit word (:data:`TIME_UNITS`' keys, ``sec``, ``msec``, ``usec``, ``nsec``, ``micros``,
+    ``nanoseconds``, ...) counts. ``time``, ``stamp``, ``t`` state none.
+    """
+    if name is None:
+        return None
+    found = [_WORD_UNIT[p] for p in _NAME_PARTS.split(str(name).lower()) if p in _WORD_UNIT]
+    return found[-1] if found else None
 
 
 def check_rate(rate_hz, source="--rate", where=None):
@@ -41,13 +79,60 @@ def check_rate(rate_hz, source="--rate", where=None):
     raise InputError(f"{prefix}{source} gives a sample rate of {rate_hz:.6g} Hz; expected {lo:g} Hz to {hi:g} Hz")
 
 
-def _stamp_hint(step):
-    """Why a time column gives an implausible rate: stamps in other units than seconds."""
-    for scale, unit in ((1e9, "nanoseconds"), (1e6, "microseconds"), (1e3, "milliseconds")):
-        if RATE_RANGE[0] <= scale / step <= RATE_RANGE[1]:
-            return (f"; if the stamps are in {unit} (step {step:.6g}) the rate is {scale / step:.6g} Hz: give the "
-                    f"time column in seconds (divide by {scale:g}) or drop --time-column and give --rate")
-    return ""
+def _unit_rates(step_raw):
+    """``{unit: rate_hz}`` of a median step in raw stamp units, for every unit of
+    :data:`TIME_UNITS`."""
+    return {unit: 1.0 / (step_raw * factor) for unit, factor in TIME_UNITS.items()}
+
+
+def _likely_units(step_raw):
+    """The units whose rate lies in :data:`TYPICAL_RATE_RANGE` (else in :data:`RATE_RANGE`)."""
+    rates = _unit_rates(step_raw)
+    for lo, hi in (TYPICAL_RATE_RANGE, RATE_RANGE):
+        units = [u for u, r in rates.items() if lo <= r <= hi]
+        if units:
+            return units
+    return []
+
+
+def _stamp_hint(step_raw, given):
+    """Every unit's rate for a median step ``step_raw`` (raw units) and the likely unit, for an
+    error message."""
+    rates = ", ".join(f"{u}: {r:.4g} Hz" for u, r in _unit_rates(step_raw).items())
+    likely = [u for u in _likely_units(step_raw) if u != given]
+    if not likely:
+        return f" (median step {step_raw:.6g}; as {rates})"
+    return (f" (median step {step_raw:.6g}; as {rates}); the likely unit is "
+            f"{' or '.join(likely)}: give "
+            f"time_unit={likely[0]!r}, or drop the time column and give rate_hz")
+
+
+def _resolve_unit(time_unit, column, step_raw, rate_hz, where):
+    """``(unit, source)``: the unit of the stamps and where it came from (module docstring)."""
+    if time_unit is not None:
+        if time_unit not in TIME_UNITS:
+            raise InputError(f"{where}: time_unit={time_unit!r}: expected one of "
+                             f"{', '.join(TIME_UNITS)}")
+        return time_unit, "given"
+    named = unit_from_name(column)
+    if named is not None:
+        return named, f"column name {_short(column)}"
+    if rate_hz is not None:
+        agree = [u for u, r in _unit_rates(step_raw).items() if abs(r / rate_hz - 1.0) <= STEP_TOLERANCE]
+        if len(agree) == 1:
+            return agree[0], f"agrees with rate_hz={rate_hz:g}"
+        if not agree and _unlikely(step_raw):
+            rates = ", ".join(f"{u}: {r:.4g} Hz" for u, r in _unit_rates(step_raw).items())
+            raise InputError(f"{where}: the time column (median step {step_raw:.6g}) gives, as "
+                             f"{rates}; none agrees "
+                             f"with the rate given ({rate_hz:g} Hz); give time_unit, or only one "
+                             "of them")
+    return "s", "assumed"
+
+
+def _short(text, limit=40):
+    text = "".join(c if c.isprintable() else "?" for c in str(text))
+    return repr(text if len(text) <= limit else text[: limit - 3] + "...")
 
 
 @dataclass(frozen=True)
@@ -83,20 +168,34 @@ class TimeBase:
     irregular: int = 0
     dropped: int = 0
     action: str = "all samples used"
+    time_unit: str | None = None
+    time_unit_source: str | None = None
 
     def to_json(self):
-        return {"rate_hz": self.rate_hz, "rate_source": self.rate_source, "samples_used": self.stop - self.start,
-                "first_line": self.first_line, "last_line": self.last_line, "irregular_steps": self.irregular,
-                "dropped_samples": self.dropped, "action": self.action}
+        doc = {"rate_hz": self.rate_hz, "rate_source": self.rate_source, "samples_used": self.stop - self.start,
+               "first_line": self.first_line, "last_line": self.last_line, "irregular_steps": self.irregular,
+               "dropped_samples": self.dropped, "action": self.action}
+        if self.time_unit is not None:
+            doc.update(time_unit=self.time_unit, time_unit_source=self.time_unit_source)
+        return doc
+
+    def describe(self):
+        """One line for the command's output: the rate and, from a time column, the stamps' unit."""
+        if self.time_unit is None:
+            return f"rate {self.rate_hz:.6g} Hz ({self.rate_source})"
+        return (f"rate {self.rate_hz:.6g} Hz from the time column, stamps in {self.time_unit} "
+                f"({self.time_unit_source})")
 
 
-def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n_samples=None, what="line"):
+def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n_samples=None, what="line",
+               time_unit=None, column=None):
     """Sample rate and usable segment from a time column (or from ``rate_hz`` alone).
 
     Parameters
     ----------
     time_s : ndarray, shape (n_samples,) or None
-        Time stamps (s); ``None`` when the log has no time column.
+        Time stamps, in ``time_unit`` (or the unit the module docstring infers); ``None`` when
+        the log has no time column.
     rate_hz : float or None
         The rate the user gave (Hz); cross-checked against the time column (within
         :data:`RATE_TOLERANCE`).
@@ -109,6 +208,10 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
         Number of samples when ``time_s`` is None.
     what : str
         What ``lines`` count, in the messages (``"line"`` of a file, ``"message"`` of a bag).
+    time_unit : {"s", "ms", "us", "ns"} or None
+        Unit of the stamps; ``None``: from ``column``'s name, else from ``rate_hz``, else seconds.
+    column : str or None
+        Name of the time column (its unit may be in it: :func:`unit_from_name`).
 
     Returns
     -------
@@ -123,42 +226,93 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
             raise InputError(f"{where}: no sample rate: give rate_hz or a time column")
         first, last = (int(lines[0]), int(lines[-1])) if lines is not None and len(lines) else (None, None)
         return TimeBase(rate_hz, "--rate", 0, int(n_samples), first, last)
-    t = np.asarray(time_s, dtype=np.float64)
-    lines = np.arange(2, t.size + 2) if lines is None else np.asarray(lines)
-    if t.size < 3:
-        raise InputError(f"{where}: {t.size} time stamps; expected at least 3 to derive a sample rate")
-    steps = np.diff(t)
+    raw = np.asarray(time_s, dtype=np.float64)
+    lines = np.arange(2, raw.size + 2) if lines is None else np.asarray(lines)
+    if raw.size < 3:
+        raise InputError(f"{where}: {raw.size} time stamps; expected at least 3 to derive a "
+                         "sample rate")
+    steps = np.diff(raw)
     positive = steps[steps > 0]
     if positive.size == 0:
-        raise InputError(f"{where}: time stamps never increase ({what} {lines[0]}: {float(t[0])!r}); expected seconds")
-    step = float(np.median(positive))  # classifies the steps; the rate comes from the segment's span
+        raise InputError(f"{where}: time stamps never increase ({what} {lines[0]}: "
+                         f"{float(raw[0])!r}); "
+                         "expected increasing stamps")
+    step_raw = float(np.median(positive))
+    unit, source = _resolve_unit(time_unit, column, step_raw, rate_hz, where)
+    t = raw * TIME_UNITS[unit] if unit != "s" else raw
+    steps = np.diff(t)
+    step = step_raw * TIME_UNITS[unit]  # classifies the steps; the rate comes from the segment's span
+    mean_rate = (t.size - 1) / float(t[-1] - t[0]) if t[-1] > t[0] else None
+    stated = f"stamps in {unit}" + ("" if source == "given" else f" ({source})")
+    if not RATE_RANGE[0] <= 1.0 / step <= RATE_RANGE[1]:
+        raise InputError(f"{where}: the time column gives {1.0 / step:.6g} Hz with {stated}; "
+                         "expected "
+                         f"{RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz" + _stamp_hint(step_raw, unit))
+    if source == "assumed" and _unlikely(step_raw):
+        raise InputError(f"{where}: the time column gives {1.0 / step:.6g} Hz if its stamps are "
+                         "seconds (no unit "
+                         "given or in its name), unusual for an IMU (most log at "
+                         f"{TYPICAL_RATE_RANGE[0]:g} Hz to "
+                         f"{TYPICAL_RATE_RANGE[1]:g} Hz)" + _stamp_hint(step_raw, None)
+                         + "; time_unit='s' keeps seconds")
     bad = ~((steps >= (1 - STEP_TOLERANCE) * step) & (steps <= (1 + STEP_TOLERANCE) * step))
     n_bad = int(np.count_nonzero(bad))
     if n_bad and gaps == "error":
         i = int(np.argmax(bad))
         more = f" ({n_bad - 1} more irregular steps after it)" if n_bad > 1 else ""
         raise InputError(f"{where}: {what} {lines[i + 1]}: {_describe(t[i], t[i + 1], step)}{more}; expected steps of "
-                         f"{step:.6g} s; use gaps='longest' to fit the longest regular segment")
+                         f"{step:.6g} s" + _bursty_hint(n_bad, steps.size, mean_rate, gaps_ok=True))
     # longest run of regular steps: segments are split at every irregular step
     cuts = np.concatenate(([0], np.flatnonzero(bad) + 1, [t.size]))
     k = int(np.argmax(np.diff(cuts)))
     start, stop = int(cuts[k]), int(cuts[k + 1])
     if stop - start < 3:
-        raise InputError(f"{where}: no regular segment of at least 3 time stamps; expected steps of {step:.6g} s")
+        raise InputError(f"{where}: no regular segment of at least 3 time stamps; expected steps "
+                         f"of {step:.6g} s"
+                         + _bursty_hint(n_bad, steps.size, mean_rate, gaps_ok=False))
     # least-noise rate: every stamp of the segment counts (clock jitter averages out)
     rate = (stop - start - 1) / float(t[stop - 1] - t[start])
     if not RATE_RANGE[0] <= rate <= RATE_RANGE[1]:
-        raise InputError(f"{where}: the time column gives {rate:.6g} Hz (median step {step:.6g}); expected "
-                         f"{RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz with stamps in seconds" + _stamp_hint(step))
+        raise InputError(f"{where}: the time column gives {rate:.6g} Hz with {stated}; expected "
+                         f"{RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz" + _stamp_hint(step_raw, unit))
     if rate_hz is not None and abs(rate / rate_hz - 1.0) > RATE_TOLERANCE:
-        raise InputError(f"{where}: the time column gives {rate:.6g} Hz (step {1 / rate:.6g} s) but rate_hz is "
-                         f"{rate_hz:g} Hz; expected them to agree within {RATE_TOLERANCE:.0%} (or give only one)")
+        raise InputError(f"{where}: the time column gives {rate:.6g} Hz (step {1 / rate:.6g} s, "
+                         f"{stated}) but "
+                         f"rate_hz is {rate_hz:g} Hz; expected them to agree within "
+                         f"{RATE_TOLERANCE:.0%} (or give "
+                         "only one)")
     if not n_bad:
-        return TimeBase(rate, "time column", 0, t.size, int(lines[0]), int(lines[-1]))
+        return TimeBase(rate, "time column", 0, t.size, int(lines[0]), int(lines[-1]), time_unit=unit,
+                        time_unit_source=source)
+    if stop - start < 0.5 * t.size and n_bad > 0.01 * steps.size and mean_rate is not None:
+        raise InputError(f"{where}: the longest regular segment holds only {stop - start} of "
+                         f"{t.size} samples"
+                         + _bursty_hint(n_bad, steps.size, mean_rate, gaps_ok=False))
     action = (f"{n_bad} irregular time steps; used the longest regular segment, {what}s {lines[start]}-{lines[stop - 1]} "
               f"({stop - start} of {t.size} samples)")
     return TimeBase(rate, "time column", start, stop, int(lines[start]), int(lines[stop - 1]), n_bad,
-                    t.size - (stop - start), action)
+                    t.size - (stop - start), action, unit, source)
+
+
+def _unlikely(step_raw):
+    """Seconds (assumed) give a rate outside :data:`TYPICAL_RATE_RANGE` while another unit gives
+    one inside."""
+    lo, hi = TYPICAL_RATE_RANGE
+    rates = _unit_rates(step_raw)
+    return not lo <= rates["s"] <= hi and any(lo <= r <= hi for r in rates.values())
+
+
+def _bursty_hint(n_bad, n_steps, mean_rate, *, gaps_ok):
+    """The way out of irregular stamps: the longest segment where they are few, the mean rate where
+    they are many
+    (a host's bursty stamps: no long regular segment exists)."""
+    if mean_rate is not None and n_bad > 0.01 * n_steps and RATE_RANGE[0] <= mean_rate <= RATE_RANGE[1]:
+        return (f"; {n_bad} of {n_steps} steps are irregular (bursty stamps?): the mean rate over "
+                "the log is "
+                f"{mean_rate:.6g} Hz; if the sensor samples on its own clock, drop the time "
+                "column and give "
+                f"rate_hz={mean_rate:.6g}")
+    return "; use gaps='longest' to fit the longest regular segment" if gaps_ok else ""
 
 
 def _describe(t0, t1, step):

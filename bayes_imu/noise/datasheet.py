@@ -15,6 +15,7 @@ use the white-equivalent short-term ``noise_density`` (what ADEV(1 s) reads).
 
 import numpy as np
 
+from ..errors import InputError
 from .model import REGISTRY
 from .quantities import G, SENSORS
 
@@ -41,7 +42,13 @@ def datasheet(posterior, kind):
     posterior : FitResult or UnitPosterior
         Fitted in SI (rad/s for a gyro, m/s^2 for an accelerometer).
     kind : {"gyro", "accel"}
+        Any other kind (``"magnetometer"``) is an :class:`~bayes_imu.errors.InputError`, never
+        another
+        sensor's table.
     """
+    if kind not in ("gyro", "accel"):
+        raise InputError(f"kind={str(kind)[:40]!r}: expected 'gyro' or 'accel' (datasheet units "
+                         "exist for those)")
     table = rows("gyro" if kind == "gyro" else "accel")
     names = set(posterior.parameter_names) | {"noise_density"}
     out = {}

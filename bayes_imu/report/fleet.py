@@ -73,7 +73,9 @@ def run_job(task, job):
     status, error = 0, ""
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
         try:
-            task(job)
+            returned = task(job)
+            if isinstance(returned, int) and not isinstance(returned, bool) and returned:  # pictures not drawn
+                status, error = returned, "bayes-imu: warning: a picture was not drawn; the numbers were written"
         except BayesIMUError as exc:
             status, error = 2, f"bayes-imu: error: {exc}"
         except BaseException as exc:  # noqa: BLE001 - a worker must report, not die

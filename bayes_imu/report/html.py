@@ -55,7 +55,7 @@ def _data_uri(png):
 
 
 def _comparison_figure(report, target):
-    from .plots import pyplot
+    from .plots import plain_text, pyplot
 
     plt = pyplot()
     quantities = [q for q in OUTPUT_UNITS if any(q in SENSOR_QUANTITIES[s.spec.kind] for s in report.sensors)]
@@ -66,7 +66,7 @@ def _comparison_figure(report, target):
             if band is None:
                 continue
             keep = band.total[-1] > 0
-            ax.plot(band.t_s[keep], band.total[-1][keep], color=f"C{i}", label=f"{s.spec.name} ({band.quantiles[-1]:.0%} bound)")
+            ax.plot(band.t_s[keep], band.total[-1][keep], color=f"C{i}", label=f"{plain_text(s.spec.name)} ({band.quantiles[-1]:.0%} bound)")
             ax.plot(band.t_s[keep], band.total[1][keep], color=f"C{i}", ls=":", lw=1)
         for t in report.scene.outages_s:
             ax.axvline(t, color="gray", lw=0.8, ls="--")
@@ -81,7 +81,8 @@ def _comparison_figure(report, target):
                 t_max = s.max_outage_s
                 if t_max is not None and 0 < t_max < MAX_SEARCH_S:
                     ax.plot([t_max], [req["max_error"]], marker="v", ms=8, color=f"C{i}", ls="none",
-                            label=f"{s.spec.name}: longest acceptable outage {t_max:.3g} s")
+                            label=f"{plain_text(s.spec.name)}: longest acceptable outage "
+                                  f"{t_max:.3g} s")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("outage duration (s)")
@@ -266,15 +267,23 @@ def _fmt_time(t):
 
 
 def write_report(report, out_dir):
-    """Write ``report.json``, ``report.html`` and ``comparison.png`` into ``out_dir`` (created if needed)."""
+    """Write ``report.json``, ``report.html`` and ``comparison.png`` into ``out_dir`` (created if
+    needed).
+
+    The numbers first: ``report.json`` is written before any picture is drawn. Returns the
+    :class:`~bayes_imu.report.worker.PictureFailure` of the comparison chart where it could not be
+    drawn
+    (``comparison.png`` then absent, the page without it), else ``None``."""
+    from .worker import draw_picture
+
     out_dir.mkdir(parents=True, exist_ok=True)
     doc = report.to_json()
     text = json.dumps(doc, indent=2, default=_json_default, allow_nan=False)
-    buffer = io.BytesIO()
-    _comparison_figure(report, buffer)
     (out_dir / "report.json").write_text(text + "\n", encoding="utf-8")
-    (out_dir / "comparison.png").write_bytes(buffer.getvalue())
-    (out_dir / "report.html").write_text(report_html(report, buffer.getvalue()), encoding="utf-8")
+    failure = draw_picture(_comparison_figure, report, out_dir / "comparison.png")
+    png = b"" if failure is not None else (out_dir / "comparison.png").read_bytes()
+    (out_dir / "report.html").write_text(report_html(report, png), encoding="utf-8")
+    return failure
 
 
 def _json_default(value):

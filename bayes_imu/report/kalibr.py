@@ -32,6 +32,7 @@ its parts (repeatability, :mod:`bayes_imu.inference.repeatability`), as ``summar
 
 from dataclasses import dataclass, field
 import math
+import re
 
 import numpy as np
 
@@ -148,22 +149,34 @@ def kalibr_values_from_folders(gyro_dirs=(), accel_dirs=(), *, credibility=None)
     return kalibr_values(fit_folders(gyro_dirs, "gyro"), fit_folders(accel_dirs, "accel"), credibility=credibility)
 
 
+def _comment(text):
+    """A label inside a YAML comment: every character that could end the comment line (newlines,
+    other control
+    and line-separator characters) as ``?``, so that no label injects a key."""
+    return "".join(c if c.isprintable() else "?" for c in str(text))
+
+
 def write_kalibr_yaml(result, path, *, topic="/imu0"):
-    """Write the Kalibr ``imu.yaml`` (flat keys: no YAML library needed)."""
-    if not isinstance(topic, str) or not topic.startswith("/") or any(c.isspace() for c in topic):
-        raise InputError(f"topic={topic!r}: expected a ROS topic name such as /imu0")
+    """Write the Kalibr ``imu.yaml`` (flat keys: no YAML library needed). Labels (fit folder names)
+    appear only
+    in comments, sanitised (:func:`_comment`); the topic is checked to be a ROS name."""
+    if not isinstance(topic, str) or not re.fullmatch(r"(/[A-Za-z][A-Za-z0-9_]*)+", topic):
+        raise InputError(f"topic={_comment(topic)[:80]!r}: expected a ROS topic name such as "
+                         "/imu0 (letters, digits, "
+                         "_ between slashes)")
     v = result.values
     several = any(len(rows) > 1 for rows in result.per_axis.values())
     lines = [f"# bayes_imu Kalibr IMU noise model: {result.mode}, SI units"
              + (", worst axis of each sensor" if several else "")]
     if not result.adequate:
         lines.append("# WARNING: the noise model failed its goodness-of-fit check for "
-                     + ", ".join(result.inadequate) + " (intervals widened; values less certain than stated)")
+                     + ", ".join(_comment(a) for a in result.inadequate) + " (intervals widened; "
+                                                                           "values less certain than stated)")
     for key in ("accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density",
                 "gyroscope_random_walk"):
         if key in v:
             if several:
-                lines.append(f"# {key} per axis: " + ", ".join(f"{label} {value:.6e}"
+                lines.append(f"# {key} per axis: " + ", ".join(f"{_comment(label)} {value:.6e}"
                                                                 for label, value in result.per_axis[key]))
             lines.append(f"{key}: {v[key]:.6e}")
     lines.append(f"rostopic: {topic}")

@@ -4,7 +4,17 @@ import contextlib
 
 import numpy as np
 
-__all__ = ["plot_allan", "plot_allan_fit", "plot_corner", "plot_drift", "plot_population", "plain_log_formatter"]
+__all__ = ["plot_allan", "plot_allan_fit", "plot_corner", "plot_drift", "plot_population", "plain_log_formatter",
+           "plain_text"]
+
+
+def plain_text(text):
+    """User text (a file, column, sensor or unit name) as matplotlib draws it literally: every
+    ``$`` escaped, so
+    that no pair of them starts mathtext (whose parser rejects ``run$1_$2``), control characters as
+    ``?``."""
+    text = "".join(c if c.isprintable() or c == "\n" else "?" for c in str(text))
+    return text.replace("$", r"\$")
 
 
 def pyplot():
@@ -97,7 +107,7 @@ def plot_allan(result, path, *, label="", unit="u"):
     fig, ax = plt.subplots(figsize=(7, 5))
     tau, adev = result.tau, result.adev
     err = np.vstack([adev - result.adev_low, result.adev_high - adev])
-    ax.errorbar(tau, adev, yerr=err, fmt="o-", ms=3, capsize=2, label=label or "overlapping ADEV")
+    ax.errorbar(tau, adev, yerr=err, fmt="o-", ms=3, capsize=2, label=plain_text(label) or "overlapping ADEV")
     i_min = int(np.argmin(adev))
     guides = (  # (label, slope, anchor index, span in decades before/after the anchor)
         ("ARW / VRW, slope -1/2", -0.5, 0, (0.0, 1.5), (8, 6)),
@@ -114,7 +124,7 @@ def plot_allan(result, path, *, label="", unit="u"):
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("averaging time tau (s)")
-    ax.set_ylabel(f"Allan deviation ({unit})")
+    ax.set_ylabel(f"Allan deviation ({plain_text(unit)})")
     ax.set_title(f"Overlapping Allan deviation, {result.confidence:.1%} intervals")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
@@ -147,7 +157,7 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None):
     fig, (ax, ax_r) = _fixed_panels(plt, _FIT_LAYOUT_IN)
     err = np.vstack([allan.adev - allan.adev_low, allan.adev_high - allan.adev])
     ax.errorbar(allan.tau, allan.adev, yerr=err, fmt="o", ms=3, capsize=2, color="k",
-                label=_wrapped(label or "observed ADEV"))
+                label=_wrapped(plain_text(label) or "observed ADEV"))
     steady = getattr(fit, "stationarity", None)
     if steady is not None and not steady.stationary:  # the parts of a log whose noise changes
         for j, part in enumerate(steady.segment_adev):
@@ -164,7 +174,7 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None):
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_ylim(allan.adev.min() / 5, allan.adev.max() * 2)
-    ax.set_ylabel(f"Allan deviation ({unit})")
+    ax.set_ylabel(f"Allan deviation ({plain_text(unit)})")
     ax.set_title("Allan deviation: data and posterior")
     ax.grid(True, which="both", alpha=0.3)
     # beside the panel, not on it: inside, eight entries hid observed points wherever matplotlib put them
@@ -243,7 +253,7 @@ def plot_corner(fit, path, *, unit="u"):
     from ..noise.avar_forms import PARAMETER_UNITS
 
     names = fit.parameter_names
-    labels = [f"{n}\n[{PARAMETER_UNITS.get(n, '1').format(u=unit)}]" for n in names]
+    labels = [f"{n}\n[{plain_text(PARAMETER_UNITS.get(n, '1').format(u=unit))}]" for n in names]
     data = fit.samples
     if data.shape[1] == 1:
         fig, ax = plt.subplots(figsize=(4.5, 3.2))
@@ -504,14 +514,14 @@ def plot_drift(bands_list, path, *, units, title="", min_probability=0.1):
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("time since GPS loss (s)")
-        ax.set_ylabel(f"1-sigma {_QUANTITY_LABEL[bands.quantity]} ({unit})")
+        ax.set_ylabel(f"1-sigma {_QUANTITY_LABEL[bands.quantity]} ({plain_text(unit)})")
         start = (f"bias calibrated over {bands.calibration_s:g} s" if bands.bias_start == "calibrated"
                  else f"bias start: {bands.bias_start}")
         ax.set_title(f"{bands.quantity} drift, {start}, {bands.models} models", fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=1, frameon=False)
     if title:
-        fig.suptitle(title)
+        fig.suptitle(plain_text(title))
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -566,11 +576,11 @@ def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None,
     ax.fill_between(tau_f, lo, hi, color="0.6", alpha=0.45, label="new unit, 90% predictive band")
     ax.plot(tau_f, med, color="k", lw=1.5, label="new unit, median")
     for i, (label, f) in enumerate(zip(pop.labels, pop.unit_fits)):
-        ax.plot(f.allan.tau, f.allan.adev, "o-", ms=3, lw=0.8, color=f"C{i % 10}", label=label)
+        ax.plot(f.allan.tau, f.allan.adev, "o-", ms=3, lw=0.8, color=f"C{i % 10}", label=plain_text(label))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("averaging time tau (s)")
-    ax.set_ylabel(f"Allan deviation ({unit})")
+    ax.set_ylabel(f"Allan deviation ({plain_text(unit)})")
     ax.set_title(f"{len(pop.labels)} units, model {' + '.join(pop.model.terms)}", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
@@ -582,14 +592,14 @@ def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None,
                         label=f"new unit, {bands.quantiles[0]:.0%}-{bands.quantiles[-1]:.0%} band")
         ax.plot(t, bands.total[len(bands.quantiles) // 2][keep], color="k", lw=1.5, label="new unit, median")
         for i, (label, b) in enumerate(zip(pop.labels, unit_bands)):
-            ax.plot(t, b.total[len(b.quantiles) // 2][keep], lw=0.9, color=f"C{i % 10}", label=f"{label} alone, median")
+            ax.plot(t, b.total[len(b.quantiles) // 2][keep], lw=0.9, color=f"C{i % 10}", label=f"{plain_text(label)} alone, median")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("time since GPS loss (s)")
         from ..drift.bands import integrated_unit
 
         shown = drift_unit or integrated_unit(unit, bands.quantity)
-        ax.set_ylabel(f"1-sigma {_QUANTITY_LABEL[bands.quantity]} ({shown})")
+        ax.set_ylabel(f"1-sigma {_QUANTITY_LABEL[bands.quantity]} ({plain_text(shown)})")
         start = (f"bias calibrated over {bands.calibration_s:g} s" if bands.bias_start == "calibrated"
                  else f"bias start: {bands.bias_start}")
         ax.set_title(f"{bands.quantity} drift of a new unit, {start}", fontsize=10)

@@ -10,6 +10,17 @@ selection (each sensor carries only the terms its data support), and computes:
 * ``max_outage_s``: the longest outage whose bound on the required quantity stays within
   ``max_error``, found by bisection on a continuous time (the bound increases with t).
 
+Paths (``log``, ``logs``, ``fit``, ``fits``) are relative to the scene's folder and confined to it
+(after resolving ``..`` and links): a scene is a file a user may be handed, and ``log =
+"/etc/shadow"``
+must not make the report read it. ``allow_outside = true`` in ``[scene]`` (or
+``allow_outside=True``,
+the command's ``--allow-outside``) lifts the rule. The units of one sensor (``logs``, ``fits``) must
+be distinct: the same file or folder twice, or two files with the same content, would count one
+unit twice in the unit-to-unit spread (refused by name). A log may be a ``.npy`` file (one channel;
+``column = "0"``), and text logs may give ``time_column`` (and ``time_unit``) instead of, or
+besides, ``rate_hz``, as the command line does.
+
 Ranking: longest ``max_outage_s`` first, ties (and scenes without a requirement) by the
 bound at the longest outage; sensors that cannot provide the required quantity (a gyro
 for a position requirement) rank last.
@@ -29,10 +40,12 @@ from ..drift.display import parse_amount
 from ..errors import InputError
 from ..inference.fit import fit_allan
 from ..drift.closed_forms import SI_OUTPUT_UNITS
+from ..io.limits import RANGES, check_range
 from ..io.readers import INCREMENT_UNITS, SI_UNITS, UNITS, read_text
-from ..io.timebase import GAP_POLICIES
+from ..io.timebase import GAP_POLICIES, TIME_UNITS, check_rate
 
-__all__ = ["Scene", "SensorSpec", "SensorReport", "Report", "read_scene", "build_report", "OUTPUT_UNITS"]
+__all__ = ["Scene", "SensorSpec", "SensorReport", "Report", "read_scene", "build_report", "distinct_units",
+           "OUTPUT_UNITS"]
 
 OUTPUT_UNITS = SI_OUTPUT_UNITS
 MAX_SEARCH_S = 1e6
@@ -205,18 +218,25 @@ def _si_unit(kind):
     return SI_UNITS[kind]
 
 
+def _excerpt(value, limit=80):
+    """``repr(value)``, control characters as ``?``, at most ``limit`` characters: a value quoted
+    in an error."""
+    text = "".join(c if c.isprintable() else "?" for c in repr(value))
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def _get(table, key, kind, where, default=None, required=True):
     if key not in table:
         if required:
-            raise InputError(f"{where}: missing key {key!r}")
+            raise InputError(f"{where}: missing key {_excerpt(key)}")
         return default
     value = table[key]
     if kind is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
-            raise InputError(f"{where}: {key}={value!r}: expected a positive number")
+            raise InputError(f"{where}: {key}={_excerpt(value)}: expected a positive number")
         return float(value)
     if not isinstance(value, str) or not value:
-        raise InputError(f"{where}: {key}={value!r}: expected a non-empty string")
+        raise InputError(f"{where}: {key}={_excerpt(value)}: expected a non-empty string")
     return value
 
 
@@ -224,35 +244,54 @@ def _known(table, keys, where):
     """Reject the first key of ``table`` not in ``keys``, by name."""
     unknown = [k for k in table if k not in keys]
     if unknown:
-        raise InputError(f"{where}: unknown key {unknown[0]!r}; expected keys: {', '.join(keys)}")
+        raise InputError(f"{where}: unknown key {_excerpt(unknown[0])}; expected keys: "
+                         f"{', '.join(keys)}")
 
 
-def read_scene(path):
-    """Parse and validate a scene TOML file; paths are relative to the file."""
+def read_scene(path, *, allow_outside=False):
+    """Parse and validate a scene TOML file; paths are relative to the file and confined to its
+    folder unless
+    ``allow_outside`` (or ``allow_outside = true`` in ``[scene]``); the units of a sensor must be
+    distinct."""
     path = Path(path)
     try:
         doc = tomllib.loads(read_text(path))
     except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"{path}: invalid TOML ({exc})") from None
+        raise InputError(f"{path}: invalid TOML "
+                         f"({_excerpt(str(exc).splitlines()[0] if str(exc) else exc)})") from None
+    except RecursionError:
+        raise InputError(f"{path}: TOML nested too deeply; expected a scene file") from None
     _known(doc, ("scene", "requirement", "sensor"), f"{path}: top level")
     scene = doc.get("scene")
     if not isinstance(scene, dict):
         raise InputError(f"{path}: missing [scene] table")
-    _known(scene, ("name", "outages_s", "credibility", "bias_start", "calibration_s"), f"{path}: [scene]")
+    _known(scene, ("name", "outages_s", "credibility", "bias_start", "calibration_s", "allow_outside"),
+           f"{path}: [scene]")
+    outside = scene.get("allow_outside", False)
+    if not isinstance(outside, bool):
+        raise InputError(f"{path}: [scene] allow_outside={_excerpt(outside)}: expected true or "
+                         "false")
+    allow_outside = allow_outside or outside
     outages = scene.get("outages_s")
+    low, high, _ = RANGES["time_s"]
     if not isinstance(outages, list) or not outages or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) and v > 0 for v in outages):
-        raise InputError(f"{path}: [scene] outages_s={outages!r}: expected a non-empty list of positive seconds")
+            isinstance(v, (int, float)) and not isinstance(v, bool) and low <= v <= high for v in outages):
+        raise InputError(f"{path}: [scene] outages_s={_excerpt(outages)}: expected a non-empty "
+                         "list of seconds, each "
+                         f"from {low:g} to {high:g}")
     cred = scene.get("credibility", 0.95)
     if isinstance(cred, bool) or not isinstance(cred, (int, float)) or not 0.5 <= cred < 1:
-        raise InputError(f"{path}: [scene] credibility={cred!r}: expected a number in [0.5, 1)")
+        raise InputError(f"{path}: [scene] credibility={_excerpt(cred)}: expected a number in "
+                         "[0.5, 1)")
     bias_start = scene.get("bias_start", "calibrated")
     if bias_start not in BIAS_STARTS:
-        raise InputError(f"{path}: [scene] bias_start={bias_start!r}: expected one of {', '.join(BIAS_STARTS)}")
+        raise InputError(f"{path}: [scene] bias_start={_excerpt(bias_start)}: expected one of "
+                         f"{', '.join(BIAS_STARTS)}")
     calibration = scene.get("calibration_s", DEFAULT_CALIBRATION_S)
-    if isinstance(calibration, bool) or not isinstance(calibration, (int, float)) or not (
-            np.isfinite(calibration) and calibration > 0):
-        raise InputError(f"{path}: [scene] calibration_s={calibration!r}: expected a positive number of seconds")
+    if isinstance(calibration, bool) or not isinstance(calibration, (int, float)):
+        raise InputError(f"{path}: [scene] calibration_s={_excerpt(calibration)}: expected a "
+                         "number of seconds")
+    check_range("calibration_s", calibration, f"{path}: [scene] calibration_s")
     requirement = doc.get("requirement")
     if requirement is not None:
         where = f"{path}: [requirement]"
@@ -261,7 +300,8 @@ def read_scene(path):
         _known(requirement, ("quantity", "max_error"), where)
         quantity = _get(requirement, "quantity", str, where)
         if quantity not in OUTPUT_UNITS:
-            raise InputError(f"{where} quantity={quantity!r}: expected one of {', '.join(OUTPUT_UNITS)}")
+            raise InputError(f"{where} quantity={_excerpt(quantity)}: expected one of "
+                             f"{', '.join(OUTPUT_UNITS)}")
         if "max_error" not in requirement:
             raise InputError(f"{where}: missing key 'max_error'")
         given = requirement["max_error"]
@@ -279,14 +319,16 @@ def read_scene(path):
         _known(entry, keys + _READING, where)
         kind = _get(entry, "kind", str, where)
         if kind not in SENSOR_QUANTITIES:
-            raise InputError(f"{where}: kind={kind!r}: expected 'gyro' or 'accel'")
-        sheet = _datasheet(entry, path, kind, where)
+            raise InputError(f"{where}: kind={_excerpt(kind)}: expected 'gyro' or 'accel'")
+        sheet = _datasheet(entry, path, kind, where, allow_outside)
         sources = [k for k in ("log", "logs", "fit", "fits") if k in entry]
         if len(sources) != 1:
             raise InputError(f"{where}: expected exactly one of log, logs (several units), fit or fits (fit folders); "
                              f"got {', '.join(sources) or 'none'}")
         source = sources[0]
-        paths = tuple(path.parent / p for p in _paths(entry, source, where))
+        paths = tuple(_confined(path, p, source, where, allow_outside) for p in _paths(entry, source, where))
+        if len(paths) > 1:
+            distinct_units(paths, where=where)
         name = _get(entry, "name", str, where)
         if source in ("fit", "fits"):
             for key in ("column", "rate_hz", "units") + _READING:
@@ -306,14 +348,20 @@ def read_scene(path):
 
 
 #: keys of a ``[[sensor]]`` with logs that say how to read them, beyond column, rate_hz and units
-_READING = ("time_column", "gaps", "topic", "input", "stream")
+_READING = ("time_column", "time_unit", "gaps", "topic", "input", "stream")
 
 
 def _reading(entry, kind, where):
     """How the logs of a ``[[sensor]]`` are read: a :class:`LogSource` without its log."""
     time_column = _get(entry, "time_column", str, where, required=False)
+    time_unit = _get(entry, "time_unit", str, where, required=False)
+    if time_unit is not None and (time_column is None or time_unit not in TIME_UNITS):
+        raise InputError(f"{where}: time_unit={_excerpt(time_unit)}: expected one of "
+                         f"{', '.join(TIME_UNITS)}, with time_column")
     topic = _get(entry, "topic", str, where, required=False)
     rate = _get(entry, "rate_hz", float, where, required=time_column is None and topic is None)
+    if rate is not None:
+        check_rate(rate, source="rate_hz", where=where)
     gaps = _get(entry, "gaps", str, where, default="error", required=False)
     if gaps not in GAP_POLICIES:
         raise InputError(f"{where}: gaps={gaps!r}: expected one of {', '.join(GAP_POLICIES)}")
@@ -328,11 +376,13 @@ def _reading(entry, kind, where):
     if units not in table or table[units][0] != kind:
         allowed = [u for u, (k, _) in table.items() if k == kind]
         what = f"a {kind}" + (" (increments)" if kind_of_input == "increments" else "")
-        raise InputError(f"{where}: units={units!r}: expected one of {', '.join(allowed)} "
+        raise InputError(f"{where}: units={_excerpt(units)}: expected one of {', '.join(allowed)} "
                          f"for {what}")
-    return LogSource(topic=topic, stream=stream, rate=rate, time_column=time_column, gaps=gaps,
-                     input=kind_of_input, units=units, sensor=kind)
-def _datasheet(entry, path, kind, where):
+    return LogSource(topic=topic, stream=stream, rate=rate, time_column=time_column,
+                     time_unit=time_unit, gaps=gaps, input=kind_of_input, units=units, sensor=kind)
+
+
+def _datasheet(entry, path, kind, where, allow_outside=False):
     """``(path, kind, values)`` of a sensor's ``datasheet = "FILE"`` (relative to the scene)."""
     if "datasheet" not in entry:
         return None
@@ -342,19 +392,77 @@ def _datasheet(entry, path, kind, where):
     if not isinstance(value, str) or not value:
         raise InputError(f"{where}: datasheet={value!r}: expected the path of a JSON or TOML "
                          "datasheet file")
-    sheet_kind, values = read_datasheet_spec(path.parent / value)
+    sheet_kind, values = read_datasheet_spec(_confined(path, value, "datasheet", where, allow_outside))
     if sheet_kind != kind:
         raise InputError(f"{where}: datasheet {value}: a {sheet_kind} datasheet for a {kind}")
     return path.parent / value, kind, values
+
+
+
+def _confined(scene_path, given, key, where, allow_outside):
+    """``given`` (relative to the scene's folder), refused where it resolves outside that folder."""
+    folder = scene_path.parent
+    candidate = folder / given
+    if allow_outside:
+        return candidate
+    try:
+        inside = candidate.resolve().is_relative_to(folder.resolve())
+    except (OSError, RuntimeError):  # a symlink loop
+        inside = False
+    if not inside:
+        raise InputError(f"{where}: {key} path {_excerpt(given)} lies outside the scene's folder; "
+                         "paths are confined "
+                         "to it unless allow_outside = true in [scene] (or allow_outside=True)")
+    return candidate
+
+
+def _tail(path, limit=80):
+    """A path for a message: its last ``limit`` characters (the file's name is what tells two apart), sanitised."""
+    text = "".join(c if c.isprintable() else "?" for c in str(path))
+    return repr(text if len(text) <= limit else "..." + text[3 - limit:])
+
+
+def distinct_units(paths, *, where):
+    """Refuse two units of one sensor that are the same: the same file or folder (after resolving
+    links and
+    ``..``), or files with the same content (SHA-256; a folder by its ``fit.npz``). Each would be
+    counted as a
+    separate unit in the unit-to-unit spread."""
+    import hashlib
+
+    seen = {}
+    for p in paths:
+        target = Path(p)
+        keys = []
+        try:
+            keys.append(("path", str(target.resolve())))
+            file = target / "fit.npz" if target.is_dir() else target
+            if file.is_file():
+                digest = hashlib.sha256()
+                with open(file, "rb") as f:
+                    while chunk := f.read(1 << 20):
+                        digest.update(chunk)
+                keys.append(("content", digest.hexdigest()))
+        except (OSError, RuntimeError):
+            continue  # reported when it is read
+        for key in keys:
+            if key in seen:
+                same = "the same file or folder" if key[0] == "path" else "files with the same content"
+                raise InputError(f"{where}: {_tail(seen[key])} and {_tail(p)} are "
+                                 f"{same}: one unit "
+                                 "counted twice would make the unit-to-unit spread wrong; give "
+                                 "each unit once")
+            seen[key] = p
 
 
 def _paths(entry, key, where):
     value = entry[key]
     many = key in ("logs", "fits")
     if many and (not isinstance(value, list) or len(value) < 2 or not all(isinstance(v, str) and v for v in value)):
-        raise InputError(f"{where}: {key}={value!r}: expected a list of at least 2 paths (one per unit)")
+        raise InputError(f"{where}: {key}={_excerpt(value)}: expected a list of at least 2 paths "
+                         "(one per unit)")
     if not many and (not isinstance(value, str) or not value):
-        raise InputError(f"{where}: {key}={value!r}: expected a path")
+        raise InputError(f"{where}: {key}={_excerpt(value)}: expected a path")
     return value if many else [value]
 
 
@@ -364,7 +472,8 @@ def _columns(entry, where):
         return (value,)
     if isinstance(value, list) and value and all(isinstance(v, str) and v for v in value):
         return tuple(value)
-    raise InputError(f"{where}: column={value!r}: expected a column name or a list of names (several axes: "
+    raise InputError(f"{where}: column={_excerpt(value)}: expected a column name or a list of "
+                     "names (several axes: "
                      "the worst one is bounded)")
 
 
@@ -457,7 +566,7 @@ def _axes(spec, rng):
     """The :class:`AxisResult` of each axis of a sensor (fitting its logs or reading its fit folders)."""
     from ..inference.population import fit_population
 
-    where = f"sensor {spec.name!r}: "
+    where = f"sensor {_excerpt(spec.name)}: "
     if spec.source in ("fit", "fits"):
         per_unit = [_saved_axes(p, spec, where) for p in spec.paths]
         names = [n for n, _ in per_unit[0]]
@@ -497,7 +606,8 @@ def _saved_axes(folder, spec, where):
         for axis, place, summary in fit_axes(folder):
             unit = summary.get("unit")
             if unit != spec.units:
-                raise InputError(f"{place}: fitted in {unit!r}; a {spec.kind} report needs a fit in {spec.units} "
+                raise InputError(f"{place}: fitted in {_excerpt(unit)}; a {spec.kind} report "
+                                 f"needs a fit in {spec.units} "
                                  f"(run bayes-imu fit with --units)")
             out.append((axis, load_fit(place)))
     except InputError as exc:

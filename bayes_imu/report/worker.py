@@ -22,16 +22,65 @@ other core while the caller goes on (a fit's speculative mode searches: the ``po
 and stops nothing.
 
 The environment variable :data:`WORKERS_ENV` (``0`` or ``1``) overrides the automatic choice.
+
+**Numbers before pictures.** A picture is drawn through :meth:`OutputWriter.picture` (or
+:func:`draw_picture`): any ``Exception`` while drawing it (a label matplotlib rejects, a missing
+font, a library bug) removes the partial file and is recorded as a :class:`PictureFailure`
+(:attr:`OutputWriter.picture_failures`) instead of stopping the run, so the numbers
+(summary.json, fit.npz, CSV files) are written and kept; the command then warns in one line
+per picture and exits with :data:`PICTURE_FAILED_STATUS`.
 """
 
 import os
 
 from ..errors import InputError
 
-__all__ = ["OutputWriter", "Computed", "usable_cpus", "background_default", "WORKERS_ENV"]
+__all__ = ["OutputWriter", "Computed", "PictureFailure", "draw_picture", "usable_cpus", "background_default",
+           "WORKERS_ENV", "PICTURE_FAILED_STATUS"]
 
 #: environment variable: "0" writes outputs in the calling process, "1" in a worker process
 WORKERS_ENV = "BAYES_IMU_OUTPUT_PROCESS"
+#: exit status of a command whose numbers were written but one or more pictures failed
+PICTURE_FAILED_STATUS = 3
+
+
+class PictureFailure:
+    """A picture that could not be drawn: its file name and the error, in one sanitised line."""
+
+    def __init__(self, path, error):
+        self.path = str(path)
+        text = str(error).strip().splitlines()
+        line = f"{type(error).__name__}: {text[0] if text else ''}"
+        line = "".join(c if c.isprintable() else "?" for c in line)
+        self.message = line if len(line) <= 160 else line[:157] + "..."
+
+    def __str__(self):
+        import os.path
+
+        return f"{os.path.basename(self.path)} was not drawn ({self.message}); the numbers were written"
+
+
+def draw_picture(fn, *args, **kwargs):
+    """``fn(*args, **kwargs)``, a function drawing a picture into ``args[1]`` (its path, or
+    ``path=``): ``None``,
+    or a :class:`PictureFailure` (the partial file removed) where it raised an ``Exception``.
+    Ctrl-C, SIGTERM,
+    exits and a full disk still stop the run."""
+    import errno
+
+    path = kwargs.get("path", args[1] if len(args) > 1 else "picture")
+    try:
+        fn(*args, **kwargs)
+    except Exception as exc:
+        if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise  # a full disk stops the run: the previous results are kept (report.output)
+        if isinstance(path, (str, os.PathLike)):
+            try:
+                os.unlink(path)
+            except OSError:
+                pass
+        return PictureFailure(path, exc)
+    return None
 
 
 def usable_cpus():
@@ -86,6 +135,7 @@ class OutputWriter:
         self._pending = 0
         self._process = None
         self._values, self._calls = {}, 0  # compute(): the values come back by call number
+        self.picture_failures = []  # PictureFailure of each picture not drawn (picture())
         if self.background:
             import multiprocessing
             import queue
@@ -111,6 +161,17 @@ class OutputWriter:
             return
         self._outbox.put((fn, args, kwargs))
         self._pending += 1
+
+    def picture(self, fn, *args, **kwargs):
+        """:meth:`submit` of a picture: a failure to draw it is recorded in
+        :attr:`picture_failures`, not raised
+        (:func:`draw_picture`)."""
+        if not self.background:
+            failure = draw_picture(fn, *args, **kwargs)
+            if failure is not None:
+                self.picture_failures.append(failure)
+            return
+        self.submit(draw_picture, fn, *args, **kwargs)
 
     def compute(self, fn, *args, **kwargs):
         """``fn(*args, **kwargs)`` in the worker: a :class:`Computed` future. The worker runs such a call as it
@@ -139,7 +200,9 @@ class OutputWriter:
             self._values[outcome.number] = outcome
             return True
         self._pending -= 1
-        if outcome is not None:
+        if isinstance(outcome, PictureFailure):
+            self.picture_failures.append(outcome)
+        elif outcome is not None:
             self.stop()
             raise outcome
         return True
@@ -319,7 +382,7 @@ def _call(job):
         value = fn(*args, **kwargs)
     except BaseException as exc:
         return _picklable(exc)
-    return value if isinstance(value, _Value) else None
+    return value if isinstance(value, (_Value, PictureFailure)) else None
 
 
 def _can_fork():
