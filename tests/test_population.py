@@ -309,3 +309,35 @@ def test_unit_posterior_rejects_unknown_parameter():
     post = UnitPosterior(NoiseModel(("white",), 0.01), np.ones((3, 1)), 10.0)
     with pytest.raises(InputError, match="noise_variance"):
         post.draws("bias_variance")
+
+
+def test_fixed_terms_write_valid_json_and_a_failing_unit_is_named(tmp_path, monkeypatch):
+    """``--terms white`` scores no evidence: summary.json has null there, not NaN (which made the
+    command fail after the fit); and a unit whose fit fails is named in the one-line error."""
+    rng = np.random.default_rng(4)
+    logs = []
+    for i in range(3):
+        logs.append(tmp_path / f"unit{i}.csv")
+        logs[-1].write_text("gx\n" + "".join(f"{v:.8f}\n" for v in 0.01 * rng.standard_normal(20000)))
+    out = tmp_path / "pop"
+    assert main(["fit-population", *map(str, logs), "--column", "gx", "--rate", "100", "--terms", "white",
+                 "--out", str(out), "--quiet"]) == 0
+    structures = json.loads((out / "summary.json").read_text())["structures"]
+    assert structures[0]["log_evidence"] is None and structures[0]["per_unit"] == [None] * 3
+
+    import bayes_imu.inference.population as population
+    from bayes_imu.errors import ModelError
+
+    real = population.fit_allan
+
+    def fails_on_the_second(allan, **options):
+        if allan.n_samples == 20000 and fails_on_the_second.calls == 1:
+            raise ModelError("no model converged")
+        fails_on_the_second.calls += 1
+        return real(allan, **options)
+
+    fails_on_the_second.calls = 0
+    monkeypatch.setattr(population, "fit_allan", fails_on_the_second)
+    with pytest.raises(ModelError, match=r"^unit 'unit 2': no model converged$"):
+        population.fit_population([allan_variance(np.loadtxt(p, skiprows=1), rate_hz=100.0) for p in logs],
+                                  terms=("white",), rng=0)

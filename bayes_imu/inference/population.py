@@ -47,7 +47,7 @@ special = LazyModule("scipy.special")
 
 from .._version import __version__
 from ..allan.estimator import AllanResult
-from ..errors import ConvergenceWarning, InputError
+from ..errors import BayesIMUError, ConvergenceWarning, InputError
 from .fit import FitResult, fit_allan, score_models
 from .sampling import autocorr_time, burn_and_thin, ensemble_sampler, long_enough
 from .likelihood import default_bounds
@@ -205,8 +205,11 @@ class PopulationResult:
             "new_unit_datasheet": datasheet(self.new_unit, kind) if kind else None,
             "population": population,
             "units": units,
-            "structures": [{"model": list(s.terms), "log_evidence": s.log_evidence, "log_evidence_se": s.log_evidence_se,
-                            "per_unit": [float(v) for v in self.per_unit_evidence[i]], "selected": i == self.selected}
+            # fixed terms (no selection) score no evidence: null, not NaN (invalid JSON)
+            "structures": [{"model": list(s.terms), "log_evidence": _number(s.log_evidence),
+                            "log_evidence_se": _number(s.log_evidence_se),
+                            "per_unit": [_number(v) for v in self.per_unit_evidence[i]],
+                            "selected": i == self.selected}
                            for i, s in enumerate(self.structures)],
             "spread_prior": f"half-normal, scale {self.spread_scale:g} (ln units)",
             "diagnostics": {k: (bool(v) if k == "converged" else int(v) if k in ("n_steps", "n_walkers", "n_draws")
@@ -262,7 +265,7 @@ def fit_population(allans, *, labels=None, terms="auto", unit_fits=None, rng=Non
     seed = rng
     rng = np.random.default_rng(rng)
     if unit_fits is None:
-        unit_fits = [fit_allan(a, rng=rng, progress=progress) for a in allans]
+        unit_fits = [_unit_fit(label, a, rng=rng, progress=progress) for label, a in zip(labels, allans)]
     elif len(unit_fits) != len(allans) or not all(isinstance(f, FitResult) for f in unit_fits):
         raise InputError("unit_fits: expected one FitResult per Allan result")
     dt = 1.0 / rate
@@ -274,8 +277,8 @@ def fit_population(allans, *, labels=None, terms="auto", unit_fits=None, rng=Non
             np.full((1, len(allans)), np.nan), 0
     model = NoiseModel(structures[chosen].terms, dt)
     fits = [f if f.model.terms == model.terms else
-            fit_allan(a, terms=model.terms, discrepancy="always" if f.widened else "auto", rng=rng)
-            for a, f in zip(allans, unit_fits)]
+            _unit_fit(label, a, terms=model.terms, discrepancy="always" if f.widened else "auto", rng=rng)
+            for label, a, f in zip(labels, allans, unit_fits)]
     p = len(model.parameter_names)
     phis, boxes = [], []
     for a, f in zip(allans, fits):
@@ -451,3 +454,17 @@ def _new_unit(model, mean, spread, target, n_new, rng):
             break
         out[bad] = mean[rows[bad]] + spread[rows[bad]] * rng.standard_normal((int(bad.sum()), mean.shape[1]))
     return np.clip(out, box[:, 0], box[:, 1])
+
+
+def _number(value):
+    """A float for JSON, ``None`` where it was not computed (NaN)."""
+    value = float(value)
+    return value if np.isfinite(value) else None
+
+
+def _unit_fit(label, allan, **options):
+    """:func:`fit_allan` of one unit; an error names the unit (one unfittable unit among several)."""
+    try:
+        return fit_allan(allan, **options)
+    except BayesIMUError as exc:
+        raise type(exc)(f"unit {label!r}: {exc}") from None
