@@ -5,8 +5,11 @@ place, never copied; the script exits cleanly with a message when the folder is 
 ADIS16405: 6 channels (gyro deg/s, accel g) x 6 recordings of 1e6 samples at 100 Hz;
 MTi-G: gyro X (rad/s), 5e5 samples at 100 Hz. Each channel is converted to SI and fitted
 with model selection (``bayes_imu.inference.fit``). The script prints per channel and recording
-the selected model and the noise density (median and 90% interval, in the datasheet's
-unit), compares with the datasheet values of ``REFERENCE_VALUES.md``, says whether the six
+the selected model and, in the datasheet's unit, the noise density of the short-term terms
+(``noise_density``: median and 90% interval), the white term's density alone, and the random walk
+as IEEE Std 952 reads it off the Allan deviation (sigma(1 s) sqrt(1 s) of the model-averaged
+posterior, :mod:`bayes_imu.inference.allan_readout`; the number a datasheet's ARW / VRW means),
+compares with the datasheet values of ``REFERENCE_VALUES.md``, says whether the six
 replicates' 90% intervals share a common value, and plots the six posteriors side by
 side (``--out``/real_data_posteriors.png).
 
@@ -60,21 +63,24 @@ def main(argv=None):
     n_max = 2**17 if args.quick else None
     channels = ADIS[:1] if args.quick else ADIS
     imus = [1] if args.quick else list(range(1, 7))
-    print(f"{'log':9s} {'channel':13s} {'model':40s} {'density q05':>11s} {'median':>9s} {'q95':>9s} "
-          f"{'datasheet':>9s} {'unit':15s} conv")
-    densities = {}
+    print(f"{'log':9s} {'channel':13s} {'model':58s} {'density q05':>11s} {'median':>9s} {'q95':>9s} "
+          f"{'white':>9s} {'IEEE 1 s':>9s} {'datasheet':>9s} {'unit':15s} conv")
+    densities, readings = {}, {}
     for column, unit, sheet, sheet_unit, factor in channels:
         for imu in imus:
             res = fit_channel(SHARED / f"adis_16405_imu{imu}.csv.gz", column, unit, n_max, args.seed)
             q = np.quantile(res.draws("noise_density"), [0.05, 0.5, 0.95]) * factor
             densities.setdefault(column, []).append(q)
-            print(f"imu{imu:<6d} {column:13s} {'+'.join(res.model.terms):40s} {q[0]:11.5g} {q[1]:9.5g} {q[2]:9.5g} "
-                  f"{sheet:9.4g} {sheet_unit:15s} {res.diagnostics['converged']}")
+            white, ieee = _readings(res, factor)
+            readings.setdefault(column, []).append((white, ieee))
+            print(f"imu{imu:<6d} {column:13s} {'+'.join(res.model.terms):58s} {q[0]:11.5g} {q[1]:9.5g} {q[2]:9.5g} "
+                  f"{white:9.5g} {ieee:9.5g} {sheet:9.4g} {sheet_unit:15s} {res.diagnostics['converged']}")
     column, unit, sheet, sheet_unit, factor = MTIG
     res = fit_channel(SHARED / "cont_imu1.csv.gz", column, unit, n_max, args.seed)
     q = np.quantile(res.draws("noise_density"), [0.05, 0.5, 0.95]) * factor
-    print(f"{'MTi-G':9s} {column:13s} {'+'.join(res.model.terms):40s} {q[0]:11.5g} {q[1]:9.5g} {q[2]:9.5g} "
-          f"{sheet:9.4g} {sheet_unit:15s} {res.diagnostics['converged']}")
+    white, ieee = _readings(res, factor)
+    print(f"{'MTi-G':9s} {column:13s} {'+'.join(res.model.terms):58s} {q[0]:11.5g} {q[1]:9.5g} {q[2]:9.5g} "
+          f"{white:9.5g} {ieee:9.5g} {sheet:9.4g} {sheet_unit:15s} {res.diagnostics['converged']}")
     print("\nADIS16405 datasheet: ARW 2 deg/sqrt(h) = 0.0333 deg/s/sqrt(Hz) (the ADI note also quotes 0.05), "
           "VRW 0.2 m/s/sqrt(h) = 3.33e-3 m/s^2/sqrt(Hz); MTi-G: 0.05 deg/s/sqrt(Hz)")
     for column, qs in densities.items():
@@ -84,10 +90,21 @@ def main(argv=None):
         spread = qs[:, 1].max() / qs[:, 1].min() - 1.0
         print(f"{column}: the {len(qs)} replicates' 90% intervals {verdict}; medians {qs[:, 1].min():.4g} to "
               f"{qs[:, 1].max():.4g} ({spread:.1%} apart)")
+        white, ieee = np.array(readings[column]).T
+        print(f"{column}: white alone {white.min():.4g} to {white.max():.4g}; IEEE reading at 1 s "
+              f"{ieee.min():.4g} to {ieee.max():.4g}")
     args.out.mkdir(parents=True, exist_ok=True)
     plot(densities, args.out / "real_data_posteriors.png")
     print(f"wrote {args.out / 'real_data_posteriors.png'}")
     return 0
+
+
+def _readings(res, factor):
+    """Medians of the white term's density alone and of the IEEE Std 952 reading at 1 s."""
+    from bayes_imu.inference.allan_readout import allan_readout
+
+    out = allan_readout(res, None, unit="SI")
+    return out["white_noise_density"]["median"] * factor, out["random_walk"]["median"] * factor
 
 
 def plot(densities, path):
