@@ -740,7 +740,7 @@ def _warn(text):
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):
-    _warn(message)
+    _warn(as_flags(str(message)))  # the library's parameter names as this command's flags
 
 
 def main(argv=None):

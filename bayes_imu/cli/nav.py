@@ -150,7 +150,7 @@ def add_nav_parser(sub):
 def _cmd_nav(args):
     from ..drift.display import parse_amount
     from ..errors import InputError
-    from ..report.nav import NavRequest, run_nav
+    from ..report.nav import SMALL_ANGLE_RAD, NavRequest, run_nav
 
     limit = (
         None
@@ -180,12 +180,22 @@ def _cmd_nav(args):
         raise InputError(
             text.replace("gyro and accel swapped?", "swap --gyro and --accel?")
         ) from None
+    radius = "position_x" in bands.quantities  # three-axis fits: the horizontal radius
+    what = ("horizontal position error (radius)" if radius
+            else "position error along the accelerometer's axis (one horizontal channel)")
+    tilt = bands.quantities["tilt"].sigma[1]
+    beyond = [t for t in args.times if tilt[int(abs(bands.t_s - t).argmin())] > SMALL_ANGLE_RAD]
+    if beyond:
+        print(f"bayes-imu: warning: the median tilt exceeds {SMALL_ANGLE_RAD:g} rad at "
+              f"{', '.join(f'{t:g}' for t in beyond)} s: the small-angle error model no longer "
+              "holds there (nav.png hatches it); read those rows as orders of magnitude",
+              file=sys.stderr)
     if not args.quiet:
         position = bands.quantities["position"]
         for t in args.times:
             i = int(abs(bands.t_s - t).argmin())
             print(
-                f"after {bands.t_s[i]:g} s: horizontal position error <= "
+                f"after {bands.t_s[i]:g} s: {what} <= "
                 f"{position.bound[i]:.4g} m at 95 % "
                 f"(1-sigma {position.sigma[1][i]:.3g} m, 90 % band {position.sigma[0][i]:.3g}-"
                 f"{position.sigma[-1][i]:.3g} m)",
@@ -193,7 +203,8 @@ def _cmd_nav(args):
             )
         if limit is not None:
             print(
-                f"horizontal position within {limit:g} m at 95 % for "
+                f"{'horizontal position' if radius else 'position in this channel'} within "
+                f"{limit:g} m at 95 % for "
                 f"{summary['requirement']['longest_outage_s']:g} s",
                 file=sys.stdout,
             )

@@ -11,7 +11,8 @@ overconfident, and the Kalibr wiki's advice is to inflate them "by 10x or more".
 semantics a filter has (the bias estimated as the mean of the ``calibration_s`` seconds just
 before the outage: ``bias_start="calibrated"``, :mod:`bayes_imu.noise._base`), is at least
 the full posterior's upper credible drift (default the 95% quantile of the model-averaged
-1-sigma drift, :func:`bayes_imu.drift.bands.drift_draws`) at every horizon ``t`` in
+1-sigma drift as :func:`bayes_imu.drift.bands.drift_bands` gives it, the record's own measured
+interval included where the record measures the drift) at every horizon ``t`` in
 ``[t_min, t_max]``, and minimal in this sense: with ``x = (q, K^2)`` (``q = N^2 / dt`` the
 per-sample white variance) the two-term drift variance is linear, ``V(t) = q w(t) + K^2 r(t)``
 (``w``, ``r`` the unit drifts of :data:`~bayes_imu.noise.white.WHITE` and
@@ -37,7 +38,7 @@ import numpy as np
 
 from ..errors import InputError, ModelError
 from ..noise import REGISTRY
-from .bands import DEFAULT_CALIBRATION_S, SENSOR_QUANTITIES, drift_draws
+from .bands import DEFAULT_CALIBRATION_S, SENSOR_QUANTITIES, drift_bands
 from .closed_forms import QUANTITY_ORDER
 
 __all__ = ["OverboundResult", "overbound", "filter_drift", "DEFAULT_T_MAX_S"]
@@ -115,19 +116,22 @@ def _grid(dt, t_min, t_max, n):
 
 
 def _upper(fit, k, dt, quantities, credibility, calibration_s, max_draws, rng):
+    """The upper credible 1-sigma drift at steps ``k``, as ``drift.csv`` publishes it: the band of
+    :func:`~bayes_imu.drift.bands.drift_bands`, which within the record contains the record's own
+    measured interval (a filter tuned to it must bound what the log itself shows)."""
     out = {}
     for quantity in quantities:
-        total = drift_draws(
+        band = drift_bands(
             fit,
             k * dt,
             quantity=quantity,
             bias_start="calibrated",
             calibration_s=calibration_s,
+            quantiles=(credibility,),
             max_draws=max_draws,
             rng=rng,
-            component_draws=slice(0, 0),
-        )["total"]
-        out[quantity] = np.quantile(total, credibility, axis=0)
+        )
+        out[quantity] = np.asarray(band.total[0], float)
     return out
 
 

@@ -48,8 +48,11 @@ MAX_GYRO_MEAN = 0.5
 MAX_ACCEL_MEAN = 1.5 * G
 #: range of the norm of three static accelerometer axes' means (m/s^2)
 GRAVITY_NORM = (0.7 * G, 1.3 * G)
-#: plausible white-noise density of a gyro (rad/s/sqrt(Hz)): 0.01 deg/sqrt(h) .. 170 deg/sqrt(h)
-GYRO_DENSITY = (5e-8, 0.05)
+#: plausible white-noise density of a gyro (rad/s/sqrt(Hz)): 0.01 deg/sqrt(h) .. 34 deg/sqrt(h)
+#: (0.57 deg/s/sqrt(Hz), ten times the noisiest MEMS datasheets; a deg/s log declared rad/s, such as
+#: the ADIS16405's 0.04 deg/s/sqrt(Hz), reads 0.04 rad/s/sqrt(Hz) and is caught here even where its
+#: bias is small enough to pass the mean check)
+GYRO_DENSITY = (5e-8, 0.01)
 #: plausible white-noise density of an accelerometer (m/s^2/sqrt(Hz)): 1 ug/sqrt(Hz) .. 5
 #: mg/sqrt(Hz)
 ACCEL_DENSITY = (9.8e-6, 0.05)

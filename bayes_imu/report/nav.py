@@ -334,6 +334,9 @@ def plot_nav(
             "velocity": "horizontal velocity error",
             "position": "horizontal position error",
         }
+        if "position_x" not in bands.quantities:  # one channel: along the accelerometer's axis
+            what = {k: v.replace("horizontal ", "") + " (one channel)" if k != "tilt" else v
+                    for k, v in what.items()}
         ax.set_ylabel(f"{what[name]} ({q.unit})")
         start = (
             f"biases calibrated over {bands.calibration_s:g} s"
