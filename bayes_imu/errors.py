@@ -7,6 +7,7 @@ against ``ValueError`` / ``RuntimeError`` keeps working.
 """
 
 __all__ = [
+    "UnmeasuredWarning",
     "BayesIMUError",
     "InputError",
     "ModelError",
@@ -33,3 +34,7 @@ class ConvergenceError(BayesIMUError, RuntimeError):
 
 class ConvergenceWarning(UserWarning):
     """The sampler ran, but its diagnostics say the result is not yet trustworthy."""
+
+
+class UnmeasuredWarning(UserWarning):
+    """Drift bands asked at semantics the record did not measure: they are the model's alone."""

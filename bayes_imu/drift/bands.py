@@ -26,7 +26,7 @@ import numpy as np
 
 from .closed_forms import QUANTITY_ORDER
 from .direct import direct_contrasts, direct_edf, drift_check, honest_quantiles
-from ..errors import InputError
+from ..errors import InputError, UnmeasuredWarning
 from ..noise import BIAS_STARTS, TERMS, NoiseModel
 from ..noise.quantities import SENSORS
 
@@ -280,11 +280,27 @@ def drift_bands(fit, t=None, *, quantity, bias_start="calibrated", calibration_s
                       *((float("nan"), None, None) if measured is None else measured[1:]))
 
 
+def _warn_other_window(fit, quantity, bias_start, calibration_s):
+    """Calibrated attitude / velocity bands at a window other than the one the record measured:
+    they are the model's alone (honest only within the model list), which the caller can mend."""
+    import warnings
+
+    measured = getattr(getattr(fit, "allan", None), "contrasts", None)
+    if (measured is None or bias_start != "calibrated" or QUANTITY_ORDER[quantity] != 1
+            or round(calibration_s * measured.rate_hz) == measured.n_cal):
+        return
+    warnings.warn(f"the record measured its own drift for a {measured.calibration_s:g} s calibration "
+                  f"window, not the {calibration_s:g} s asked: these bands are the model's alone; "
+                  f"compute the Allan variance with contrast_span_s={calibration_s:g} for bands that "
+                  "contain what the record shows", UnmeasuredWarning, stacklevel=4)
+
+
 def direct_part(fit, draws, quantity, bias_start, calibration_s, q, total):
     """``(honest total, measured_s, model total, DriftCheck)``, or ``None`` where the record measures
     nothing of these drift semantics (:mod:`bayes_imu.drift.direct`)."""
     contrasts = direct_contrasts(fit, quantity, bias_start, calibration_s)
     if contrasts is None:
+        _warn_other_window(fit, quantity, bias_start, calibration_s)
         return None
     t = draws["t_s"]
     inside = contrasts.covers(t)

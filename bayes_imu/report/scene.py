@@ -339,7 +339,8 @@ def read_scene(path, *, allow_outside=False):
         reading = _reading(entry, kind, where)
         columns = _columns(entry, where)
         specs.append(SensorSpec(name, paths, columns, reading.rate, kind, reading.units, source,
-                                dataclasses.replace(reading, column=",".join(columns)), sheet))
+                                dataclasses.replace(reading, column=",".join(columns),
+                                                    calibration=float(calibration)), sheet))
     names = [s.name for s in specs]
     if len(set(names)) != len(names):
         raise InputError(f"{path}: sensor names must be unique, got {names}")
