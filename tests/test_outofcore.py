@@ -88,8 +88,9 @@ def test_not_enough_disk_is_refused_before_writing(tmp_path, samples, monkeypatc
         allan_variance_file(tmp_path / "y.npy", rate_hz=100.0)
 
 
-def test_cli_reads_npy_out_of_core_with_units(tmp_path, samples):
-    """bayes-imu allan on a .npy log in g: the same allan.csv as the CSV read in memory."""
+def test_cli_reads_npy_with_units(tmp_path, samples):
+    """bayes-imu allan on a .npy log in g (held in memory, as it is small): the same allan.csv as the
+    CSV read in memory."""
     np.save(tmp_path / "y.npy", samples)
     (tmp_path / "y.csv").write_text("acc\n" + "\n".join(repr(float(v)) for v in samples) + "\n")
     assert main(["allan", str(tmp_path / "y.npy"), "--rate", "200", "--units", "g", "--out", str(tmp_path / "a"),
@@ -110,4 +111,8 @@ def test_cli_binary_log_rejects_column_and_time(tmp_path, samples, capsys):
     assert main(["allan", str(tmp_path / "y.npy"), "--rate", "200", "--column", "x", "--out", str(tmp_path / "o")]) == 2
     assert "leave out --column" in capsys.readouterr().err
     assert main(["allan", str(tmp_path / "y.npy"), "--time-column", "t", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err  # a small .npy is read in memory, a large one streamed: no time column either way
+    assert "a binary log has no time column; give --rate HZ" in err and not (tmp_path / "o").exists()
+    assert main(["allan", str(tmp_path / "y.npy"), "--time-column", "t", "--stream", "--out",
+                 str(tmp_path / "o")]) == 2
     assert "not available out of core" in capsys.readouterr().err and not (tmp_path / "o").exists()

@@ -24,6 +24,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import InputError
 from ..io.bags import is_bag, read_imu_bag
 from ..io.readers import INCREMENT_UNITS, SI_UNITS, UNITS, read_columns, sniff_file
@@ -196,7 +198,12 @@ def _allan(opts, purpose, grid, progress, increments, table):
             raise InputError(
                 f"column={opts.column!r}: fit gyro and accelerometer fields of a bag separately"
             )
-    if not bag and (opts.stream or opts.log.suffix.lower() in BINARY_SUFFIXES):
+    small = None if bag else _small_npy(opts)
+    if small is not None:  # held in memory: the record's own drift is measured too
+        columns, values, rate, info = _npy_in_memory(opts, small, purpose)
+        results = [allan_variance(values[:, 0], rate_hz=rate, m=grid, progress=progress,
+                                  contrast_span_s=opts.calibration)]
+    elif not bag and (opts.stream or opts.log.suffix.lower() in BINARY_SUFFIXES):
         columns, results, info = _streamed(opts, purpose, grid, progress)
     else:
         columns, values, rate, info = _read(opts, purpose, progress)
@@ -270,6 +277,38 @@ def _table(opts):
         "log": opts.shown,
     }
     return SourceAllan(("adev",), (result.scaled(factor),), unit, info)
+
+
+#: a .npy log of at most this many samples is read into memory (unless ``stream``): 512 MB of float64
+IN_MEMORY_NPY = 2**26
+
+
+def _small_npy(opts):
+    """The samples of a ``.npy`` log small enough to hold in memory, ``None`` otherwise (streamed)."""
+    if opts.stream or opts.log.suffix.lower() != ".npy" or opts.column not in (None, "0"):
+        return None
+    from .outofcore import _npy_layout
+
+    dtype, offset, count = _npy_layout(opts.log)
+    if count > IN_MEMORY_NPY or offset + count * dtype.itemsize > opts.log.stat().st_size:
+        return None  # the streaming reader says what is wrong with a truncated file
+    return np.fromfile(opts.log, dtype=dtype, count=count, offset=offset).astype(np.float64)
+
+
+def _npy_in_memory(opts, values, purpose):
+    """``_read``'s outputs for a ``.npy`` log held in memory (one channel, ``rate`` given)."""
+    if opts.time_column is not None or opts.time_unit is not None:
+        raise InputError(f"{opts.log}: a binary log has no time column; give rate_hz")
+    if opts.rate is None:
+        raise InputError(f"{opts.log}: no sample rate: give rate_hz")
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        raise InputError(f"{opts.log}: sample {bad[0]} is {values[bad[0]]!r}; expected finite numbers")
+    _require_samples(opts, values.size, purpose)
+    _plausible(opts, values[:, None], opts.rate, ["0"])
+    info = {"log": str(opts.log), "columns": ["0"], "read": "in memory", "rate_hz": opts.rate,
+            "rate_source": "--rate", "samples_used": int(values.size), "action": "all samples used"}
+    return ["0"], values[:, None], opts.rate, info
 
 
 def _streamed(opts, purpose, grid, progress):
