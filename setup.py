@@ -48,10 +48,10 @@ def _load(stage):
     return importlib.import_module(f"bayes_imu.{stage}._sources")
 
 
-#: numba versions on which the fast-math hook of precompiled_kernels was checked (the precompiled
-#: kernels equal numba's JIT build bit for bit: tests/test_allan.py); tests/test_build.py fails,
-#: naming the version, on another
-NUMBA_AOT_CHECKED = ("0.68.1",)
+#: numba release series on which the fast-math hook of precompiled_kernels was checked (the
+#: precompiled kernels equal numba's JIT build bit for bit: tests/test_allan.py); setup.cfg pins the
+#: same series, and tests/test_build.py fails, naming the version, on another
+NUMBA_AOT_CHECKED = ("0.68",)
 #: the leading parameters of numba.pycc.compiler.compile_extra that the hook passes on
 COMPILE_EXTRA_PARAMETERS = ("typingctx", "targetctx", "func", "args", "return_type", "flags")
 

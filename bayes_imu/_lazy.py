@@ -21,10 +21,18 @@ import os
 import sys
 import threading
 
-__all__ = ["LazyModule", "import_without", "CHECKED_VERSIONS", "PLAIN_IMPORTS_ENV"]
+__all__ = ["LazyModule", "import_without", "CHECKED_VERSIONS", "PLAIN_IMPORTS_ENV", "in_series"]
 
-#: the versions of each library :func:`import_without` was checked on (its tests pass there)
-CHECKED_VERSIONS = {"emcee": ("3.1.6",), "corner": ("2.3.0",)}
+#: the release series of each library :func:`import_without` was checked on (its tests pass there;
+#: setup.cfg pins the same series, so a fresh install gets one of them and a new series is a
+#: deliberate bump)
+CHECKED_VERSIONS = {"emcee": ("3.1",), "corner": ("2.3",)}
+
+
+def in_series(installed, series):
+    """Whether version ``installed`` belongs to one of the release ``series`` (``"3.1"`` holds
+    ``3.1.6``, not ``3.10.0``)."""
+    return any(installed == s or installed.startswith(s + ".") for s in series)
 #: environment variable that turns :func:`import_without` into a plain import
 PLAIN_IMPORTS_ENV = "BAYES_IMU_PLAIN_IMPORTS"
 

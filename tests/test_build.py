@@ -27,7 +27,8 @@ def _constant(name):
 def test_the_installed_numba_is_one_the_compiler_hook_was_checked_on():
     numba = pytest.importorskip("numba")
     checked = _constant("NUMBA_AOT_CHECKED")
-    assert numba.__version__ in checked, (
+    installed = numba.__version__
+    assert any(installed == s or installed.startswith(s + ".") for s in checked), (
         f"numba {numba.__version__} is installed; setup.py's hook on "
         f"numba.pycc.compiler.compile_extra was checked on numba {', '.join(checked)}: rebuild "
         "(pip install -e .), run tests/test_allan.py and tests/test_build.py, "

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from bayes_imu._lazy import CHECKED_VERSIONS
+from bayes_imu._lazy import CHECKED_VERSIONS, in_series
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 @pytest.mark.parametrize("name", sorted(CHECKED_VERSIONS))
 def test_each_import_trick_is_checked_on_the_installed_version(name):
     installed = version(name)
-    assert installed in CHECKED_VERSIONS[name], (
+    assert in_series(installed, CHECKED_VERSIONS[name]), (
         f"{name} {installed} is installed; bayes_imu/_lazy.py imports it without one of its "
         f"optional imports and was checked on {name} {', '.join(CHECKED_VERSIONS[name])}: run "
         "tests/test_lazy.py, test_imports.py, "
@@ -99,3 +99,8 @@ def test_a_library_that_changed_underneath_fails_loudly_and_leaves_nothing_half_
 def test_the_switch_turns_the_tricks_into_plain_imports(tmp_path):
     out = _run(tmp_path, BAYES_IMU_PLAIN_IMPORTS="1")
     assert out["eager"] == ["ok", False, True] and out["changed"] == ["ok", False, True]
+
+
+def test_a_release_series_holds_its_patch_releases_only():
+    assert in_series("3.1.6", ("3.1",)) and in_series("3.1", ("3.1",))
+    assert not in_series("3.10.0", ("3.1",)) and not in_series("3.2.0", ("3.1",))
