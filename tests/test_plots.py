@@ -287,3 +287,14 @@ def test_corner_grid_is_the_lower_triangle_with_labels_on_its_edges_only(tmp_pat
         shown_y = [t for t in ax.get_yticklabels() if t.get_visible() and t.get_text()]
         assert bool(shown_x) == (i == k - 1) and bool(ax.get_xlabel()) == (i == k - 1), (i, j)
         assert bool(shown_y) == (j == 0 and i > 0) and bool(ax.get_ylabel()) == (j == 0 and i > 0), (i, j)
+
+
+def test_an_accelerometers_rate_terms_are_named_for_acceleration():
+    """The figures of an accelerometer say "acceleration random walk" / "acceleration ramp" (a new
+    user read "rate random walk" on an accelerometer's allan_fit.png and drift.png); a gyro's stay."""
+    from bayes_imu.report.plots import _term_label
+
+    assert _term_label("random_walk", True) == "acceleration random walk"
+    assert _term_label("ramp", True) == "acceleration ramp"
+    assert _term_label("random_walk") == "rate random walk"
+    assert _term_label("gauss_markov", True) == _term_label("gauss_markov")

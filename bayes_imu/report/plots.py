@@ -170,7 +170,7 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None):
     ax.plot(tau_f, med, color="C0", lw=1.5, label=_wrapped("model: " + " + ".join(fit.model.terms)))
     for i, term in enumerate(fit.model.terms):
         part = np.median(np.sqrt(fit.predictive_avar(m_f, rng=rng, term=term)), axis=0)
-        ax.plot(tau_f, part, "--", color=f"C{i + 1}", lw=1, label=_term_label(term))
+        ax.plot(tau_f, part, "--", color=f"C{i + 1}", lw=1, label=_term_label(term, _is_accel(fit, unit)))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_ylim(allan.adev.min() / 5, allan.adev.max() * 2)
@@ -458,11 +458,19 @@ def plain_log_formatter(**kwargs):
     return PlainLogFormatter(**kwargs)
 
 
-def _term_label(name):
-    """What a figure calls a term (:attr:`bayes_imu.noise.Term.plot_label`; else its name)."""
+def _term_label(name, accel=False):
+    """What a figure calls a term (:attr:`bayes_imu.noise.Term.plot_label`; else its name); an
+    accelerometer's rate terms are its acceleration's ("acceleration random walk")."""
     from ..noise import REGISTRY
 
-    return REGISTRY[name].plot_label if name in REGISTRY else name
+    label = REGISTRY[name].plot_label if name in REGISTRY else name
+    return "acceleration " + label[len("rate "):] if accel and label.startswith("rate ") else label
+
+
+def _is_accel(fit, unit):
+    """Whether a fit is an accelerometer's: its sensor kind, else its unit."""
+    sensor = getattr(getattr(fit, "allan", None), "sensor", None) or getattr(fit, "sensor", None)
+    return sensor == "accel" or str(unit) in ("m/s^2", "g", "mg", "ug")
 
 
 _QUANTITY_LABEL = {"attitude": "attitude error", "velocity": "velocity error", "position": "position error"}
@@ -493,13 +501,14 @@ def plot_drift(bands_list, path, *, units, title="", min_probability=0.1):
         for i, (name, part) in enumerate(bands.terms.items()):
             positive = part[keep] > 0
             p = bands.term_probability.get(name, 1.0)
+            accel = bands.quantity in ("velocity", "position")
             if p < min_probability:
-                hidden.append(_term_label(name))
+                hidden.append(_term_label(name, accel))
                 continue
             if np.any(positive):
                 where = f", median where modelled, P = {p:.2f}" if p < 0.995 else ", median"
                 ax.plot(t[positive], part[keep][positive], "--", lw=1, color=f"C{i + 1}",
-                        label=f"{_term_label(name)}{where}")
+                        label=f"{_term_label(name, accel)}{where}")
         if hidden:
             import textwrap
 
