@@ -633,7 +633,7 @@ def _cmd_fit_batch(args):
         doc = batch_summary(results, args.logs, staging, seconds=seconds, scheduler=scheduler,
                             seed=args.seed)
         write_json(staging / "batch.json", doc)
-    failed = [r for r in results if r.status not in (0, PICTURE_FAILED_STATUS)]
+    failed = [r for r in results if not r.fitted]
     for r in failed:
         print(f"bayes-imu: error: {r.name}: {r.error.removeprefix('bayes-imu: error: ')}", file=sys.stderr)
     _say(args, f"{len(results) - len(failed)} of {len(results)} logs fitted in {seconds:.1f} s "

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .closed_forms import QUANTITY_ORDER
-from .direct import direct_contrasts, direct_edf, drift_check, honest_quantiles
+from .direct import direct_contrasts, direct_edf, drift_check, honest_quantiles, same_window
 from ..errors import InputError, UnmeasuredWarning
 from ..noise import BIAS_STARTS, TERMS, NoiseModel
 from ..noise.quantities import SENSORS
@@ -287,7 +287,7 @@ def _warn_other_window(fit, quantity, bias_start, calibration_s):
 
     measured = getattr(getattr(fit, "allan", None), "contrasts", None)
     if (measured is None or bias_start != "calibrated" or QUANTITY_ORDER[quantity] != 1
-            or round(calibration_s * measured.rate_hz) == measured.n_cal):
+            or same_window(measured, calibration_s)):
         return
     warnings.warn(f"the record measured its own drift for a {measured.calibration_s:g} s calibration "
                   f"window, not the {calibration_s:g} s asked: these bands are the model's alone; "

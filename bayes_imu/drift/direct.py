@@ -33,7 +33,7 @@ from ..noise.contrast_covariance import contrast_edf
 special = LazyModule("scipy.special")
 
 __all__ = ["DriftCheck", "drift_check", "direct_contrasts", "direct_edf", "honest_quantiles", "record_drift_check",
-           "unmeasured_reason", "DRIFT_ALPHA"]
+           "unmeasured_reason", "same_window", "DRIFT_ALPHA"]
 
 #: false-alarm rate of the drift-space check on a correct model
 DRIFT_ALPHA = 0.05
@@ -104,11 +104,16 @@ class DriftCheck:
                 "horizons": rows}
 
 
+def same_window(contrasts, calibration_s):
+    """Whether the record's contrasts were measured for this calibration window [s] (in samples)."""
+    return round(calibration_s * contrasts.rate_hz) == contrasts.n_cal
+
+
 def direct_contrasts(fit, quantity, bias_start, calibration_s):
     """The fit's record contrasts when they answer these drift semantics, else ``None``."""
     contrasts = getattr(getattr(fit, "allan", None), "contrasts", None)
     if (contrasts is None or bias_start != "calibrated" or QUANTITY_ORDER.get(quantity) != 1
-            or contrasts.k.size == 0 or round(calibration_s * contrasts.rate_hz) != contrasts.n_cal):
+            or contrasts.k.size == 0 or not same_window(contrasts, calibration_s)):
         return None
     return contrasts
 
@@ -191,7 +196,7 @@ def unmeasured_reason(fit, bias_start, calibration_s):
         return f"the record measures calibrated outages only (bias start {bias_start!r})"
     if contrasts is None:
         return "the log's samples were not kept (an Allan table, or a log read out of core)"
-    if round(calibration_s * contrasts.rate_hz) != contrasts.n_cal:
+    if not same_window(contrasts, calibration_s):
         return f"measured for a {contrasts.calibration_s:g} s calibration window, not {calibration_s:g} s"
     if contrasts.k.size == 0:
         return f"the log is shorter than twice the {calibration_s:g} s calibration window"

@@ -21,6 +21,7 @@ import time
 from dataclasses import asdict, dataclass
 
 from .output import safe_folder_name
+from .worker import PICTURE_FAILED_STATUS
 from ..errors import InputError
 
 __all__ = ["BatchJob", "JobResult", "run_batch", "job_name"]
@@ -42,13 +43,19 @@ class BatchJob:
 
 @dataclass(frozen=True)
 class JobResult:
-    """Outcome of one log: exit status (0, 2 user error, 1 internal error), the error line, wall time (s)."""
+    """Outcome of one log: exit status (0, 2 user error, 1 internal error, 3 a picture not drawn), the
+    error line, wall time (s)."""
 
     name: str
     status: int
     error: str
     seconds: float
     worker: str
+
+    @property
+    def fitted(self):
+        """Whether the log's numbers were written (a picture that failed costs only the picture)."""
+        return self.status in (0, PICTURE_FAILED_STATUS)
 
     def to_json(self):
         return asdict(self)

@@ -287,19 +287,16 @@ def population_summary(population, *, unit, column, infos, drift=None):
 def batch_summary(results, logs, folder, *, seconds, scheduler, seed):
     """``batch.json`` of a batch: each log's outcome, and the throughput (the fitted logs' samples
     are read from their ``summary.json`` in ``folder/<job name>``)."""
-    from .worker import PICTURE_FAILED_STATUS
-
-    fitted = (0, PICTURE_FAILED_STATUS)  # a picture not drawn: the numbers are there
     samples = 0
     for r in results:
-        if r.status in fitted:
+        if r.fitted:
             summary = json.loads((folder / r.name / "summary.json").read_text())
             samples += (
                 sum(a["n_samples"] for a in summary["axes"].values())
                 if "axes" in summary
                 else summary["n_samples"]
             )
-    failed = [r for r in results if r.status not in fitted]
+    failed = [r for r in results if not r.fitted]
     return {
         "logs": [dict(r.to_json(), log=str(log)) for r, log in zip(results, logs)],
         "n_logs": len(results),
