@@ -63,11 +63,8 @@ def test_existing_scheduler_and_serial_mode(tmp_path, logs, monkeypatch):
     too (a new output process per log would import ArviZ and matplotlib again each time)."""
     from dask.distributed import LocalCluster
 
-    import sys
-
+    import bayes_imu.report.runs as runs
     from bayes_imu.report.worker import WORKERS_ENV, OutputWriter
-
-    cli = sys.modules["bayes_imu.cli.main"]  # the module (the package's attribute `main` is the function)
 
     monkeypatch.delenv(WORKERS_ENV, raising=False)
     chosen = []
@@ -77,7 +74,7 @@ def test_existing_scheduler_and_serial_mode(tmp_path, logs, monkeypatch):
             chosen.append(background)
             super().__init__(background, warm)
 
-    monkeypatch.setattr(cli, "OutputWriter", Recording)
+    monkeypatch.setattr(runs, "OutputWriter", Recording)  # the fit's run (report.runs)
     paths, _ = logs
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         assert main(["fit-batch", *map(str, paths[:2]), *OPTIONS, "--scheduler", cluster.scheduler_address,

@@ -314,6 +314,8 @@ def test_python_callers_of_main_write_in_process_unless_asked(tmp_path, rng, mon
     (an 'internal error' printed by the child). The executable and an explicit setting use the worker."""
     import sys as _sys
 
+    import bayes_imu.report.runs as runs
+
     cli = _sys.modules["bayes_imu.cli.main"]
     chosen = []
 
@@ -322,7 +324,7 @@ def test_python_callers_of_main_write_in_process_unless_asked(tmp_path, rng, mon
             chosen.append(background_default() if background is None else background)
             super().__init__(False, ())
 
-    monkeypatch.setattr(cli, "OutputWriter", Recording)
+    monkeypatch.setattr(runs, "OutputWriter", Recording)  # the fit's run (report.runs)
     log = tmp_path / "log.csv"
     log.write_text("gyro\n" + "\n".join(f"{v:.9g}" for v in 0.05 * rng.standard_normal(4096)) + "\n")
     monkeypatch.delenv(WORKERS_ENV, raising=False)

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["add_commands", "add_fit_options", "datasheet_hook"]
+__all__ = ["add_commands", "add_fit_options"]
 
 
 def _positive(text):
@@ -74,33 +74,6 @@ def add_fit_options(fit):
         "summary.json gets "
         "each value's posterior probability of being within spec, and a one-line verdict",
     )
-
-
-def datasheet_hook(args, request, result, unit, summary):
-    """With ``--datasheet`` (``request.datasheet``): ``summary["datasheet_check"]`` and the verdict line."""
-    given = request.datasheet
-    if given is None:
-        return
-    from ..noise.datasheet import KIND_OF_UNIT
-    from ..noise.datasheet_check import check_datasheet, verdict
-    from .main import _say
-
-    path, kind, spec = given
-    if KIND_OF_UNIT.get(unit) != kind:
-        raise InputError(
-            f"--datasheet {path}: a {kind} datasheet, but the log is in {unit!r}; "
-            f"expected a {kind} "
-            "log fitted in SI (give --units)"
-        )
-    values = check_datasheet(result, kind, spec)
-    line = verdict(values)
-    summary["datasheet_check"] = {
-        "file": str(path),
-        "kind": kind,
-        "values": values,
-        "verdict": line,
-    }
-    _say(args, f"  datasheet {path.name}: {line}")
 
 
 def add_commands(sub):

@@ -32,26 +32,21 @@ from pathlib import Path
 import numpy as np
 
 from .._version import __version__
-from ..report.output import safe_folder_name, staged_file, staged_folder, user_os_error
-from ..report.plots import import_plotting, plot_allan_fit, plot_corner
-from ..report.worker import PICTURE_FAILED_STATUS, OutputWriter, background_default, draw_picture
-from ..report.writers import (FitRequest, axis_summary, batch_summary, drift_check_summary,
-                              drift_outputs, fit_summary,
-                              population_summary, write_allan_csv, write_drift, write_json,
-                              write_sigma_csv)
+from ..report.output import staged_file, staged_folder, user_os_error
+from ..report.runs import input_files, run_fit, run_population
+from ..report.worker import PICTURE_FAILED_STATUS, background_default, draw_picture
+from ..report.writers import FitRequest, batch_summary, write_allan_csv, write_json, write_sigma_csv
 from .._progress import progress_bar, show_progress
 from ..allan.pipeline import LogSource, allan_from_source
-from .extra import add_commands, add_fit_options, datasheet_hook
+from .extra import add_commands, add_fit_options
 from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES
 from ..drift.display import DISPLAY_CHOICES, display_unit
 from .nav import add_nav_parser
 from ..drift.closed_forms import DRIFT_BIAS_STARTS, QUANTITY_ORDER, SI_OUTPUT_UNITS
 from ..errors import BayesIMUError, InputError
 from ..io.readers import INCREMENT_UNITS, UNITS
-from ..inference.archive import write_netcdf
-from ..inference.fit import DISCREPANCY_MODES, warm_up as warm_up_fit
+from ..inference.fit import DISCREPANCY_MODES
 from ..inference.likelihood import LIKELIHOODS
-from ..inference.sampling import import_emcee
 from ..noise import BIAS_STARTS, TERMS
 from ..io.limits import RANGES
 from ..io.timebase import GAP_POLICIES, RATE_RANGE, TIME_UNITS
@@ -275,11 +270,6 @@ def _source(args, **changes):
     return dataclasses.replace(source, **changes)
 
 
-def _inputs(*paths):
-    """The input files an output must not replace (standard input is none)."""
-    return [p for p in paths if p is not None and str(p) != "-"]
-
-
 # ---------------------------------------------------------------------------- commands
 
 def _cmd_allan(args):
@@ -289,7 +279,7 @@ def _cmd_allan(args):
     _say_time_unit(args, info)
     from ..report.plots import plot_allan
 
-    with staged_folder(args.out, force=args.force, inputs=_inputs(args.log)) as tmp:
+    with staged_folder(args.out, force=args.force, inputs=input_files(args.log)) as tmp:
         write_allan_csv(result, tmp / "allan.csv", unit=unit)
         label = f"{Path(source.shown).name}: {columns[0]} [{unit}]"
         failure = draw_picture(plot_allan, result, tmp / "allan.png", label=label, unit=unit)
@@ -319,32 +309,15 @@ def _cmd_fit(args):
 
 def _fit(request, args, in_batch=False):
     """``request`` fitted into ``args.out`` (``args``: where and how to write and print)."""
-    # the worker imports ArviZ and the plotting libraries while this process reads and fits the log (a second
-    # worker for the figures alone was tried: on 2 cores it slowed the fit more than it saved)
-    import_emcee()  # before the writer's thread starts: emcee without scipy.stats (see import_emcee)
     # a batch's fits write in their own process: it has its own parallelism, and its imports are made once.
     # Python callers of main() do too, unless the environment asks (a spawned process re-runs the caller's
     # script, which without a __main__ guard would run the command again there)
     background = False if in_batch else background_default(automatic=_EXECUTABLE)
-    with OutputWriter(background=background, warm=(import_plotting, warm_up_fit)) as writer:
-        read = allan_from_source(request.source, purpose="fit", progress=args.progress)
-        columns, unit, info = read.columns, read.unit, read.info
-        _say_time_unit(args, info)
-        inputs = _inputs(request.source.log, request.source.allan_table)
-        with staged_folder(args.out, force=args.force, inputs=inputs) as tmp:
-            folders = [None] if len(columns) == 1 else _folder_names(columns)
-            axes = {}
-            for allan, column, folder in zip(read.results, columns, folders):
-                if folder is not None:
-                    _say(args, f"[{column}]")
-                out = tmp if folder is None else tmp / folder
-                axes[column] = _fit_axis(request, args, allan, unit, info, column, out, writer)
-            if len(columns) > 1:
-                summary = fit_summary(axes, info=info, seed=request.seed, folders=folders)
-                write_json(tmp / "summary.json", summary)
-            writer.wait()  # every output in the staging folder before it is moved into place
+    run = run_fit(request, args.out, force=args.force, background=background, progress=args.progress,
+                  on_read=lambda read: _say_time_unit(args, read.info),
+                  on_axis=lambda axis: _say_axis(args, axis))
     _say(args, f"wrote {args.out}")
-    return _pictures_status(writer.picture_failures)
+    return _pictures_status(run.picture_failures)
 
 
 def _pictures_status(failures):
@@ -362,40 +335,32 @@ def _say_time_unit(args, info):
                    f"{info['rate_hz']:.6g} Hz")
 
 
-def _folder_names(columns):
-    names = []
-    for c in columns:
-        names.append(safe_folder_name(c, names))
-    return names
-
-
-def _fit_axis(request, args, allan, unit, info, column, out, writer):
-    from ..inference.archive import ARCHIVE_NAME, save_fit
-    from ..inference.fit import fit_allan
-
-    out.mkdir(exist_ok=True)
-    # the output process seeks modes ahead while this process fits (fit_allan's pool; the same numbers)
-    result = fit_allan(allan, terms=request.terms, likelihood=request.likelihood, rng=request.seed,
-                       discrepancy=request.discrepancy, progress=args.progress,
-                       pool=writer.pool() if writer.background else None)
-    # the figures first, the longer first: the output process draws one while this process summarises and writes
-    # the rest, and the other beside it once this process waits (report.worker). The corner plot of four or more
-    # parameters takes longer than allan_fit.png (corner.png of 3, 5 and 7 parameters 0.14-0.16, 0.33 and 0.57-0.59 s,
-    # allan_fit.png 0.17-0.20 s: scripts/study_speed_options.py --figures)
-    label = f"{Path(info['log']).name}: {column}"
-    figures = [(plot_allan_fit, result, out / "allan_fit.png",
-                {"label": label, "unit": unit, "rng": request.seed}),
-               (plot_corner, result, out / "corner.png", {"unit": unit})]
-    for plot, *arguments, options in (figures[::-1] if result.samples.shape[1] >= 4 else figures):
-        writer.picture(plot, *arguments, **options)
-    drift = drift_outputs(result, request, unit) if request.sensor else None
-    summary = axis_summary(result, unit=unit, info=info, column=column, drift=drift)
+def _say_axis(args, axis):
+    """What ``fit`` says of one column's fit (:class:`~bayes_imu.report.runs.AxisRun`)."""
+    result, summary, drift, column = axis.result, axis.summary, axis.drift, axis.column
+    if axis.folder is not None:
+        _say(args, f"[{column}]")
     _say(args, _model_line(summary, result.diagnostics["converged"]))
     for name, p in summary["parameters"].items():
         _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
     _say_datasheet(args, summary["datasheet"])
     _say_readout(args, summary["allan_datasheet"])
-    datasheet_hook(args, request, result, unit, summary)
+    if "datasheet_check" in summary:
+        checked = summary["datasheet_check"]
+        _say(args, f"  datasheet {Path(checked['file']).name}: {checked['verdict']}")
+    _warn_axis(axis)
+    if drift is not None:
+        _say_drift(args, drift)
+    check = axis.check
+    if check is not None and not check.adequate:
+        _warn(f"{column}: the drift the log itself shows disagrees with the model at t = "
+              f"{check.worst_t_s:g} s (p = {check.p_combined:.2g}); the drift bands include the log's "
+              f"own interval up to {check.t_s[-1]:g} s and extrapolate the model beyond")
+
+
+def _warn_axis(axis):
+    """The warnings of one column's fit: a model that does not describe the log, noise that changes."""
+    result, column = axis.result, axis.column
     adequacy = result.adequacy
     if not adequacy.adequate:
         what = [f"goodness of fit p = {adequacy.p_value:.2g} (worst at tau = {adequacy.worst_tau_s:g} s)"]
@@ -410,21 +375,6 @@ def _fit_axis(request, args, allan, unit, info, column, out, writer):
               f"{_ratio_text(steady.largest_ratio())} in Allan deviation at tau = {steady.worst_tau_s:g} s "
               f"(p = {steady.p_value:.2g}; warm-up?), with a spread of up to x{steady.spread_factor():.2g} (1 sigma) "
               "at longer tau; drift bands include that spread")
-    if drift is not None:
-        _say_drift(args, drift)
-        write_drift(drift, out, submit=writer.submit)
-    if summary["adequacy"] is not None:
-        summary["adequacy"]["drift"], check = drift_check_summary(result, request, unit, drift)
-        if check is not None and not check.adequate:
-            _warn(f"{column}: the drift the log itself shows disagrees with the model at t = "
-                  f"{check.worst_t_s:g} s (p = {check.p_combined:.2g}); the drift bands include the log's "
-                  f"own interval up to {check.t_s[-1]:g} s and extrapolate the model beyond")
-    write_json(out / "summary.json", summary)
-    save_fit(result, out / ARCHIVE_NAME)
-    # posterior.nc here: it needs only h5netcdf (h5py is loaded with emcee), and queued behind the figures it would
-    # end the run later
-    write_netcdf(result, out / "posterior.nc")
-    return summary
 
 
 def _model_line(summary, converged):
@@ -559,59 +509,31 @@ def _drift_options(parser):
 
 def _cmd_fit_population(args):
     """Several logs (units) of one column: the hierarchical fit and the new-unit predictive."""
-    from ..drift.bands import drift_bands, integrated_unit
-    from ..report.fleet import job_name
-    from ..report.plots import plot_population
-    from ..inference.population import fit_population
-
-    if args.column is not None and "," in args.column:
-        raise InputError(f"--column {args.column!r}: fit-population takes one column (one axis of every unit)")
-    if len(args.logs) < 2:
-        raise InputError(f"fit-population: {len(args.logs)} log given; expected the logs of at least 2 units")
-    from ..report.scene import distinct_units
-
-    distinct_units(args.logs, where="fit-population")
     if args.units is not None and args.sensor is None:
         args.sensor = UNITS[args.units][0]
     request = _fit_request(args, log=args.logs[0])
-    allans, labels, infos, unit = [], [], [], None
-    for path in args.logs:
-        read = allan_from_source(dataclasses.replace(request.source, log=path), purpose="fit",
-                                 progress=args.progress)
-        columns, unit, info = read.columns, read.unit, read.info
-        allans.append(read.results[0])
-        infos.append(info)
-        labels.append(job_name(Path(info["log"]), labels))
-    with staged_folder(args.out, force=args.force, inputs=args.logs) as tmp:
-        pop = fit_population(allans, labels=labels, terms=request.terms, rng=args.seed,
-                             spread_scale=args.spread_scale, progress=args.progress)
-        drift = drift_outputs(pop.new_unit, request, unit) if args.sensor else None
-        summary = population_summary(pop, unit=unit, column=columns[0], infos=infos, drift=drift)
-        _say(args, f"common model: {' + '.join(pop.model.terms)} ({len(labels)} units; population sampler "
-                   f"converged: {pop.diagnostics['converged']})")
-        _say(args, "a new unit of this model (unit-to-unit spread included):")
-        for name, p in summary["new_unit"].items():
-            _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
-        _say_datasheet(args, summary["new_unit_datasheet"])
-        for name, p in summary["population"].items():
-            s = p["spread_ln"]
-            _say(args, f"  unit-to-unit spread of {name}: {s['median']:.2g} (90% [{s['q05']:.2g}, {s['q95']:.2g}]) "
-                       "in ln units (0.1 = 10%)")
-        bands, unit_bands, drift_unit = None, (), None
-        if drift is not None:  # the new unit's first quantity, as in drift.csv, against each unit's
-            _say_drift(args, drift)
-            write_drift(drift, tmp)
-            bands, drift_unit = drift.bands[0], drift.units[0]
-            factor = display_unit(integrated_unit(unit, bands.quantity), args.display_units)[1]
-            unit_bands = [drift_bands(f, bands.t_s, quantity=bands.quantity, bias_start=args.bias_start,
-                                      calibration_s=args.calibration, rng=args.seed).scaled(factor)
-                          for f in pop.unit_fits]
-        write_json(tmp / "summary.json", summary)
-        args.picture_failures.append(draw_picture(plot_population, pop, tmp / "population.png", unit=unit,
-                                                  bands=bands, unit_bands=unit_bands, rng=args.seed,
-                                                  drift_unit=drift_unit))
+    run = run_population(request, args.logs, args.out, spread_scale=args.spread_scale, force=args.force,
+                         progress=args.progress, on_fit=lambda run: _say_population(args, run))
     _say(args, f"wrote {args.out}")
+    args.picture_failures.extend(run.picture_failures)
     return _pictures_status(args.picture_failures)
+
+
+def _say_population(args, run):
+    """What ``fit-population`` says of its fit (:class:`~bayes_imu.report.runs.PopulationRun`)."""
+    pop, summary = run.population, run.summary
+    _say(args, f"common model: {' + '.join(pop.model.terms)} ({len(pop.labels)} units; population sampler "
+               f"converged: {pop.diagnostics['converged']})")
+    _say(args, "a new unit of this model (unit-to-unit spread included):")
+    for name, p in summary["new_unit"].items():
+        _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
+    _say_datasheet(args, summary["new_unit_datasheet"])
+    for name, p in summary["population"].items():
+        s = p["spread_ln"]
+        _say(args, f"  unit-to-unit spread of {name}: {s['median']:.2g} (90% [{s['q05']:.2g}, {s['q95']:.2g}]) "
+                   "in ln units (0.1 = 10%)")
+    if run.drift is not None:
+        _say_drift(args, run.drift)
 
 
 def _cmd_fit_batch(args):
@@ -824,7 +746,7 @@ _FLAGS = ((re.compile(r"\bforce=True\b"), "--force"), (re.compile(r"\bscheduler=
           (re.compile(r"\bgoes with a time column\b"), "goes with --time-column"),
           (re.compile(r"^horizon_s="), "--horizon="),
           # allan.pipeline's LogSource fields
-          (re.compile(r"^(column|units)="), r"--\1 "),
+          (re.compile(r"^(column|units|datasheet)="), r"--\1 "),
           (re.compile(r"\bbut sensor is\b"), "but --sensor is"),
           (re.compile(r"\bleave out input='increments'"), "leave out --input"),
           (re.compile(r"\binput='increments'"), "--input increments"),
