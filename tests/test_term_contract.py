@@ -27,6 +27,8 @@ Parameters come from each term's own prior box (its centre, on a fixed curve), s
 values is kept by hand here.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -228,9 +230,53 @@ def check_datasheet_and_kalibr(term):
         assert term.role == "short_term"
 
 
+def check_start_variants(term):
+    """Further starts of the mode search (pilot or not): at least one, each a few of its own
+    parameters at finite positive values."""
+    tau = DT * 2.0 ** np.arange(8)
+    avar = 0.5 / (tau / DT) + 0.01
+    for pilot in (True, False):
+        variants = term.start_variants(tau, avar, pilot=pilot)
+        assert len(variants) >= 1
+        for variant in variants:
+            assert set(variant) <= set(term.parameters), variant
+            assert all(np.isfinite(v) and v > 0 for v in variant.values()), variant
+
+
+def check_worst_axis(term):
+    """A worst-axis parameter is an amplitude: doubling it never lowers the Allan variance at
+    any cluster size (1 to 2^12) and raises it somewhere; the derived noise density is a
+    short-term density term's."""
+    p = params_of(term)
+    m = 2.0 ** np.arange(13)
+    base = term.avar(m, p, DT)
+    for name in term.worst_axis:
+        if name not in term.parameters:
+            assert term.kalibr == "noise_density" and term.role == "short_term", name
+            continue
+        more = term.avar(m, dict(p, **{name: 2.0 * p[name]}), DT)
+        assert np.all(more >= base * (1.0 - 1e-12)) and np.any(more > base * (1.0 + 1e-6)), name
+
+
+def check_exchangeable(term):
+    """Terms of one exchangeable group are one process: the same prior box and the same Allan
+    variance at the same (variance, time constant), as every other registered member."""
+    if not term.exchangeable:
+        return
+    p = params_of(term)
+    values = [p[n] for n in term.parameters]
+    m = 2.0 ** np.arange(10)
+    others = [t for t in REGISTRY.values() if t.exchangeable == term.exchangeable and t is not term]
+    assert others, f"no other term of group {term.exchangeable!r}"
+    for other in others:
+        np.testing.assert_array_equal(np.asarray(other.bounds(SCALE)), np.asarray(term.bounds(SCALE)))
+        mapped = dict(zip(other.parameters, values))
+        np.testing.assert_allclose(other.avar(m, mapped, DT), term.avar(m, p, DT), rtol=1e-14)
+
+
 CHECKS = (check_declarations_, check_avar, check_structure_vs_simulation, check_drift_brute_force,
           check_drift_monte_carlo, check_drift_orders_and_starts, check_covariance_tail, check_selection_and_start,
-          check_datasheet_and_kalibr)
+          check_datasheet_and_kalibr, check_start_variants, check_worst_axis, check_exchangeable)
 _NEEDS_RNG = {check_structure_vs_simulation, check_drift_monte_carlo}
 
 
@@ -280,8 +326,25 @@ class _WrongAvar(_PeriodicTail):
         return 2.0 * super().avar(mf, params, dt)
 
 
+class _BadStarts(_WrongAvar):
+    """Starts a parameter it does not have."""
+
+    def start_variants(self, tau, avar, *, pilot):
+        return ({"time_constant": 1.0},)
+
+
 _UNITS = {"noise_variance": "({u})^2"}
 PLANTED = {
+    "bad_starts": _BadStarts("bad_starts", ("noise_variance",), _UNITS, "bad starts", "short_term",
+                             selection=("extension",), kalibr="none"),
+    # a Gauss-Markov bias that calls its time constant an amplitude (no worse direction)
+    "worst_time": dataclasses.replace(REGISTRY["gauss_markov"], name="worst_time",
+                                      worst_axis=("time_constant",), exchangeable=""),
+    # the fast correlated term declared exchangeable with the Gauss-Markov biases (another box)
+    "fast_exchangeable": dataclasses.replace(REGISTRY["hf_correlated"], name="fast_exchangeable",
+                                             exchangeable="gauss_markov"),
+    "worst_unknown": dataclasses.replace(REGISTRY["white"], name="worst_unknown",
+                                         worst_axis=("noise_level",)),
     "half": _HalfWhite("half", ("noise_variance",), _UNITS, "half white", "short_term", selection=("extension",),
                        kalibr="noise_density"),
     "periodic": _PeriodicTail("periodic", ("noise_variance",), _UNITS, "periodic", "short_term",
@@ -296,6 +359,8 @@ FAILURES = [
     ("half", check_datasheet_and_kalibr), ("half", check_drift_orders_and_starts),
     ("periodic", check_declarations_), ("wrong_avar", check_avar), ("wrong_avar", check_structure_vs_simulation),
     ("no_role", check_declarations_), ("no_role", check_selection_and_start),
+    ("bad_starts", check_start_variants), ("worst_time", check_worst_axis),
+    ("fast_exchangeable", check_exchangeable), ("worst_unknown", check_declarations_),
 ]
 
 

@@ -7,8 +7,9 @@ Pipeline of :func:`fit_allan`:
 2. *Covariance*: the exact covariance of the AVAR estimates under that pilot model
    (:mod:`bayes_imu.noise.avar_covariance`), shared by every candidate so that their evidences
    come from one likelihood function.
-3. *Selection*: every candidate ``white + subset of {quantization, bias_instability,
-   gauss_markov, random_walk}`` gets its mode and its evidence (:mod:`bayes_imu.inference.selection`).
+3. *Selection*: every candidate (the base terms and a subset of the optional ones, then the
+   stepwise extensions: each term's :attr:`~bayes_imu.noise.Term.selection`) gets its mode and
+   its evidence (:mod:`bayes_imu.inference.selection`).
 4. *Refinement*: the covariance is recomputed at the selected model's mode.
 5. *Sampling*: emcee (``vectorize=True``, differential-evolution and stretch moves) in
    log-parameters, in chunks of 250 steps (a tenth of the chain past 10 000 steps:
@@ -672,31 +673,29 @@ def _pilot(model, allan):
 
 
 def _starts(model, allan, reference):
-    """Starting log-parameter vectors: heuristics from the curve, one per GM time constant guess.
+    """Starting log-parameter vectors: each term's guess from the curve, once per combination of
+    the terms' start variants (:meth:`bayes_imu.noise.Term.start_variants`: a Gauss-Markov bias's
+    time constants), and the reference point (a candidate's: the full-model pilot) where given.
 
     Time constants of ordered Gauss-Markov terms are sorted into their order.
     """
     tau, avar = allan.tau, allan.avar
     dt = 1.0 / allan.rate_hz
     guess = {}
+    variants = [{}]
     for term in model.components:  # each term's own (:meth:`bayes_imu.noise.Term.starting_guess`)
         guess.update(term.starting_guess(tau, avar, allan.m, dt))
+        variants = [dict(v, **w) for v in variants
+                    for w in term.start_variants(tau, avar, pilot=reference is None)]
     bounds = default_bounds(model, allan)
     out = []
-    if "gauss_markov" not in model.terms:
-        gm_taus = [None]
-    elif reference is None:  # pilot: three time-constant guesses
-        gm_taus = list(tau[[len(tau) // 4, len(tau) // 2, 3 * len(tau) // 4]])
-    else:  # candidates: the full-model pilot plus one guess
-        gm_taus = [tau[len(tau) // 2]]
     sources = [guess] + ([reference] if reference is not None else [])
     order = model.ordered
     for src in sources:
-        for t in gm_taus:
+        for variant in variants:
             values = {k: src.get(k, guess[k]) for k in model.parameter_names}
-            if t is not None and src is guess:
-                values["time_constant"] = t
-                values["bias_variance"] = 2.0 * np.interp(1.9 * t, tau, avar)
+            if src is guess:
+                values.update(variant)
             phi = np.log([max(values[k], 1e-300) for k in model.parameter_names])
             width = bounds[:, 1] - bounds[:, 0]
             phi = np.clip(phi, bounds[:, 0] + 0.01 * width, bounds[:, 1] - 0.01 * width)
@@ -736,17 +735,18 @@ def _initial_walkers(post, evidence, phi_mode, n_walkers, rng):
     return np.clip(start, post.bounds[:, 0] + 1e-9, post.bounds[:, 1] - 1e-9)
 
 
-#: terms that are one Gauss-Markov bias each, with one prior: exchangeable but for the ordering of their time constants
-EXCHANGEABLE_TERMS = ("gauss_markov", "gauss_markov_2")
-
-
 def exchangeable_biases(post):
-    """``(variance_columns, time_columns, time_bounds)`` of the Gauss-Markov biases of ``post`` when two or more
-    of :data:`EXCHANGEABLE_TERMS` share one prior box (the relabel move of
+    """``(variance_columns, time_columns, time_bounds)`` of the terms of ``post`` that are one
+    process with one prior box (two or more terms of one :attr:`bayes_imu.noise.Term.exchangeable`
+    group whose boxes agree: the relabel move of
     :func:`~bayes_imu.inference.sampling.relabel_move`), else ``None``."""
     names = post.model.parameter_names
-    columns = [(names.index(t.parameters[0]), names.index(t.parameters[1]))
-               for t in post.model.components if t.name in EXCHANGEABLE_TERMS]
+    groups = {}
+    for t in post.model.components:
+        if t.exchangeable:
+            groups.setdefault(t.exchangeable, []).append(t)
+    group = next((g for g in groups.values() if len(g) >= 2), [])
+    columns = [(names.index(t.parameters[0]), names.index(t.parameters[1])) for t in group]
     if len(columns) < 2:
         return None
     var_cols, time_cols = (list(c) for c in zip(*columns))

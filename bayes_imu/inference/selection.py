@@ -33,7 +33,8 @@ with its posterior probability (:func:`model_probabilities`).
 Candidates (:func:`candidate_terms`, :func:`extensions`): every ``white + subset`` of the
 four IEEE terms (quantization, bias instability, Gauss-Markov bias, rate random walk), then
 a stepwise evidence search over the terms real MEMS logs add (filtered white noise, a
-high-frequency correlated term, a second Gauss-Markov bias, a rate ramp): from the best candidate so far, each
+high-frequency correlated term, a second Gauss-Markov bias, a rate ramp, a vibration line;
+each term's :attr:`~bayes_imu.noise.Term.selection`): from the best candidate so far, each
 single addition is scored; the search moves to the best addition while it gains more than
 the selection threshold, then goes backward: it scores each single removal from where it stopped and moves to
 the best one while that stays within the selection margin of the best evidence so far (below), until none does.

@@ -25,7 +25,17 @@ A term is a stochastic (or, for the ramp, deterministic) component of the rate s
   ``kalibr_random_walk2(draws, tau_max)`` for a ``"random_walk"`` term
   (:mod:`bayes_imu.report.kalibr`);
 * ``selection``: its roles in the automatic model search (:data:`SELECTION_ROLES`) and
-  ``requires``, the terms a model needs before it may have this one.
+  ``requires``, the terms a model needs before it may have this one;
+* ``start_variants(tau, avar, pilot=...)``: further starting values of some of its parameters,
+  each tried as one more start of a fit's mode search (a Gauss-Markov bias: several time
+  constants, since its posterior has a mode per bump of the curve);
+* ``exchangeable``: a group name shared by terms that are the same process with one prior
+  (two Gauss-Markov biases), which the sampler may relabel
+  (:func:`bayes_imu.inference.fit.exchangeable_biases`);
+* ``worst_axis``: its amplitude parameters (larger is a worse sensor at every averaging time)
+  that a several-column ``summary.json`` reports as the worst axis
+  (:func:`bayes_imu.report.writers.worst_axis`);
+* ``parameter_labels``: what figures and tables call each parameter.
 
 ``tests/test_term_contract.py`` runs every term of the registry through one contract.
 
@@ -53,7 +63,7 @@ from ..errors import InputError, ModelError
 
 __all__ = ["Term", "PriorScale", "CovarianceTail", "calibrated_contrast", "check_order",
            "BIAS_STARTS", "ROLES", "ORDERS", "TAIL_KINDS", "SELECTION_ROLES", "KALIBR_ROLES",
-           "nav_system"]
+           "DERIVED_PARAMETERS", "nav_system"]
 
 #: drift semantics (see the module docstring)
 BIAS_STARTS = ("zero", "stationary", "calibrated")
@@ -74,6 +84,9 @@ SELECTION_ROLES = ("base", "optional", "extension")
 #: what a term is to Kalibr (:mod:`bayes_imu.report.kalibr`): part of the white noise density,
 #: part of the bias random walk, or left out (a deterministic or sub-sample term)
 KALIBR_ROLES = ("noise_density", "random_walk", "none")
+#: quantities a fit derives from its terms' parameters (:meth:`bayes_imu.inference.fit.FitResult.draws`):
+#: the short-term white-equivalent density and the white term's density alone [u/sqrt(Hz)]
+DERIVED_PARAMETERS = ("noise_density", "white_noise_density")
 
 
 def check_order(order):
@@ -290,6 +303,15 @@ class Term:
         One of :data:`KALIBR_ROLES`.
     short_label : str
         What figures call it (its :attr:`label` when empty).
+    worst_axis : tuple of str
+        Parameters reported as the worst axis of a several-column fit: amplitudes, whose larger
+        value raises the Allan variance at every averaging time (not a time constant or a
+        frequency, which have no worse direction), or :data:`DERIVED_PARAMETERS` of this term.
+    exchangeable : str
+        Group of terms that are one process with one prior box, parameters ``(variance, time
+        constant)``, named apart only by the order of their time constants (empty: none).
+    parameter_labels : dict
+        Parameter name -> what figures and tables call it (the name itself where absent).
     """
 
     name: str
@@ -301,6 +323,9 @@ class Term:
     requires: tuple = ()
     kalibr: str = ""
     short_label: str = ""
+    worst_axis: tuple = ()
+    exchangeable: str = ""
+    parameter_labels: dict = None
 
     #: kind of :meth:`covariance_tail` (one of :data:`TAIL_KINDS`); a term whose tail carries
     #: parameters (Gauss-Markov, flicker) overrides :meth:`covariance_tail` as well
@@ -334,6 +359,25 @@ class Term:
             Sample period [s].
         """
         raise NotImplementedError(f"term {self.name!r} has no starting guess")  # pragma: no cover
+
+    def start_variants(self, tau, avar, *, pilot):
+        """Further starting values of some parameters: a tuple of dicts (name -> value), each
+        replacing those values of :meth:`starting_guess` in one start of the mode search.
+
+        Parameters
+        ----------
+        tau, avar : (n_tau,) ndarray
+            Averaging times [s] and Allan variance [u^2] of the curve.
+        pilot : bool
+            Whether the search is a fit's first (no reference point from another model yet),
+            which tries more starts.
+
+        Returns
+        -------
+        tuple of dict
+            ``({},)`` by default: the starting guess alone.
+        """
+        return ({},)
 
     def datasheet_rows(self, sensor):
         """Datasheet rows of this term for a sensor kind (``"gyro"`` or ``"accel"``, SI fits):
@@ -418,6 +462,10 @@ class Term:
     def plot_label(self):
         """What figures call it: :attr:`short_label`, else :attr:`label`."""
         return self.short_label or self.label
+
+    def parameter_label(self, name):
+        """What figures and tables call parameter ``name`` (:attr:`parameter_labels`)."""
+        return (self.parameter_labels or {}).get(name, name)
 
     def parameter_units(self, unit):
         return {p: self.units[p].format(u=unit) for p in self.parameters}

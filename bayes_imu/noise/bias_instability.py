@@ -153,7 +153,9 @@ class _BiasInstability(Term):
 
 BIAS_INSTABILITY = _BiasInstability("bias_instability", ("bias_instability",), {"bias_instability": "{u}"},
                                     "bias instability", "bias", selection=("optional",),
-                                    kalibr="random_walk", short_label="bias instability")
+                                    kalibr="random_walk", short_label="bias instability",
+                                    worst_axis=("bias_instability",),
+                                    parameter_labels={"bias_instability": "bias instability"})
 
 
 _ASYMPTOTIC_FROM = 16  # lag from which flicker_increment_acov uses its asymptotic series

@@ -75,4 +75,5 @@ class _FilteredWhite(Term):
 FILTERED_WHITE = _FilteredWhite("filtered_white", ("filtered_variance",), {"filtered_variance": "({u})^2"},
                                 "filtered (moving-average) white noise", "short_term",
                                 selection=("extension",), kalibr="noise_density",
-                                short_label="filtered white noise")
+                                short_label="filtered white noise",
+                                parameter_labels={"filtered_variance": "filtered white"})

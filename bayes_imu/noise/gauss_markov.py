@@ -145,6 +145,8 @@ class _GaussMarkov(Term):
     start: str = "minimum"
     #: datasheet row prefix and description
     sheet: tuple = ("gauss_markov", "Gauss-Markov bias", "Gauss-Markov correlation time")
+    #: whether a fit's mode search starts it at several time constants (:meth:`start_variants`)
+    multi_start: bool = False
 
     tail_kind = "gauss_markov"
     simulated_start = "stationary"
@@ -175,6 +177,18 @@ class _GaussMarkov(Term):
         else:
             values = (avar.min(), tau[np.argmin(avar)])
         return dict(zip(self.parameters, values))
+
+    def start_variants(self, tau, avar, *, pilot):
+        """With :attr:`multi_start`: the time constant at a quarter, half and three quarters of
+        the curve's averaging times (a fit's pilot search; later searches start from the pilot's
+        mode and the half alone), each with a rough variance ``2 AVAR(1.9 T)`` read off the curve
+        where a Gauss-Markov bias's Allan variance peaks (``tau ~ 1.9 T``)."""
+        if not self.multi_start:
+            return ({},)
+        n = len(tau)
+        picks = tau[[n // 4, n // 2, 3 * n // 4]] if pilot else [tau[n // 2]]
+        return tuple({self.time_constant_name: t,
+                      self.variance_name: 2.0 * np.interp(1.9 * t, tau, avar)} for t in picks)
 
     def datasheet_rows(self, sensor):
         prefix, what, when = self.sheet
@@ -252,15 +266,23 @@ HF_CORRELATED = _GaussMarkov("hf_correlated", ("correlated_variance", "correlate
                              selection=("extension",), kalibr="noise_density", start="fast",
                              sheet=("fast_correlated", "fast correlated noise (sensor bandwidth)",
                                     "its correlation time"),
-                             short_label="fast correlated noise")
+                             short_label="fast correlated noise",
+                             parameter_labels={"correlated_variance": "fast correlated variance",
+                                               "correlated_time_constant":
+                                                   "fast correlated time constant"})
 GAUSS_MARKOV = _GaussMarkov("gauss_markov", ("bias_variance", "time_constant"),
                             {"bias_variance": "({u})^2", "time_constant": "s"}, "correlated (Gauss-Markov) bias",
                             "bias", selection=("optional", "extension"), kalibr="random_walk",
-                            short_label="Gauss-Markov bias")
+                            short_label="Gauss-Markov bias", exchangeable="gauss_markov",
+                            worst_axis=("bias_variance",), multi_start=True,
+                            parameter_labels={"bias_variance": "Gauss-Markov variance",
+                                              "time_constant": "Gauss-Markov time constant"})
 GAUSS_MARKOV_2 = _GaussMarkov("gauss_markov_2", ("bias_variance_2", "time_constant_2"),
                               {"bias_variance_2": "({u})^2", "time_constant_2": "s"},
                               "second, slower Gauss-Markov bias", "bias", selection=("extension",),
                               requires=("gauss_markov",), kalibr="random_walk", start="slow",
                               sheet=("gauss_markov_2", "second (slower) Gauss-Markov bias",
                                      "its correlation time"),
-                              short_label="second Gauss-Markov bias")
+                              short_label="second Gauss-Markov bias", exchangeable="gauss_markov",
+                              parameter_labels={"bias_variance_2": "2nd Gauss-Markov variance",
+                                                "time_constant_2": "2nd time constant"})

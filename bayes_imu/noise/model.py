@@ -5,7 +5,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, ModelError
-from ._base import KALIBR_ROLES, ROLES, SELECTION_ROLES, TAIL_KINDS, Term
+from ._base import DERIVED_PARAMETERS, KALIBR_ROLES, ROLES, SELECTION_ROLES, TAIL_KINDS, Term
 from .bias_instability import BIAS_INSTABILITY
 from .filtered_white import FILTERED_WHITE
 from .gauss_markov import GAUSS_MARKOV, GAUSS_MARKOV_2, HF_CORRELATED
@@ -16,7 +16,7 @@ from .vibration import VIBRATION
 from .white import WHITE
 
 __all__ = ["REGISTRY", "check_declarations", "TERMS", "TERM_PARAMETERS", "PARAMETER_UNITS",
-           "NoiseModel", "m_array"]
+           "WORST_AXIS", "PARAMETER_LABELS", "NoiseModel", "m_array"]
 
 
 
@@ -47,6 +47,15 @@ def check_declarations(term, *, known=None):
         problems.append(f"covariance tail kind {term.tail_kind!r} not in {TAIL_KINDS}")
     if set(term.units) != set(term.parameters) or not term.parameters:
         problems.append(f"units {sorted(term.units)} do not match parameters {term.parameters}")
+    odd = [p for p in term.worst_axis if p not in term.parameters + DERIVED_PARAMETERS]
+    if odd:
+        problems.append(f"worst_axis names {odd}, not its parameters or {DERIVED_PARAMETERS}")
+    if not isinstance(term.exchangeable, str) or (term.exchangeable and len(term.parameters) != 2):
+        problems.append(f"exchangeable {term.exchangeable!r}: expected a group name for a term "
+                        "of two parameters (variance, time constant), or ''")
+    labels = term.parameter_labels or {}
+    if not set(labels) <= set(term.parameters):
+        problems.append(f"parameter_labels {sorted(labels)} name no parameter of {term.parameters}")
     missing = [t for t in term.requires if t not in known]
     if missing:
         problems.append(f"requires unknown terms {missing}")
@@ -64,6 +73,13 @@ TERM_PARAMETERS = {name: t.parameters for name, t in REGISTRY.items()}
 PARAMETER_UNITS = {p: u for t in REGISTRY.values() for p, u in t.units.items()}
 PARAMETER_UNITS["noise_density"] = "{u}/sqrt(Hz)"
 PARAMETER_UNITS["white_noise_density"] = "{u}/sqrt(Hz)"
+#: parameters a several-column summary reports as the worst axis, in registry order
+#: (:attr:`Term.worst_axis`)
+WORST_AXIS = tuple(p for t in REGISTRY.values() for p in t.worst_axis)
+#: what figures and tables call each parameter (:meth:`Term.parameter_label`) and the derived
+#: noise density
+PARAMETER_LABELS = {p: t.parameter_label(p) for t in REGISTRY.values() for p in t.parameters}
+PARAMETER_LABELS["noise_density"] = "noise density"
 
 
 def m_array(m):

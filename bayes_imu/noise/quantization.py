@@ -64,4 +64,5 @@ class _Quantization(Term):
 
 QUANTIZATION = _Quantization("quantization", ("quantization",), {"quantization": "{u} s"}, "quantization noise",
                              "short_term", selection=("optional",), kalibr="none",
-                             short_label="quantization")
+                             short_label="quantization", worst_axis=("quantization",),
+                             parameter_labels={"quantization": "quantization"})

@@ -65,4 +65,5 @@ class _Ramp(Term):
 
 
 RAMP = _Ramp("ramp", ("rate_ramp",), {"rate_ramp": "{u}/s"}, "rate ramp", "slow",
-             selection=("extension",), kalibr="none", short_label="rate ramp")
+             selection=("extension",), kalibr="none", short_label="rate ramp",
+             parameter_labels={"rate_ramp": "rate ramp"})

@@ -76,4 +76,5 @@ class _RandomWalk(Term):
 
 RANDOM_WALK = _RandomWalk("random_walk", ("rate_random_walk",), {"rate_random_walk": "{u}/sqrt(s)"},
                           "rate random walk", "slow", selection=("optional",), kalibr="random_walk",
-                          short_label="rate random walk")
+                          short_label="rate random walk", worst_axis=("rate_random_walk",),
+                          parameter_labels={"rate_random_walk": "rate random walk"})

@@ -166,4 +166,6 @@ class _Vibration(Term):
 
 VIBRATION = _Vibration("vibration", ("vibration_frequency", "vibration_amplitude"),
                        {"vibration_frequency": "Hz", "vibration_amplitude": "{u}"}, "vibration line (sinusoid)",
-                       "short_term", selection=("extension",), kalibr="none")
+                       "short_term", selection=("extension",), kalibr="none",
+                       parameter_labels={"vibration_frequency": "vibration frequency",
+                                         "vibration_amplitude": "vibration amplitude"})

@@ -66,4 +66,6 @@ class _White(Term):
 
 WHITE = _White("white", ("noise_variance",), {"noise_variance": "({u})^2"},
                "angle/velocity random walk", "short_term", selection=("base",),
-               kalibr="noise_density", short_label="white noise")
+               kalibr="noise_density", short_label="white noise",
+               worst_axis=("noise_variance", "noise_density"),
+               parameter_labels={"noise_variance": "white noise variance"})

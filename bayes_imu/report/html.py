@@ -17,6 +17,7 @@ import numpy as np
 
 from ..drift.bands import SENSOR_QUANTITIES
 from ..io.readers import SI_UNITS as UNITS_SI
+from ..noise.model import REGISTRY
 from .scene import MAX_SEARCH_S, OUTPUT_UNITS
 
 
@@ -26,14 +27,13 @@ ASSUMPTIONS = (
     "Each bound is the {cred:.0%} posterior quantile of the 1-sigma drift sigma(t) of the integrated sensor noise: "
     "given the static log, the sensor's true 1-sigma drift is below it with {cred:.0%} probability. It is a bound on "
     "a standard deviation, not on the error itself; a 3-sigma error budget multiplies it by three.",
-    "Noise terms modelled: white and filtered white noise, quantization, a fast correlated term, bias instability "
-    "(flicker), up to two Gauss-Markov biases, rate random walk and rate ramp, each only when the data support it "
+    "Noise terms modelled: {terms}, each only when the data support it "
     "(Bayesian evidence). Bounds average over the candidate models, weighted by their posterior probabilities. A fit "
     "that fails its goodness-of-fit check is flagged and its intervals are widened by a fitted model discrepancy.",
     "Bias at the start of the outage: {start} ('calibrated', the default: the bias is estimated as the mean of the "
     "samples over the calibration window just before GPS drops, and its estimation error is included; 'zero' is "
     "the paper's convention, the bias known exactly; 'stationary' draws it from its stationary distribution).",
-    "Not modelled: temperature dependence, scale-factor and misalignment errors, vibration and g-sensitivity, "
+    "Not modelled: temperature dependence, scale-factor and misalignment errors, vibration rectification and g-sensitivity, "
     "turn-on bias repeatability, and the navigation filter itself (no gravity, Schuler or attitude coupling). "
     "The log must be static and representative of the operating conditions.",
     "Unit-to-unit spread: a sensor given by one log (or fit folder) is bounded for that unit only; a sensor given by "
@@ -232,7 +232,9 @@ def report_html(report, comparison_png=None):
         for name in report.ranking for s in report.sensors if s.spec.name == name
     )
     start = (f"calibrated over {scene.calibration_s:g} s" if scene.bias_start == "calibrated" else scene.bias_start)
-    assumptions = "".join(f"<li>{html.escape(a.format(cred=cred, start=start))}</li>" for a in ASSUMPTIONS)
+    terms = ", ".join(t.plot_label for t in REGISTRY.values())  # each term's own name (noise.model)
+    assumptions = "".join(f"<li>{html.escape(a.format(cred=cred, start=start, terms=terms))}</li>"
+                          for a in ASSUMPTIONS)
     sections = "".join(_sensor_section(s, cred) for s in report.sensors)
     from .._version import __version__
 

@@ -3,24 +3,9 @@
 import numpy as np
 
 from ..drift.plan import Z90
+from ..noise.model import PARAMETER_LABELS
 
 __all__ = ["plot_plan", "plan_csv"]
-
-_LABEL = {
-    "noise_variance": "white noise variance",
-    "noise_density": "noise density",
-    "bias_instability": "bias instability",
-    "bias_variance": "Gauss-Markov variance",
-    "time_constant": "Gauss-Markov time constant",
-    "bias_variance_2": "2nd Gauss-Markov variance",
-    "time_constant_2": "2nd time constant",
-    "rate_random_walk": "rate random walk",
-    "quantization": "quantization",
-    "rate_ramp": "rate ramp",
-    "filtered_variance": "filtered white",
-    "correlated_variance": "fast correlated variance",
-    "correlated_time_constant": "fast correlated time constant",
-}
 
 
 def _half_width_percent(log_sd):
@@ -55,7 +40,7 @@ def plot_plan(plans, path, *, title="", pilot_s=None):
                 marker="o",
                 ms=3,
                 color=f"C{j}",
-                label=prefix + _LABEL.get(name, name),
+                label=prefix + PARAMETER_LABELS.get(name, name),
             )
         if with_drift:
             for j, t in enumerate(plan.horizons_s):

@@ -23,6 +23,7 @@ from ..drift.bands import integrated_unit
 from ..drift.display import display_unit
 from ..errors import InputError
 from ..inference.likelihood import LIKELIHOODS
+from ..noise.model import WORST_AXIS
 
 __all__ = [
     "FitRequest",
@@ -38,19 +39,7 @@ __all__ = [
     "population_summary",
     "batch_summary",
     "write_sigma_csv",
-    "AMPLITUDES",
 ]
-
-#: amplitude parameters reported per axis as worst-axis conservative values (the time constant is
-#: not monotone in the drift, so it has no "worst" direction)
-AMPLITUDES = (
-    "noise_variance",
-    "noise_density",
-    "quantization",
-    "bias_instability",
-    "bias_variance",
-    "rate_random_walk",
-)
 
 
 @dataclass(frozen=True)
@@ -259,10 +248,10 @@ def fit_summary(axes, *, info, seed, folders=None):
 
 
 def worst_axis(axes):
-    """Per amplitude parameter, the largest upper (q95) value over the axes, and which axis; the
-    same for each drift quantity."""
+    """Per amplitude parameter (each term's :attr:`~bayes_imu.noise.Term.worst_axis`), the
+    largest upper (q95) value over the axes, and which axis; the same for each drift quantity."""
     worst = {}
-    for name in AMPLITUDES:
+    for name in WORST_AXIS:
         have = {c: s["parameters"][name] for c, s in axes.items() if name in s["parameters"]}
         if have:
             axis = max(have, key=lambda c: have[c]["q95"])
