@@ -269,7 +269,8 @@ def check_exchangeable(term):
     others = [t for t in REGISTRY.values() if t.exchangeable == term.exchangeable and t is not term]
     assert others, f"no other term of group {term.exchangeable!r}"
     for other in others:
-        np.testing.assert_array_equal(np.asarray(other.bounds(SCALE)), np.asarray(term.bounds(SCALE)))
+        np.testing.assert_array_equal(np.asarray(other.bounds(SCALE)),
+                                      np.asarray(term.bounds(SCALE)))
         mapped = dict(zip(other.parameters, values))
         np.testing.assert_allclose(other.avar(m, mapped, DT), term.avar(m, p, DT), rtol=1e-14)
 

@@ -33,11 +33,11 @@ import numpy as np
 
 from .._version import __version__
 from ..report.output import staged_file, staged_folder, user_os_error
-from ..report.runs import input_files, run_fit, run_population
-from ..report.worker import PICTURE_FAILED_STATUS, background_default, draw_picture
-from ..report.writers import FitRequest, batch_summary, write_allan_csv, write_json, write_sigma_csv
+from ..report.runs import fit_job, run_allan, run_fit, run_fit_batch, run_population
+from ..report.worker import PICTURE_FAILED_STATUS, background_default
+from ..report.writers import FitRequest, write_sigma_csv
 from .._progress import progress_bar, show_progress
-from ..allan.pipeline import LogSource, allan_from_source
+from ..allan.pipeline import LogSource
 from .extra import add_commands, add_fit_options
 from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES
 from ..drift.display import DISPLAY_CHOICES, display_unit
@@ -273,19 +273,12 @@ def _source(args, **changes):
 # ---------------------------------------------------------------------------- commands
 
 def _cmd_allan(args):
-    source = _source(args)
-    read = allan_from_source(source, purpose="allan", grid=args.grid, progress=args.progress)
-    columns, result, unit, info = read.columns, read.results[0], read.unit, read.info
-    _say_time_unit(args, info)
-    from ..report.plots import plot_allan
-
-    with staged_folder(args.out, force=args.force, inputs=input_files(args.log)) as tmp:
-        write_allan_csv(result, tmp / "allan.csv", unit=unit)
-        label = f"{Path(source.shown).name}: {columns[0]} [{unit}]"
-        failure = draw_picture(plot_allan, result, tmp / "allan.png", label=label, unit=unit)
+    run = run_allan(_source(args), args.out, grid=args.grid, force=args.force,
+                    progress=args.progress, on_read=lambda read: _say_time_unit(args, read.info))
+    result, info = run.read.results[0], run.read.info
     _say(args, f"{result.tau.size} cluster sizes from {result.n_samples} samples ({info['action']}); "
                f"wrote {args.out / 'allan.csv'} and allan.png")
-    return _pictures_status([failure])
+    return _pictures_status(run.picture_failures)
 
 
 def _fit_request(args, **source_changes):
@@ -313,8 +306,8 @@ def _fit(request, args, in_batch=False):
     # Python callers of main() do too, unless the environment asks (a spawned process re-runs the caller's
     # script, which without a __main__ guard would run the command again there)
     background = False if in_batch else background_default(automatic=_EXECUTABLE)
-    run = run_fit(request, args.out, force=args.force, background=background, progress=args.progress,
-                  on_read=lambda read: _say_time_unit(args, read.info),
+    run = run_fit(request, args.out, force=args.force, background=background,
+                  progress=args.progress, on_read=lambda read: _say_time_unit(args, read.info),
                   on_axis=lambda axis: _say_axis(args, axis))
     _say(args, f"wrote {args.out}")
     return _pictures_status(run.picture_failures)
@@ -354,12 +347,13 @@ def _say_axis(args, axis):
     check = axis.check
     if check is not None and not check.adequate:
         _warn(f"{column}: the drift the log itself shows disagrees with the model at t = "
-              f"{check.worst_t_s:g} s (p = {check.p_combined:.2g}); the drift bands include the log's "
-              f"own interval up to {check.t_s[-1]:g} s and extrapolate the model beyond")
+              f"{check.worst_t_s:g} s (p = {check.p_combined:.2g}); the drift bands include the "
+              f"log's own interval up to {check.t_s[-1]:g} s and extrapolate the model beyond")
 
 
 def _warn_axis(axis):
-    """The warnings of one column's fit: a model that does not describe the log, noise that changes."""
+    """The warnings of one column's fit: a model that does not describe the log, noise that
+    changes."""
     result, column = axis.result, axis.column
     adequacy = result.adequacy
     if not adequacy.adequate:
@@ -512,8 +506,9 @@ def _cmd_fit_population(args):
     if args.units is not None and args.sensor is None:
         args.sensor = UNITS[args.units][0]
     request = _fit_request(args, log=args.logs[0])
-    run = run_population(request, args.logs, args.out, spread_scale=args.spread_scale, force=args.force,
-                         progress=args.progress, on_fit=lambda run: _say_population(args, run))
+    run = run_population(request, args.logs, args.out, spread_scale=args.spread_scale,
+                         force=args.force, progress=args.progress,
+                         on_fit=lambda run: _say_population(args, run))
     _say(args, f"wrote {args.out}")
     args.picture_failures.extend(run.picture_failures)
     return _pictures_status(args.picture_failures)
@@ -522,43 +517,32 @@ def _cmd_fit_population(args):
 def _say_population(args, run):
     """What ``fit-population`` says of its fit (:class:`~bayes_imu.report.runs.PopulationRun`)."""
     pop, summary = run.population, run.summary
-    _say(args, f"common model: {' + '.join(pop.model.terms)} ({len(pop.labels)} units; population sampler "
-               f"converged: {pop.diagnostics['converged']})")
+    _say(args, f"common model: {' + '.join(pop.model.terms)} ({len(pop.labels)} units; "
+               f"population sampler converged: {pop.diagnostics['converged']})")
     _say(args, "a new unit of this model (unit-to-unit spread included):")
     for name, p in summary["new_unit"].items():
-        _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
+        _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] "
+                   f"{p['unit']}")
     _say_datasheet(args, summary["new_unit_datasheet"])
     for name, p in summary["population"].items():
         s = p["spread_ln"]
-        _say(args, f"  unit-to-unit spread of {name}: {s['median']:.2g} (90% [{s['q05']:.2g}, {s['q95']:.2g}]) "
-                   "in ln units (0.1 = 10%)")
+        _say(args, f"  unit-to-unit spread of {name}: {s['median']:.2g} (90% [{s['q05']:.2g}, "
+                   f"{s['q95']:.2g}]) in ln units (0.1 = 10%)")
     if run.drift is not None:
         _say_drift(args, run.drift)
 
 
 def _cmd_fit_batch(args):
     """Every log's own fit into a staged copy of --out (claimed, moved in whole: the rules of any output)."""
-    from ..report.fleet import BatchJob, job_name, run_batch
-
-    request = _fit_request(args, log=None)
-    with staged_folder(args.out, force=args.force, inputs=args.logs) as staging:
-        names, jobs = [], []
-        for log in args.logs:
-            names.append(job_name(log, names))
-            source = dataclasses.replace(request.source, log=log)
-            job_request = dataclasses.replace(request, source=source)
-            jobs.append(BatchJob(names[-1], job_request, staging / names[-1]))
-        start = time.perf_counter()
-        scheduler = "serial" if args.serial else args.scheduler
-        results = run_batch(jobs, _fleet_fit, scheduler=scheduler, n_workers=args.workers, progress=args.progress)
-        seconds = time.perf_counter() - start
-        doc = batch_summary(results, args.logs, staging, seconds=seconds, scheduler=scheduler,
-                            seed=args.seed)
-        write_json(staging / "batch.json", doc)
+    scheduler = "serial" if args.serial else args.scheduler
+    run = run_fit_batch(_fit_request(args, log=None), args.logs, args.out, task=_fleet_fit,
+                        scheduler=scheduler, n_workers=args.workers, force=args.force,
+                        progress=args.progress)
+    results, doc = run.results, run.summary
     failed = [r for r in results if not r.fitted]
     for r in failed:
         print(f"bayes-imu: error: {r.name}: {r.error.removeprefix('bayes-imu: error: ')}", file=sys.stderr)
-    _say(args, f"{len(results) - len(failed)} of {len(results)} logs fitted in {seconds:.1f} s "
+    _say(args, f"{len(results) - len(failed)} of {len(results)} logs fitted in {run.seconds:.1f} s "
                f"({doc['logs_per_minute']:.1f} logs/min); wrote {args.out / 'batch.json'}")
     unpictured = [r for r in results if r.status == PICTURE_FAILED_STATUS]
     for r in unpictured:
@@ -567,14 +551,13 @@ def _cmd_fit_batch(args):
 
 
 def _fleet_fit(job):
-    """One log of ``fit-batch`` (the fleet's task): exactly ``bayes-imu fit`` of the job's request,
-    its outputs written in this process."""
-    args = argparse.Namespace(out=job.out, force=False, quiet=True, progress=False, picture_failures=[])
+    """One log of ``fit-batch`` (the fleet's task): exactly ``bayes-imu fit`` of the job's request
+    (:func:`~bayes_imu.report.runs.fit_job`), its errors in this command's terms."""
     with warnings.catch_warnings():
         warnings.simplefilter("default")
         warnings.showwarning = _one_line_warning
         try:
-            return _fit(job.request, args, in_batch=True)
+            return fit_job(job)
         except BayesIMUError as exc:  # in this command's terms, as the fit alone would say it
             raise type(exc)(as_flags(str(exc))) from None
 

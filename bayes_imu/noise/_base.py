@@ -84,8 +84,9 @@ SELECTION_ROLES = ("base", "optional", "extension")
 #: what a term is to Kalibr (:mod:`bayes_imu.report.kalibr`): part of the white noise density,
 #: part of the bias random walk, or left out (a deterministic or sub-sample term)
 KALIBR_ROLES = ("noise_density", "random_walk", "none")
-#: quantities a fit derives from its terms' parameters (:meth:`bayes_imu.inference.fit.FitResult.draws`):
-#: the short-term white-equivalent density and the white term's density alone [u/sqrt(Hz)]
+#: quantities a fit derives from its terms' parameters
+#: (:meth:`bayes_imu.inference.fit.FitResult.draws`): the short-term white-equivalent density and
+#: the white term's density alone [u/sqrt(Hz)]
 DERIVED_PARAMETERS = ("noise_density", "white_noise_density")
 
 

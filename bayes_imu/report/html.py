@@ -33,7 +33,8 @@ ASSUMPTIONS = (
     "Bias at the start of the outage: {start} ('calibrated', the default: the bias is estimated as the mean of the "
     "samples over the calibration window just before GPS drops, and its estimation error is included; 'zero' is "
     "the paper's convention, the bias known exactly; 'stationary' draws it from its stationary distribution).",
-    "Not modelled: temperature dependence, scale-factor and misalignment errors, vibration rectification and g-sensitivity, "
+    "Not modelled: temperature dependence, scale-factor and misalignment errors, vibration "
+    "rectification and g-sensitivity, "
     "turn-on bias repeatability, and the navigation filter itself (no gravity, Schuler or attitude coupling). "
     "The log must be static and representative of the operating conditions.",
     "Unit-to-unit spread: a sensor given by one log (or fit folder) is bounded for that unit only; a sensor given by "

@@ -20,12 +20,12 @@ from pathlib import Path
 from ..allan.pipeline import allan_from_source
 from ..errors import InputError
 from .output import safe_folder_name, staged_folder
-from .worker import OutputWriter
-from .writers import (axis_summary, drift_check_summary, drift_outputs, fit_summary,
-                      population_summary, write_drift, write_json)
+from .worker import PICTURE_FAILED_STATUS, OutputWriter, draw_picture
+from .writers import (axis_summary, batch_summary, drift_check_summary, drift_outputs, fit_summary,
+                      population_summary, write_allan_csv, write_drift, write_json)
 
-__all__ = ["AxisRun", "FitRun", "PopulationRun", "run_fit", "run_population", "input_files",
-           "datasheet_summary"]
+__all__ = ["AxisRun", "FitRun", "PopulationRun", "BatchRun", "AllanRun", "run_fit", "fit_job",
+           "run_fit_batch", "run_population", "run_allan", "input_files", "datasheet_summary"]
 
 
 @dataclass(frozen=True)
@@ -97,6 +97,41 @@ class PopulationRun:
     population: object
     summary: dict
     drift: object = None
+    picture_failures: tuple = ()
+
+
+@dataclass(frozen=True)
+class BatchRun:
+    """A batch of fits (:func:`run_fit_batch`).
+
+    Attributes
+    ----------
+    results : tuple of JobResult
+        Each log's outcome, in the order of the logs.
+    summary : dict
+        Its ``batch.json``.
+    seconds : float
+        Wall time of the fits [s].
+    """
+
+    results: tuple
+    summary: dict
+    seconds: float
+
+
+@dataclass(frozen=True)
+class AllanRun:
+    """An Allan deviation run (:func:`run_allan`).
+
+    Attributes
+    ----------
+    read : SourceAllan
+        What was read and its Allan variance.
+    picture_failures : tuple of PictureFailure
+        ``allan.png`` where it was not drawn (``allan.csv`` was written).
+    """
+
+    read: object
     picture_failures: tuple = ()
 
 
@@ -172,6 +207,80 @@ def run_fit(request, out, *, force=False, background=False, progress=False, on_r
             writer.wait()  # every output in the staging folder before it is moved into place
     failures = tuple(f for f in writer.picture_failures if f is not None)
     return FitRun(tuple(axes), unit, info, failures)
+
+
+def fit_job(job):
+    """One log of a batch (:func:`run_fit_batch`'s default task): :func:`run_fit` of the job's
+    request into its folder, its outputs written in this process; returns 0, or
+    :data:`~bayes_imu.report.worker.PICTURE_FAILED_STATUS` where a picture was not drawn."""
+    run = run_fit(job.request, job.out, background=False)
+    return PICTURE_FAILED_STATUS if run.picture_failures else 0
+
+
+def run_fit_batch(request, logs, out, *, task=fit_job, scheduler=None, n_workers=None, force=False,
+                  progress=False):
+    """Every log's own fit of ``request`` into ``out/<log name>/`` and ``out/batch.json``
+    (``bayes-imu fit-batch``), each in a staged copy of ``out`` moved in whole.
+
+    Parameters
+    ----------
+    request : FitRequest
+        The fit of each log (its ``source.log`` replaced by each of ``logs``).
+    logs : sequence of Path
+    out : Path
+    task : callable
+        Module-level ``task(job)`` of a :class:`~bayes_imu.report.fleet.BatchJob` (Dask pickles
+        it by reference): :func:`fit_job`, or a caller's wrapper of it.
+    scheduler, n_workers, progress
+        :func:`~bayes_imu.report.fleet.run_batch`'s.
+    force : bool
+        Replace a previous bayes_imu result in ``out``.
+
+    Returns
+    -------
+    BatchRun
+    """
+    import time
+
+    from .fleet import BatchJob, job_name, run_batch
+
+    with staged_folder(out, force=force, inputs=logs) as staging:
+        names, jobs = [], []
+        for log in logs:
+            names.append(job_name(log, names))
+            source = dataclasses.replace(request.source, log=log)
+            job_request = dataclasses.replace(request, source=source)
+            jobs.append(BatchJob(names[-1], job_request, staging / names[-1]))
+        start = time.perf_counter()
+        results = run_batch(jobs, task, scheduler=scheduler, n_workers=n_workers,
+                            progress=progress)
+        seconds = time.perf_counter() - start
+        doc = batch_summary(results, logs, staging, seconds=seconds, scheduler=scheduler,
+                            seed=request.seed)
+        write_json(staging / "batch.json", doc)
+    return BatchRun(tuple(results), doc, seconds)
+
+
+def run_allan(source, out, *, grid="octave", force=False, progress=False, on_read=None):
+    """The Allan deviation of one column of ``source`` (a
+    :class:`~bayes_imu.allan.pipeline.LogSource`) into ``out``: ``allan.csv`` and ``allan.png``
+    (``bayes-imu allan``); ``on_read(read)`` as :func:`run_fit`'s.
+
+    Returns
+    -------
+    AllanRun
+    """
+    from .plots import plot_allan
+
+    read = allan_from_source(source, purpose="allan", grid=grid, progress=progress)
+    columns, result, unit = read.columns, read.results[0], read.unit
+    if on_read is not None:
+        on_read(read)
+    with staged_folder(out, force=force, inputs=input_files(source.log)) as tmp:
+        write_allan_csv(result, tmp / "allan.csv", unit=unit)
+        label = f"{Path(source.shown).name}: {columns[0]} [{unit}]"
+        failure = draw_picture(plot_allan, result, tmp / "allan.png", label=label, unit=unit)
+    return AllanRun(read, () if failure is None else (failure,))
 
 
 def _fit_axis(request, allan, unit, info, column, folder, out, writer, *, progress, on_axis):
@@ -271,7 +380,6 @@ def run_population(request, logs, out, *, spread_scale=1.0, force=False, progres
     from .fleet import job_name
     from .plots import plot_population
     from .scene import distinct_units
-    from .worker import draw_picture
 
     column = request.source.column
     if column is not None and "," in str(column):
