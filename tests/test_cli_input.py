@@ -205,7 +205,8 @@ def test_files_saved_into_out_during_the_run_are_kept(tmp_path, log, monkeypatch
 
     # a failure that is not a picture's (a picture's own failure keeps the numbers:
     # tests/test_hostile.py)
-    monkeypatch.setattr(importlib.import_module("bayes_imu.cli.main"), "draw_picture", fails_after_notes)
+    runs = importlib.import_module("bayes_imu.report.runs")  # where the run draws its picture
+    monkeypatch.setattr(runs, "draw_picture", fails_after_notes)
     assert main(args + ["--out", str(tmp_path / "out2")]) == 1
     assert sorted(p.name for p in (tmp_path / "out2").iterdir()) == ["notes.txt"]
 
@@ -242,7 +243,8 @@ def test_failure_while_writing_leaves_nothing_and_keeps_old_output(tmp_path, log
     def broken(*args, **kwargs):
         raise OSError("disk full")
 
-    monkeypatch.setattr(importlib.import_module("bayes_imu.cli.main"), "draw_picture", broken)
+    runs = importlib.import_module("bayes_imu.report.runs")  # where the run draws its picture
+    monkeypatch.setattr(runs, "draw_picture", broken)
     out = tmp_path / "deep" / "new" / "out"
     args = ["allan", str(log), "--column", "gx", "--rate", "100", "--quiet"]
     assert main(args + ["--out", str(out)]) == 1
@@ -252,7 +254,7 @@ def test_failure_while_writing_leaves_nothing_and_keeps_old_output(tmp_path, log
     monkeypatch.undo()
     assert main(args + ["--out", str(old)]) == 0  # a previous result
     before = _snapshot(old)
-    monkeypatch.setattr(importlib.import_module("bayes_imu.cli.main"), "draw_picture", broken)
+    monkeypatch.setattr(runs, "draw_picture", broken)
     assert main(args + ["--out", str(old), "--force"]) == 1
     assert _snapshot(old) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in", "old"]
