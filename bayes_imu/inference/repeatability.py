@@ -51,8 +51,8 @@ from ..noise.model import REGISTRY
 
 special = LazyModule("scipy.special")
 
-__all__ = ["PartReads", "part_reads", "between_parts_sd", "widen", "group_of", "repeatability_spread",
-           "repeatability_draws", "normal_scores", "SPREAD_CONFIDENCE", "MAX_READ_SD", "INTERVAL_MASS"]
+__all__ = ["PartReads", "part_reads", "between_parts_sd", "widen", "group_of", "kalibr_group",
+           "repeatability_spread", "repeatability_draws", "normal_scores", "SPREAD_CONFIDENCE", "MAX_READ_SD", "INTERVAL_MASS"]
 
 #: one-sided confidence of the upper bound on the between-part spread
 SPREAD_CONFIDENCE = 0.9
@@ -145,11 +145,17 @@ def between_parts_sd(readings, log_draws, mass=INTERVAL_MASS):
     return float(np.sqrt(max(0.0, h_b * h_b - h_p * h_p)) / special.ndtri(upper))
 
 
+def kalibr_group(model, role):
+    """The terms of ``model`` with Kalibr role ``role`` (``"noise_density"``: the short-term terms
+    a Kalibr noise density stands for; ``"random_walk"``: the bias and slow terms)."""
+    return tuple(t.name for t in model.components if t.kalibr == role)
+
+
 def group_of(name, model):
     """``(terms, power)``: the terms that read parameter ``name`` of ``model`` together and the
     power of AVAR it scales with (module docstring); ``((), 0)`` for a parameter of no term."""
     if name == "noise_density":
-        return tuple(t.name for t in model.components if t.kalibr == "noise_density"), 0.5
+        return kalibr_group(model, "noise_density"), 0.5
     if name == "white_noise_density":
         return ("white",), 0.5
     owner = [t.name for t in model.components if name in t.parameters]

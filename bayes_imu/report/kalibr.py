@@ -37,7 +37,7 @@ import re
 import numpy as np
 
 from ..errors import InputError
-from ..inference.repeatability import widen
+from ..inference.repeatability import kalibr_group, widen
 from ..io.readers import UNITS
 from ..noise.quantities import SENSORS
 
@@ -96,7 +96,7 @@ def axis_densities(fit, factor=1.0):
             rw2 += term.kalibr_random_walk2(draws, tau_max)
     # repeatability between parts (inference.repeatability), each density read by its own terms
     reads, steady = getattr(fit, "part_reads", None), getattr(fit, "stationarity", None)
-    groups = [tuple(t.name for t in model.components if t.kalibr == role) for role in ("noise_density", "random_walk")]
+    groups = [kalibr_group(model, role) for role in ("noise_density", "random_walk")]
     if hasattr(fit, "repeatable_draws"):  # the very draws of summary.json's parameters.noise_density
         density = np.asarray(fit.repeatable_draws("noise_density"), float) * factor
     else:
