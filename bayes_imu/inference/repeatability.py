@@ -52,7 +52,8 @@ from ..noise.model import REGISTRY
 special = LazyModule("scipy.special")
 
 __all__ = ["PartReads", "part_reads", "between_parts_sd", "widen", "group_of", "kalibr_group",
-           "repeatability_spread", "repeatability_draws", "normal_scores", "SPREAD_CONFIDENCE", "MAX_READ_SD", "INTERVAL_MASS"]
+           "repeatability_spread", "repeatability_draws", "normal_scores", "SPREAD_CONFIDENCE", "MAX_READ_SD",
+           "INTERVAL_MASS"]
 
 #: one-sided confidence of the upper bound on the between-part spread
 SPREAD_CONFIDENCE = 0.9
