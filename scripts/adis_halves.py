@@ -91,7 +91,8 @@ def main(argv=None):
     fits = half_fits(args.cache, args.data)
     limit = stats.chi2.ppf(0.99, len(fits))
     for block, title in (("parameters_this_record", "this record alone (parameters_this_record)"),
-                         ("parameters", "with the repeatability between parts (parameters, datasheet)")):
+                         ("parameters",
+                          "with the repeatability between parts (parameters, datasheet)")):
         rows, per_axis, overlaps = table(fits, block)
         z2 = sum(per_axis.values())
         print(f"\n### noise_density (ARW, rad/s/sqrt(Hz)), 90% intervals: {title}\n")

@@ -1,18 +1,18 @@
-"""Coverage of the true angle random walk by the 90% intervals on stationary simulated logs (issue 35).
+"""Coverage of the true angle random walk by the 90% intervals on stationary simulated logs (issue
+35).
 
 The repeatability between parts (:mod:`bayes_imu.inference.repeatability`) widens every record's
-parameter intervals where its parts scatter more than the posterior allows. On a *stationary*
-log it should rarely widen, and never inflate coverage beyond reason. This script simulates
-stationary logs of ADIS16405-like families (white alone; white + Gauss-Markov + rate random
-walk; white + filtered white + Gauss-Markov), fits each with the defaults and counts how often the
-true ``noise_density`` (``sqrt(q_eff dt)`` of the simulated model: white plus the short-term
-terms' white equivalents) and ``white_noise_density`` lie in the 90% interval of
-``summary.json`` ``parameters`` (with repeatability) and ``parameters_this_record`` (the
-posterior alone), with the binomial standard error, and the median width ratio of the two.
+parameter intervals where its parts scatter more than the posterior allows. On a *stationary* log it
+should rarely widen, and never inflate coverage beyond reason. This script simulates stationary logs
+of ADIS16405-like families (white alone; white + Gauss-Markov + rate random walk; white + filtered
+white + Gauss-Markov), fits each with the defaults and counts how often the true ``noise_density``
+(``sqrt(q_eff dt)`` of the simulated model: white plus the short-term terms' white equivalents) and
+``white_noise_density`` lie in the 90% interval of ``summary.json`` ``parameters`` (with
+repeatability) and ``parameters_this_record`` (the posterior alone), with the binomial standard
+error, and the median width ratio of the two.
 
 Run: ``nice -n 10 python scripts/repeatability_coverage.py [--logs 40] [--samples 262144]``
-(seeds 0.. per family; about 5 s a log).
-"""
+(seeds 0.. per family; about 5 s a log)."""
 
 import argparse
 import sys
@@ -28,8 +28,8 @@ FAMILIES = {
                      {"noise_variance": 5e-5, "bias_variance": 1e-7, "time_constant": 200.0,
                       "rate_random_walk": 2e-5}),
     "white+filtered+gm": (("white", "filtered_white", "gauss_markov"),
-                          {"noise_variance": 2.5e-5, "filtered_variance": 6e-6, "bias_variance": 1e-7,
-                           "time_constant": 200.0}),
+                          {"noise_variance": 2.5e-5, "filtered_variance": 6e-6,
+                           "bias_variance": 1e-7, "time_constant": 200.0}),
 }
 NAMES = ("noise_density", "white_noise_density")
 
@@ -52,7 +52,8 @@ def run_family(terms, params, n_logs, n_samples, seed0=0):
             s = fit_allan(allan_variance(y, rate_hz=RATE), rng=seed).summary()
         for block, table in out.items():
             for name in NAMES:
-                e = s[block].get(name, s[block].get("noise_density"))  # a white-only fit: one density
+                # a white-only fit has one density
+                e = s[block].get(name, s[block].get("noise_density"))
                 table[name][0].append(e["q05"] <= truth[name] <= e["q95"])
                 table[name][1].append(np.log(e["q95"] / e["q05"]))
     return {b: {n: (np.array(c), np.array(w)) for n, (c, w) in t.items()} for b, t in out.items()}
@@ -65,9 +66,10 @@ def main(argv=None):
     parser.add_argument("--seed0", type=int, default=0)
     parser.add_argument("--families", nargs="*", default=list(FAMILIES))
     args = parser.parse_args(argv)
-    print(f"{args.logs} logs of {args.samples} samples at {RATE:g} Hz per family, seeds {args.seed0}..\n")
-    print("| family | quantity | coverage, parameters (repeatability) | coverage, this record alone "
-          "| median width ratio |\n|---|---|---|---|---|")
+    print(f"{args.logs} logs of {args.samples} samples at {RATE:g} Hz per family, "
+          f"seeds {args.seed0}..\n")
+    print("| family | quantity | coverage, parameters (repeatability) "
+          "| coverage, this record alone | median width ratio |\n|---|---|---|---|---|")
     totals = {b: [] for b in ("parameters", "parameters_this_record")}
     for family in args.families:
         terms, params = FAMILIES[family]

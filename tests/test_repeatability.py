@@ -1,11 +1,12 @@
 """Repeatability between the parts of a record (inference.repeatability): the parts' reads of each
-term's scale, the Student-t batch-means interval combined with the posterior's, and what summary.json,
-the datasheet and the Kalibr export print.
+term's scale, the Student-t batch-means interval combined with the posterior's, and what
+summary.json, the datasheet and the Kalibr export print.
 
-References: exact algebra (a white log's parts read a planted scale exactly: the share is 1 at every
-size), an independent whitened least-squares solve (numpy lstsq on the Cholesky-whitened system), the
-read's sampling standard deviation against Monte Carlo over simulated logs, and the coverage of the
-combined interval against a numerical integral over the Student-t scatter (scipy quad)."""
+References: exact algebra (a white log's parts read a planted scale exactly: the share is 1 at
+every size), an independent whitened least-squares solve (numpy lstsq on the Cholesky-whitened
+system), the read's sampling standard deviation against Monte Carlo over simulated logs, and the
+coverage of the combined interval against a numerical integral over the Student-t scatter (scipy
+quad)."""
 
 import numpy as np
 import pytest
@@ -29,8 +30,8 @@ def _parts(avar):
 
 
 def test_white_parts_read_a_planted_scale_exactly():
-    """White noise alone: the share is 1 at every size, so whatever the covariance the read of part k is
-    the planted ln-scale c_k minus the mean of the c's (exact algebra, 1e-12)."""
+    """White noise alone: the share is 1 at every size, so whatever the covariance the read of
+    part k is the planted ln-scale c_k minus the mean of the c's (exact algebra, 1e-12)."""
     model = NoiseModel(("white",), 1.0 / RATE)
     params = {"noise_variance": 4e-4}
     c = np.array([-0.03, 0.01, 0.015, 0.04])
@@ -45,9 +46,11 @@ def test_white_parts_read_a_planted_scale_exactly():
 def test_read_is_the_whitened_least_squares_scale(rng):
     """White + Gauss-Markov + random walk, parts with arbitrary deviations: the read equals the
     one-parameter least-squares slope of the Cholesky-whitened deviations on the whitened share
-    (numpy lstsq, an independent route), and its standard deviation the whitened residual scale 1."""
+    (numpy lstsq, an independent route), and its standard deviation the whitened residual scale
+    1."""
     model = NoiseModel(("white", "gauss_markov", "random_walk"), 1.0 / RATE)
-    params = {"noise_variance": 4e-4, "bias_variance": 1e-6, "time_constant": 5.0, "rate_random_walk": 1e-4}
+    params = {"noise_variance": 4e-4, "bias_variance": 1e-6, "time_constant": 5.0,
+              "rate_random_walk": 1e-4}
     m = np.round(TAU * RATE).astype(int)
     avar = model.avar(m, params) * np.exp(rng.normal(0, 0.02, (4, TAU.size)))
     reads = part_reads(model, params, _parts(avar), 25_000, RATE)
@@ -66,9 +69,10 @@ def test_read_is_the_whitened_least_squares_scale(rng):
 
 @pytest.mark.slow
 def test_read_standard_deviation_matches_monte_carlo():
-    """The per-part sampling standard deviation of the white read, ``1 / sqrt(w' C^-1 w)``, against the
-    scatter of the reads over 150 simulated white + Gauss-Markov logs of 4 x 2^14 samples (each part's
-    own Allan variance): the sample sd of 600 reads is within 4 standard errors (sd / sqrt(2 * 599))."""
+    """The per-part sampling standard deviation of the white read, ``1 / sqrt(w' C^-1 w)``,
+    against the scatter of the reads over 150 simulated white + Gauss-Markov logs of 4 x 2^14
+    samples (each part's own Allan variance): the sample sd of 600 reads is within 4 standard
+    errors (sd / sqrt(2 * 599))."""
     model = NoiseModel(("white", "gauss_markov"), 1.0 / RATE)
     params = {"noise_variance": 4e-4, "bias_variance": 4e-6, "time_constant": 2.0}
     n_part = 2**14
@@ -100,9 +104,9 @@ def test_between_parts_sd_is_the_student_t_excess():
 
 def test_combined_interval_coverage_against_an_integral():
     """Stationary parts: K = 4 readings ~ N(0, s^2), the posterior N(mean, s^2 / 4) (the same
-    information). The widened 90% interval covers the truth with probability
-    ``E[P(|Z| <= max(z_0.95, t_3 S / s))]`` over the scatter S (an integral over the chi-square, scipy
-    quad): between 90% and 96%, and 4000 Monte Carlo trials of :func:`widen` agree within 4 sigma."""
+    information). The widened 90% interval covers the truth with probability ``E[P(|Z| <=
+    max(z_0.95, t_3 S / s))]`` over the scatter S (an integral over the chi-square, scipy quad):
+    between 90% and 96%, and 4000 Monte Carlo trials of :func:`widen` agree within 4 sigma."""
     from scipy import integrate, stats
 
     k, z95, t95 = 4, stats.norm.ppf(0.95), stats.t.ppf(0.95, 3)
@@ -114,7 +118,7 @@ def test_combined_interval_coverage_against_an_integral():
     want = integrate.quad(covered, 0, np.inf)[0]
     assert 0.90 < want < 0.96
     rng = np.random.default_rng(11)
-    z = stats.norm.ppf((np.arange(4000) + 0.5) / 4000)  # a smooth posterior of sd 1/2 around the centre
+    z = stats.norm.ppf((np.arange(4000) + 0.5) / 4000)  # a smooth posterior of sd 1/2
 
     class Reads:
         def read(self, terms):
@@ -142,9 +146,10 @@ def test_group_of_names_the_terms_that_read_a_parameter():
 
 
 def test_a_changing_log_prints_the_spread_between_its_parts(rng):
-    """A white log whose first quarter is 8% noisier in variance: ``parameters`` (what a user copies)
-    includes the parts' scatter, ``parameters_this_record`` keeps the posterior alone; the datasheet's
-    ARW and the Kalibr density are the same draws (unit factors 180/pi 60 and 1, to 1e-9)."""
+    """A white log whose first quarter is 8% noisier in variance: ``parameters`` (what a user
+    copies) includes the parts' scatter, ``parameters_this_record`` keeps the posterior alone;
+    the datasheet's ARW and the Kalibr density are the same draws (unit factors 180/pi 60 and 1,
+    to 1e-9)."""
     from bayes_imu.report.kalibr import KalibrAxis, kalibr_values
 
     n = 2**17
@@ -155,7 +160,7 @@ def test_a_changing_log_prints_the_spread_between_its_parts(rng):
     printed, alone = s["parameters"]["noise_density"], s["parameters_this_record"]["noise_density"]
     assert printed["q95"] - printed["q05"] > 1.5 * (alone["q95"] - alone["q05"])
     d, _ = fit.part_reads.read(("white",))
-    assert d[0] == pytest.approx(np.log(1.08) * 3 / 4, abs=0.02)  # the planted step, read by the first part
+    assert d[0] == pytest.approx(np.log(1.08) * 3 / 4, abs=0.02)  # the planted step, part 1
     arw = s["datasheet"]["angle_random_walk"]
     for key in ("median", "q05", "q95"):
         assert arw[key] == pytest.approx(printed[key] * 180 / np.pi * 60, rel=1e-9)

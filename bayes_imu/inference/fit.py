@@ -246,7 +246,8 @@ class FitResult:
             return None
         n_model = len(self.model.parameter_names)
         params = dict(zip(self.model.parameter_names, np.median(self.samples[:, :n_model], axis=0)))
-        return part_reads(self.model, params, self.stationarity, segments.n_samples, self.allan.rate_hz)
+        return part_reads(self.model, params, self.stationarity, segments.n_samples,
+                          self.allan.rate_hz)
 
     def repeatable_draws(self, name):
         """Draws of ``name`` widened by the repeatability between parts of the record
@@ -256,8 +257,8 @@ class FitResult:
 
         names = self._derived_names()
         stream = names.index(name) if name in names else len(names)
-        return repeatability_draws(name, self.draws(name), self.stationarity, stream, reads=self.part_reads,
-                                   model=self.model)
+        return repeatability_draws(name, self.draws(name), self.stationarity, stream,
+                                   reads=self.part_reads, model=self.model)
 
     def repeatability_quantiles(self, q=(0.05, 0.5, 0.95)):
         """Dict name -> quantiles of each parameter widened by the repeatability between parts
@@ -276,7 +277,8 @@ class FitResult:
         """JSON-ready summary (see the ``bayes-imu fit`` documentation)."""
         parameters, this_record = {}, {}
         for name in self._derived_names():
-            for block, d in ((parameters, self.repeatable_draws(name)), (this_record, self.draws(name))):
+            pairs = ((parameters, self.repeatable_draws(name)), (this_record, self.draws(name)))
+            for block, d in pairs:
                 block[name] = {
                     "median": float(np.median(d)),
                     "mean": float(np.mean(d)),

@@ -52,12 +52,13 @@ from ..noise.model import REGISTRY
 special = LazyModule("scipy.special")
 
 __all__ = ["PartReads", "part_reads", "between_parts_sd", "widen", "group_of", "kalibr_group",
-           "repeatability_spread", "repeatability_draws", "normal_scores", "SPREAD_CONFIDENCE", "MAX_READ_SD",
-           "INTERVAL_MASS"]
+           "repeatability_spread", "repeatability_draws", "normal_scores", "SPREAD_CONFIDENCE",
+           "MAX_READ_SD", "INTERVAL_MASS"]
 
 #: one-sided confidence of the upper bound on the between-part spread
 SPREAD_CONFIDENCE = 0.9
-#: per-part sampling standard deviation of a term's ln AVAR scale above which the parts cannot read it
+#: per-part sampling standard deviation of a term's ln AVAR scale above which the parts cannot
+#: read it
 MAX_READ_SD = 0.5
 #: probability mass of the intervals printed (q05-q95)
 INTERVAL_MASS = 0.9
@@ -131,7 +132,8 @@ def part_reads(model, params, stationarity, n_segment, rate_hz):
     shares = {t: model.term_avar(t, m, params) / total for t in model.terms}
     cov = avar_covariance(model, params, m, n_segment) / np.outer(total, total)
     log_avar = 2.0 * np.log(stationarity.segment_adev)
-    return PartReads(log_avar - log_avar.mean(axis=0), shares, np.linalg.pinv(cov, rcond=1e-12, hermitian=True))
+    precision = np.linalg.pinv(cov, rcond=1e-12, hermitian=True)
+    return PartReads(log_avar - log_avar.mean(axis=0), shares, precision)
 
 
 def between_parts_sd(readings, log_draws, mass=INTERVAL_MASS):

@@ -97,7 +97,7 @@ def axis_densities(fit, factor=1.0):
     # repeatability between parts (inference.repeatability), each density read by its own terms
     reads, steady = getattr(fit, "part_reads", None), getattr(fit, "stationarity", None)
     groups = [kalibr_group(model, role) for role in ("noise_density", "random_walk")]
-    if hasattr(fit, "repeatable_draws"):  # the very draws of summary.json's parameters.noise_density
+    if hasattr(fit, "repeatable_draws"):  # the draws of summary.json's parameters.noise_density
         density = np.asarray(fit.repeatable_draws("noise_density"), float) * factor
     else:
         density = widen(density, groups[0], 0.5, reads, steady, 0, short=True)
