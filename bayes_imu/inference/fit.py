@@ -265,6 +265,16 @@ class FitResult:
         (:meth:`repeatable_draws`)."""
         return {n: np.quantile(self.repeatable_draws(n), q) for n in self._derived_names()}
 
+    def _repeatability_note(self, parameters, this_record):
+        """What ``parameters`` includes beyond ``parameters_this_record`` (summary.json)."""
+        reads = self.part_reads
+        ends = ("q05", "q95")
+        widened = [n for n in parameters if any(parameters[n][e] != this_record[n][e] for e in ends)]
+        return {"n_parts": None if reads is None else reads.n_parts, "widened": widened,
+                "what": "90% intervals of parameters, datasheet and allan_datasheet include the "
+                        "repeatability between the record's parts (Student-t over the parts' reads, "
+                        "or the posterior's where wider); parameters_this_record: this record alone"}
+
     def predictive_avar(self, m=None, *, n_draws=400, rng=None, term=None):
         """Posterior draws of the model Allan variance, ``(n_draws, n_tau)`` (one term if given)."""
         m = self.allan.m if m is None else np.asarray(m)
@@ -300,6 +310,7 @@ class FitResult:
             "model": list(self.model.terms),
             "parameters": parameters,
             "parameters_this_record": this_record,
+            "repeatability": self._repeatability_note(parameters, this_record),
             "datasheet": datasheet(_Repeatable(self), kind) if kind is not None else None,
             "allan_datasheet": allan_readout(self, kind, unit=unit),
             "adequacy": adequacy,
