@@ -269,11 +269,13 @@ class FitResult:
         """What ``parameters`` includes beyond ``parameters_this_record`` (summary.json)."""
         reads = self.part_reads
         ends = ("q05", "q95")
-        widened = [n for n in parameters if any(parameters[n][e] != this_record[n][e] for e in ends)]
+        widened = [n for n in parameters
+                   if any(parameters[n][e] != this_record[n][e] for e in ends)]
         return {"n_parts": None if reads is None else reads.n_parts, "widened": widened,
                 "what": "90% intervals of parameters, datasheet and allan_datasheet include the "
-                        "repeatability between the record's parts (Student-t over the parts' reads, "
-                        "or the posterior's where wider); parameters_this_record: this record alone"}
+                        "repeatability between the record's parts (Student-t over the parts' "
+                        "reads, or the posterior's where wider); parameters_this_record: this "
+                        "record alone"}
 
     def predictive_avar(self, m=None, *, n_draws=400, rng=None, term=None):
         """Posterior draws of the model Allan variance, ``(n_draws, n_tau)`` (one term if given)."""
