@@ -5,7 +5,8 @@ read there, never copied; 500 000 samples at 100 Hz per half, in rad/s) with the
 compares the halves' angle random walk (``noise_density``, u/sqrt(Hz)) two ways: the interval of
 "this record" alone (``summary.json`` ``parameters_this_record``) and the interval a user copies,
 with the repeatability between the record's parts (``parameters``, and the same draws in
-``datasheet`` and the Kalibr export; :mod:`bayes_imu.inference.repeatability`). For each pair:
+``datasheet`` and the Kalibr export; :mod:`bayes_imu.inference.repeatability`); then the IEEE
+reading of the Allan deviation at 1 s (``allan_datasheet``), widened likewise. For each pair:
 ``z = (m1 - m2) / sqrt(s1^2 + s2^2)`` with ``s = (q95 - q05) / 3.29`` (normal 90% width) and
 whether the two 90% intervals overlap. Consistent intervals: ``sum z^2`` within its 99%
 chi-square quantile (12 degrees of freedom: 26.2; per axis, 6: 16.8) and overlap on at least 9
@@ -59,12 +60,12 @@ def half_fits(cache=None, data=DATA):
     return out
 
 
-def table(fits, block):
+def table(fits, block, name="noise_density"):
     """Rows, ``{axis: sum z^2}`` and overlaps of one summary block (``parameters`` or
     ``parameters_this_record``)."""
     rows, z2, overlaps = [], {"x": 0.0, "y": 0.0}, 0
     for (unit, axis), pair in fits.items():
-        p = [f.summary(unit="rad/s")[block]["noise_density"] for f in pair]
+        p = [f.summary(unit="rad/s")[block][name] for f in pair]
         s = [(e["q95"] - e["q05"]) / 3.29 for e in p]
         z = (p[0]["median"] - p[1]["median"]) / np.hypot(*s)
         over = p[0]["q05"] <= p[1]["q95"] and p[1]["q05"] <= p[0]["q95"]
@@ -90,12 +91,16 @@ def main(argv=None):
         args.cache.mkdir(parents=True, exist_ok=True)
     fits = half_fits(args.cache, args.data)
     limit = stats.chi2.ppf(0.99, len(fits))
-    for block, title in (("parameters_this_record", "this record alone (parameters_this_record)"),
-                         ("parameters",
-                          "with the repeatability between parts (parameters, datasheet)")):
-        rows, per_axis, overlaps = table(fits, block)
+    for block, name, title in (
+            ("parameters_this_record", "noise_density",
+             "this record alone (parameters_this_record, rad/s/sqrt(Hz))"),
+            ("parameters", "noise_density",
+             "with the repeatability between parts (parameters, datasheet; rad/s/sqrt(Hz))"),
+            ("allan_datasheet", "angle_random_walk",
+             "IEEE reading at 1 s (allan_datasheet, deg/sqrt(h)), with repeatability")):
+        rows, per_axis, overlaps = table(fits, block, name)
         z2 = sum(per_axis.values())
-        print(f"\n### noise_density (ARW, rad/s/sqrt(Hz)), 90% intervals: {title}\n")
+        print(f"\n### {name} (ARW), 90% intervals: {title}\n")
         print("| channel | first half | second half | difference | z | overlap |\n|---|---|---|---|---|---|")
         print("\n".join(rows))
         print(f"\nsum z^2 = {z2:.1f} on {len(fits)} pairs (99% chi-square quantile {limit:.1f}: "
