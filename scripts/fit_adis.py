@@ -55,7 +55,7 @@ def main(argv=None):
             summary = result.summary(unit="deg/s")  # the intervals a user copies
             reading = summary["allan_datasheet"]
             params, alone = summary["parameters"], summary["parameters_this_record"]
-            cells = {"white": params.get("white_noise_density", params["noise_density"]),
+            cells = {"white": reading["white_noise_density"],
                      "short-term": params["noise_density"], "ARW": reading["random_walk"]}
             for name, e in cells.items():
                 intervals.setdefault((axis, name), []).append((e["q05"], e["q95"]))
@@ -80,7 +80,8 @@ def _print_tables(tables, axes):
     head = "| axis | " + " | ".join(f"imu{i}" for i in range(1, 7)) + " |\n|---|" + "---|" * 6
     titles = {"ARW": "ARW as IEEE Std 952 reads it (allan_datasheet.random_walk), deg/s/sqrt(Hz)",
               "short-term": "short-term noise density (parameters.noise_density), deg/s/sqrt(Hz)",
-              "white": "white term alone (parameters.white_noise_density), deg/s/sqrt(Hz)"}
+              "white": "white term alone, model-averaged (allan_datasheet.white_noise_density), "
+                       "deg/s/sqrt(Hz)"}
     for name, title in titles.items():
         print(f"\n{title}\n\n{head}")
         for axis in axes:
