@@ -21,9 +21,10 @@ whether the parts differ by sampling alone or also by a change of the sensor. It
 with the posterior's own half-width ``h_P`` (of the log draws) as the wider of the two: each
 draw is multiplied by ``exp(e z)``, ``z`` deterministic normal scores (:func:`normal_scores`:
 no random state), ``e = sqrt(max(0, h_B^2 - h_P^2)) / z_0.95`` (:func:`between_parts_sd`),
-so that the widened half-width is about ``max(h_B, h_P)``. On a stationary log this rarely
-widens (``h_B`` is then about ``h_P``) and the coverage of the truth stays near its nominal
-90% (measured: ``scripts/repeatability_coverage.py``, docs/validation/real_data.md).
+so that the widened half-width is about ``max(h_B, h_P)``. On a stationary log the price is
+the Student-t factor of four parts where the posterior is as sharp as the parts; the coverage
+of the truth and the widths are measured in docs/validation/honesty.md
+(``scripts/repeatability_coverage.py``).
 
 Groups read together: ``noise_density`` by the short-term terms a Kalibr density stands for,
 ``white_noise_density`` by the white term, the Kalibr random walk by the bias and slow terms,
