@@ -159,6 +159,8 @@ def test_a_changing_log_prints_the_spread_between_its_parts(rng):
     s = fit.summary(unit="rad/s")
     printed, alone = s["parameters"]["noise_density"], s["parameters_this_record"]["noise_density"]
     assert printed["q95"] - printed["q05"] > 1.5 * (alone["q95"] - alone["q05"])
+    assert alone["q05"] == pytest.approx(np.quantile(fit.draws("noise_density"), 0.05), rel=1e-12)
+    assert s["repeatability"]["n_parts"] == 4 and "noise_density" in s["repeatability"]["widened"]
     d, _ = fit.part_reads.read(("white",))
     assert d[0] == pytest.approx(np.log(1.08) * 3 / 4, abs=0.02)  # the planted step, part 1
     arw = s["datasheet"]["angle_random_walk"]
