@@ -6,7 +6,8 @@ ADIS16405: 6 channels (gyro deg/s, accel g) x 6 recordings of 1e6 samples at 100
 MTi-G: gyro X (rad/s), 5e5 samples at 100 Hz. Each channel is converted to SI and fitted
 with model selection (``bayes_imu.inference.fit``). The script prints per channel and recording
 the selected model and, in the datasheet's unit, the noise density of the short-term terms
-(``noise_density``: median and 90% interval), the white term's density alone, and the random walk
+(``noise_density``: median and 90% interval as ``summary.json`` prints it, with the
+repeatability between the log's parts), the white term's density alone, and the random walk
 as IEEE Std 952 reads it off the Allan deviation (sigma(1 s) sqrt(1 s) of the model-averaged
 posterior, :mod:`bayes_imu.inference.allan_readout`; the number a datasheet's ARW / VRW means),
 compares with the datasheet values of ``REFERENCE_VALUES.md``, says whether the six
@@ -69,7 +70,7 @@ def main(argv=None):
     for column, unit, sheet, sheet_unit, factor in channels:
         for imu in imus:
             res = fit_channel(SHARED / f"adis_16405_imu{imu}.csv.gz", column, unit, n_max, args.seed)
-            q = np.quantile(res.draws("noise_density"), [0.05, 0.5, 0.95]) * factor
+            q = np.quantile(res.repeatable_draws("noise_density"), [0.05, 0.5, 0.95]) * factor
             densities.setdefault(column, []).append(q)
             white, ieee = _readings(res, factor)
             readings.setdefault(column, []).append((white, ieee))
@@ -77,7 +78,7 @@ def main(argv=None):
                   f"{white:9.5g} {ieee:9.5g} {sheet:9.4g} {sheet_unit:15s} {res.diagnostics['converged']}")
     column, unit, sheet, sheet_unit, factor = MTIG
     res = fit_channel(SHARED / "cont_imu1.csv.gz", column, unit, n_max, args.seed)
-    q = np.quantile(res.draws("noise_density"), [0.05, 0.5, 0.95]) * factor
+    q = np.quantile(res.repeatable_draws("noise_density"), [0.05, 0.5, 0.95]) * factor
     white, ieee = _readings(res, factor)
     print(f"{'MTi-G':9s} {column:13s} {'+'.join(res.model.terms):58s} {q[0]:11.5g} {q[1]:9.5g} {q[2]:9.5g} "
           f"{white:9.5g} {ieee:9.5g} {sheet:9.4g} {sheet_unit:15s} {res.diagnostics['converged']}")

@@ -334,6 +334,8 @@ def _say_axis(args, axis):
     if axis.folder is not None:
         _say(args, f"[{column}]")
     _say(args, _model_line(summary, result.diagnostics["converged"]))
+    _say(args, "  parameters (90% intervals include the repeatability between the log's parts; "
+               "the record alone: summary.json parameters_this_record)")
     for name, p in summary["parameters"].items():
         _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
     _say_datasheet(args, summary["datasheet"])
@@ -368,7 +370,8 @@ def _warn_axis(axis):
         _warn(f"{column}: the noise changes during the log: its {steady.n_segments} parts differ by "
               f"{_ratio_text(steady.largest_ratio())} in Allan deviation at tau = {steady.worst_tau_s:g} s "
               f"(p = {steady.p_value:.2g}; warm-up?), with a spread of up to x{steady.spread_factor():.2g} (1 sigma) "
-              "at longer tau; drift bands include that spread")
+              "at longer tau; drift bands include that spread "
+              "(parameter intervals: the parts' scatter)")
 
 
 def _model_line(summary, converged):

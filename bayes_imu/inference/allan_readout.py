@@ -23,6 +23,11 @@ draw's exact sampled-data Allan deviation ``sigma(tau)`` on a log grid of averag
     the white term alone, ``sqrt(noise_variance dt)``: the -1/2 line the short-term white noise
     would give without the other terms.
 
+Each interval includes the repeatability between the record's parts, as ``summary.json``
+``parameters`` does (:func:`bayes_imu.inference.repeatability.widen`): the random-walk reading and
+the white density read by the short-term terms (those of a Kalibr noise density) and the white
+term, the bias instability and rate random walk readings by the bias and slow terms.
+
 Each number is a posterior median with its 5-95% interval, in datasheet units (deg/sqrt(h),
 deg/h, deg/h/sqrt(h) for a gyro fitted in rad/s; m/s/sqrt(h), ug, m/s/h/sqrt(h) for an
 accelerometer in m/s^2; the fit's own unit ``u`` otherwise).
@@ -31,6 +36,7 @@ accelerometer in m/s^2; the fit's own unit ``u`` otherwise).
 import numpy as np
 
 from ..noise.avar_forms import NoiseModel
+from .repeatability import kalibr_group, widen
 
 __all__ = ["allan_readout", "BI_FLOOR"]
 
@@ -107,6 +113,13 @@ def allan_readout(fit, kind=None, *, unit="u"):
     floor = grid[np.arange(grid.shape[0]), idx]
     k_line = grid[:, -1] * np.sqrt(3.0 / tau[-1])
     slope = np.log(grid[:, -1] / grid[:, max(0, m.size - 9)]) / np.log(tau[-1] / tau[max(0, m.size - 9)])
+    # repeatability between parts: each reading widened by the parts' read of the terms behind it
+    reads, steady = getattr(fit, "part_reads", None), getattr(fit, "stationarity", None)
+    groups = [kalibr_group(fit.model, role) for role in ("noise_density", "random_walk")]
+    at1 = widen(at1, groups[0], 0.5, reads, steady, 0, short=True)
+    white = widen(white, ("white",), 0.5, reads, steady, 1, short=True)
+    floor = widen(floor, groups[1], 0.5, reads, steady, 2)
+    k_line = widen(k_line, groups[1], 0.5, reads, steady, 3)
     names = _NAMES.get(kind, _NAMES[None])
     pick = 0 if kind == "gyro" else 2 if kind == "accel" else None
 

@@ -235,14 +235,48 @@ class FitResult:
         """Dict name -> quantiles of each parameter (and the derived densities)."""
         return {n: np.quantile(self.draws(n), q) for n in self._derived_names()}
 
-    def repeatability_quantiles(self, q=(0.05, 0.5, 0.95)):
-        """Dict name -> quantiles of each parameter widened by the spread between parts of a record the
-        stationarity check flags ("repeatability between parts", :mod:`bayes_imu.inference.repeatability`;
-        the same as :meth:`quantiles` for a stationary record)."""
+    @cached_property
+    def part_reads(self):
+        """What the parts of the record read of each term's scale
+        (:class:`~bayes_imu.inference.repeatability.PartReads`, at the selected model's posterior
+        median), ``None`` for a record without parts."""
+        from .repeatability import part_reads
+
+        segments = getattr(self.allan, "segments", None)
+        if self.stationarity is None or segments is None:
+            return None
+        n_model = len(self.model.parameter_names)
+        params = dict(zip(self.model.parameter_names, np.median(self.samples[:, :n_model], axis=0)))
+        return part_reads(self.model, params, self.stationarity, segments.n_samples,
+                          self.allan.rate_hz)
+
+    def repeatable_draws(self, name):
+        """Draws of ``name`` widened by the repeatability between parts of the record
+        (:mod:`bayes_imu.inference.repeatability`): what ``summary.json`` ``parameters`` and
+        ``datasheet`` print. Each name has its own deterministic score stream."""
         from .repeatability import repeatability_draws
 
-        return {n: np.quantile(repeatability_draws(n, self.draws(n), self.stationarity, i), q)
-                for i, n in enumerate(self._derived_names())}
+        names = self._derived_names()
+        stream = names.index(name) if name in names else len(names)
+        return repeatability_draws(name, self.draws(name), self.stationarity, stream,
+                                   reads=self.part_reads, model=self.model)
+
+    def repeatability_quantiles(self, q=(0.05, 0.5, 0.95)):
+        """Dict name -> quantiles of each parameter widened by the repeatability between parts
+        (:meth:`repeatable_draws`)."""
+        return {n: np.quantile(self.repeatable_draws(n), q) for n in self._derived_names()}
+
+    def _repeatability_note(self, parameters, this_record):
+        """What ``parameters`` includes beyond ``parameters_this_record`` (summary.json)."""
+        reads = self.part_reads
+        ends = ("q05", "q95")
+        widened = [n for n in parameters
+                   if any(parameters[n][e] != this_record[n][e] for e in ends)]
+        return {"n_parts": None if reads is None else reads.n_parts, "widened": widened,
+                "what": "90% intervals of parameters, datasheet and allan_datasheet include the "
+                        "repeatability between the record's parts (Student-t over the parts' "
+                        "reads, or the posterior's where wider); parameters_this_record: this "
+                        "record alone"}
 
     def predictive_avar(self, m=None, *, n_draws=400, rng=None, term=None):
         """Posterior draws of the model Allan variance, ``(n_draws, n_tau)`` (one term if given)."""
@@ -254,19 +288,17 @@ class FitResult:
 
     def summary(self, *, unit="u"):
         """JSON-ready summary (see the ``bayes-imu fit`` documentation)."""
-        parameters = {}
+        parameters, this_record = {}, {}
         for name in self._derived_names():
-            d = self.draws(name)
-            parameters[name] = {
-                "median": float(np.median(d)),
-                "mean": float(np.mean(d)),
-                "q05": float(np.quantile(d, 0.05)),
-                "q95": float(np.quantile(d, 0.95)),
-                "unit": PARAMETER_UNITS.get(name, "1").format(u=unit),
-            }
-        repeatable = self.repeatability_quantiles()
-        parameters_repeatability = {n: {"median": float(q[1]), "q05": float(q[0]), "q95": float(q[2]),
-                                        "unit": parameters[n]["unit"]} for n, q in repeatable.items()}
+            pairs = ((parameters, self.repeatable_draws(name)), (this_record, self.draws(name)))
+            for block, d in pairs:
+                block[name] = {
+                    "median": float(np.median(d)),
+                    "mean": float(np.mean(d)),
+                    "q05": float(np.quantile(d, 0.05)),
+                    "q95": float(np.quantile(d, 0.95)),
+                    "unit": PARAMETER_UNITS.get(name, "1").format(u=unit),
+                }
         probabilities = self.probabilities if self.probabilities is not None else np.full(len(self.candidates), np.nan)
         adequacy = self.adequacy.to_dict() if self.adequacy is not None else None
         if adequacy is not None:
@@ -280,8 +312,9 @@ class FitResult:
         return {
             "model": list(self.model.terms),
             "parameters": parameters,
-            "parameters_repeatability": parameters_repeatability,
-            "datasheet": datasheet(self, kind) if kind is not None else None,
+            "parameters_this_record": this_record,
+            "repeatability": self._repeatability_note(parameters, this_record),
+            "datasheet": datasheet(_Repeatable(self), kind) if kind is not None else None,
             "allan_datasheet": allan_readout(self, kind, unit=unit),
             "adequacy": adequacy,
             "diagnostics": {k: (bool(v) if k == "converged" else int(v) if k in ("n_steps", "n_walkers") else float(v))
@@ -299,6 +332,20 @@ class FitResult:
             "seed": self.seed if isinstance(self.seed, (int, type(None))) else str(self.seed),
             "bayes_imu_version": __version__,
         }
+
+
+@dataclass(frozen=True)
+class _Repeatable:
+    """A fit seen through its repeatable draws (what ``summary.json`` ``datasheet`` reads)."""
+
+    fit: FitResult
+
+    @property
+    def parameter_names(self):
+        return self.fit.parameter_names
+
+    def draws(self, name):
+        return self.fit.repeatable_draws(name)
 
 
 def fit(y, *, rate_hz, m="octave", terms="auto", likelihood="correlated", rng=None, n_walkers=32, max_steps=40000,

@@ -125,7 +125,7 @@ def _sensor_section(s, cred):
     d = fit.diagnostics
     rows = "".join(
         f"<tr><td>{html.escape(n)}</td><td>{q[0]:.4g}</td><td>{q[1]:.4g}</td><td>{q[2]:.4g}</td></tr>"
-        for n, q in fit.quantiles().items()
+        for n, q in fit.repeatability_quantiles().items()  # what summary.json parameters prints
     )
     sheet = _datasheet_table(s)
     allan_png = _png(lambda target: plot_allan_fit(fit, target, label=s.spec.name, unit=UNITS_SI[s.spec.kind], rng=0))
@@ -147,7 +147,8 @@ model may be worse (list several units' logs to bound a new unit).</p>
 <p class="adequacy">Goodness of fit: p = {a.p_value:.2g}, worst at tau = {a.worst_tau_s:g} s: {html.escape(fit_check)}.</p>
 {_drift_check_text(s.bands)}
 <p class="diagnostics">Sampler: {conv}; {rhat}{d['n_steps']} steps x {d['n_walkers']} walkers.</p>
-<table><tr><th>parameter (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>{sheet}
+<table><tr><th>parameter (SI; 90% including the repeatability between the log's parts)</th>
+<th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>{sheet}
 <img alt="Allan fit of {html.escape(s.spec.name)}" src="{allan_png}">
 <img alt="drift bands of {html.escape(s.spec.name)}" src="{drift_png}">
 </section>"""

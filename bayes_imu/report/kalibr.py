@@ -25,9 +25,9 @@ rate [Hz]. Nominal values are posterior medians; with ``credibility`` the upper 
 quantile (conservative). Several axes of one sensor combine to the worst axis (largest
 value, the file says so), and every axis's own value is listed in comment lines. A fit that
 failed its adequacy check is flagged in the file (``# WARNING`` line) and in ``adequate``.
-A record the stationarity check flags has both densities' draws widened by the spread between
-its parts (repeatability, :mod:`bayes_imu.inference.repeatability`), as ``summary.json``'s
-``parameters_repeatability``.
+Both densities' draws are widened by the repeatability between the record's parts
+(:mod:`bayes_imu.inference.repeatability`), as ``summary.json``'s ``parameters``: the noise
+density read by its short-term terms, the random walk by the bias and slow terms.
 """
 
 from dataclasses import dataclass, field
@@ -37,7 +37,7 @@ import re
 import numpy as np
 
 from ..errors import InputError
-from ..inference.repeatability import normal_scores, repeatability_spread
+from ..inference.repeatability import kalibr_group, widen
 from ..io.readers import UNITS
 from ..noise.quantities import SENSORS
 
@@ -94,10 +94,14 @@ def axis_densities(fit, factor=1.0):
     for term in model.components:  # each term's Kalibr role (:attr:`bayes_imu.noise.Term.kalibr`)
         if term.kalibr == "random_walk":
             rw2 += term.kalibr_random_walk2(draws, tau_max)
-    # repeatability between parts (inference.repeatability): a record whose parts differ widens both densities
-    short, long = repeatability_spread(getattr(fit, "stationarity", None))
-    z_short, z_long = normal_scores(density.size, 0), normal_scores(density.size, 1)
-    return density * np.exp(0.5 * short * z_short), np.sqrt(rw2) * factor * np.exp(0.5 * long * z_long)
+    # repeatability between parts (inference.repeatability), each density read by its own terms
+    reads, steady = getattr(fit, "part_reads", None), getattr(fit, "stationarity", None)
+    groups = [kalibr_group(model, role) for role in ("noise_density", "random_walk")]
+    if hasattr(fit, "repeatable_draws"):  # the draws of summary.json's parameters.noise_density
+        density = np.asarray(fit.repeatable_draws("noise_density"), float) * factor
+    else:
+        density = widen(density, groups[0], 0.5, reads, steady, 0, short=True)
+    return density, widen(np.sqrt(rw2) * factor, groups[1], 0.5, reads, steady, 1)
 
 
 def kalibr_values(gyro=(), accel=(), *, credibility=None):
