@@ -4,7 +4,8 @@
 kernels in ``bayes_imu/allan/_sources.py`` and ``bayes_imu/noise/_sources.py``: the same Python
 functions that numba JIT-compiles at run time for long records (and everywhere, where the build
 had no AOT compiler). The drift grid is among them, so a fit with drift bands compiles nothing either. A command that fits an ordinary
-log then never imports numba nor loads its compiler (about 0.5 s a process). The code targets
+log then never imports numba nor loads its compiler (timings: docs/speed_under_load.md#imports).
+The code targets
 any x86-64 (or the build machine's architecture family), not the build CPU, so a wheel runs
 wherever it is installed. Where numba has no AOT compiler the package is built without the
 extension and every kernel is JIT-compiled on first use, as before (a warning says so).

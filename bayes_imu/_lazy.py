@@ -5,10 +5,11 @@
 * :func:`import_without`: a third-party library imported with one of *its* optional imports marked
   absent, because that import costs more than the work the command needs the library for, and
   given back a stand-in that imports it when first called. Two uses: emcee without
-  ``scipy.stats`` (its KDE move, unused here; about 0.3 s,
+  ``scipy.stats`` (its KDE move, unused here;
   :func:`bayes_imu.inference.sampling.import_emcee`) and corner without ArviZ (its
-  ``InferenceData`` entry point; ArviZ and xarray about 1 s,
-  :func:`bayes_imu.report.plots.import_corner`). Each relies on how the library is written, so
+  ``InferenceData`` entry point; ArviZ and xarray,
+  :func:`bayes_imu.report.plots.import_corner`; timings: docs/speed_under_load.md#imports).
+  Each relies on how the library is written, so
   each is pinned: :data:`CHECKED_VERSIONS` lists the versions it was checked on
   (``tests/test_lazy.py`` fails, naming the installed version, on any other), and every run
   checks the structure it relies on and

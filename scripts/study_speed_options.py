@@ -10,7 +10,7 @@ docs quote can be rerun:
    mathtext tick labels instead of plain text (:func:`bayes_imu.report.plots.plain_log_formatter`), and as it
    was drawn before (``corner.corner``, plain labels, a tight bounding box), on the same fits. Each way is
    timed in turn in each of five rounds and its best round printed (:func:`_interleaved`): timed one way after
-   another, the order alone moved a 7-parameter corner by 0.2 s.
+   another, the order alone moved a corner plot's time (docs/speed_under_load.md#figures).
 3. ``--modes``: the mode searches of a fit (every posterior and its starts, as the model search passes them)
    by the Newton search that replaced BFGS (:func:`bayes_imu.inference.selection.newton_mode`) and by BFGS
    from the identity with central-difference gradients, as before: time, and how far the densest end points

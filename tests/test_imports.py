@@ -40,7 +40,7 @@ from bayes_imu.allan.outofcore import allan_variance_file
 
 
 def test_a_fit_does_not_import_scipy_stats():
-    """scipy.stats (0.3 s to import) stays out of a fit command's process: emcee is imported without
+    """scipy.stats (slow to import) stays out of a fit command's process: emcee is imported without
     it (its KDE move imports it on first use, and still works), the intervals and tests use
     scipy.special. The output process, which needs ArviZ, imports it there."""
     code = """
@@ -72,9 +72,9 @@ print(json.dumps([loaded, "scipy.stats" in sys.modules]))
 def test_a_fit_writes_every_output_without_numba_arviz_or_pandas():
     """A fit command with drift bands, writing its outputs in its own process (as Python callers do), loads
     neither numba (the precompiled kernels sum a log this short and draw the drift grid; numba and its
-    compiled-code machinery cost about 0.5 s;
+    compiled-code machinery: docs/speed_under_load.md#imports;
     where numba has no AOT compiler the package is built without them, and numba is then expected) nor
-    ArviZ or xarray (posterior.nc through h5netcdf, corner without ArviZ: about 1 s) nor pandas (a plain table
+    ArviZ or xarray (posterior.nc through h5netcdf, corner without ArviZ) nor pandas (a plain table
     of numbers, here four columns of which one is fitted, is read by numpy's reader), and writes every file."""
     code = """
 import sys, json, os

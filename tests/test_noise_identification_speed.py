@@ -1,6 +1,6 @@
 """Noise identification without BLAS products (issue 39: on a busy machine OpenBLAS's threads
-made each 2**18-term product of the lag-1 method 30 ms instead of 0.07 ms, most of
-allan_variance's time).
+made each 2**18-term product of the lag-1 method far slower, most of
+allan_variance's time: docs/speed_under_load.md#threads-on-a-busy-machine).
 
 Reference: the lag-1 autocorrelation method (Riley & Greenhall 2004, eqs 2-4) written here with
 ``math.fsum`` (correctly rounded sums), independent of the package's products.

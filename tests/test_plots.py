@@ -174,7 +174,7 @@ def test_population_plot(tmp_path, figures):
 
 
 def test_corner_without_arviz_draws_the_same_figure_and_keeps_its_arviz_entry_point(tmp_path, fit):
-    """The plotting warm-up imports corner without ArviZ (about 1 s of imports) in a process that has not
+    """The plotting warm-up imports corner without ArviZ (a slow import) in a process that has not
     loaded it: the corner plot is the same PNG, byte for byte, as the one drawn once ArviZ is loaded, and
     corner's ArviZ entry point still works (a dict of draws, which only that path accepts, imports ArviZ
     when it is first needed)."""

@@ -134,7 +134,7 @@ def phase_chunk(y, offset, out, block, state):
 
 def sum3(a0, a1, a2, block):
     # views sliced per block and indexed from 0: LLVM vectorises this form (indexing the
-    # whole arrays from `lo` instead measured 6x slower)
+    # whole arrays from `lo` instead is not vectorised: several times slower)
     n = a0.size
     n_blocks = (n + block - 1) // block
     partial = np.empty(n_blocks)
@@ -315,7 +315,7 @@ def tile_sums(x, ms, lo, block, row):
     # x[i + 2 m'], still in cache, and the small sizes share one block of x. Four sizes m, 2m, 4m,
     # 8m in a row (an octave run) are summed in one loop over the block: six streams x[i],
     # x[i + m], ..., x[i + 16 m] for four sizes instead of twelve (the loop is bound by loads from
-    # cache: 1.4-1.5x faster on an octave grid; eight sizes a loop gained nothing more); two sizes
+    # cache: fewer loads, faster on an octave grid; eight sizes a loop gained nothing); two sizes
     # m, 2m in one loop where four do not fit. The furthest sample read is x[lo + block - 1 + 2 M],
     # M the largest size (16 m = 2 x 8m in a run of four). Within about 1e-15 of sum3 on the same
     # size (LLVM vectorises the loops differently), not bit for bit.

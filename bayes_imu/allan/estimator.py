@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from .._lazy import LazyModule
 
-special = LazyModule("scipy.special")  # chi-squared quantiles without scipy.stats (0.3 s to import)
+special = LazyModule("scipy.special")  # chi-squared quantiles without importing scipy.stats
 
 from .contrast import DEFAULT_CONTRAST_SPAN_S, PhaseContrasts, phase_contrasts
 from .kernels import allan_sums
@@ -379,8 +379,9 @@ def noise_from_phase_samples(samples, ms, *, max_differences=2):
 
 
 def _dot(a, b):
-    """``sum(a * b)`` of two vectors by numpy's own loop: not BLAS, whose threads, on a busy
-    machine, made each product of 2**18 terms take 30 ms instead of 0.07 ms (issue 39)."""
+    """``sum(a * b)`` of two vectors by numpy's own loop: not BLAS, whose threads spin on a busy
+    machine, where they made each product far slower (issue 39; timings:
+    docs/speed_under_load.md#threads-on-a-busy-machine)."""
     return np.einsum("i,i->", a, b)
 
 

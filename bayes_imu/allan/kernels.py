@@ -6,8 +6,8 @@ Two builds of one source (:mod:`bayes_imu.allan._sources`):
   ``bayes_imu._compiled`` (``setup.py``, numba's AOT compiler), which imports in under a
   millisecond and without numba. A record shorter than :data:`PRECOMPILED_BELOW` samples (one
   thread's work, :func:`threads_for`) is summed there: a command that fits such a log never imports
-  numba (0.2 s) nor loads its compiled-code machinery (0.3 s on the first cached kernel), which
-  would cost it more than the whole Allan variance.
+  numba nor loads its compiled-code machinery, which would cost it more than the whole Allan
+  variance (timings: docs/speed_under_load.md#imports).
 * *JIT*: longer records, and the out-of-core pass, use the same kernels compiled by numba on
   first use (``parallel=True``: the record's blocks on several threads), cached on disk next to
   the sources. Where the extension was not built (a numba without its AOT compiler), every
@@ -20,8 +20,8 @@ record's sums may differ in the last bits (about 1e-15, as between the two build
 and lag sums are strict IEEE and agree bit for bit).
 
 Why compiled code: the fully overlapping Allan variance sums over the whole phase record for every
-cluster size. In numpy each size is three temporaries and a dot product (about 3.5x faster
-than allantools at best); a fused, multi-threaded loop over blocks of the record sums every
+cluster size. In numpy each size is three temporaries and a dot product, one pass over the
+record each; a fused, multi-threaded loop over blocks of the record sums every
 size while the block is in cache (:func:`second_difference_sums`).
 """
 
@@ -40,7 +40,8 @@ _BLOCK_ALL = 1 << 16
 _PHASE_BLOCK = 256
 #: residues per run of the residue sums of the sizes that are whole blocks (:func:`_far_sums`)
 _RESIDUES = 256
-#: samples per thread of the Allan variance sums (8 MiB of phase: ~1 ms of work per cluster size)
+#: samples per thread of the Allan variance sums (8 MiB of phase: enough work per cluster size to
+#: pay for a thread)
 SAMPLES_PER_THREAD = 1 << 20
 #: records shorter than this are summed by the precompiled kernels, on one thread (:func:`threads_for`
 #: gives one thread below it on any machine)

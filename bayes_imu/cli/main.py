@@ -678,8 +678,9 @@ def command(argv=None):
 
     Every file of the run is written and closed, and the worker process stopped, before
     :func:`main` returns; standard output and error are flushed here. Leaving without the
-    interpreter's teardown (freeing numba's compiled code and the imported libraries) saved
-    0.3-0.9 s a run when timed with ``time``. Python callers use :func:`main`, which returns;
+    interpreter's teardown (freeing numba's compiled code and the imported libraries) saves a
+    noticeable part of a short run (docs/speed_under_load.md#kernels). Python callers use
+    :func:`main`, which returns;
     there ``fit`` writes its outputs in the calling process unless ``BAYES_IMU_OUTPUT_PROCESS``
     is set (:mod:`bayes_imu.report.worker`).
     """

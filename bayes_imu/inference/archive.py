@@ -252,7 +252,7 @@ def write_netcdf(fit, path):
     ``observed_data`` (``avar`` over ``tau`` [s]); the fit's attributes (``terms``, ``likelihood``,
     ``bayes_imu_version``) on the file (tested against ArviZ's own file). The NetCDF-4 file is
     written with h5netcdf, a dependency of ArviZ's NetCDF backend: importing ArviZ and xarray
-    costs about 1 s, more than the rest of a fit's outputs (``scripts/bench_fit.py``).
+    costs more than the rest of a fit's outputs (timings: docs/speed_under_load.md#imports).
     """
     chains = fit.chains
     if chains is None:

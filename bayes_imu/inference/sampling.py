@@ -1,9 +1,10 @@
 """The emcee ensemble shared by the single-sensor fit and the population fit.
 
 Both run emcee with differential-evolution proposals (80%) and stretch moves (20%): on the
-white + Gauss-Markov posterior the integrated autocorrelation time is ~11 steps instead of
-~36 for the stretch move alone (``scripts/bench_fit.py``), 3x fewer likelihood calls for the
-same ESS. Both stop once the chain is :data:`AUTOCORR_MULTIPLE` autocorrelation times long
+white + Gauss-Markov posterior the integrated autocorrelation time is a fraction of the
+stretch move's alone, and so are the likelihood calls for the same ESS (timings:
+docs/speed_under_load.md#sampler). Both stop once the chain is :data:`AUTOCORR_MULTIPLE`
+autocorrelation times long
 and the estimate has settled to 5%, then drop 3 autocorrelation times of burn-in and thin by
 half of one.
 
@@ -123,10 +124,9 @@ _LEAN = {}
 def _lean_classes(emcee):
     """emcee's sampler and its two moves, with the same draws from the same random numbers, less Python per step.
 
-    At 32 walkers a step's two vectorised likelihood calls cost 54-101 us on the bench log's and two real
-    ADIS16405 fits' posteriors (3-7 parameters), and emcee's own classes about 150 us more: 205-269 us a step,
-    146-209 us with these (``scripts/study_speed_options.py --sampler``). emcee's time goes where it handles
-    one walker at a time or copies its random state:
+    At 32 walkers emcee's own classes cost more than a step's two vectorised likelihood calls,
+    and these less a step (timings: docs/speed_under_load.md#sampler). emcee's time goes where
+    it handles one walker at a time or copies its random state:
 
     * the sampler's ``random_state`` reads as ``None``: emcee copies the generator's state (624 words) into
       every ``State`` it makes, twice a step, and on the next ``run_mcmc`` sets the generator back to the
@@ -199,7 +199,7 @@ def import_emcee():
     """``emcee``, without loading scipy.stats for it where nothing else has.
 
     emcee's KDE move (not used here) imports ``scipy.stats.gaussian_kde`` as emcee is imported,
-    and scipy.stats costs about 0.3 s to import, a tenth of a command's run; nothing else in a fit
+    and scipy.stats is slow to import (docs/speed_under_load.md#imports); nothing else in a fit
     needs it. So emcee is imported with scipy.stats marked absent, which emcee handles (its KDE
     move is then without ``gaussian_kde``), and the move is given back a ``gaussian_kde`` that
     imports scipy.stats when called: :class:`emcee.moves.KDEMove` works as before (tested). The
@@ -228,8 +228,8 @@ def autocorr_time(chain, c=5):
 
     emcee transforms each walker's series as complex numbers, one at a time; here each parameter's
     walkers are transformed together, as contiguous rows, with real transforms: the same numbers as
-    transforming each series alone, bit for bit (tested), about half the time on short chains (the
-    transforms themselves dominate beyond ~10^4 steps; one-off timings); the times agree with
+    transforming each series alone, bit for bit (tested), in less time on short chains (the
+    transforms themselves dominate on long ones); the times agree with
     emcee's to about 1e-15 relative (tested).
     """
     from emcee.autocorr import auto_window
@@ -260,8 +260,9 @@ def steps_to_next_check(iteration, every):
 
     Each check estimates the autocorrelation time over the whole chain (an FFT of every walker's
     series), so checking every ``every`` steps costs quadratically in the chain length: on a real
-    40 000-step ADIS16405 fit the checks were most of its 37 s (0.36 s a check at that length, one-off
-    timing). Geometric spacing makes their total cost linear in the length, and a chain that settles
+    40 000-step ADIS16405 fit the checks were most of its time (timings:
+    docs/speed_under_load.md#sampler). Geometric spacing makes their total cost linear in the
+    length, and a chain that settles
     runs at most 10% longer than with fixed chunks; shorter chains are checked exactly as before.
     """
     if iteration < GEOMETRIC_FROM:
@@ -285,8 +286,7 @@ def one_blas_thread():
     The fits multiply small matrices (an ensemble of walkers or importance draws by an
     ``n_tau x n_tau`` Cholesky factor): a multi-threaded BLAS gains nothing on them, and its
     idle threads spin on the other cores, where the output process (and, in a fleet, the
-    other fits) would run (seen once with ``time`` on a 1e6-sample fit on 2 cores: 1.4 s more CPU
-    time with two BLAS threads, the same wall time).
+    other fits) would run (more CPU time for the same wall time: docs/speed_under_load.md#sampler).
     """
     from threadpoolctl import threadpool_limits
 

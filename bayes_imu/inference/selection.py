@@ -308,12 +308,12 @@ def newton_mode(post, u0, *, gtol=None, max_iter=100, max_step=4.0):
     largest gradient component is below ``gtol`` (default :data:`MODE_GTOL`), when the step
     cannot lower the density by more than rounding, or after ``max_iter`` steps.
 
-    Returns ``(u, neg_log_density, gradient)`` at the end point. On the mode searches of fits of
-    six real ADIS16405 channels (296 searches, 721 starts) :func:`posterior_mode` took 1.44 s
-    against 6.02 s with BFGS from each start (the search before), and ended denser on 13
-    searches (by up to 3900 nats: BFGS had stopped at another local mode) and less dense on
-    one (by 5.8 nats); on the synthetic bench log the same modes, 0.09 s against 0.30 s
-    (``scripts/study_speed_options.py --modes``).
+    Returns ``(u, neg_log_density, gradient)`` at the end point. It replaced BFGS from each start
+    (the search before): on the mode searches of fits of six real ADIS16405 channels
+    (296 searches, 721 starts) it was faster and ended denser on 13 searches (by up to 3900 nats:
+    BFGS had stopped at another local mode) and less dense on one (by 5.8 nats); on the synthetic
+    bench log the same modes (``scripts/study_speed_options.py --modes``; timings:
+    docs/speed_under_load.md#sampler).
     """
     gtol = MODE_GTOL if gtol is None else gtol
     offsets, derivatives = _stencil(u0.size)
@@ -448,7 +448,8 @@ class _StudentT:
     """Multivariate Student t (location ``loc``, shape matrix ``shape``, ``df`` degrees of freedom),
     the importance proposal: scipy.stats.multivariate_t's algorithm (Hofert 2013, eq 3: a normal
     draw divided by sqrt(chi2_df / df); density from the eigendecomposition of ``shape``), written
-    here so that a fit does not import scipy.stats (0.3 s); tested to give scipy's draws and
+    here so that a fit does not import scipy.stats (slow to import); tested to give scipy's draws
+    and
     densities."""
 
     def __init__(self, loc, shape, df):

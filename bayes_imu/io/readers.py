@@ -525,11 +525,11 @@ def _parse(path, fmt, usecols, progress):
 
 
 def _numpy_first(fmt, usecols):
-    """Whether :func:`_parse` tries numpy's reader first: always where pandas is not imported yet (its import, about
-    0.2 s, is most of what numpy saves), else for a log of at most :data:`PLAIN_COLUMNS` columns or a wide log of
-    which at most two columns are converted (the wanted ones and the last), where numpy is as fast as pandas. A
-    six-column ADIS16405 gzip log of 1e6 rows: one column 0.24-0.26 s against pandas' 0.24-0.27 s, all six 0.41-0.55
-    s against 0.27-0.31 s (``import pandas`` done; one-off timings)."""
+    """Whether :func:`_parse` tries numpy's reader first: always where pandas is not imported yet
+    (its import is most of what numpy saves), else for a log of at most :data:`PLAIN_COLUMNS`
+    columns or a wide log of which at most two columns are converted (the wanted ones and the
+    last), where numpy is as fast as pandas; converting more columns, numpy is slower
+    (timings: docs/speed_under_load.md#reading-logs)."""
     import sys
 
     n_columns = len(fmt["names"])
@@ -555,7 +555,8 @@ def _parse_plain(path, fmt, usecols, bar):
     ``tests/test_io.py`` compares them on every shipped log, the real logs and edge cases), and every field numpy
     refuses (quotes, an empty field, a decimal comma, text in the last column) sends the file to pandas, so what
     is accepted or refused, and every error message, is as before. It spares a command the import of pandas
-    (about 0.2 s); :func:`_numpy_first` says when it is tried (``scripts/bench_io.py`` for large logs).
+    (docs/speed_under_load.md#imports); :func:`_numpy_first` says when it is tried
+    (``scripts/bench_io.py`` for large logs).
     """
     import warnings
 
@@ -590,9 +591,8 @@ def _parse_plain(path, fmt, usecols, bar):
 
 def _read_in_megabytes(text):
     """Let the text wrapper ``text`` read its bytes 1 MiB at a time instead of 8 KiB (``_CHUNK_SIZE``, an attribute
-    of CPython's io implementations; without it, the same text in smaller reads): two columns of a 2e6-row,
-    seven-column CSV read in 0.51 s instead of 0.55 s (one-off timing), and the delimiters are counted in megabyte
-    chunks."""
+    of CPython's io implementations; without it, the same text in smaller reads): fewer reads, a
+    little faster, and the delimiters are counted in megabyte chunks."""
     try:
         text._CHUNK_SIZE = 1 << 20
     except AttributeError:
@@ -654,7 +654,7 @@ class _Counting(io.RawIOBase):
         data = self._stream.read(len(buffer))
         self._check_lines(data)
         buffer[: len(data)] = data
-        if self._delimiter is not None:  # numpy's comparison: 3-4x bytes.count's speed on megabyte chunks
+        if self._delimiter is not None:  # numpy's comparison: faster than bytes.count here
             self.delimiters += int(np.count_nonzero(np.frombuffer(data, np.uint8) == self._delimiter))
         position = self._raw.tell()
         self._bar.update(position - self._seen)

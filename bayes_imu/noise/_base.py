@@ -189,7 +189,7 @@ def calibrated_contrast(structure, order, k, n_cal, *, sums=None):
 
 
 #: longest table of ``D`` (samples) that :func:`calibrated_contrast` builds whole
-#: (2**20 samples: 48 MB of extended-precision sums, about 0.1 s)
+#: (2**20 samples: 48 MB of extended-precision sums)
 TABLE_MAX = 2**20
 
 

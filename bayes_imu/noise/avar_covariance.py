@@ -27,7 +27,7 @@ geometric there (closed form per lag, no cancellation); the flicker part uses it
 a^2 b^2 / l_c^2`` (``l_c`` the distance between window centres; neglected terms ``O((b/l_c)^2)`` of
 a tail below 1% of the total). Both tails are smooth, so they are summed by the midpoint rule with
 steps of at most ``l_c/64`` and ``0.1 T/dt`` (relative error ~1e-4), which keeps a full covariance
-of an octave grid on 1e6 samples at ~0.1 s.
+of an octave grid on a long record cheap (timings: docs/speed_under_load.md#kernels).
 """
 
 import numpy as np

@@ -49,7 +49,9 @@ def import_corner():
     """``corner``, without importing ArviZ where nothing has loaded it yet.
 
     corner imports ArviZ as it is imported (for its ``InferenceData`` entry point), and ArviZ with
-    xarray costs about 1 s to import, more than drawing every figure of a fit; the figures here
+    xarray cost more to import than drawing every figure of a fit
+    (docs/speed_under_load.md#imports);
+    the figures here
     pass numpy arrays, which corner draws without ArviZ (its path where ArviZ is not installed).
     So corner is imported with ArviZ marked absent and given back an ``InferenceData`` entry point
     that imports ArviZ when first called (:func:`_arviz_corner`): ``corner.corner`` works for every
@@ -138,8 +140,8 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None):
     and a panel of the whitened residuals of the goodness-of-fit check.
 
     The panels have fixed sizes (:data:`_FIT_LAYOUT_IN`) and the legend stands beside them, its long
-    entries wrapped: no layout pass (``tight_layout`` draws the figure once more: 0.22-0.37 s against
-    0.17-0.20 s, ``scripts/study_speed_options.py --figures``), and no entry hides an observed point.
+    entries wrapped: no layout pass (``tight_layout`` draws the figure once more; timings:
+    docs/speed_under_load.md#figures), and no entry hides an observed point.
 
     Parameters
     ----------
@@ -215,7 +217,7 @@ def _wrapped(text, width=34):
 
 def _plain_log_labels(axis):
     """The labels matplotlib gives a log axis (:class:`~matplotlib.ticker.LogFormatterSciNotation`, major and
-    minor), in plain text (:func:`plain_log_formatter`): no mathtext to parse (about 8 ms a label)."""
+    minor), in plain text (:func:`plain_log_formatter`): no mathtext to parse."""
     axis.set_major_formatter(plain_log_formatter())
     axis.set_minor_formatter(plain_log_formatter(labelOnlyBase=False))
 
@@ -285,9 +287,9 @@ def _corner_grid(plt, data, labels, bins=20):
     log axis (about 1300 for seven parameters, half its drawing time); here the inner panels' labels are
     switched off (no tick created), each parameter's ticks are computed once for its column and row, the
     unlabelled ticks are drawn on the edge panels only, and the layout is fixed (no tight bounding box,
-    which draws the figure twice): 0.33 s against 0.90-0.92 s for a real fit's five parameters,
-    0.57-0.59 s against 2.19 s for seven, 0.14-0.16 s against 0.26-0.29 s for three
-    (``scripts/study_speed_options.py --figures``, two runs).
+    which draws the figure twice): faster than ``corner``'s, the more so the more parameters
+    (timings:
+    docs/speed_under_load.md#figures).
     """
     corner = import_corner()
     k = data.shape[1]
@@ -400,7 +402,7 @@ def _set_ticks(axis, ticks, *, labelled, label):
     major, minor = ticks
     axis.set_major_locator(FixedLocator(major))
     # the unlabelled ticks on the edges only, where they help read the labelled ones: an inner panel lines up
-    # with its edge panels (each tick drawn is an object of five artists: about 1 ms)
+    # with its edge panels (each tick drawn is an object of five artists)
     axis.set_minor_locator(FixedLocator(minor) if labelled else NullLocator())
     axis.set_minor_formatter(NullFormatter())
     name = axis.axis_name
@@ -436,9 +438,8 @@ _SUPERSCRIPT = str.maketrans("-0123456789", "\u207b\u2070\u00b9\u00b2\u00b3\u207
 def plain_log_formatter(**kwargs):
     """``matplotlib.ticker.LogFormatterSciNotation(**kwargs)`` whose labels are plain text (``2\u00d710\u207b\u00b3``,
     Unicode superscripts) instead of mathtext (``$\\mathdefault{2\\times10^{-3}}$``): the same ticks labelled, the
-    same numbers. Every mathtext label is parsed when drawn (about 8 ms each, matplotlib's cache holds 50): the
-    corner plot with mathtext edge labels costs 0.17 / 0.39-0.42 / 0.84-0.87 s for 3 / 5 / 7 parameters
-    against 0.14-0.16 / 0.33 / 0.57-0.59 s in plain text (``scripts/study_speed_options.py --figures``)."""
+    same numbers. Every mathtext label is parsed when drawn (matplotlib's cache holds 50), which
+    makes a corner plot slower (timings: docs/speed_under_load.md#figures)."""
     import re
 
     from matplotlib.ticker import LogFormatterSciNotation

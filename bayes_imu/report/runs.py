@@ -297,7 +297,7 @@ def _fit_axis(request, allan, unit, info, column, folder, out, writer, *, progre
     # the figures first, the longer first: the output process draws one while this process
     # summarises and writes the rest, and the other beside it once this process waits
     # (report.worker). The corner plot of four or more parameters takes longer than
-    # allan_fit.png (docs/architecture.md, scripts/study_speed_options.py --figures)
+    # allan_fit.png (timings: docs/speed_under_load.md#figures)
     label = f"{Path(info['log']).name}: {column}"
     figures = [(plot_allan_fit, result, out / "allan_fit.png",
                 {"label": label, "unit": unit, "rng": request.seed}),

@@ -1,7 +1,8 @@
 """Outputs written by a second process while the command goes on fitting.
 
-A fit's figures cost about 0.5 s of imports (matplotlib and corner, without ArviZ: see
-:func:`bayes_imu.report.plots.import_corner`) and about 0.5 s of rendering, all in Python. :class:`OutputWriter` starts one worker
+A fit's figures cost imports (matplotlib and corner, without ArviZ: see
+:func:`bayes_imu.report.plots.import_corner`) and rendering, all in Python (timings:
+docs/speed_under_load.md#imports). :class:`OutputWriter` starts one worker
 process (``spawn``: no fork of a threaded process) as the command starts; the worker imports
 those libraries while the command reads the log and fits it on another core, then writes
 each output it is sent. On Linux each output is written by a child forked from the warmed-up
