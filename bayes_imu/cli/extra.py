@@ -168,7 +168,7 @@ def add_commands(sub):
 
     plan = sub.add_parser(
         "plan",
-        help="how long to record: predicted 90% intervals versus record length",
+        help="how long to record: predicted 90%% intervals versus record length",
         description="Predict how the 90% interval of each noise parameter, and of the drift at "
         "--horizons, shrinks with record length, from a pilot fit (a short log fitted by bayes-imu "
         "fit) or from datasheet values, by the Fisher information of the Allan-variance "
@@ -298,7 +298,8 @@ def _cmd_plan(args):
     from ..drift.plan import plan_record_length
     from ..report.output import staged_folder
     from ..report.planning import plan_csv, plot_plan
-    from .main import _say
+    from ..report.worker import draw_picture
+    from .main import _pictures_status, _say
     from .._version import __version__
 
     plans, pilot = [], None
@@ -333,7 +334,8 @@ def _cmd_plan(args):
             "axes": {label: {"rate_hz": p.rate_hz, "rows": p.rows()} for label, p in plans},
         }
         (tmp / "plan.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
-        plot_plan(
+        failure = draw_picture(  # a picture that fails costs only the picture (exit 3)
+            plot_plan,
             plans,
             tmp / "plan.png",
             pilot_s=pilot,
@@ -352,7 +354,7 @@ def _cmd_plan(args):
                 + "".join(f"{100 * np.expm1(1.6448536 * s):23.3g}%" for s in sds),
             )
     _say(args, f"wrote {args.out}/plan.csv, plan.json and plan.png")
-    return 0
+    return _pictures_status([failure])
 
 
 def _hours(seconds):

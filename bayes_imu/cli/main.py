@@ -479,10 +479,10 @@ def _cmd_report(args):
     staged = staged_folder(args.out, force=args.force, inputs=inputs)
     with staged as tmp, _sensor_progress(args, scene) as progress:
         report = build_report(scene, rng=args.seed, progress=progress)
-        failure = write_report(report, tmp)
+        failures = write_report(report, tmp)
     _say(args, f"ranking: {', '.join(report.ranking)} ({report.reason})")
     _say(args, f"wrote {args.out}/report.json and report.html")
-    return _pictures_status([failure])
+    return _pictures_status(failures)
 
 
 @contextlib.contextmanager

@@ -173,8 +173,9 @@ def _cmd_nav(args):
         args.force,
         limit,
     )
+    failures = []  # nav.png not drawn: the numbers are kept (exit 3)
     try:
-        bands, summary = run_nav(request)
+        bands, summary = run_nav(request, failures=failures)
     except InputError as exc:  # the library names its parameters; say the flags
         text = re.sub(r"^(gyro|accel)=(\S+):", r"--\1 \2:", str(exc))
         raise InputError(
@@ -209,4 +210,8 @@ def _cmd_nav(args):
                 file=sys.stdout,
             )
         print(f"wrote {args.out}/nav.csv, nav.png, summary.json", file=sys.stdout)
-    return 0
+    from ..report.worker import PICTURE_FAILED_STATUS
+
+    for failure in failures:
+        print(f"bayes-imu: warning: {failure}", file=sys.stderr)
+    return PICTURE_FAILED_STATUS if failures else 0

@@ -45,7 +45,7 @@ import numpy as np
 from .._version import __version__
 from ..drift.overbound import overbound as overbound_pair
 from ..errors import InputError
-from .kalibr import axis_densities, fit_folders
+from .kalibr import axis_densities, comment_text, fit_folders
 
 __all__ = [
     "ImuNoise",
@@ -337,7 +337,7 @@ def _comments(values, fmt):
             f"{sensor} bound tight at "
             + ", ".join(f"{q} {t:.4g} s ({label})" for label, q, t in rows)
         )
-    return lines
+    return [comment_text(line) for line in lines]  # labels (folder, column names) end no comment
 
 
 def render_export(values, fmt, *, topic="/imu0"):

@@ -4,7 +4,7 @@ import numpy as np
 
 from ..drift.plan import Z90
 
-__all__ = ["plot_plan", "plan_csv"]
+__all__ = ["plot_plan", "plan_csv", "csv_field"]
 
 _LABEL = {
     "noise_variance": "white noise variance",
@@ -36,7 +36,7 @@ def plot_plan(plans, path, *, title="", pilot_s=None):
     """
     from matplotlib.ticker import FixedLocator, FuncFormatter, LogLocator, NullFormatter
 
-    from .plots import pyplot
+    from .plots import plain_text, pyplot
 
     plt = pyplot()
     with_drift = any(p.horizons_s.size for _, p in plans)
@@ -46,7 +46,7 @@ def plot_plan(plans, path, *, title="", pilot_s=None):
     styles = ["-", "--", ":"]
     for a, (label, plan) in enumerate(plans):
         hours = plan.lengths_s / 3600.0
-        prefix = f"{label}: " if len(plans) > 1 else ""
+        prefix = f"{plain_text(label)}: " if len(plans) > 1 else ""
         for j, name in enumerate(plan.names):
             axes[0, 0].plot(
                 hours,
@@ -97,7 +97,8 @@ def plot_plan(plans, path, *, title="", pilot_s=None):
         ax.grid(True, which="major", alpha=0.3)
         ax.legend(fontsize=7.5, loc="upper right")
     fig.suptitle(
-        title or "Predicted 90% intervals versus record length (Fisher information)", fontsize=11
+        plain_text(title) or "Predicted 90% intervals versus record length (Fisher information)",
+        fontsize=11,
     )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -120,7 +121,17 @@ def plan_csv(plans):
     for label, plan in plans:
         for r in plan.rows():
             lines.append(
-                f"{label},{r['length_s']:.9g},{r['what']},{r['value']:.9g},{r['q05']:.9g},"
+                f"{csv_field(label)},{r['length_s']:.9g},{r['what']},{r['value']:.9g},{r['q05']:.9g},"
                 f"{r['q95']:.9g},{r['width90']:.6g}"
             )
     return "\n".join(lines) + "\n"
+
+
+def csv_field(text):
+    """``text`` as one CSV field (RFC 4180): quoted, its quotes doubled, where it holds a comma, a
+    quote, a line break or another unprintable character, or starts or ends with a space (a column
+    named ``a,b``, or one with a newline, stays one field of one row)."""
+    text = str(text)
+    if any(c in ',"' or not c.isprintable() for c in text) or text != text.strip():
+        return '"' + text.replace('"', '""') + '"'
+    return text
