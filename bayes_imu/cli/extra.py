@@ -107,6 +107,7 @@ def add_commands(sub):
     """Add ``export`` and ``plan`` to the ``bayes-imu`` sub-command parser ``sub``."""
     from ..drift.plan import DEFAULT_LENGTHS_S
     from ..report.exports import FORMATS
+    from .main import file_path
 
     export = sub.add_parser(
         "export",
@@ -124,7 +125,7 @@ def add_commands(sub):
     export.add_argument("--gyro", type=Path, nargs="+", help="fit folder(s) of gyro axes")
     export.add_argument("--accel", type=Path, nargs="+", help="fit folder(s) of accelerometer axes")
     export.add_argument("--format", required=True, choices=tuple(FORMATS), help="file format")
-    export.add_argument("--out", type=Path, required=True, help="file to write")
+    export.add_argument("--out", type=file_path, required=True, help="file to write")
     export.add_argument(
         "--overbound",
         action="store_true",

@@ -139,7 +139,10 @@ def fit_folders(folders, kind):
                                  "(rerun fit with --units)")
             unit_kind, factor = UNITS[unit]
             if unit_kind != kind:
-                raise InputError(f"{place}: unit {unit!r} is not a {kind} unit")
+                names = {"gyro": ("a gyro", "--gyro"), "accel": ("an accelerometer", "--accel")}
+                raise InputError(f"{place}: fitted in {unit!r}, {names[unit_kind][0]} unit; expected "
+                                 f"{names[kind][0]} fit (give this folder with "
+                                 f"{names[unit_kind][1]})")
             out.append(KalibrAxis(str(place), load_fit(place), factor))
     return out
 
