@@ -329,3 +329,73 @@ def test_messages_point_the_right_way(tmp_path, capsys, ms_fit):
     err = capsys.readouterr().err
     assert err == ("bayes-imu: warning: --horizon without --sensor: no drift is computed (give "
                    "--sensor gyro or accel)\n")
+
+
+# ------------------------------------------------------------------ names through every format
+
+from hypothesis import given, settings  # noqa: E402
+
+from test_hostile import _NAMES  # noqa: E402
+
+
+def _export_structure(name, fmt):
+    """What a filter reads from an export whose axis (and inadequate, tight) labels are ``name``:
+    the parsed document (YAML, JSON), the statements (Python's syntax tree) or the non-comment
+    lines (MATLAB)."""
+    import ast
+
+    import yaml
+
+    from bayes_imu.report.exports import ExportValues, ImuNoise, render_export
+
+    point = ImuNoise(gyroscope_noise_density=2e-4, gyroscope_random_walk=3e-6, update_rate=200.0)
+    bound = ImuNoise(gyroscope_noise_density=3e-4, gyroscope_random_walk=4e-6, update_rate=200.0)
+    per_axis = {"gyroscope_noise_density": [(name, 2e-4, 3e-4), ("b", 1e-4, 2e-4)],
+                "gyroscope_random_walk": [(name, 3e-6, 4e-6), ("b", 1e-6, 2e-6)]}
+    values = ExportValues(bound, point, bound, per_axis, {"gyroscope": [(name, "attitude", 10.0)]},
+                          "overbound", (name,))
+    text = render_export(values, fmt)
+    if fmt == "gtsam":
+        return {k: v for k, v in json.loads(text).items() if k != "notes"}
+    if fmt == "gtsam-py":
+        return ast.dump(ast.parse(text))
+    if fmt == "matlab":
+        return [line for line in text.split("\n") if not line.startswith("%")]
+    return yaml.safe_load(text.removeprefix("%YAML:1.0\n"))
+
+
+@settings(max_examples=40, deadline=None)
+@given(name=_NAMES)
+def test_hostile_names_through_every_output_format(name):
+    """A name of shell, YAML, HTML, TeX and control characters as an axis, log or column name:
+    every export format reads exactly as with a plain name (YAML keys, JSON fields, Python
+    statements, MATLAB lines), summary.json round-trips it, a plan.csv field holds it in one row,
+    and a picture draws it literally (kalibr YAML, HTML and folder names: test_hostile.py)."""
+    import csv
+
+    from bayes_imu.report.planning import csv_field
+    from bayes_imu.report.plots import plain_text
+    from bayes_imu.report.writers import fit_summary
+
+    for fmt in ("kalibr", "openvins", "vins", "gtsam", "gtsam-py", "matlab"):
+        assert _export_structure(name, fmt) == _export_structure("PLAIN", fmt), fmt
+    axes = {name: {"parameters": {}}, "b" if name != "b" else "c": {"parameters": {}}}
+    doc = fit_summary(axes, info={"log": name, "columns": list(axes)}, seed=0,
+                      folders=["x", "y"])
+    assert json.loads(json.dumps(doc, allow_nan=False)) == doc and list(doc["axes"]) == list(axes)
+    rows = list(csv.reader(io.StringIO(csv_field(name) + ",1.5\n", newline="")))
+    assert rows == [[name, "1.5"]]
+    figure = _figure()
+    text = figure.text(0.1, 0.5, plain_text(name))
+    try:
+        figure.canvas.draw()  # mathtext from user text raised here (run$1_$2)
+    finally:
+        text.remove()
+
+
+def _figure(cache={}):
+    if "figure" not in cache:
+        from bayes_imu.report.plots import pyplot
+
+        cache["figure"] = pyplot().figure(figsize=(2, 1))
+    return cache["figure"]
