@@ -399,3 +399,33 @@ def _figure(cache={}):
 
         cache["figure"] = pyplot().figure(figsize=(2, 1))
     return cache["figure"]
+
+
+def test_a_named_pipe_whose_writer_opens_a_moment_later_is_read(tmp_path, capsys):
+    """``producer > pipe & bayes-imu allan pipe``: the producer's open returns only once the reader
+    has opened, a moment after; reading at once saw no writer and said so. The reader now waits
+    up to 0.5 s for one (here the writer opens 0.1 s after the command starts)."""
+    import os
+    import threading
+
+    pipe = tmp_path / "pipe.csv"
+    os.mkfifo(pipe)
+    text = _log(tmp_path / "log.csv").read_bytes()
+
+    def write():
+        try:
+            with open(pipe, "wb") as f:
+                f.write(text)
+        except BrokenPipeError:  # the reader gave up (the test fails on its status)
+            pass
+
+    writer = threading.Timer(0.1, write)
+    writer.start()
+    try:
+        assert main(["allan", str(pipe), "--column", "gx", "--rate", "100", "--quiet",
+                     "--out", str(tmp_path / "o")]) == 0, capsys.readouterr().err
+    finally:
+        writer.join(timeout=5)
+        if writer.is_alive():  # still blocked in open(): a reader that opens and leaves frees it
+            os.close(os.open(pipe, os.O_RDONLY | os.O_NONBLOCK))
+            writer.join()

@@ -22,6 +22,7 @@ import shutil
 import stat
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -468,10 +469,14 @@ def _copy_pipe(path, target):
         path, os.O_RDONLY | os.O_NONBLOCK
     )  # never blocks; a first read tells if a writer exists
     try:
-        try:
-            first = os.read(fd, 1 << 16)
-        except BlockingIOError:  # a writer, nothing written yet: wait for it
-            first = None
+        for _ in range(WRITER_WAIT_STEPS):  # a writer blocked in open() is woken by ours: a moment
+            try:
+                first = os.read(fd, 1 << 16)
+            except BlockingIOError:  # a writer, nothing written yet: wait for it
+                first = None
+            if first != b"":
+                break
+            time.sleep(0.02)
         if first == b"":
             raise InputError(
                 f"{path}: a named pipe with no writer; start the program that writes the log first"
@@ -483,6 +488,9 @@ def _copy_pipe(path, target):
     finally:
         os.close(fd)
 
+
+#: 20 ms polls for a named pipe's writer to appear (0.5 s) before "no writer" is said
+WRITER_WAIT_STEPS = 25
 
 #: most bytes spooled from standard input or a named pipe (a never-ending pipe ends here)
 MAX_SPOOL_BYTES = 2**30
