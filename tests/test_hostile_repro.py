@@ -429,3 +429,16 @@ def test_a_named_pipe_whose_writer_opens_a_moment_later_is_read(tmp_path, capsys
         if writer.is_alive():  # still blocked in open(): a reader that opens and leaves frees it
             os.close(os.open(pipe, os.O_RDONLY | os.O_NONBLOCK))
             writer.join()
+
+
+@pytest.mark.slow  # ~40 s: 18 fresh processes, each under an address-space limit
+def test_bench_hostile_quick_stays_within_its_bounds():
+    """``scripts/bench_hostile.py --quick``: every hostile case exits 2 under ``ulimit -v`` 3 GiB
+    within 60 s and 256 MiB resident (the documented bounds), the valid ones 0."""
+    import subprocess
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[1] / "scripts" / "bench_hostile.py"
+    done = subprocess.run([sys.executable, str(script), "--quick", "--timeout", "60"],
+                          capture_output=True, text=True, timeout=1200)
+    assert done.returncode == 0 and "all as expected" in done.stdout, done.stdout[-3000:]
