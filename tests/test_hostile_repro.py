@@ -6,11 +6,13 @@ had no exact test there. ``docs/validation/hostile.md`` maps every reproduction 
 its test. Logs are a few hundred samples and fits use ``--terms white``: the file runs in seconds.
 """
 
+import contextlib
 import io
 import json
 import math
 import shutil
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -436,9 +438,56 @@ def test_bench_hostile_quick_stays_within_its_bounds():
     """``scripts/bench_hostile.py --quick``: every hostile case exits 2 under ``ulimit -v`` 3 GiB
     within 60 s and 256 MiB resident (the documented bounds), the valid ones 0."""
     import subprocess
-    from pathlib import Path
 
     script = Path(__file__).resolve().parents[1] / "scripts" / "bench_hostile.py"
     done = subprocess.run([sys.executable, str(script), "--quick", "--timeout", "60"],
                           capture_output=True, text=True, timeout=1200)
     assert done.returncode == 0 and "all as expected" in done.stdout, done.stdout[-3000:]
+
+
+def test_pictures_inside_report_html_never_cost_the_numbers(tmp_path, monkeypatch, ms_fit):
+    """The report's page embeds each sensor's Allan fit and drift pictures: one that cannot be
+    drawn used to stop the report (exit 1). Now the page and report.json are written, a line
+    stands in the picture's place, and each failure is returned (the command: one warning line
+    each, exit 3)."""
+    import bayes_imu.report.html as report_html
+    import bayes_imu.report.plots as plots
+    from bayes_imu.report.scene import build_report, read_scene
+
+    shutil.copytree(ms_fit, tmp_path / "g")
+    scene = tmp_path / "scene.toml"
+    scene.write_text(SCENE_HEAD + '[[sensor]]\nname = "s$1"\nkind = "gyro"\nfit = "g"\n')
+    report = build_report(read_scene(scene), rng=0)
+
+    def broken(*args, **kwargs):
+        raise ValueError("cannot draw\nsecond line")
+
+    def drawn(*args, **kwargs):  # a picture drawn (its bytes), without the drawing's time
+        target = args[-1]
+        with open(target, "wb") if isinstance(target, Path) else contextlib.nullcontext(
+                target) as f:
+            f.write(b"PNG")
+
+    monkeypatch.setattr(plots, "plot_allan_fit", broken)
+    monkeypatch.setattr(plots, "plot_drift", drawn)
+    monkeypatch.setattr(report_html, "_comparison_figure", drawn)
+    failures = report_html.write_report(report, tmp_path / "out")
+    page = (tmp_path / "out" / "report.html").read_text()
+    assert [str(f) for f in failures] == [
+        "report.html: the Allan fit of s$1 was not drawn (ValueError: cannot draw); the numbers "
+        "were written"]
+    assert "Allan fit of s$1: the picture could not be drawn." in page
+    assert page.count("data:image/png;base64,") == 2  # the comparison chart and the drift bands
+    assert json.loads((tmp_path / "out" / "report.json").read_text())["sensors"]
+    monkeypatch.setattr(plots, "plot_allan_fit", drawn)
+    assert report_html.write_report(report, tmp_path / "again") == []
+
+
+@pytest.mark.slow  # ~5 s of CPU: the plan's Fisher information over its default lengths
+def test_plan_of_a_folder_named_with_dollars_draws_its_picture(tmp_path, ms_fit):
+    """``bayes-imu plan 'd$1_$2'``: the folder's name in plan.png's title started mathtext (exit 1,
+    nothing kept); drawn literally now, and a failing picture would cost only plan.png."""
+    folder = tmp_path / "d$1_$2"
+    shutil.copytree(ms_fit, folder)
+    assert main(["plan", str(folder), "--out", str(tmp_path / "p"), "--quiet"]) == 0
+    assert (tmp_path / "p" / "plan.png").stat().st_size > 10_000
