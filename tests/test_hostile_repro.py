@@ -491,3 +491,45 @@ def test_plan_of_a_folder_named_with_dollars_draws_its_picture(tmp_path, ms_fit)
     shutil.copytree(ms_fit, folder)
     assert main(["plan", str(folder), "--out", str(tmp_path / "p"), "--quiet"]) == 0
     assert (tmp_path / "p" / "plan.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("argv", [
+    ["export", "--gyro", "g", "--format", "kalibr", "--overbound", "--t-max", "1e300"],
+    ["export", "--gyro", "g", "--format", "kalibr", "--overbound", "--calibration", "1e300"],
+    ["export", "--gyro", "g", "--format", "kalibr", "--seed", "-1"],
+    ["nav", "--gyro", "g", "--accel", "a", "--calibration", "1e300"],
+    ["nav", "--gyro", "g", "--accel", "a", "--times", "1e300"],
+    ["nav", "--gyro", "g", "--accel", "a", "--horizon", "1e300"],
+    ["nav", "--gyro", "g", "--accel", "a", "--speed", "1e300"],
+    ["plan", "g", "--lengths", "1e300"],
+    ["plan", "g", "--horizons", "1e300"],
+    ["plan", "g", "--calibration", "1e300"],
+    ["plan", "g", "--rate", "1e300"],
+])
+def test_the_newer_commands_check_their_ranges_first(tmp_path, capsys, argv):
+    """export, nav and plan (added after the attack) took any positive number: exit 1 (linprog on
+    inf, a negative seed, 512 GiB asked for) or NaN rows with exit 0. Each is refused first now,
+    naming the range (docs/cli.md "Valid ranges")."""
+    assert main(argv + ["--out", str(tmp_path / "o.yaml")]) == 2
+    _one_error(capsys, argv[-2], "expected")
+
+
+def test_plan_lengths_are_bounded_in_samples_and_exports_divide_safely():
+    """A plan of 1e9 s at 100 Hz asked for 512 GiB (MemoryError, exit 1): refused above
+    MAX_PLAN_SAMPLES. An overbound export whose point model lacks a term (random walk 0) divided
+    by zero: its factor is infinite (or 1 where both are 0)."""
+    from bayes_imu.drift.plan import MAX_PLAN_SAMPLES, plan_record_length
+    from bayes_imu.errors import InputError
+    from bayes_imu.noise import NoiseModel
+    from bayes_imu.report.exports import ExportValues, ImuNoise
+
+    model = NoiseModel(("white",), dt=0.01)
+    with pytest.raises(InputError, match="expected records of at most"):
+        plan_record_length(model, {model.parameter_names[0]: 1e-6},
+                           lengths_s=[(MAX_PLAN_SAMPLES + 1) * 0.01])
+    point = ImuNoise(gyroscope_noise_density=1e-4, gyroscope_random_walk=0.0, update_rate=100.0)
+    for walk, factor in ((1e-6, math.inf), (0.0, 1.0)):
+        bound = ImuNoise(gyroscope_noise_density=2e-4, gyroscope_random_walk=walk,
+                         update_rate=100.0)
+        got = ExportValues(bound, point, bound).factors()
+        assert got == {"gyroscope_noise_density": 2.0, "gyroscope_random_walk": factor}

@@ -14,16 +14,6 @@ from ..errors import InputError
 __all__ = ["add_commands", "add_fit_options", "datasheet_hook"]
 
 
-def _positive(text):
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not (np.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
-
-
 def _probability(text):
     try:
         value = float(text)
@@ -39,9 +29,13 @@ def _lengths(text):
         values = [_duration(v) for v in text.split(",") if v.strip()]
     except ValueError:
         values = []
-    if not values or not all(np.isfinite(v) and v > 0 for v in values):
+    from ..io.limits import RANGES
+
+    low, high, _ = RANGES["time_s"]
+    if not values or not all(np.isfinite(v) and low <= v <= high for v in values):
         raise argparse.ArgumentTypeError(
-            f"expected comma-separated durations (600, 10min, 4h), got {text!r}"
+            f"expected comma-separated durations (600, 10min, 4h) from {low:g} s to {high:g} s, "
+            f"got {text[:80]!r}"
         )
     return tuple(sorted(set(values)))
 
@@ -107,7 +101,7 @@ def add_commands(sub):
     """Add ``export`` and ``plan`` to the ``bayes-imu`` sub-command parser ``sub``."""
     from ..drift.plan import DEFAULT_LENGTHS_S
     from ..report.exports import FORMATS
-    from .main import file_path
+    from .main import _ranged, _rate_type, _seed_type, file_path
 
     export = sub.add_parser(
         "export",
@@ -132,11 +126,12 @@ def add_commands(sub):
         help="write overbounding values (default: posterior medians)",
     )
     export.add_argument(
-        "--t-min", type=_positive, metavar="S", help="shortest horizon (s), default one sample"
+        "--t-min", type=_ranged("time_s"), metavar="S",
+        help="shortest horizon (s), default one sample"
     )
     export.add_argument(
         "--t-max",
-        type=_positive,
+        type=_ranged("time_s"),
         metavar="S",
         help="longest outage of interest (s), default the record's duration up to 3600",
     )
@@ -148,7 +143,7 @@ def add_commands(sub):
     )
     export.add_argument(
         "--calibration",
-        type=_positive,
+        type=_ranged("calibration_s"),
         default=60.0,
         metavar="S",
         help="seconds of bias calibration before an outage, default 60",
@@ -157,7 +152,7 @@ def add_commands(sub):
         "--topic", default="/imu0", help="rostopic (kalibr, openvins), default /imu0"
     )
     export.add_argument(
-        "--seed", type=int, default=0, help="random seed of the draws subset, default 0"
+        "--seed", type=_seed_type, default=0, help="random seed of the draws subset, default 0"
     )
     export.add_argument(
         "--force",
@@ -189,7 +184,7 @@ def add_commands(sub):
         help="plan from datasheet values instead (JSON or TOML, as fit --datasheet); needs --rate",
     )
     plan.add_argument(
-        "--rate", type=_positive, metavar="HZ", help="with --datasheet: the log's sample rate"
+        "--rate", type=_rate_type, metavar="HZ", help="with --datasheet: the log's sample rate"
     )
     plan.add_argument(
         "--lengths",
@@ -207,7 +202,7 @@ def add_commands(sub):
     )
     plan.add_argument(
         "--calibration",
-        type=_positive,
+        type=_ranged("calibration_s"),
         default=60.0,
         metavar="S",
         help="seconds of bias calibration before an outage, default 60",

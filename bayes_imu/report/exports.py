@@ -131,7 +131,9 @@ class ExportValues:
         """Key -> written overbound over the point value (``nan`` without an overbound)."""
         if self.bound is None:
             return {k: float("nan") for k in self.point.present()}
-        return {k: v / self.point.present()[k] for k, v in self.bound.present().items()}
+        point = self.point.present()  # a term the point model lacks (0): an infinite factor
+        return {k: v / point[k] if point[k] > 0 else math.inf if v > 0 else 1.0
+                for k, v in self.bound.present().items()}
 
 
 def export_values(
