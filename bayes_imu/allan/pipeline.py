@@ -333,7 +333,8 @@ def _streamed(opts, purpose, grid, progress):
         for c in columns
     ]
     _require_samples(opts, results[0].n_samples, purpose)
-    heads = [head_samples(opts.log, column=None if binary else c, n=STREAMED_CHECK) for c in columns]
+    heads = [head_samples(opts.log, column=None if binary else c, n=STREAMED_CHECK)
+             for c in columns]
     size = min(h.size for h in heads)
     steps = _plausible(opts, np.column_stack([h[:size] for h in heads]), opts.rate, columns)
     info = {

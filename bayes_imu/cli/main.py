@@ -314,10 +314,12 @@ def _cmd_fit(args):
         raise InputError("fit: give a log to fit (or --allan-table FILE); see bayes-imu fit --help")
     elif args.samples is not None:
         raise InputError("--samples goes with --allan-table (a log's sample count is read from the log)")
-    unused = [f for f, v in (("--horizon", args.horizon != 3600.0), ("--times", args.times is not None),
+    unused = [f for f, v in (("--horizon", args.horizon != 3600.0),
+                             ("--times", args.times is not None),
                              ("--bias-start", args.bias_start != "calibrated")) if v]
     if unused and args.sensor is None:  # issue 37: a drift option was silently ignored
-        _warn(f"{', '.join(unused)} without --sensor: no drift is computed (give --sensor gyro or accel)")
+        _warn(f"{', '.join(unused)} without --sensor: no drift is computed (give --sensor gyro "
+              "or accel)")
     return _fit(_fit_request(args), args)
 
 

@@ -147,7 +147,8 @@ def _sensor_section(s, cred, failures=None):
         for n, q in fit.quantiles().items()
     )
     sheet = _datasheet_table(s)
-    allan_png = _png(lambda target: plot_allan_fit(fit, target, label=s.spec.name, unit=UNITS_SI[s.spec.kind], rng=0),
+    allan_png = _png(lambda target: plot_allan_fit(fit, target, label=s.spec.name,
+                                                   unit=UNITS_SI[s.spec.kind], rng=0),
                      failures=failures, name=f"report.html: the Allan fit of {s.spec.name[:40]}")
     units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
     drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=s.spec.name),
@@ -218,7 +219,8 @@ def _population_section(s, failures=None):
     pop_png = _png(lambda target: plot_population(pop, target, unit=UNITS_SI[s.spec.kind], rng=0),
                    failures=failures, name=f"report.html: the population of {s.spec.name[:40]}")
     units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
-    drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=f"{s.spec.name}: a new unit"),
+    drift_png = _png(lambda target: plot_drift(s.bands, target, units=units,
+                                               title=f"{s.spec.name}: a new unit"),
                      failures=failures, name=f"report.html: the drift bands of {s.spec.name[:40]}")
     return f"""
 <section class="sensor" id="sensor-{html.escape(s.spec.name)}">
@@ -235,16 +237,19 @@ predictive of a hierarchical fit of {len(pop.labels)} units.</p>
 
 
 def report_html(report, comparison_png=None, *, failures=None):
-    """The self-contained HTML page as a string (``comparison_png``: the chart's PNG bytes, drawn if None;
-    ``failures``: a list collecting the pictures that could not be drawn, each left out of the page,
-    else such an error is raised)."""
+    """The self-contained HTML page as a string (``comparison_png``: the chart's PNG bytes,
+    drawn if None; ``failures``: a list collecting the pictures that could not be drawn, each
+    left out of the page, else such an error is raised)."""
     scene = report.scene
     cred = scene.credibility
     req = scene.requirement
     req_text = (f"{req['quantity']} error (1-sigma) at most {req['max_error']:.4g} {req['unit']}"
                 + (f" (given as {req['given']})" if req.get("given") else "") if req else "none")
-    comparison = (_png(_comparison_figure, report, failures=failures, name="report.html: the comparison chart")
-                  if comparison_png is None else _data_uri(comparison_png) if comparison_png else "")
+    if comparison_png is None:
+        comparison = _png(_comparison_figure, report, failures=failures,
+                          name="report.html: the comparison chart")
+    else:
+        comparison = _data_uri(comparison_png) if comparison_png else ""
     bound_rows = []
     for s in report.sensors:
         for b in s.bounds:
@@ -272,7 +277,8 @@ td,th{{border:1px solid #bbb;padding:2px 8px;text-align:right}}img{{max-width:10
 <section id="scene"><h2>Scene</h2><p>GPS outages: {', '.join(f'{t:g} s' for t in scene.outages_s)}; credibility {cred:.0%};
 requirement: {html.escape(req_text)}; bias start: {scene.bias_start}; sensors: {len(report.sensors)}.</p></section>
 <section id="ranking"><h2>Ranking</h2><ol>{rank_rows}</ol><p class="reason">{html.escape(report.reason)}.</p></section>
-<section id="comparison"><h2>Bounds versus outage</h2>{_img("comparison chart", comparison)}</section>
+<section id="comparison"><h2>Bounds versus outage</h2>
+{_img("comparison chart", comparison)}</section>
 <section id="bounds"><h2>Table of bounds</h2><table><tr><th>sensor</th><th>quantity</th><th>outage (s)</th>
 <th>median</th><th>{cred:.0%} bound</th><th>unit</th></tr>{''.join(bound_rows)}</table></section>
 <section id="meaning"><h2>What the bound means and assumes</h2><ul>{assumptions}</ul></section>

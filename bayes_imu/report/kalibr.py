@@ -140,8 +140,8 @@ def fit_folders(folders, kind):
             unit_kind, factor = UNITS[unit]
             if unit_kind != kind:
                 names = {"gyro": ("a gyro", "--gyro"), "accel": ("an accelerometer", "--accel")}
-                raise InputError(f"{place}: fitted in {unit!r}, {names[unit_kind][0]} unit; expected "
-                                 f"{names[kind][0]} fit (give this folder with "
+                raise InputError(f"{place}: fitted in {unit!r}, {names[unit_kind][0]} unit; "
+                                 f"expected {names[kind][0]} fit (give this folder with "
                                  f"{names[unit_kind][1]})")
             out.append(KalibrAxis(str(place), load_fit(place), factor))
     return out
@@ -173,8 +173,8 @@ def write_kalibr_yaml(result, path, *, topic="/imu0"):
              + (", worst axis of each sensor" if several else "")]
     if not result.adequate:
         lines.append("# WARNING: the noise model failed its goodness-of-fit check for "
-                     + ", ".join(comment_text(a) for a in result.inadequate) + " (intervals widened; "
-                                                                           "values less certain than stated)")
+                     + ", ".join(comment_text(a) for a in result.inadequate)
+                     + " (intervals widened; values less certain than stated)")
     for key in ("accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density",
                 "gyroscope_random_walk"):
         if key in v:

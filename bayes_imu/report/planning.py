@@ -121,7 +121,8 @@ def plan_csv(plans):
     for label, plan in plans:
         for r in plan.rows():
             lines.append(
-                f"{csv_field(label)},{r['length_s']:.9g},{r['what']},{r['value']:.9g},{r['q05']:.9g},"
+                f"{csv_field(label)},{r['length_s']:.9g},{r['what']},{r['value']:.9g},"
+                f"{r['q05']:.9g},"
                 f"{r['q95']:.9g},{r['width90']:.6g}"
             )
     return "\n".join(lines) + "\n"
