@@ -85,31 +85,37 @@ def test_the_same_log_twice_is_not_two_units(tmp_path, capsys):
         assert not (tmp_path / "pop").exists()
 
 
-def test_a_step_is_warned_and_recorded_in_the_fit(tmp_path, capsys):
+def test_a_step_is_warned_and_recorded_in_the_fit(tmp_path, capsys, ms_fit):
     """A 20-sigma step halfway was fitted as adequate and stationary without a word. Now one
-    warning line with its sample, and summary.json's input records it (read in memory; out of
-    core the pipeline records the step found in the log's first STREAMED_CHECK samples)."""
+    warning line with its sample, and what was read records it (``summary.json``'s ``input`` is
+    that record, as the ms fit's shows), read in memory or out of core (there from the log's
+    first STREAMED_CHECK samples)."""
     import warnings
 
     from bayes_imu.allan.pipeline import LogSource, allan_from_source
     from bayes_imu.io.plausible import PlausibilityWarning
 
-    x = np.random.default_rng(5).standard_normal(512)
-    x[256:] += 20.0
+    x = np.random.default_rng(5).standard_normal(320)
+    x[160:] += 20.0
     log = tmp_path / "step.csv"
     log.write_text("gx\n" + "".join(f"{v:.6f}\n" for v in x))
-    out = tmp_path / "fit"
-    assert _fit([str(log), "--column", "gx", "--rate", "100", "--out", str(out)]) == 0
+    assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--quiet",
+                 "--out", str(tmp_path / "a")]) == 0
     err = capsys.readouterr().err
-    assert "its level steps by" in err and "at sample 257" in err, err
-    step = _summary(out)["input"]["steps"]["gx"]
-    # its size: the noise is estimated from 511 differences (about 5% spread): 20 within 15%
-    assert step["sample"] == 257 and abs(step["sigmas"] - 20.0) < 3.0
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        read = allan_from_source(LogSource(log=log, column="gx", rate=100.0, stream=True))
-    assert read.info["read"] == "out of core" and read.info["steps"] == {"gx": step}
-    assert [w.category for w in caught] == [PlausibilityWarning]
+    assert err.count("\n") == 1 and "its level steps by" in err and "at sample 161" in err, err
+    steps = []
+    for stream in (False, True):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            read = allan_from_source(LogSource(log=log, column="gx", rate=100.0, stream=stream))
+        assert [w.category for w in caught] == [PlausibilityWarning]
+        steps.append(read.info["steps"]["gx"])
+    # its size: the noise is estimated from 319 differences (about 6% spread): 20 within 20%
+    assert steps[0] == steps[1] and steps[0]["sample"] == 161
+    assert abs(steps[0]["sigmas"] - 20.0) < 4.0
+    ms_read = allan_from_source(LogSource(log=ms_fit.parent / "ms.csv", column="gx",
+                                          time_column="t_ms", units="deg/s"))
+    assert _summary(ms_fit)["input"] == {**ms_read.info, "log": str(ms_fit.parent / "ms.csv")}
 
 
 @pytest.mark.parametrize("stream", [False, True])
@@ -131,7 +137,7 @@ def test_a_deg_s_gyro_declared_rad_s_is_named_by_fit(tmp_path, capsys):
     """The MPU6050 case through ``fit`` (a 4.5 deg/s bias read as 4.5 rad/s): one warning naming
     deg/s; the fit is written (the user may know better: ``--trust-units`` silences it)."""
     log = tmp_path / "mpu.csv"
-    values = 4.5 + 0.05 * np.random.default_rng(8).standard_normal(512)
+    values = 4.5 + 0.05 * np.random.default_rng(8).standard_normal(256)
     log.write_text("gx\n" + "".join(f"{v:.6f}\n" for v in values))
     assert _fit([str(log), "--column", "gx", "--rate", "100", "--units", "rad/s",
                  "--out", str(tmp_path / "f")]) == 0
@@ -327,11 +333,13 @@ def test_messages_point_the_right_way(tmp_path, capsys, ms_fit):
                      + f'[[sensor]]\nname = "a"\nkind = "accel"\nfit = "{tmp_path / "g"}"\n')
     assert main(["report", str(scene), "--out", str(tmp_path / "r")]) == 2
     _one_error(capsys, "it is a gyro fit: is kind = 'accel' right?")
-    assert _fit([str(tmp_path / "GX.csv"), "--column", "GX", "--rate", "100", "--horizon", "10",
-                 "--out", str(tmp_path / "h")]) == 0
-    err = capsys.readouterr().err
-    assert err == ("bayes-imu: warning: --horizon without --sensor: no drift is computed (give "
-                   "--sensor gyro or accel)\n")
+    short = tmp_path / "short.csv"  # the warning comes before the log is read: no fit needed
+    short.write_text("gx\n" + "".join(f"{v:.3f}\n" for v in np.arange(10) % 3))
+    assert _fit([str(short), "--column", "gx", "--rate", "100", "--horizon", "10",
+                 "--out", str(tmp_path / "h")]) == 2
+    err = capsys.readouterr().err.split("\n")
+    assert err[0] == ("bayes-imu: warning: --horizon without --sensor: no drift is computed (give "
+                      "--sensor gyro or accel)") and "10 samples" in err[1]
 
 
 # ------------------------------------------------------------------ names through every format
