@@ -549,3 +549,27 @@ def test_plan_lengths_are_bounded_in_samples_and_exports_divide_safely():
                          update_rate=100.0)
         got = ExportValues(bound, point, bound).factors()
         assert got == {"gyroscope_noise_density": 2.0, "gyroscope_random_walk": factor}
+
+
+@pytest.mark.slow  # ~3 s: an accelerometer fit and the navigation bands
+def test_a_failing_nav_picture_keeps_nav_csv(tmp_path, capsys, monkeypatch, ms_fit):
+    """``nav``: nav.png that cannot be drawn used to stop the command (exit 1, nothing kept). Now
+    one warning line, exit 3, nav.csv and summary.json written, no nav.png."""
+    import bayes_imu.report.nav as nav
+
+    values = 1.0 + 0.002 * np.random.default_rng(10).standard_normal(512)
+    log = tmp_path / "az.csv"
+    log.write_text("az\n" + "".join(f"{v:.6f}\n" for v in values))
+    assert _fit([str(log), "--column", "az", "--rate", "100", "--units", "g",
+                 "--out", str(tmp_path / "acc")]) == 0
+
+    def broken(*args, **kwargs):
+        raise ValueError("cannot draw")
+
+    monkeypatch.setattr(nav, "plot_nav", broken)
+    out = tmp_path / "nav"
+    assert main(["nav", "--gyro", str(ms_fit), "--accel", str(tmp_path / "acc"), "--quiet",
+                 "--out", str(out)]) == 3
+    assert capsys.readouterr().err == ("bayes-imu: warning: nav.png was not drawn (ValueError: "
+                                       "cannot draw); the numbers were written\n")
+    assert sorted(p.name for p in out.iterdir()) == [".bayes_imu.json", "nav.csv", "summary.json"]
