@@ -8,10 +8,15 @@ folder) and a small valid log, then runs ``bayes-imu fit``, ``allan``, ``report`
 ``RLIMIT_AS``, default 3 GiB) with a wall-time limit (default 120 s). Prints a table: command,
 input, exit status, wall time (s) and peak resident memory (MiB, the child's ``ru_maxrss``).
 
-Every hostile case must exit 2 (a user error) within the limits: never 1, never a
-``MemoryError``, never killed by the time limit. The valid cases exit 0.
+Also a pipe that never ends (``yes 0.1 | bayes-imu allan -``, and a named pipe whose writer never
+stops), a named pipe with no writer and ``/dev/zero`` given as a log.
 
-    python scripts/bench_hostile.py [--limit-gib 3] [--timeout 120]
+Every hostile case must exit 2 (a user error) within the limits: never 1, never a
+``MemoryError``, never killed by the time limit; the valid cases exit 0. The script exits 1 if a
+case does not, or if a hostile case's peak resident memory passes ``--max-mib`` (the documented
+bound, 256 MiB). ``--quick`` builds the large inputs 16x smaller (a test runs it).
+
+    python scripts/bench_hostile.py [--limit-gib 3] [--timeout 120] [--max-mib 256] [--quick]
 """
 
 import argparse
@@ -32,8 +37,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def build(folder):
-    """The inputs: ``{name: path}``."""
+def build(folder, scale=1):
+    """The inputs: ``{name: path}`` (``scale``: the large ones divided by it)."""
     rng = np.random.default_rng(37)
     x = 0.05 * rng.standard_normal(2000)
     good = folder / "good.csv"
@@ -41,17 +46,21 @@ def build(folder):
     bomb = folder / "bomb.csv.gz"
     with gzip.open(bomb, "wb", compresslevel=9) as f:
         f.write(b"gx\n")
-        for _ in range(64):
+        for _ in range(64 // scale):
             f.write(b"0.1\n" * (1 << 22))  # 1 GiB of text in a file of about 1 MB
     preamble = folder / "preamble.csv"
     with open(preamble, "w") as f:
-        for _ in range(40):
+        for _ in range(40 // scale + 1):
             f.write("#" * (1 << 20))
         f.write("\ngx\n1\n2\n")
     field = folder / "field.csv"
-    field.write_text("gx\n" + "1\n" * 100 + "9" * (100 * 2**20) + "x\n")
+    field.write_text("gx\n" + "1\n" * 100 + "9" * (100 // scale * 2**20) + "x\n")
     fifo = folder / "fifo.toml"
     os.mkfifo(fifo)
+    fifo_log = folder / "fifo.csv"
+    os.mkfifo(fifo_log)
+    endless = folder / "endless.csv"
+    os.mkfifo(endless)
     outside = folder / "scenes" / "outside.toml"
     outside.parent.mkdir()
     outside.write_text(
@@ -66,6 +75,9 @@ def build(folder):
         "preamble.csv (40 MiB comment)": preamble,
         "field.csv (100 MiB field)": field,
         "fifo.toml (no writer)": fifo,
+        "fifo.csv (no writer)": fifo_log,
+        "endless.csv (FIFO, endless writer)": endless,
+        "- (yes 0.1 |, never ends)": Path("-"),
         "outside.toml": outside,
         "sensor.json": sensor,
         "/dev/zero": Path("/dev/zero"),
@@ -88,18 +100,25 @@ def crafted_fit(folder, fit):
     return crafted
 
 
-def run(argv, limit, timeout):
+def run(argv, limit, timeout, feeder=None):
     """``(status, seconds, peak MiB, last stderr line)`` of ``bayes-imu argv`` in a fresh, limited
-    process."""
+    process (``feeder``: a command whose output is its standard input, or that writes a FIFO)."""
 
     def limited():
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
 
     env = dict(os.environ, PYTHONPATH=str(ROOT), BAYES_IMU_OUTPUT_PROCESS="0")
+    feed = None
+    if feeder is not None:
+        feed = subprocess.Popen(feeder, stdout=subprocess.PIPE if "-" in argv else None)
     start = time.perf_counter()
     with tempfile.TemporaryFile("w+") as err:
+        stdin = feed.stdout if feed is not None and "-" in argv else subprocess.DEVNULL
         child = subprocess.Popen([sys.executable, "-m", "bayes_imu.cli", *argv], env=env,
-                                 preexec_fn=limited, stdout=subprocess.DEVNULL, stderr=err, text=True)
+                                 preexec_fn=limited, stdin=stdin, stdout=subprocess.DEVNULL,
+                                 stderr=err, text=True)
+        if feed is not None and feed.stdout is not None:
+            feed.stdout.close()  # the child holds the pipe now
         deadline = start + timeout
         while True:  # this child's own resource usage (wait4), polled until it ends or times out
             pid, status, usage = os.wait4(child.pid, os.WNOHANG)
@@ -112,6 +131,9 @@ def run(argv, limit, timeout):
                 break
             time.sleep(0.02)
         child.returncode = 0  # reaped here: keep Popen from waiting again
+        if feed is not None:
+            feed.kill()  # the feeder this function started
+            feed.wait()
         err.seek(0)
         lines = err.read().strip().splitlines()
     seconds = time.perf_counter() - start
@@ -123,11 +145,14 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--limit-gib", type=float, default=3.0)
     parser.add_argument("--timeout", type=float, default=120.0)
+    parser.add_argument("--max-mib", type=float, default=256.0,
+                        help="documented bound on a hostile case's peak resident memory (MiB)")
+    parser.add_argument("--quick", action="store_true", help="the large inputs 16x smaller")
     args = parser.parse_args()
     limit = int(args.limit_gib * 2**30)
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        inputs = build(folder)
+        inputs = build(folder, scale=16 if args.quick else 1)
         out = folder / "out"
         cases = [
             (
@@ -168,7 +193,17 @@ def main():
             ("drift", inputs["/dev/zero"], [], 2),
             ("drift", inputs["fifo.toml (no writer)"], [], 2),
             ("drift", inputs["sensor.json"], [], 0),
+            ("fit", inputs["/dev/zero"], ["--column", "0", "--rate", "100"], 2),
+            ("fit", inputs["fifo.csv (no writer)"], ["--column", "0", "--rate", "100"], 2),
+            ("allan", inputs["- (yes 0.1 |, never ends)"], ["--column", "0", "--rate", "100"], 2),
+            ("fit", inputs["endless.csv (FIFO, endless writer)"],
+             ["--column", "0", "--rate", "100"], 2),
         ]
+        feeders = {
+            inputs["- (yes 0.1 |, never ends)"]: ["yes", "0.1"],
+            inputs["endless.csv (FIFO, endless writer)"]: [
+                "sh", "-c", f"exec yes 0.1 > '{inputs['endless.csv (FIFO, endless writer)']}'"],
+        }
         print(f"address-space limit {args.limit_gib:g} GiB, time limit {args.timeout:g} s")
         print(
             f"{'command':8s} {'input':32s} {'status':>7s} {'want':>5s} {'wall s':>7s} "
@@ -179,7 +214,7 @@ def main():
             argv = [command, str(path), *extra]
             if "--out" not in argv:
                 argv += ["--out", str(out), "--force"]
-            rows.append((command, path, *run(argv, limit, args.timeout), want))
+            rows.append((command, path, *run(argv, limit, args.timeout, feeders.get(path)), want))
             if command == "fit" and want == 0:
                 crafted = crafted_fit(folder, folder / "fit")
         rows.append(
@@ -201,8 +236,14 @@ def main():
                 f"{peak:9.0f}  {message}"
             )
         bad = [r for r in rows if r[2] != r[-1]]
-        print("all as expected" if not bad else f"{len(bad)} case(s) not as expected")
-        return 1 if bad else 0
+        heavy = [r for r in rows if r[-1] == 2 and r[4] > args.max_mib]
+        hostile = [r for r in rows if r[-1] == 2]
+        print(f"hostile cases: at most {max(r[4] for r in hostile):.0f} MiB resident (bound "
+              f"{args.max_mib:g}), at most {max(r[3] for r in hostile):.1f} s (limit "
+              f"{args.timeout:g})")
+        print("all as expected" if not bad and not heavy else
+              f"{len(bad)} case(s) not as expected, {len(heavy)} above {args.max_mib:g} MiB")
+        return 1 if bad or heavy else 0
 
 
 if __name__ == "__main__":

@@ -34,7 +34,7 @@ from .estimator import assemble_result, check_options, cluster_sizes, identifica
 from ..errors import InputError
 from ..io.readers import SignalExtent
 
-__all__ = ["allan_variance_file", "BINARY_SUFFIXES"]
+__all__ = ["allan_variance_file", "head_samples", "BINARY_SUFFIXES"]
 
 BINARY_SUFFIXES = (".npy", ".bin", ".raw", ".f64", ".f32")  # not .dat: text logs use it too (PHASE.DAT)
 _TEXT = (".csv", ".tsv", ".txt", ".gz")
@@ -90,6 +90,20 @@ def allan_variance_file(path, *, rate_hz, column=None, dtype="<f8", m="octave", 
         sums = _second_difference_sums(phase_path, ms, n, chunk, bar)
     alphas = noise_from_phase_samples(id_samples, ms) if alpha is None else alpha
     return assemble_result(ms, sums, alphas, n, rate_hz, confidence, interval)
+
+
+def head_samples(path, *, column=None, dtype="<f8", n=1 << 16):
+    """The first ``n`` samples (float64, fewer in a shorter log) of a log as
+    :func:`allan_variance_file` reads it: for checks that need only the start of a log (the
+    plausibility of its units, :mod:`bayes_imu.io.plausible`), at the cost of one chunk."""
+    source = _Source(Path(path), column, dtype, max(_ALIGN, -(-int(n) // _ALIGN) * _ALIGN))
+    chunks = iter(source)
+    try:
+        for _, values in chunks:
+            return values[:n]
+        return np.empty(0)
+    finally:
+        chunks.close()
 
 
 class _Source:

@@ -22,6 +22,7 @@ import shutil
 import stat
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -305,14 +306,19 @@ def _npy_in_memory(opts, values, purpose):
     if bad.size:
         raise InputError(f"{opts.log}: sample {bad[0]} is {values[bad[0]]!r}; expected finite numbers")
     _require_samples(opts, values.size, purpose)
-    _plausible(opts, values[:, None], opts.rate, ["0"])
+    steps = _plausible(opts, values[:, None], opts.rate, ["0"])
     info = {"log": str(opts.log), "columns": ["0"], "read": "in memory", "rate_hz": opts.rate,
-            "rate_source": "--rate", "samples_used": int(values.size), "action": "all samples used"}
+            "rate_source": "--rate", "samples_used": int(values.size), "action": "all samples used",
+            **({"steps": steps} if steps else {})}
     return ["0"], values[:, None], opts.rate, info
 
 
+#: samples at the start of a log read out of core that the plausibility checks look at
+STREAMED_CHECK = 1 << 16
+
+
 def _streamed(opts, purpose, grid, progress):
-    from .outofcore import allan_variance_file
+    from .outofcore import allan_variance_file, head_samples
 
     if opts.time_column is not None or opts.time_unit is not None:
         raise InputError(f"{opts.log}: a time column is not available out of core; give rate_hz")
@@ -327,6 +333,10 @@ def _streamed(opts, purpose, grid, progress):
         for c in columns
     ]
     _require_samples(opts, results[0].n_samples, purpose)
+    heads = [head_samples(opts.log, column=None if binary else c, n=STREAMED_CHECK)
+             for c in columns]
+    size = min(h.size for h in heads)
+    steps = _plausible(opts, np.column_stack([h[:size] for h in heads]), opts.rate, columns)
     info = {
         "log": str(opts.log),
         "columns": columns,
@@ -335,6 +345,7 @@ def _streamed(opts, purpose, grid, progress):
         "rate_source": "--rate",
         "samples_used": results[0].n_samples,
         "action": "all samples used",
+        **({"steps": steps} if steps else {}),
     }
     return columns, results, info
 
@@ -371,7 +382,7 @@ def _read(opts, purpose, progress):
     )
     values = data.values[timebase.start : timebase.stop]
     _require_samples(opts, values.shape[0], purpose)
-    _plausible(opts, values, timebase.rate_hz, data.columns)
+    steps = _plausible(opts, values, timebase.rate_hz, data.columns)
     info = {
         "log": str(opts.log),
         "columns": list(data.columns),
@@ -379,33 +390,39 @@ def _read(opts, purpose, progress):
         "header": data.header,
         "read": "in memory",
         **timebase.to_json(),
+        **({"steps": steps} if steps else {}),
     }
     return data.columns, values, timebase.rate_hz, info
 
 
 def _plausible(opts, values, rate_hz, columns):
     """Warn of a step in a column, and of declared units a static log contradicts (an error where
-    no unit fits, unless ``trust_units``): :mod:`bayes_imu.io.plausible`."""
+    no unit fits, unless ``trust_units``): :mod:`bayes_imu.io.plausible`. Returns the steps found,
+    ``{column: {"sample": first sample after it (1-based), "sigmas": its size}}``, for the
+    outputs' record of what was read."""
     import warnings
 
     from ..io.plausible import PlausibilityWarning, check_units, find_step
 
+    steps = {}
     for j, column in enumerate(columns):
         step = find_step(values[:, j])
         if step is not None:
+            steps[str(column)] = {"sample": step[0] + 1, "sigmas": round(step[1], 3)}
             warnings.warn(f"{opts.log}: column {column!r}: its level steps by {step[1]:.3g} sigma "
                           f"of its noise at sample {step[0] + 1}; a step is not noise (the fit "
                           "treats it as slow drift): cut the log there, or check the sensor",
                           PlausibilityWarning, stacklevel=2)
     if opts.units is None or opts.units not in UNITS or opts.input != "rate" or opts.trust_units:
-        return
+        return steps
     found = check_units(values, opts.units, rate_hz)
     if found is None:
-        return
+        return steps
     if found.fatal:
         raise InputError(f"{opts.log}: {found}; give trust_units if the log is what it should be")
     warnings.warn(f"{opts.log}: {found} (units={opts.units} as given; trust_units silences this)",
                   PlausibilityWarning, stacklevel=2)
+    return steps
 
 
 def _require_samples(opts, n, purpose):
@@ -437,7 +454,7 @@ def _spooled(source):
             if fifo:
                 _copy_pipe(path, target)
             else:
-                shutil.copyfileobj(sys.stdin.buffer, target, 1 << 20)
+                _copy_bounded(sys.stdin.buffer.read, target, path)
         if spooled.stat().st_size == 0:
             raise InputError(
                 f"{path}: nothing was read from "
@@ -453,10 +470,14 @@ def _copy_pipe(path, target):
         path, os.O_RDONLY | os.O_NONBLOCK
     )  # never blocks; a first read tells if a writer exists
     try:
-        try:
-            first = os.read(fd, 1 << 16)
-        except BlockingIOError:  # a writer, nothing written yet: wait for it
-            first = None
+        for _ in range(WRITER_WAIT_STEPS):  # a writer blocked in open() is woken by ours: a moment
+            try:
+                first = os.read(fd, 1 << 16)
+            except BlockingIOError:  # a writer, nothing written yet: wait for it
+                first = None
+            if first != b"":
+                break
+            time.sleep(0.02)
         if first == b"":
             raise InputError(
                 f"{path}: a named pipe with no writer; start the program that writes the log first"
@@ -464,7 +485,26 @@ def _copy_pipe(path, target):
         os.set_blocking(fd, True)
         if first:
             target.write(first)
-        while chunk := os.read(fd, 1 << 20):
-            target.write(chunk)
+        _copy_bounded(lambda size: os.read(fd, size), target, path, done=len(first or b""))
     finally:
         os.close(fd)
+
+
+#: 20 ms polls for a named pipe's writer to appear (0.5 s) before "no writer" is said
+WRITER_WAIT_STEPS = 25
+
+#: most bytes spooled from standard input or a named pipe (a never-ending pipe ends here)
+MAX_SPOOL_BYTES = 2**30
+
+
+def _copy_bounded(read, target, path, done=0):
+    """``read(size)`` into ``target`` until it returns nothing, refused beyond
+    :data:`MAX_SPOOL_BYTES` (a pipe that never ends, ``yes | bayes-imu fit -``, would otherwise
+    fill the temporary folder for as long as it runs)."""
+    while chunk := read(1 << 20):
+        done += len(chunk)
+        if done > MAX_SPOOL_BYTES:
+            shown = "standard input" if str(path) == "-" else "the pipe"
+            raise InputError(f"{path}: more than {MAX_SPOOL_BYTES / 2**30:g} GiB came from {shown} "
+                             "without an end; save a log that large to a file and give its path")
+        target.write(chunk)

@@ -14,16 +14,6 @@ from ..errors import InputError
 __all__ = ["add_commands", "add_fit_options"]
 
 
-def _positive(text):
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not (np.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
-
-
 def _probability(text):
     try:
         value = float(text)
@@ -39,9 +29,13 @@ def _lengths(text):
         values = [_duration(v) for v in text.split(",") if v.strip()]
     except ValueError:
         values = []
-    if not values or not all(np.isfinite(v) and v > 0 for v in values):
+    from ..io.limits import RANGES
+
+    low, high, _ = RANGES["time_s"]
+    if not values or not all(np.isfinite(v) and low <= v <= high for v in values):
         raise argparse.ArgumentTypeError(
-            f"expected comma-separated durations (600, 10min, 4h), got {text!r}"
+            f"expected comma-separated durations (600, 10min, 4h) from {low:g} s to {high:g} s, "
+            f"got {text[:80]!r}"
         )
     return tuple(sorted(set(values)))
 
@@ -80,6 +74,7 @@ def add_commands(sub):
     """Add ``export`` and ``plan`` to the ``bayes-imu`` sub-command parser ``sub``."""
     from ..drift.plan import DEFAULT_LENGTHS_S
     from ..report.exports import FORMATS
+    from .main import _ranged, _rate_type, _seed_type, file_path
 
     export = sub.add_parser(
         "export",
@@ -97,18 +92,19 @@ def add_commands(sub):
     export.add_argument("--gyro", type=Path, nargs="+", help="fit folder(s) of gyro axes")
     export.add_argument("--accel", type=Path, nargs="+", help="fit folder(s) of accelerometer axes")
     export.add_argument("--format", required=True, choices=tuple(FORMATS), help="file format")
-    export.add_argument("--out", type=Path, required=True, help="file to write")
+    export.add_argument("--out", type=file_path, required=True, help="file to write")
     export.add_argument(
         "--overbound",
         action="store_true",
         help="write overbounding values (default: posterior medians)",
     )
     export.add_argument(
-        "--t-min", type=_positive, metavar="S", help="shortest horizon (s), default one sample"
+        "--t-min", type=_ranged("time_s"), metavar="S",
+        help="shortest horizon (s), default one sample"
     )
     export.add_argument(
         "--t-max",
-        type=_positive,
+        type=_ranged("time_s"),
         metavar="S",
         help="longest outage of interest (s), default the record's duration up to 3600",
     )
@@ -120,7 +116,7 @@ def add_commands(sub):
     )
     export.add_argument(
         "--calibration",
-        type=_positive,
+        type=_ranged("calibration_s"),
         default=60.0,
         metavar="S",
         help="seconds of bias calibration before an outage, default 60",
@@ -129,7 +125,7 @@ def add_commands(sub):
         "--topic", default="/imu0", help="rostopic (kalibr, openvins), default /imu0"
     )
     export.add_argument(
-        "--seed", type=int, default=0, help="random seed of the draws subset, default 0"
+        "--seed", type=_seed_type, default=0, help="random seed of the draws subset, default 0"
     )
     export.add_argument(
         "--force",
@@ -141,7 +137,7 @@ def add_commands(sub):
 
     plan = sub.add_parser(
         "plan",
-        help="how long to record: predicted 90% intervals versus record length",
+        help="how long to record: predicted 90%% intervals versus record length",
         description="Predict how the 90% interval of each noise parameter, and of the drift at "
         "--horizons, shrinks with record length, from a pilot fit (a short log fitted by bayes-imu "
         "fit) or from datasheet values, by the Fisher information of the Allan-variance "
@@ -161,7 +157,7 @@ def add_commands(sub):
         help="plan from datasheet values instead (JSON or TOML, as fit --datasheet); needs --rate",
     )
     plan.add_argument(
-        "--rate", type=_positive, metavar="HZ", help="with --datasheet: the log's sample rate"
+        "--rate", type=_rate_type, metavar="HZ", help="with --datasheet: the log's sample rate"
     )
     plan.add_argument(
         "--lengths",
@@ -179,7 +175,7 @@ def add_commands(sub):
     )
     plan.add_argument(
         "--calibration",
-        type=_positive,
+        type=_ranged("calibration_s"),
         default=60.0,
         metavar="S",
         help="seconds of bias calibration before an outage, default 60",
@@ -271,7 +267,8 @@ def _cmd_plan(args):
     from ..drift.plan import plan_record_length
     from ..report.output import staged_folder
     from ..report.planning import plan_csv, plot_plan
-    from .main import _say
+    from ..report.worker import draw_picture
+    from .main import _pictures_status, _say
     from .._version import __version__
 
     plans, pilot = [], None
@@ -306,7 +303,8 @@ def _cmd_plan(args):
             "axes": {label: {"rate_hz": p.rate_hz, "rows": p.rows()} for label, p in plans},
         }
         (tmp / "plan.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
-        plot_plan(
+        failure = draw_picture(  # a picture that fails costs only the picture (exit 3)
+            plot_plan,
             plans,
             tmp / "plan.png",
             pilot_s=pilot,
@@ -325,7 +323,7 @@ def _cmd_plan(args):
                 + "".join(f"{100 * np.expm1(1.6448536 * s):23.3g}%" for s in sds),
             )
     _say(args, f"wrote {args.out}/plan.csv, plan.json and plan.png")
-    return 0
+    return _pictures_status([failure])
 
 
 def _hours(seconds):

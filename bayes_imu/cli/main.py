@@ -236,7 +236,7 @@ def _build_parser():
     kalibr.add_argument("--gyro", type=Path, nargs="+", help="fit folder(s) of gyro axes")
     kalibr.add_argument("--accel", type=Path, nargs="+", help="fit folder(s) of accelerometer axes")
     kalibr.add_argument("--topic", default="/imu0", help="rostopic written into the file, default /imu0")
-    kalibr.add_argument("--out", type=Path, required=True, help="YAML file to write")
+    kalibr.add_argument("--out", type=file_path, required=True, help="YAML file to write")
     kalibr.add_argument("--credibility", type=float, default=None,
                         help="upper posterior quantile for conservative values (e.g. 0.95); default: medians")
     kalibr.add_argument("--force", action="store_true", help="replace a file bayes_imu wrote earlier (never other files)")
@@ -297,6 +297,12 @@ def _cmd_fit(args):
         raise InputError("fit: give a log to fit (or --allan-table FILE); see bayes-imu fit --help")
     elif args.samples is not None:
         raise InputError("--samples goes with --allan-table (a log's sample count is read from the log)")
+    unused = [f for f, v in (("--horizon", args.horizon != 3600.0),
+                             ("--times", args.times is not None),
+                             ("--bias-start", args.bias_start != "calibrated")) if v]
+    if unused and args.sensor is None:  # issue 37: a drift option was silently ignored
+        _warn(f"{', '.join(unused)} without --sensor: no drift is computed (give --sensor gyro "
+              "or accel)")
     return _fit(_fit_request(args), args)
 
 
@@ -426,10 +432,10 @@ def _cmd_report(args):
     staged = staged_folder(args.out, force=args.force, inputs=inputs)
     with staged as tmp, _sensor_progress(args, scene) as progress:
         report = build_report(scene, rng=args.seed, progress=progress)
-        failure = write_report(report, tmp)
+        failures = write_report(report, tmp)
     _say(args, f"ranking: {', '.join(report.ranking)} ({report.reason})")
     _say(args, f"wrote {args.out}/report.json and report.html")
-    return _pictures_status([failure])
+    return _pictures_status(failures)
 
 
 @contextlib.contextmanager
@@ -606,6 +612,13 @@ _rate_type = _checked(float, lambda v: np.isfinite(v) and RATE_RANGE[0] <= v <= 
 _positive_number = _checked(float, lambda v: np.isfinite(v) and v > 0, "a positive number")
 
 
+def file_path(text):
+    """An argparse type: the path of a file to write (``out/``, a folder, is refused: issue 37)."""
+    if text.endswith(("/", os.sep)) or Path(text).name in ("", ".", ".."):
+        raise argparse.ArgumentTypeError(f"expected a file name, got {text[:80]!r} (a folder)")
+    return Path(text)
+
+
 def _ranged(kind):
     """An argparse type: a number in :data:`bayes_imu.io.limits.RANGES` ``[kind]``."""
     low, high, unit = RANGES[kind]
@@ -724,7 +737,7 @@ _FLAGS = ((re.compile(r"\bforce=True\b"), "--force"), (re.compile(r"\bscheduler=
           (re.compile(r"\bbut rate_hz is\b"), "but --rate is"), (re.compile(r"\(is rate_hz right\?\)"), "(is --rate right?)"),
           (re.compile(r"\bgive a column\b"), "give --column"),
           (re.compile(r"\btime_unit='(\w+)'"), r"--time-unit \1"),
-          (re.compile(r"\btime_unit\b"), "--time-unit"),
+          (re.compile(r"\b(give|leave out) time_unit\b"), r"\1 --time-unit"),
           (re.compile(r"\btrust_units\b"), "--trust-units"),
           (re.compile(r"\bunits=(\S+) as given"), r"--units \1 as given"),
           (re.compile(r"\bgive rate_hz="), "give --rate "),

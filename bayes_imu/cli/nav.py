@@ -27,19 +27,20 @@ def _times(text):
         raise argparse.ArgumentTypeError(
             f"expected comma-separated times in seconds, got {text!r}"
         ) from None
-    if not values or not all(math.isfinite(v) and v > 0 for v in values):
-        raise argparse.ArgumentTypeError(f"expected positive times in seconds, got {text!r}")
+    from ..io.limits import RANGES
+
+    low, high, _ = RANGES["time_s"]
+    if not values or not all(math.isfinite(v) and low <= v <= high for v in values):
+        raise argparse.ArgumentTypeError(f"expected times from {low:g} s to {high:g} s, got "
+                                         f"{text[:80]!r}")
     return values
 
 
-def _positive(text):
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
+def _in_range(kind):
+    """An argparse type: a number in :data:`bayes_imu.io.limits.RANGES` ``[kind]`` (issue 37)."""
+    from .main import _ranged
+
+    return _ranged(kind)
 
 
 def _number_or_text(text):
@@ -102,7 +103,8 @@ def add_nav_parser(sub):
         "removed from both sensors), zero, or stationary",
     )
     nav.add_argument(
-        "--calibration", type=_positive, default=60.0, help="calibration window (s), default 60"
+        "--calibration", type=_in_range("calibration_s"), default=60.0,
+        help="calibration window (s), default 60"
     )
     nav.add_argument(
         "--no-schuler", action="store_true", help="leave the Schuler loop out (short-term forms)"
@@ -115,13 +117,13 @@ def add_nav_parser(sub):
     )
     nav.add_argument(
         "--speed",
-        type=_positive,
+        type=_in_range("speed"),
         help="vehicle speed (m/s): adds the cross-track error from the "
         "heading (gyro z) error; three-axis fits",
     )
     nav.add_argument(
         "--horizon",
-        type=_positive,
+        type=_in_range("time_s"),
         help="longest time of nav.png (s), default 2x the longest --times and at least 1200",
     )
     nav.add_argument(
@@ -173,8 +175,9 @@ def _cmd_nav(args):
         args.force,
         limit,
     )
+    failures = []  # nav.png not drawn: the numbers are kept (exit 3)
     try:
-        bands, summary = run_nav(request)
+        bands, summary = run_nav(request, failures=failures)
     except InputError as exc:  # the library names its parameters; say the flags
         text = re.sub(r"^(gyro|accel)=(\S+):", r"--\1 \2:", str(exc))
         raise InputError(
@@ -209,4 +212,8 @@ def _cmd_nav(args):
                 file=sys.stdout,
             )
         print(f"wrote {args.out}/nav.csv, nav.png, summary.json", file=sys.stdout)
-    return 0
+    from ..report.worker import PICTURE_FAILED_STATUS
+
+    for failure in failures:
+        print(f"bayes-imu: warning: {failure}", file=sys.stderr)
+    return PICTURE_FAILED_STATUS if failures else 0

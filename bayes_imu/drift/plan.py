@@ -33,9 +33,13 @@ from ..noise.avar_covariance import avar_covariance
 from .bands import DEFAULT_CALIBRATION_S
 from .closed_forms import QUANTITY_ORDER
 
-__all__ = ["PlanResult", "plan_record_length", "plan_from_fit", "DEFAULT_LENGTHS_S", "Z90"]
+__all__ = ["PlanResult", "plan_record_length", "plan_from_fit", "DEFAULT_LENGTHS_S", "Z90",
+           "MAX_PLAN_SAMPLES"]
 
 #: default record lengths: 10 min, 30 min, 1 h, 2 h, 4 h, 8 h, 24 h, 48 h [s]
+#: longest record a plan predicts, in samples (48 h at 1.5 kHz; the covariance of the Allan
+#: variance needs tables of a few bytes per sample: 1e9 s at 100 Hz asked for 512 GiB, issue 37)
+MAX_PLAN_SAMPLES = 2**28
 DEFAULT_LENGTHS_S = (600.0, 1800.0, 3600.0, 7200.0, 14400.0, 28800.0, 86400.0, 172800.0)
 #: standard normal 95% quantile (half-width of a 90% interval in sd)
 Z90 = 1.6448536269514722
@@ -187,6 +191,11 @@ def plan_record_length(
         raise InputError(
             f"lengths={lengths_s!r}: expected record lengths of at least 16 samples "
             f"({16 * model.dt:g} s)"
+        )
+    if np.any(n > MAX_PLAN_SAMPLES):  # the AVAR covariance's tables grow with the record
+        raise InputError(
+            f"lengths={tuple(lengths_s)[:8]!r}: expected records of at most "
+            f"{MAX_PLAN_SAMPLES:.4g} samples ({MAX_PLAN_SAMPLES * model.dt:.4g} s at this rate)"
         )
     horizons = np.asarray(horizons_s, float)
     if horizons.size and (

@@ -84,6 +84,8 @@ def fit_axes(folder):
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(f"{folder}: not a folder; expected a folder written by bayes-imu fit")
+    if not (folder / "summary.json").exists():  # not "folder/summary.json: no such file"
+        raise InputError(f"{folder}: no summary.json in it: not a folder written by bayes-imu fit")
     summary = read_json_object(folder / "summary.json", "a bayes-imu fit summary")
     if "axes" not in summary:
         return [(str(summary.get("column", folder.name)), folder, summary)]

@@ -14,6 +14,7 @@ calibration_s  1e-6         1e9          the bias calibration window (s)
 spread_scale   1e-3         1e3          the prior scale of the unit-to-unit spread (ln units)
 parameter      0            1e100        a noise parameter of a sensor JSON file (its units)
 time_constant  1e-9         1e15         a Gauss-Markov time constant (s); ``inf`` allowed
+speed          1e-3         1e4          a vehicle speed (m/s; ``nav --speed``)
 ============== ============ ============ ===================================================
 """
 
@@ -30,6 +31,7 @@ RANGES = {
     "spread_scale": (1e-3, 1e3, ""),
     "parameter": (0.0, 1e100, ""),
     "time_constant": (1e-9, 1e15, "s"),
+    "speed": (1e-3, 1e4, "m/s"),
 }
 
 

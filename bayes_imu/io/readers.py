@@ -494,9 +494,14 @@ def resolve_column(path, fmt, column):
         index = int(key)
     except ValueError:
         shown = excerpt(", ".join(repr(n) for n in names[:12]) + (", ..." if len(names) > 12 else ""), quoted=False)
+        import difflib
+
+        near = ([n for n in names if n.lower() == key.lower()]  # names are case-sensitive
+                or difflib.get_close_matches(key, names, n=1, cutoff=0.75))
         raise InputError(f"{path}: no column {excerpt(key, 40)}; expected one of the header names "
                          f"({shown}) "
-                         "or a 0-based column index") from None
+                         "or a 0-based column index"
+                         + (f"; did you mean {excerpt(near[0], 40)}?" if near else "")) from None
     if not 0 <= index < len(names):
         raise InputError(f"{path}: column index {index} out of range; the file has {len(names)} columns "
                          f"(0 to {len(names) - 1})")

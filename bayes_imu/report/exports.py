@@ -45,7 +45,7 @@ import numpy as np
 from .._version import __version__
 from ..drift.overbound import overbound as overbound_pair
 from ..errors import InputError
-from .kalibr import axis_densities, fit_folders
+from .kalibr import axis_densities, comment_text, fit_folders
 
 __all__ = [
     "ImuNoise",
@@ -131,7 +131,9 @@ class ExportValues:
         """Key -> written overbound over the point value (``nan`` without an overbound)."""
         if self.bound is None:
             return {k: float("nan") for k in self.point.present()}
-        return {k: v / self.point.present()[k] for k, v in self.bound.present().items()}
+        point = self.point.present()  # a term the point model lacks (0): an infinite factor
+        return {k: v / point[k] if point[k] > 0 else math.inf if v > 0 else 1.0
+                for k, v in self.bound.present().items()}
 
 
 def export_values(
@@ -337,7 +339,7 @@ def _comments(values, fmt):
             f"{sensor} bound tight at "
             + ", ".join(f"{q} {t:.4g} s ({label})" for label, q, t in rows)
         )
-    return lines
+    return [comment_text(line) for line in lines]  # labels (folder, column names) end no comment
 
 
 def render_export(values, fmt, *, topic="/imu0"):

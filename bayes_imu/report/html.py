@@ -45,10 +45,30 @@ ASSUMPTIONS = (
 )
 
 
-def _png(fig_function, *args, **kwargs):
+def _png(fig_function, *args, failures=None, name="picture", **kwargs):
+    """``fig_function(*args, buffer, **kwargs)``'s PNG as a data URI; where ``failures`` (a list)
+    is given, a picture that cannot be drawn is ``""`` and its
+    :class:`~bayes_imu.report.worker.PictureFailure` (called ``name``) is appended: the numbers of
+    the page are kept (issue 37)."""
+    from .worker import draw_picture
+
     buffer = io.BytesIO()
-    fig_function(*args, buffer, **kwargs)
+    if failures is None:
+        fig_function(*args, buffer, **kwargs)
+    else:
+        failure = draw_picture(fig_function, *args, buffer, **kwargs)
+        if failure is not None:
+            failure.name = "".join(c if c.isprintable() else "?" for c in name)
+            failures.append(failure)
+            return ""
     return _data_uri(buffer.getvalue())
+
+
+def _img(alt, uri):
+    """An ``<img>`` of a data URI, or a line saying the picture could not be drawn (``uri`` "")."""
+    if not uri:
+        return f'<p class="no-picture">{html.escape(alt)}: the picture could not be drawn.</p>'
+    return f'<img alt="{html.escape(alt)}" src="{uri}">'
 
 
 def _data_uri(png):
@@ -110,9 +130,9 @@ def _source_text(s):
     return f"{spec.kind}, {where}{axes}"
 
 
-def _sensor_section(s, cred):
+def _sensor_section(s, cred, failures=None):
     if s.fit is None:
-        return _population_section(s)
+        return _population_section(s, failures)
     from .plots import plot_allan_fit, plot_drift
 
     fit = s.fit
@@ -128,9 +148,12 @@ def _sensor_section(s, cred):
         for n, q in fit.repeatability_quantiles().items()  # what summary.json parameters prints
     )
     sheet = _datasheet_table(s)
-    allan_png = _png(lambda target: plot_allan_fit(fit, target, label=s.spec.name, unit=UNITS_SI[s.spec.kind], rng=0))
+    allan_png = _png(lambda target: plot_allan_fit(fit, target, label=s.spec.name,
+                                                   unit=UNITS_SI[s.spec.kind], rng=0),
+                     failures=failures, name=f"report.html: the Allan fit of {s.spec.name[:40]}")
     units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
-    drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=s.spec.name))
+    drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=s.spec.name),
+                     failures=failures, name=f"report.html: the drift bands of {s.spec.name[:40]}")
     conv = "converged" if d["converged"] else "NOT CONVERGED: treat with caution"
     a = fit.adequacy
     fit_check = ("adequate" if a.adequate else "INADEQUATE: the model does not describe this log"
@@ -149,8 +172,8 @@ model may be worse (list several units' logs to bound a new unit).</p>
 <p class="diagnostics">Sampler: {conv}; {rhat}{d['n_steps']} steps x {d['n_walkers']} walkers.</p>
 <table><tr><th>parameter (SI; 90% including the repeatability between the log's parts)</th>
 <th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>{sheet}
-<img alt="Allan fit of {html.escape(s.spec.name)}" src="{allan_png}">
-<img alt="drift bands of {html.escape(s.spec.name)}" src="{drift_png}">
+{_img(f"Allan fit of {s.spec.name}", allan_png)}
+{_img(f"drift bands of {s.spec.name}", drift_png)}
 </section>"""
 
 
@@ -181,7 +204,7 @@ def _datasheet_table(s):
             f'<p class="datasheet">{verdict}</p>')
 
 
-def _population_section(s):
+def _population_section(s, failures=None):
     from .plots import plot_drift, plot_population
 
     pop = s.axes[s.worst].population
@@ -195,9 +218,12 @@ def _population_section(s):
     check = ("every unit's fit adequate" if not inadequate else
              "INADEQUATE fits (intervals widened where a discrepancy was fitted): " + ", ".join(inadequate))
     sheet = _datasheet_table(s)
-    pop_png = _png(lambda target: plot_population(pop, target, unit=UNITS_SI[s.spec.kind], rng=0))
+    pop_png = _png(lambda target: plot_population(pop, target, unit=UNITS_SI[s.spec.kind], rng=0),
+                   failures=failures, name=f"report.html: the population of {s.spec.name[:40]}")
     units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
-    drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=f"{s.spec.name}: a new unit"))
+    drift_png = _png(lambda target: plot_drift(s.bands, target, units=units,
+                                               title=f"{s.spec.name}: a new unit"),
+                     failures=failures, name=f"report.html: the drift bands of {s.spec.name[:40]}")
     return f"""
 <section class="sensor" id="sensor-{html.escape(s.spec.name)}">
 <h3>{html.escape(s.spec.name)} ({html.escape(_source_text(s))})</h3>
@@ -207,19 +233,25 @@ predictive of a hierarchical fit of {len(pop.labels)} units.</p>
 {html.escape(check)}; population sampler {'converged' if pop.diagnostics['converged'] else 'NOT CONVERGED'}.</p>
 <table><tr><th>new unit (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>{sheet}
 <table><tr><th>unit-to-unit spread (ln units)</th><th>5%</th><th>median</th><th>95%</th></tr>{spread}</table>
-<img alt="population of {html.escape(s.spec.name)}" src="{pop_png}">
-<img alt="drift bands of {html.escape(s.spec.name)}" src="{drift_png}">
+{_img(f"population of {s.spec.name}", pop_png)}
+{_img(f"drift bands of {s.spec.name}", drift_png)}
 </section>"""
 
 
-def report_html(report, comparison_png=None):
-    """The self-contained HTML page as a string (``comparison_png``: the chart's PNG bytes, drawn if None)."""
+def report_html(report, comparison_png=None, *, failures=None):
+    """The self-contained HTML page as a string (``comparison_png``: the chart's PNG bytes,
+    drawn if None; ``failures``: a list collecting the pictures that could not be drawn, each
+    left out of the page, else such an error is raised)."""
     scene = report.scene
     cred = scene.credibility
     req = scene.requirement
     req_text = (f"{req['quantity']} error (1-sigma) at most {req['max_error']:.4g} {req['unit']}"
                 + (f" (given as {req['given']})" if req.get("given") else "") if req else "none")
-    comparison = _png(_comparison_figure, report) if comparison_png is None else _data_uri(comparison_png)
+    if comparison_png is None:
+        comparison = _png(_comparison_figure, report, failures=failures,
+                          name="report.html: the comparison chart")
+    else:
+        comparison = _data_uri(comparison_png) if comparison_png else ""
     bound_rows = []
     for s in report.sensors:
         for b in s.bounds:
@@ -237,7 +269,7 @@ def report_html(report, comparison_png=None):
     terms = ", ".join(t.plot_label for t in REGISTRY.values())  # each term's own name (noise.model)
     assumptions = "".join(f"<li>{html.escape(a.format(cred=cred, start=start, terms=terms))}</li>"
                           for a in ASSUMPTIONS)
-    sections = "".join(_sensor_section(s, cred) for s in report.sensors)
+    sections = "".join(_sensor_section(s, cred, failures) for s in report.sensors)
     from .._version import __version__
 
     return f"""<!DOCTYPE html>
@@ -249,7 +281,8 @@ td,th{{border:1px solid #bbb;padding:2px 8px;text-align:right}}img{{max-width:10
 <section id="scene"><h2>Scene</h2><p>GPS outages: {', '.join(f'{t:g} s' for t in scene.outages_s)}; credibility {cred:.0%};
 requirement: {html.escape(req_text)}; bias start: {scene.bias_start}; sensors: {len(report.sensors)}.</p></section>
 <section id="ranking"><h2>Ranking</h2><ol>{rank_rows}</ol><p class="reason">{html.escape(report.reason)}.</p></section>
-<section id="comparison"><h2>Bounds versus outage</h2><img alt="comparison chart" src="{comparison}"></section>
+<section id="comparison"><h2>Bounds versus outage</h2>
+{_img("comparison chart", comparison)}</section>
 <section id="bounds"><h2>Table of bounds</h2><table><tr><th>sensor</th><th>quantity</th><th>outage (s)</th>
 <th>median</th><th>{cred:.0%} bound</th><th>unit</th></tr>{''.join(bound_rows)}</table></section>
 <section id="meaning"><h2>What the bound means and assumes</h2><ul>{assumptions}</ul></section>
@@ -274,10 +307,10 @@ def write_report(report, out_dir):
     """Write ``report.json``, ``report.html`` and ``comparison.png`` into ``out_dir`` (created if
     needed).
 
-    The numbers first: ``report.json`` is written before any picture is drawn. Returns the
-    :class:`~bayes_imu.report.worker.PictureFailure` of the comparison chart where it could not be
-    drawn
-    (``comparison.png`` then absent, the page without it), else ``None``."""
+    The numbers first: ``report.json`` is written before any picture is drawn. Returns the list of
+    :class:`~bayes_imu.report.worker.PictureFailure` of the pictures that could not be drawn (the
+    comparison chart: ``comparison.png`` then absent; a picture of the page: left out of it, a line
+    saying so in its place); empty where every picture was drawn."""
     from .worker import draw_picture
 
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -286,8 +319,10 @@ def write_report(report, out_dir):
     (out_dir / "report.json").write_text(text + "\n", encoding="utf-8")
     failure = draw_picture(_comparison_figure, report, out_dir / "comparison.png")
     png = b"" if failure is not None else (out_dir / "comparison.png").read_bytes()
-    (out_dir / "report.html").write_text(report_html(report, png), encoding="utf-8")
-    return failure
+    failures = [] if failure is None else [failure]
+    page = report_html(report, png, failures=failures)
+    (out_dir / "report.html").write_text(page, encoding="utf-8")
+    return failures
 
 
 def _json_default(value):

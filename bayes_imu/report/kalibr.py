@@ -42,7 +42,7 @@ from ..io.readers import UNITS
 from ..noise.quantities import SENSORS
 
 __all__ = ["KalibrAxis", "KalibrValues", "kalibr_values", "kalibr_values_from_folders", "write_kalibr_yaml",
-           "axis_densities", "fit_folders"]
+           "axis_densities", "fit_folders", "comment_text"]
 
 _KINDS = {name: s.long_name for name, s in SENSORS.items()}
 
@@ -143,7 +143,10 @@ def fit_folders(folders, kind):
                                  "(rerun fit with --units)")
             unit_kind, factor = UNITS[unit]
             if unit_kind != kind:
-                raise InputError(f"{place}: unit {unit!r} is not a {kind} unit")
+                names = {"gyro": ("a gyro", "--gyro"), "accel": ("an accelerometer", "--accel")}
+                raise InputError(f"{place}: fitted in {unit!r}, {names[unit_kind][0]} unit; "
+                                 f"expected {names[kind][0]} fit (give this folder with "
+                                 f"{names[unit_kind][1]})")
             out.append(KalibrAxis(str(place), load_fit(place), factor))
     return out
 
@@ -153,10 +156,10 @@ def kalibr_values_from_folders(gyro_dirs=(), accel_dirs=(), *, credibility=None)
     return kalibr_values(fit_folders(gyro_dirs, "gyro"), fit_folders(accel_dirs, "accel"), credibility=credibility)
 
 
-def _comment(text):
-    """A label inside a YAML comment: every character that could end the comment line (newlines,
-    other control
-    and line-separator characters) as ``?``, so that no label injects a key."""
+def comment_text(text):
+    """A label inside a one-line comment (YAML, Python, MATLAB): every character that could end
+    the comment line (newlines, other control and line-separator characters) as ``?``, so that no
+    label injects a key or a statement."""
     return "".join(c if c.isprintable() else "?" for c in str(text))
 
 
@@ -165,7 +168,7 @@ def write_kalibr_yaml(result, path, *, topic="/imu0"):
     appear only
     in comments, sanitised (:func:`_comment`); the topic is checked to be a ROS name."""
     if not isinstance(topic, str) or not re.fullmatch(r"(/[A-Za-z][A-Za-z0-9_]*)+", topic):
-        raise InputError(f"topic={_comment(topic)[:80]!r}: expected a ROS topic name such as "
+        raise InputError(f"topic={comment_text(topic)[:80]!r}: expected a ROS topic name such as "
                          "/imu0 (letters, digits, "
                          "_ between slashes)")
     v = result.values
@@ -174,13 +177,13 @@ def write_kalibr_yaml(result, path, *, topic="/imu0"):
              + (", worst axis of each sensor" if several else "")]
     if not result.adequate:
         lines.append("# WARNING: the noise model failed its goodness-of-fit check for "
-                     + ", ".join(_comment(a) for a in result.inadequate) + " (intervals widened; "
-                                                                           "values less certain than stated)")
+                     + ", ".join(comment_text(a) for a in result.inadequate)
+                     + " (intervals widened; values less certain than stated)")
     for key in ("accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density",
                 "gyroscope_random_walk"):
         if key in v:
             if several:
-                lines.append(f"# {key} per axis: " + ", ".join(f"{_comment(label)} {value:.6e}"
+                lines.append(f"# {key} per axis: " + ", ".join(f"{comment_text(label)} {value:.6e}"
                                                                 for label, value in result.per_axis[key]))
             lines.append(f"{key}: {v[key]:.6e}")
     lines.append(f"rostopic: {topic}")

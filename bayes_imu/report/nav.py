@@ -88,8 +88,14 @@ def _named(kind, path, exc):
     return InputError(f"{kind}={text}" if text.startswith(str(path)) else f"{kind}={path}: {text}")
 
 
-def run_nav(request):
-    """Compute the bands of ``request``, write its folder; return ``(NavigationBands, summary)``."""
+def run_nav(request, *, failures=None):
+    """Compute the bands of ``request``, write its folder; return ``(NavigationBands, summary)``.
+
+    ``failures``: a list collecting the :class:`~bayes_imu.report.worker.PictureFailure` of
+    ``nav.png`` where it cannot be drawn (the numbers are written all the same); without it such
+    an error is raised."""
+    from .worker import draw_picture
+
     gyro = load_nav_fits(request.gyro, "gyro")
     accel = load_nav_fits(request.accel, "accel")
     if len(gyro) != len(accel):
@@ -141,13 +147,16 @@ def run_nav(request):
         ]
         (tmp / "nav.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
-        plot_nav(
-            bands,
-            tmp / "nav.png",
-            marks=bands.t_s[picked],
-            title=f"{Path(request.gyro).name} + {Path(request.accel).name}",
-            record_s=min(f.record_s for f in gyro + accel),
-        )
+        picture = {
+            "marks": bands.t_s[picked],
+            "title": f"{Path(request.gyro).name} + {Path(request.accel).name}",
+            "record_s": min(f.record_s for f in gyro + accel),
+        }
+        if failures is None:
+            plot_nav(bands, tmp / "nav.png", **picture)
+        else:
+            failure = draw_picture(plot_nav, bands, tmp / "nav.png", **picture)
+            failures.extend([] if failure is None else [failure])
     return bands, summary
 
 
@@ -226,7 +235,7 @@ def plot_nav(
     the logs' length marked. Terms with posterior probability below ``min_probability``, or below
     ``min_share`` of the median total at every time, are listed, not drawn; times from ``t_min``
     [s]."""
-    from .plots import pyplot
+    from .plots import plain_text, pyplot
 
     plt = pyplot()
     names = ("tilt", "velocity", "position")
@@ -352,7 +361,7 @@ def plot_nav(
             fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=2, frameon=False
         )
     if title:
-        fig.suptitle(f"free-inertial navigation error: {title}")
+        fig.suptitle(f"free-inertial navigation error: {plain_text(title)}")
     # fixed margins (the legends hang below the axes): tight_layout measures every tick label of
     # the many-decade log axes, a third of the figure's time
     fig.subplots_adjust(left=0.045, right=0.99, top=0.91, bottom=0.35, wspace=0.2)

@@ -5,7 +5,7 @@ import numpy as np
 from ..drift.plan import Z90
 from ..noise.model import PARAMETER_LABELS
 
-__all__ = ["plot_plan", "plan_csv"]
+__all__ = ["plot_plan", "plan_csv", "csv_field"]
 
 
 def _half_width_percent(log_sd):
@@ -21,7 +21,7 @@ def plot_plan(plans, path, *, title="", pilot_s=None):
     """
     from matplotlib.ticker import FixedLocator, FuncFormatter, LogLocator, NullFormatter
 
-    from .plots import pyplot
+    from .plots import plain_text, pyplot
 
     plt = pyplot()
     with_drift = any(p.horizons_s.size for _, p in plans)
@@ -31,7 +31,7 @@ def plot_plan(plans, path, *, title="", pilot_s=None):
     styles = ["-", "--", ":"]
     for a, (label, plan) in enumerate(plans):
         hours = plan.lengths_s / 3600.0
-        prefix = f"{label}: " if len(plans) > 1 else ""
+        prefix = f"{plain_text(label)}: " if len(plans) > 1 else ""
         for j, name in enumerate(plan.names):
             axes[0, 0].plot(
                 hours,
@@ -82,7 +82,8 @@ def plot_plan(plans, path, *, title="", pilot_s=None):
         ax.grid(True, which="major", alpha=0.3)
         ax.legend(fontsize=7.5, loc="upper right")
     fig.suptitle(
-        title or "Predicted 90% intervals versus record length (Fisher information)", fontsize=11
+        plain_text(title) or "Predicted 90% intervals versus record length (Fisher information)",
+        fontsize=11,
     )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -105,7 +106,18 @@ def plan_csv(plans):
     for label, plan in plans:
         for r in plan.rows():
             lines.append(
-                f"{label},{r['length_s']:.9g},{r['what']},{r['value']:.9g},{r['q05']:.9g},"
+                f"{csv_field(label)},{r['length_s']:.9g},{r['what']},{r['value']:.9g},"
+                f"{r['q05']:.9g},"
                 f"{r['q95']:.9g},{r['width90']:.6g}"
             )
     return "\n".join(lines) + "\n"
+
+
+def csv_field(text):
+    """``text`` as one CSV field (RFC 4180): quoted, its quotes doubled, where it holds a comma, a
+    quote, a line break or another unprintable character, or starts or ends with a space (a column
+    named ``a,b``, or one with a newline, stays one field of one row)."""
+    text = str(text)
+    if any(c in ',"' or not c.isprintable() for c in text) or text != text.strip():
+        return '"' + text.replace('"', '""') + '"'
+    return text

@@ -607,9 +607,11 @@ def _saved_axes(folder, spec, where):
         for axis, place, summary in fit_axes(folder):
             unit = summary.get("unit")
             if unit != spec.units:
-                raise InputError(f"{place}: fitted in {_excerpt(unit)}; a {spec.kind} report "
-                                 f"needs a fit in {spec.units} "
-                                 f"(run bayes-imu fit with --units)")
+                other = {"rad/s": "gyro", "m/s^2": "accel"}.get(unit)
+                hint = (f"it is a {other} fit: is kind = {spec.kind!r} right?" if other
+                        else "run bayes-imu fit with --units")
+                raise InputError(f"{place}: fitted in {_excerpt(unit)}; kind = {spec.kind!r} "
+                                 f"needs a fit in {spec.units} ({hint})")
             out.append((axis, load_fit(place)))
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None

@@ -48,17 +48,20 @@ PICTURE_FAILED_STATUS = 3
 class PictureFailure:
     """A picture that could not be drawn: its file name and the error, in one sanitised line."""
 
-    def __init__(self, path, error):
+    def __init__(self, path, error, name=None):
         self.path = str(path)
         text = str(error).strip().splitlines()
         line = f"{type(error).__name__}: {text[0] if text else ''}"
         line = "".join(c if c.isprintable() else "?" for c in line)
         self.message = line if len(line) <= 160 else line[:157] + "..."
+        #: what the picture is, where it has no file of its own (one embedded in report.html)
+        self.name = None if name is None else "".join(c if c.isprintable() else "?" for c in name)
 
     def __str__(self):
         import os.path
 
-        return f"{os.path.basename(self.path)} was not drawn ({self.message}); the numbers were written"
+        shown = self.name or os.path.basename(self.path)
+        return f"{shown} was not drawn ({self.message}); the numbers were written"
 
 
 def draw_picture(fn, *args, **kwargs):
@@ -69,7 +72,7 @@ def draw_picture(fn, *args, **kwargs):
     exits and a full disk still stop the run."""
     import errno
 
-    path = kwargs.get("path", args[1] if len(args) > 1 else "picture")
+    path = kwargs.get("path", args[1] if len(args) > 1 else None)  # or a buffer: nothing to remove
     try:
         fn(*args, **kwargs)
     except Exception as exc:
@@ -80,7 +83,7 @@ def draw_picture(fn, *args, **kwargs):
                 os.unlink(path)
             except OSError:
                 pass
-        return PictureFailure(path, exc)
+        return PictureFailure("picture" if path is None else path, exc)
     return None
 
 
