@@ -21,13 +21,27 @@ accelerometer x and the tilt about y, gyro y) and along y (accelerometer y, gyro
 two-dimensional normal mixture. ``speed`` adds the cross-track error of a vehicle moving at
 that speed from the heading error (the vertical gyro z, no Schuler coupling): ``V`` times the
 double integral of the gyro z error.
+
+What the record measures (``honest=True``, the default): a fit of a log read in memory keeps the
+calibrated order-1 drift its own record shows (:mod:`bayes_imu.drift.direct`): a gyro's tilt, an
+accelerometer's velocity, model-free, for outages up to about half the record. Where that
+interval reaches outside the model's band, the drift bands are widened to contain it; the
+navigation bands inherit the same widening, sensor by sensor: each quantile's factor
+``f_s(t) = honest / model`` of sensor ``s`` (``<= 1`` below the median, ``>= 1`` above) is
+carried forward in time as its running extreme over the measured outages up to ``t`` (a
+navigation error at ``t`` integrates the sensor's error over the whole outage, so a misfit the
+record shows at a shorter horizon bears on it), and the band of a quantity is scaled by
+``sqrt(sum_s share_s f_s^2)``, ``share_s`` the sensor's share of the median variance. The
+predictive bound is scaled by the largest upper factor. Beyond what the record measures the
+last factor is kept (the model's extrapolation, widened as it was at the record's end).
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, default_times, model_draws
+from .bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, default_times, drift_bands, model_draws
+from .direct import direct_contrasts
 from .navigation import EARTH_RADIUS, GRAVITY, QUANTITIES, QUANTITY_UNITS, NavLoop
 from ..errors import InputError
 from ..noise import BIAS_STARTS, TERMS
@@ -113,6 +127,7 @@ class NavigationBands:
     radius: float = EARTH_RADIUS
     speed: float = float("nan")
     n_draws: int = 0
+    measured_s: float = float("nan")
 
     def within(self, name, max_error):
         """Longest listed outage [s] whose ``bound`` of ``name`` is <= ``max_error`` (0: none)."""
@@ -249,6 +264,79 @@ def _median(v):
     return np.median(np.sqrt(v[has]), axis=0)
 
 
+#: the order-1 drift each sensor's record measures (the gyro's tilt, the accelerometer's velocity)
+_MEASURED = {"gyro": "attitude", "accel": "velocity"}
+
+
+def record_factors(fit, kind, t, q, *, bias_start, calibration_s, models="averaged", rng=None,
+                   max_draws=1000):
+    """``((n_q, n_t) factors, measured_s)``: how far the record's own interval widens one sensor's
+    band (module docstring); ones, and ``nan``, where the record measures nothing.
+
+    ``fit`` a gyro (``kind="gyro"``, its tilt) or an accelerometer (``"accel"``, its velocity);
+    the factors are ``honest / model`` of :func:`bayes_imu.drift.bands.drift_bands` at the
+    record's own outage grid and at ``t``, ``<= 1`` for ``q < 1/2``, ``>= 1`` above, 1 at the
+    median, as running extremes over the measured outages up to each ``t``.
+    """
+    q = np.asarray(q, float)
+    t = np.asarray(t, float)
+    ones = np.ones((q.size, t.size))
+    contrasts = direct_contrasts(fit, _MEASURED[kind], bias_start, calibration_s)
+    if contrasts is None:
+        return ones, float("nan")
+    grid = np.unique(np.concatenate([contrasts.t_s, t[contrasts.covers(t)]]))
+    bands = drift_bands(fit, grid, quantity=_MEASURED[kind], bias_start=bias_start,
+                        calibration_s=calibration_s, models=models, quantiles=q, rng=rng,
+                        max_draws=max_draws)
+    if bands.model_total is None:
+        return ones, float("nan")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(bands.model_total > 0, bands.total / bands.model_total, 1.0)
+    low, high = (q < 0.5)[:, None], (q > 0.5)[:, None]
+    ratio = np.where(low, np.minimum(ratio, 1.0), np.where(high, np.maximum(ratio, 1.0), 1.0))
+    ratio = np.where(low, np.minimum.accumulate(ratio, axis=1), np.maximum.accumulate(ratio, axis=1))
+    at = np.searchsorted(bands.t_s, t * (1.0 + 1e-12), side="right") - 1
+    out = np.where(at[None, :] >= 0, ratio[:, np.maximum(at, 0)], 1.0)
+    return out, float(bands.measured_s)
+
+
+def _widen(quantity, parts):
+    """``quantity`` with its band scaled by the share-weighted factors of ``parts`` (``[(median
+    variance (n_t,), factors (n_q, n_t))]``) and its bound by the largest upper factor."""
+    var = np.array([v for v, _ in parts])
+    share = var / np.maximum(var.sum(axis=0), 1e-300)
+    factors = np.sqrt(np.einsum("st,sqt->qt", share, np.array([f for _, f in parts]) ** 2))
+    upper = np.max(factors, axis=0)
+    return replace(quantity, sigma=quantity.sigma * factors, bound=quantity.bound * upper)
+
+
+def _honest(out, fits, medians, t, q, rng, **options):
+    """The quantities of ``out`` widened by what the records measure (:func:`record_factors`);
+    ``(out, longest measured outage [s] or nan)``."""
+    kinds = ["gyro"] * (len(fits) // 2) + ["accel"] * (len(fits) // 2)
+    seeds = rng.integers(2**63, size=len(fits))
+    found = [record_factors(f, kind, t, q, rng=int(seed), **options)
+             for f, kind, seed in zip(fits, kinds, seeds)]
+    measured = [m for _, m in found if np.isfinite(m)]
+    if not measured:
+        return out, float("nan")
+    factors = {i: f for i, (f, _) in enumerate(found)}
+    factors["heading"] = factors.get(2)
+    if len(fits) == 2:
+        members = {name: (0, 1) for name in out}
+    else:  # channel x: gyro y (1), accelerometer x (3); channel y: gyro x (0), accelerometer y (4)
+        channel = {"_x": (1, 3), "_y": (0, 4)}
+        members = {name: channel.get(name[-2:], (0, 1, 3, 4)) for name in out}
+        members["cross_track"] = ("heading",)
+    column = {name: QUANTITIES.index(name.split("_")[0]) for name in out if name != "cross_track"}
+    column["cross_track"] = 2
+    widened = {
+        name: _widen(quantity, [(medians[i][:, column[name]], factors[i]) for i in members[name]])
+        for name, quantity in out.items()
+    }
+    return widened, float(min(measured))
+
+
 def _check(gyro, accel, bias_start, models, calibration_s, speed):
     if bias_start not in BIAS_STARTS:
         raise InputError(f"bias_start={bias_start!r}: expected one of {', '.join(BIAS_STARTS)}")
@@ -295,6 +383,7 @@ def navigation_bands(
     radius=EARTH_RADIUS,
     rng=None,
     segment_spread=True,
+    honest=True,
 ):
     """Posterior of the horizontal navigation error during an outage (module docstring).
 
@@ -326,6 +415,10 @@ def navigation_bands(
     segment_spread : bool
         Widen a sensor flagged non-stationary by the spread between the parts of its log, as
         the drift bands do (:func:`bayes_imu.drift.bands.drift_draws`).
+    honest : bool
+        Widen the bands by what each sensor's record measures of its own drift
+        (:func:`record_factors`, module docstring); fits without a record (an Allan table, a
+        population's new unit, another calibration window) are the model's alone.
 
     Returns
     -------
@@ -350,9 +443,13 @@ def navigation_bands(
     n = min([max_draws] + [sum(s.shape[0] for _, s in model_draws(f, models)) for f in fits])
     picked = [_pick(f, models, n, rng) for f in fits]
 
-    def sensor(i, loop, factor=1.0):
+    medians = {}
+
+    def sensor(i, loop, factor=1.0, key=None):
         total, terms = _sensor_variance(picked[i], loop, k, factor=factor, **kw)
-        return (_segment_spread(fits[i], total, k * dt, rng) if segment_spread else total), terms
+        total = _segment_spread(fits[i], total, k * dt, rng) if segment_spread else total
+        medians[i if key is None else key] = np.median(total, axis=0)
+        return total, terms
 
     q = np.asarray(quantiles, float)
     kw = {"bias_start": bias_start, "n_cal": n_cal}
@@ -391,9 +488,13 @@ def navigation_bands(
             heading = NavLoop(
                 "accel", False, g, radius
             )  # y' = V psi, psi' = w_z: V w_z integrated twice
-            vz, tz = sensor(2, heading, float(speed) ** 2)
+            vz, tz = sensor(2, heading, float(speed) ** 2, key="heading")
             zero = np.zeros_like(vz)
             out["cross_track"] = _quantity("cross_track", "m", vz, zero, tz, {}, q, credibility, 2)
+    measured = float("nan")
+    if honest:
+        out, measured = _honest(out, fits, medians, k * dt, q, rng, bias_start=bias_start,
+                                calibration_s=calibration_s, models=models, max_draws=max_draws)
     cal = float(calibration_s) if bias_start == "calibrated" else float("nan")
     return NavigationBands(
         k * dt,
@@ -408,6 +509,7 @@ def navigation_bands(
         float(radius),
         float("nan") if speed is None else float(speed),
         int(n),
+        measured,
     )
 
 
