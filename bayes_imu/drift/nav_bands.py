@@ -53,8 +53,11 @@ __all__ = [
     "nav_times",
     "predictive_bound",
     "longest_outage",
+    "STATISTICS",
 ]
 
+#: what a requirement bounds: the predictive error bound, or the credible bound on the 1-sigma error
+STATISTICS = ("bound", "sigma")
 _BISECTIONS = 60
 _ANGLES = 64  # trapezoid points over the half period of the radial CDF's angle integral
 
@@ -129,12 +132,22 @@ class NavigationBands:
     n_draws: int = 0
     measured_s: float = float("nan")
 
-    def within(self, name, max_error):
-        """Longest listed outage [s] whose ``bound`` of ``name`` is <= ``max_error`` (0: none)."""
-        bound = self.quantities[name].bound
+    def within(self, name, max_error, statistic="bound"):
+        """Longest listed outage [s] whose ``bound`` of ``name`` is <= ``max_error`` (0: none);
+        ``statistic="sigma"``: its highest 1-sigma quantile instead (the credible bound on the
+        1-sigma error)."""
+        bound = self.statistic(name, statistic)
         bad = np.flatnonzero(bound > max_error)
         ok = self.t_s[: bad[0]] if bad.size else self.t_s
         return float(ok[-1]) if ok.size else 0.0
+
+    def statistic(self, name, statistic="bound"):
+        """``(n_t,)``: the predictive error bound of ``name`` (``"bound"``) or the highest
+        quantile of its 1-sigma band (``"sigma"``)."""
+        if statistic not in STATISTICS:
+            raise InputError(f"statistic={statistic!r}: expected one of {', '.join(STATISTICS)}")
+        q = self.quantities[name]
+        return q.bound if statistic == "bound" else q.sigma[-1]
 
 
 def nav_times(dt, times=(), horizon_s=None, n=30):
@@ -514,9 +527,18 @@ def navigation_bands(
 
 
 def longest_outage(
-    gyro_fit, accel_fit, max_error, *, quantity="position", horizon_s=None, refine=24, **options
+    gyro_fit,
+    accel_fit,
+    max_error,
+    *,
+    quantity="position",
+    horizon_s=None,
+    refine=24,
+    statistic="bound",
+    **options,
 ):
-    """Longest outage [s] whose predictive error bound of ``quantity`` stays <= ``max_error``.
+    """Longest outage [s] whose predictive error bound of ``quantity`` stays <= ``max_error``
+    (``statistic="sigma"``: the highest quantile of the 1-sigma band, :meth:`NavigationBands.within`).
 
     The bound is evaluated on :func:`nav_times` up to ``horizon_s``, then on ``refine`` whole-sample
     times between the last listed time within the requirement and the first beyond it; ``options``
@@ -530,7 +552,7 @@ def longest_outage(
     coarse = navigation_bands(gyro_fit, accel_fit, nav_times(dt, (), horizon_s), **options)
     if quantity not in coarse.quantities:
         raise InputError(f"quantity={quantity!r}: expected one of {', '.join(coarse.quantities)}")
-    bound = coarse.quantities[quantity].bound
+    bound = coarse.statistic(quantity, statistic)
     over = np.flatnonzero(bound > max_error)
     if not over.size:
         return float(coarse.t_s[-1])
@@ -539,4 +561,4 @@ def longest_outage(
     lo, hi = coarse.t_s[over[0] - 1], coarse.t_s[over[0]]
     fine = np.unique(np.round(np.linspace(lo, hi, refine + 2) / dt)) * dt
     bands = navigation_bands(gyro_fit, accel_fit, fine, **options)
-    return bands.within(quantity, max_error)
+    return bands.within(quantity, max_error, statistic)

@@ -18,6 +18,7 @@ import numpy as np
 from ..drift.bands import SENSOR_QUANTITIES
 from ..io.readers import SI_UNITS as UNITS_SI
 from .scene import MAX_SEARCH_S, OUTPUT_UNITS
+from .scene_nav import navigation_section
 
 
 __all__ = ["write_report", "report_html"]
@@ -59,7 +60,17 @@ def _comparison_figure(report, target):
 
     plt = pyplot()
     quantities = [q for q in OUTPUT_UNITS if any(q in SENSOR_QUANTITIES[s.spec.kind] for s in report.sensors)]
-    fig, axes = plt.subplots(1, len(quantities), figsize=(6 * len(quantities), 4.3), squeeze=False)
+    rows, cols = (2, max(len(quantities), 3)) if report.imus else (1, len(quantities))
+    fig, axes = plt.subplots(rows, cols, figsize=(6 * cols, 4.3 * rows + (1.2 if report.imus else 0)),
+                             squeeze=False)
+    if report.imus:
+        from .scene_nav import draw_imu_panels
+
+        for ax in axes[0][len(quantities):]:
+            ax.set_visible(False)
+        for ax in axes[1][3:]:
+            ax.set_visible(False)
+        draw_imu_panels(report, *axes[1][:3])
     for ax, quantity in zip(axes[0], quantities):
         for i, s in enumerate(report.sensors):
             band = next((b for b in s.bands if b.quantity == quantity), None)
@@ -246,6 +257,7 @@ td,th{{border:1px solid #bbb;padding:2px 8px;text-align:right}}img{{max-width:10
 requirement: {html.escape(req_text)}; bias start: {scene.bias_start}; sensors: {len(report.sensors)}.</p></section>
 <section id="ranking"><h2>Ranking</h2><ol>{rank_rows}</ol><p class="reason">{html.escape(report.reason)}.</p></section>
 <section id="comparison"><h2>Bounds versus outage</h2><img alt="comparison chart" src="{comparison}"></section>
+{navigation_section(report)}
 <section id="bounds"><h2>Table of bounds</h2><table><tr><th>sensor</th><th>quantity</th><th>outage (s)</th>
 <th>median</th><th>{cred:.0%} bound</th><th>unit</th></tr>{''.join(bound_rows)}</table></section>
 <section id="meaning"><h2>What the bound means and assumes</h2><ul>{assumptions}</ul></section>
