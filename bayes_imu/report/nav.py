@@ -17,7 +17,15 @@ from ..errors import InputError
 from .._version import __version__
 from .output import staged_folder
 
-__all__ = ["NavRequest", "load_nav_fits", "run_nav", "plot_nav", "plot_horizon", "CSV_COLUMNS"]
+__all__ = [
+    "NavRequest",
+    "load_nav_fits",
+    "run_nav",
+    "plot_nav",
+    "plot_horizon",
+    "format_length",
+    "CSV_COLUMNS",
+]
 
 #: nav.csv: the 90 % band of the 1-sigma error, its unit, then the predictive 95 % error bound
 CSV_COLUMNS = ("t_s", "quantity", "q05", "q50", "q95", "unit", "bound95")
@@ -150,6 +158,28 @@ def run_nav(request):
             t_max=plot_horizon(times, request.horizon_s),
         )
     return bands, summary
+
+
+def format_length(metres):
+    """A length for people: ``"17.4 km"``, ``"156 m"``, ``"1.30 m"``, ``"0.197 m"``, ``"4.2 mm"``
+    (three significant digits, no exponent from a millimetre to 1e6 km)."""
+    m = float(metres)
+    if not np.isfinite(m):
+        return f"{m} m"
+    size = abs(m)
+    if float(f"{size:.3g}") >= 1000.0:
+        km = m / 1000.0
+        return f"{km:,.0f} km" if abs(km) >= 999.5 else f"{_three(km)} km"
+    if size >= 0.01 or size == 0.0:
+        return f"{_three(m)} m"
+    return f"{_three(m * 1000.0)} mm" if size >= 1e-6 else f"{m:.3g} m"
+
+
+def _three(x):
+    """``x`` to three significant digits in fixed notation (``x`` from 1e-3 to 999.5)."""
+    x = float(f"{x:.3g}")  # rounded first: 999.6 is 1000, three digits "1.00e3"
+    digits = max(0, 2 - int(np.floor(np.log10(abs(x))))) if x else 2
+    return f"{x:.{digits}f}"
 
 
 def plot_horizon(times, horizon_s=None):
