@@ -30,7 +30,8 @@ navigation bands inherit the same widening, sensor by sensor: each quantile's fa
 ``f_s(t) = honest / model`` of sensor ``s`` (``<= 1`` below the median, ``>= 1`` above) is
 carried forward in time as its running extreme over the measured outages up to ``t`` (a
 navigation error at ``t`` integrates the sensor's error over the whole outage, so a misfit the
-record shows at a shorter horizon bears on it), and the band of a quantity is scaled by
+record shows at a shorter horizon bears on it; interpolated in log time between the record's
+outages), and the band of a quantity is scaled by
 ``sqrt(sum_s share_s f_s^2)``, ``share_s`` the sensor's share of the median variance. The
 predictive bound is scaled by the largest upper factor. Beyond what the record measures the
 last factor is kept (the model's extrapolation, widened as it was at the record's end).
@@ -281,36 +282,57 @@ def _median(v):
 _MEASURED = {"gyro": "attitude", "accel": "velocity"}
 
 
-def record_factors(fit, kind, t, q, *, bias_start, calibration_s, models="averaged", rng=None,
+def record_factors(fit, kind, t, q, *, bias_start, calibration_s, models="averaged",
                    max_draws=1000):
     """``((n_q, n_t) factors, measured_s)``: how far the record's own interval widens one sensor's
     band (module docstring); ones, and ``nan``, where the record measures nothing.
 
-    ``fit`` a gyro (``kind="gyro"``, its tilt) or an accelerometer (``"accel"``, its velocity);
-    the factors are ``honest / model`` of :func:`bayes_imu.drift.bands.drift_bands` at the
-    record's own outage grid and at ``t``, ``<= 1`` for ``q < 1/2``, ``>= 1`` above, 1 at the
-    median, as running extremes over the measured outages up to each ``t``.
+    ``fit`` a gyro (``kind="gyro"``, its tilt) or an accelerometer (``"accel"``, its velocity).
+    The factors ``honest / model`` of :func:`bayes_imu.drift.bands.drift_bands` (``max_draws``
+    draws, a fixed seed: the same fit gets the same factors in every call) are taken on the
+    record's own outage grid, ``<= 1`` for ``q < 1/2``, ``>= 1`` above, 1 at the median, as running
+    extremes over the grid; at ``t`` they are interpolated in log time (1 before the grid's first
+    outage, the last value beyond it). The grid's factors are memoised per fit.
     """
     q = np.asarray(q, float)
     t = np.asarray(t, float)
-    ones = np.ones((q.size, t.size))
+    key = (id(fit), kind, tuple(q), bias_start, float(calibration_s), models, max_draws)
+    hit = _FACTORS.get(key)
+    if hit is None or hit[0] is not fit:
+        hit = (fit, *_grid_factors(fit, kind, q, bias_start, calibration_s, models, max_draws))
+        _FACTORS[key] = hit
+        while len(_FACTORS) > _FACTORS_KEPT:
+            _FACTORS.pop(next(iter(_FACTORS)))
+    _, grid, ratio, measured = hit
+    if grid is None:
+        return np.ones((q.size, t.size)), float("nan")
+    inside = t >= grid[0]
+    log_t = np.log(np.where(inside, t, grid[0]))
+    out = np.array([np.interp(log_t, np.log(grid), r) for r in ratio])
+    return np.where(inside[None, :], out, 1.0), measured
+
+
+#: memo of :func:`record_factors`: key -> (fit, grid, factors, measured_s); the newest kept
+_FACTORS = {}
+_FACTORS_KEPT = 16
+
+
+def _grid_factors(fit, kind, q, bias_start, calibration_s, models, max_draws):
+    """``(grid [s], (n_q, n_grid) running-extreme factors, measured_s)`` or ``(None, None, nan)``."""
     contrasts = direct_contrasts(fit, _MEASURED[kind], bias_start, calibration_s)
     if contrasts is None:
-        return ones, float("nan")
-    grid = np.unique(np.concatenate([contrasts.t_s, t[contrasts.covers(t)]]))
-    bands = drift_bands(fit, grid, quantity=_MEASURED[kind], bias_start=bias_start,
-                        calibration_s=calibration_s, models=models, quantiles=q, rng=rng,
+        return None, None, float("nan")
+    bands = drift_bands(fit, contrasts.t_s, quantity=_MEASURED[kind], bias_start=bias_start,
+                        calibration_s=calibration_s, models=models, quantiles=q, rng=0,
                         max_draws=max_draws)
     if bands.model_total is None:
-        return ones, float("nan")
+        return None, None, float("nan")
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(bands.model_total > 0, bands.total / bands.model_total, 1.0)
     low, high = (q < 0.5)[:, None], (q > 0.5)[:, None]
     ratio = np.where(low, np.minimum(ratio, 1.0), np.where(high, np.maximum(ratio, 1.0), 1.0))
     ratio = np.where(low, np.minimum.accumulate(ratio, axis=1), np.maximum.accumulate(ratio, axis=1))
-    at = np.searchsorted(bands.t_s, t * (1.0 + 1e-12), side="right") - 1
-    out = np.where(at[None, :] >= 0, ratio[:, np.maximum(at, 0)], 1.0)
-    return out, float(bands.measured_s)
+    return bands.t_s, ratio, float(bands.measured_s)
 
 
 def _widen(quantity, parts):
@@ -323,13 +345,11 @@ def _widen(quantity, parts):
     return replace(quantity, sigma=quantity.sigma * factors, bound=quantity.bound * upper)
 
 
-def _honest(out, fits, medians, t, q, rng, **options):
+def _honest(out, fits, medians, t, q, **options):
     """The quantities of ``out`` widened by what the records measure (:func:`record_factors`);
     ``(out, longest measured outage [s] or nan)``."""
     kinds = ["gyro"] * (len(fits) // 2) + ["accel"] * (len(fits) // 2)
-    seeds = rng.integers(2**63, size=len(fits))
-    found = [record_factors(f, kind, t, q, rng=int(seed), **options)
-             for f, kind, seed in zip(fits, kinds, seeds)]
+    found = [record_factors(f, kind, t, q, **options) for f, kind in zip(fits, kinds)]
     measured = [m for _, m in found if np.isfinite(m)]
     if not measured:
         return out, float("nan")
@@ -506,7 +526,7 @@ def navigation_bands(
             out["cross_track"] = _quantity("cross_track", "m", vz, zero, tz, {}, q, credibility, 2)
     measured = float("nan")
     if honest:
-        out, measured = _honest(out, fits, medians, k * dt, q, rng, bias_start=bias_start,
+        out, measured = _honest(out, fits, medians, k * dt, q, bias_start=bias_start,
                                 calibration_s=calibration_s, models=models, max_draws=max_draws)
     cal = float(calibration_s) if bias_start == "calibrated" else float("nan")
     return NavigationBands(
