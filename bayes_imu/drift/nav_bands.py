@@ -555,6 +555,7 @@ def longest_outage(
     horizon_s=None,
     refine=24,
     statistic="bound",
+    coarse=None,
     **options,
 ):
     """Longest outage [s] whose predictive error bound of ``quantity`` stays <= ``max_error``
@@ -562,14 +563,17 @@ def longest_outage(
 
     The bound is evaluated on :func:`nav_times` up to ``horizon_s``, then on ``refine`` whole-sample
     times between the last listed time within the requirement and the first beyond it; ``options``
-    go to :func:`navigation_bands` (the same ``rng`` gives the same draws on both grids). Returns
+    go to :func:`navigation_bands` (the same ``rng`` gives the same draws on both grids);
+    ``coarse``, bands already computed with the same options on an increasing grid from one sample
+    to the horizon (:func:`nav_times` with any times added), replaces the first grid. Returns
     ``0.0`` when even one sample exceeds it and the horizon when it is never exceeded.
     """
     if not (np.isfinite(max_error) and max_error > 0):
         raise InputError(f"max_error={max_error!r}: expected a positive amount in SI units")
     gyro = _as_axes(gyro_fit, "gyro_fit")
     dt = gyro[0].model.dt
-    coarse = navigation_bands(gyro_fit, accel_fit, nav_times(dt, (), horizon_s), **options)
+    if coarse is None:
+        coarse = navigation_bands(gyro_fit, accel_fit, nav_times(dt, (), horizon_s), **options)
     if quantity not in coarse.quantities:
         raise InputError(f"quantity={quantity!r}: expected one of {', '.join(coarse.quantities)}")
     bound = coarse.statistic(quantity, statistic)

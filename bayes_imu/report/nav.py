@@ -127,7 +127,7 @@ def run_nav(request):
     summary = _summary(bands, request, rows, gyro, accel)
     if request.max_position_m is not None:
         longest = longest_outage(
-            *pair, request.max_position_m, horizon_s=request.horizon_s, **options
+            *pair, request.max_position_m, horizon_s=request.horizon_s, coarse=bands, **options
         )
         summary["requirement"] = {
             "quantity": "position",

@@ -287,6 +287,7 @@ def imu_reports(scene, sensor_reports, rng):
                 quantity=req["quantity"],
                 horizon_s=horizon,
                 statistic=req["statistic"],
+                coarse=bands,
                 **options,
             )
         except InputError as exc:
