@@ -43,7 +43,6 @@ from ..drift.closed_forms import SI_OUTPUT_UNITS
 from ..io.limits import RANGES, check_range
 from ..io.readers import INCREMENT_UNITS, SI_UNITS, UNITS, read_text
 from ..io.timebase import GAP_POLICIES, TIME_UNITS, check_rate
-from .scene_nav import imu_reports, navigation_json, rank_imus, read_navigation
 
 __all__ = ["Scene", "SensorSpec", "SensorReport", "Report", "read_scene", "build_report", "distinct_units",
            "OUTPUT_UNITS"]
@@ -219,6 +218,8 @@ class Report:
                "models": "averaged over the candidate models by posterior probability", "sensors": out,
                "ranking": list(self.ranking), "ranking_reason": self.reason, "bayes_imu_version": __version__}
         if self.scene.navigation is not None:
+            from .scene_nav import navigation_json
+
             doc["navigation"] = navigation_json(self)
         return doc
 
@@ -353,6 +354,8 @@ def read_scene(path, *, allow_outside=False):
     names = [s.name for s in specs]
     if len(set(names)) != len(names):
         raise InputError(f"{path}: sensor names must be unique, got {names}")
+    from .scene_nav import read_navigation
+
     navigation, imus = read_navigation(doc, path, {s.name: s.kind for s in specs}, float(cred))
     return Scene(str(scene.get("name", path.stem)), tuple(float(v) for v in outages), float(cred), tuple(specs),
                  requirement, bias_start, str(path), float(calibration), navigation, imus)
@@ -570,6 +573,8 @@ def build_report(scene, *, rng=None, progress=None):
         if progress is not None:
             progress(len(reports), len(scene.sensors), spec.name)
     ranking, reason = _rank(scene, reports)
+    from .scene_nav import imu_reports, rank_imus
+
     imus = imu_reports(scene, reports, rng)  # after the sensors' streams: theirs stay the same
     return Report(scene, tuple(reports), ranking, reason, imus, *rank_imus(scene, imus))
 

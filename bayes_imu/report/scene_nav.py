@@ -37,6 +37,7 @@ from ..drift.display import parse_amount
 from ..drift.nav_bands import STATISTICS, longest_outage, nav_times, navigation_bands
 from ..drift.navigation import QUANTITIES, QUANTITY_UNITS
 from ..errors import InputError
+from .scene import _excerpt, _known
 
 __all__ = [
     "ImuSpec",
@@ -101,19 +102,6 @@ class ImuReport:
     @property
     def name(self):
         return self.spec.name
-
-
-def _excerpt(value, limit=60):
-    text = "".join(c if c.isprintable() else "?" for c in repr(value))
-    return text if len(text) <= limit else text[: limit - 3] + "..."
-
-
-def _known(table, keys, where):
-    unknown = [k for k in table if k not in keys]
-    if unknown:
-        raise InputError(
-            f"{where}: unknown key {_excerpt(unknown[0])}; expected keys: {', '.join(keys)}"
-        )
 
 
 def read_navigation(doc, path, sensors, credibility):
