@@ -34,7 +34,7 @@ LOGS = {
                       {"noise_variance": (0.2 / 60.0) ** 2 * 200.0, "bias_variance": 2e-3**2, "time_constant": 10.0}),
     # gyro with white noise and rate random walk 2e-4 deg/s/sqrt(s)
     "gyro_rrw": ("gyro_x_dps", "deg/s", 100.0, 360_000, 0.0, {"noise_variance": 0.01**2 * 100.0, "rate_random_walk": 2e-4}),
-    # the navigation walkthrough's accelerometers (horizontal x axis, 100 Hz like the gyros, 30 min):
+    # the navigation walkthrough's accelerometers (x axis, 100 Hz like the gyros, 30 min):
     # a precise one, VRW 0.02 m/s/sqrt(h) = 3.33e-4 m/s^2/sqrt(Hz), white only ...
     "accel_precise": ("accel_x_mps2", "m/s^2", 100.0, 180_000, 0.0,
                       {"noise_variance": (0.02 / 60.0) ** 2 * 100.0}),

@@ -60,7 +60,8 @@ def test_navigation_keys_are_read(tmp_path):
     assert req["max_error"] == 500.0 and req["after_s"] == 60.0 and req["quantity"] == "position"
     assert req["credibility"] == 0.95 and req["statistic"] == "bound" and req["schuler"] is True
     assert [(i.name, i.gyro, i.accel) for i in scene.imus] == [("A", "g", "a")]
-    assert _scene(tmp_path, SCENE.split("[navigation]")[0] + SCENE.split('accel = "a"')[1]).imus == ()
+    plain = SCENE.split("[navigation]")[0] + SCENE.split('accel = "a"')[1]
+    assert _scene(tmp_path, plain).imus == ()
 
 
 @pytest.mark.parametrize(

@@ -318,7 +318,8 @@ _FACTORS_KEPT = 16
 
 
 def _grid_factors(fit, kind, q, bias_start, calibration_s, models, max_draws):
-    """``(grid [s], (n_q, n_grid) running-extreme factors, measured_s)`` or ``(None, None, nan)``."""
+    """``(grid [s], (n_q, n_grid) running-extreme factors, measured_s)``, or ``(None, None,
+    nan)``."""
     contrasts = direct_contrasts(fit, _MEASURED[kind], bias_start, calibration_s)
     if contrasts is None:
         return None, None, float("nan")
@@ -331,7 +332,9 @@ def _grid_factors(fit, kind, q, bias_start, calibration_s, models, max_draws):
         ratio = np.where(bands.model_total > 0, bands.total / bands.model_total, 1.0)
     low, high = (q < 0.5)[:, None], (q > 0.5)[:, None]
     ratio = np.where(low, np.minimum(ratio, 1.0), np.where(high, np.maximum(ratio, 1.0), 1.0))
-    ratio = np.where(low, np.minimum.accumulate(ratio, axis=1), np.maximum.accumulate(ratio, axis=1))
+    ratio = np.where(
+        low, np.minimum.accumulate(ratio, axis=1), np.maximum.accumulate(ratio, axis=1)
+    )
     return bands.t_s, ratio, float(bands.measured_s)
 
 
@@ -559,7 +562,8 @@ def longest_outage(
     **options,
 ):
     """Longest outage [s] whose predictive error bound of ``quantity`` stays <= ``max_error``
-    (``statistic="sigma"``: the highest quantile of the 1-sigma band, :meth:`NavigationBands.within`).
+    (``statistic="sigma"``: the highest quantile of the 1-sigma band,
+    :meth:`NavigationBands.within`).
 
     The bound is evaluated on :func:`nav_times` up to ``horizon_s``, then on ``refine`` whole-sample
     times between the last listed time within the requirement and the first beyond it; ``options``

@@ -61,8 +61,8 @@ def _comparison_figure(report, target):
     plt = pyplot()
     quantities = [q for q in OUTPUT_UNITS if any(q in SENSOR_QUANTITIES[s.spec.kind] for s in report.sensors)]
     rows, cols = (2, max(len(quantities), 3)) if report.imus else (1, len(quantities))
-    fig, axes = plt.subplots(rows, cols, figsize=(6 * cols, 4.3 * rows + (1.2 if report.imus else 0)),
-                             squeeze=False)
+    height = 4.3 * rows + (1.2 if report.imus else 0)
+    fig, axes = plt.subplots(rows, cols, figsize=(6 * cols, height), squeeze=False)
     if report.imus:
         from .scene_nav import draw_imu_panels
 

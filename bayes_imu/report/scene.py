@@ -212,11 +212,14 @@ class Report:
             if s.spec.datasheet is not None:
                 entry["datasheet_check"] = s.datasheet_check
             out.append(entry)
-        doc = {"scene": self.scene.name, "credibility": self.scene.credibility, "outages_s": list(self.scene.outages_s),
-               "requirement": self.scene.requirement, "bias_start": self.scene.bias_start,
-               "calibration_s": self.scene.calibration_s if self.scene.bias_start == "calibrated" else None,
-               "models": "averaged over the candidate models by posterior probability", "sensors": out,
-               "ranking": list(self.ranking), "ranking_reason": self.reason, "bayes_imu_version": __version__}
+        scene = self.scene
+        doc = {"scene": scene.name, "credibility": scene.credibility,
+               "outages_s": list(scene.outages_s), "requirement": scene.requirement,
+               "bias_start": scene.bias_start,
+               "calibration_s": scene.calibration_s if scene.bias_start == "calibrated" else None,
+               "models": "averaged over the candidate models by posterior probability",
+               "sensors": out, "ranking": list(self.ranking), "ranking_reason": self.reason,
+               "bayes_imu_version": __version__}
         if self.scene.navigation is not None:
             from .scene_nav import navigation_json
 

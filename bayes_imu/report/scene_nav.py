@@ -159,7 +159,9 @@ def read_navigation(doc, path, sensors, credibility):
         "schuler": schuler,
     }
     if not isinstance(imus, list) or not imus:
-        raise InputError(f"{path}: [navigation] needs at least one [[imu]] entry (name, gyro, accel)")
+        raise InputError(
+            f"{path}: [navigation] needs at least one [[imu]] entry (name, gyro, accel)"
+        )
     specs = []
     for i, entry in enumerate(imus, start=1):
         at = f"{path}: [[imu]] #{i}"
@@ -396,7 +398,8 @@ def draw_imu_panels(report, ax_bands, ax_share, ax_terms=None):
         t = b.t_s[keep]
         colour, style = f"C{i}", styles[i % len(styles)]
         label = f"#{i + 1} {plain_text(r.name)}"
-        ax_bands.fill_between(t, q.sigma[0][keep], q.sigma[-1][keep], color=colour, alpha=0.15, lw=0)
+        ax_bands.fill_between(t, q.sigma[0][keep], q.sigma[-1][keep], color=colour, alpha=0.15,
+                              lw=0)
         ax_bands.plot(t, b.statistic(name, req["statistic"])[keep], color=colour, lw=1.8, ls=style,
                       label=label)
         ax_bands.plot(t, q.sigma[1][keep], color=colour, lw=0.8, ls=":")
@@ -503,7 +506,8 @@ def navigation_section(report):
     for name in report.imu_ranking:
         r = next(x for x in report.imus if x.name == name)
         meets = ("" if r.meets is None else
-                 f"; {'MEETS' if r.meets else 'does NOT meet'} the {req['after_s']:g} s requirement")
+                 f"; {'MEETS' if r.meets else 'does NOT meet'} the {req['after_s']:g} s "
+                 "requirement")
         spread = "unit-to-unit spread included" if r.unit_to_unit else "tested units only"
         items.append(f"<li>{html.escape(name)}: within the requirement for "
                      f"{_time_text(r.longest_outage_s, report)}{meets} ({spread})</li>")
