@@ -123,21 +123,35 @@ def test_navigation_ranking_beats_the_accelerometer_only_bound():
     The accelerometer-only position bound (the sensors' own ranking) prefers A's
     accelerometer; through the tilt the navigation error is the gyro's, and B keeps 5 m longer.
     Each longest outage is checked against the exact error of the loop without Schuler."""
-    q = {"gA": 1e-6, "aA": 1e-6, "gB": 1e-12, "aB": 1e-4}  # per-sample variances, SI
-    reports = [_sensor(n, "gyro" if n[0] == "g" else "accel", _point_fit(("white",), [v]))
-               for n, v in q.items()]
-    scene = Scene("t", (10.0, 60.0), 0.95, tuple(r.spec for r in reports), bias_start="zero",
-                  navigation={"quantity": "position", "max_error": 5.0, "unit": "m",
-                              "given": None, "after_s": None, "credibility": 0.95,
-                              "statistic": "bound", "schuler": False},
-                  imus=tuple(__import__("bayes_imu.report.scene_nav", fromlist=["ImuSpec"])
-                             .ImuSpec(n, "g" + n, "a" + n) for n in ("A", "B")))
+    q = Q
+    scene, reports = _ranking_scene()
     own = {n: max_outage(r.posterior, "position", 5.0, 0.95, "zero", rng=0)
            for n, r in zip(q, reports) if n[0] == "a"}
     assert own["aA"] > own["aB"]  # the accelerometer-only bound prefers A
     imus = imu_reports(scene, reports, np.random.default_rng(0))
     order, reason = rank_imus(scene, imus)
     assert order == ("B", "A") and "longest outage" in reason
+    _check_exact(imus, q)
+
+
+#: per-sample white variances (SI) of the ranking test's gyros and accelerometers
+Q = {"gA": 1e-6, "aA": 1e-6, "gB": 1e-12, "aB": 1e-4}
+
+
+def _ranking_scene():
+    from bayes_imu.report.scene_nav import ImuSpec
+
+    reports = [_sensor(n, "gyro" if n[0] == "g" else "accel", _point_fit(("white",), [v]))
+               for n, v in Q.items()]
+    scene = Scene("t", (10.0, 60.0), 0.95, tuple(r.spec for r in reports), bias_start="zero",
+                  navigation={"quantity": "position", "max_error": 5.0, "unit": "m",
+                              "given": None, "after_s": None, "credibility": 0.95,
+                              "statistic": "bound", "schuler": False},
+                  imus=tuple(ImuSpec(n, "g" + n, "a" + n) for n in ("A", "B")))
+    return scene, reports
+
+
+def _check_exact(imus, q):
     for r in imus:
         k = int(round(r.longest_outage_s / DT))
         args = (q["g" + r.name], q["a" + r.name])
@@ -147,3 +161,27 @@ def test_navigation_ranking_beats_the_accelerometer_only_bound():
         assert row["predictive_bound"] == pytest.approx(Z95 * _exact_sigma(1000, *args), rel=1e-9)
     a, b = imus
     assert a.rows[2]["dominant"] == "gyro" and b.longest_outage_s > a.longest_outage_s
+
+
+@pytest.mark.slow
+def test_navigation_json_page_and_picture():
+    """The report's navigation part: JSON (strict), the HTML section in ranking order, and
+    comparison.png with the IMU row drawn (the IMUs of the ranking test)."""
+    import io
+    import json
+
+    scene, reports = _ranking_scene()
+    imus = imu_reports(scene, reports, np.random.default_rng(0))
+    order, reason = rank_imus(scene, imus)
+    from bayes_imu.report.html import _comparison_figure
+    from bayes_imu.report.scene import Report
+    from bayes_imu.report.scene_nav import navigation_json, navigation_section
+
+    report = Report(scene, tuple(reports), (), "", imus, order, reason)
+    doc = json.loads(json.dumps(navigation_json(report), allow_nan=False))
+    assert doc["ranking"] == ["B", "A"] and doc["imus"][0]["rows"][0]["quantity"] == "tilt"
+    page = navigation_section(report)
+    assert page.index("<li>B:") < page.index("<li>A:") and page.count("<img") == 2
+    buffer = io.BytesIO()
+    _comparison_figure(report, buffer)
+    assert buffer.getvalue()[:8] == b"\x89PNG\r\n\x1a\n"

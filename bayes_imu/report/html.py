@@ -100,7 +100,8 @@ def _comparison_figure(report, target):
         ax.set_ylabel(f"1-sigma {quantity} drift ({OUTPUT_UNITS[quantity]})")
         ax.set_title(f"{quantity}: bound (solid) and median (dotted)")
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(target, format="png", dpi=100)
     plt.close(fig)

@@ -358,7 +358,7 @@ def navigation_json(report):
                     if r.unit_to_unit
                     else "NOT included: the bounds are for the tested units"
                 ),
-                "record_s": r.record_s,
+                "record_s": r.record_s if np.isfinite(r.record_s) else None,
                 "measured_to_s": None if not np.isfinite(r.bands.measured_s)
                 else r.bands.measured_s,
                 "rows": list(r.rows),
