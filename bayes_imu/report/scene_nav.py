@@ -519,8 +519,10 @@ def navigation_section(report):
             star = "*" if row["outage_s"] > r.record_s else ""
             rows.append(
                 f"<tr><td>{html.escape(r.name)}</td><td>{row['outage_s']:g}{star}</td>"
-                f"<td>{row['bound']:.4g}</td><td>{row['sigma_median']:.4g} "
-                f"[{row['sigma_low']:.3g}, {row['sigma_high']:.3g}]</td>"
+                f"<td>{_amount(row['bound'], row['unit'])}</td>"
+                f"<td>{_amount(row['sigma_median'], row['unit'])} "
+                f"[{_amount(row['sigma_low'], row['unit'])}, "
+                f"{_amount(row['sigma_high'], row['unit'])}]</td>"
                 f"<td>{row['gyro_share']:.0%}</td><td>{row['dominant']}</td>"
                 f"<td>{html.escape(_top_terms(row['term_shares']))}</td></tr>")
     figures = []
@@ -541,12 +543,20 @@ each give the horizontal radius); the bound is the {req['credibility']:.0%} {sta
 accelerometer-only position drift above, the gyro's tilt is included, which dominates a MEMS IMU
 after a few seconds.</p>
 <ol>{''.join(items)}</ol><p class="reason">{html.escape(report.imu_reason)}.</p>
-<table><tr><th>IMU</th><th>outage (s)</th><th>{req['credibility']:.0%} bound ({req['unit']})</th>
+<table><tr><th>IMU</th><th>outage (s)</th><th>{req['credibility']:.0%} bound</th>
 <th>1-sigma median [band]</th><th>gyro share</th><th>dominant</th><th>largest terms (share of the
 variance)</th></tr>{''.join(rows)}</table>
 <p>* beyond the shorter log: the model's extrapolation.</p>
 {''.join(figures)}
 </section>"""
+
+
+def _amount(value, unit):
+    """A table cell: lengths as km / m / mm (:func:`~bayes_imu.report.nav.format_length`), other
+    amounts to four digits with their unit."""
+    from .nav import format_length
+
+    return format_length(value) if unit == "m" else f"{value:.4g} {unit}"
 
 
 def _figure(function, *args, **kwargs):
