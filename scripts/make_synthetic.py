@@ -34,7 +34,17 @@ LOGS = {
                       {"noise_variance": (0.2 / 60.0) ** 2 * 200.0, "bias_variance": 2e-3**2, "time_constant": 10.0}),
     # gyro with white noise and rate random walk 2e-4 deg/s/sqrt(s)
     "gyro_rrw": ("gyro_x_dps", "deg/s", 100.0, 360_000, 0.0, {"noise_variance": 0.01**2 * 100.0, "rate_random_walk": 2e-4}),
+    # the navigation walkthrough's accelerometers (x axis, 100 Hz like the gyros, 30 min):
+    # a precise one, VRW 0.02 m/s/sqrt(h) = 3.33e-4 m/s^2/sqrt(Hz), white only ...
+    "accel_precise": ("accel_x_mps2", "m/s^2", 100.0, 180_000, 0.0,
+                      {"noise_variance": (0.02 / 60.0) ** 2 * 100.0}),
+    # ... and a budget one, VRW 0.2 m/s/sqrt(h), Gauss-Markov bias 2e-3 m/s^2 (204 ug), T = 100 s
+    "accel_budget": ("accel_x_mps2", "m/s^2", 100.0, 180_000, 0.0,
+                     {"noise_variance": (0.2 / 60.0) ** 2 * 100.0, "bias_variance": 2e-3**2,
+                      "time_constant": 100.0}),
 }
+#: seeds of logs added later (the others are numbered in name order, as they always were)
+LATER_SEEDS = {"accel_precise": 101, "accel_budget": 102}
 #: three units of one gyro model for the population fit: each unit's ln parameters drawn around
 #: the medians below with a 15% spread (seeded), 20 minutes at 100 Hz each
 POPULATION = {"median": {"noise_variance": 0.05**2 * 100.0, "bias_variance": 0.01**2, "time_constant": 100.0},
@@ -66,7 +76,10 @@ def main(argv=None):
     truth = json.loads(truth_path.read_text()) if args.only and truth_path.exists() else {}
     logs = {**LOGS, **population_logs()}
     only = set(args.only.split(",")) if args.only else set(logs)
-    for seed, (name, (column, unit, rate, n, offset, params)) in enumerate(sorted(logs.items()), start=1):
+    first = sorted(n for n in logs if n not in LATER_SEEDS)  # the original logs keep their seeds
+    seeds = {**{n: i for i, n in enumerate(first, start=1)}, **LATER_SEEDS}
+    for name, (column, unit, rate, n, offset, params) in sorted(logs.items()):
+        seed = seeds[name]
         if name not in only:
             continue
         terms = tuple(dict.fromkeys(TERMS[p] for p in params))

@@ -18,7 +18,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 PICTURES = {"walk/gyro/allan_fit.png": "allan_fit.png", "walk/gyro/corner.png": "corner.png",
             "walk/gyro/drift.png": "drift.png", "walk/population/population.png": "population.png",
-            "walk/report/comparison.png": "comparison.png"}
+            "walk/report/comparison.png": "comparison.png",
+            "walk/nav_report/comparison.png": "nav_comparison.png"}
 
 
 def main():
@@ -59,6 +60,15 @@ def main():
               f"{s['max_outage_s']:.4g} s; 95% bounds " + ", ".join(f"{b['outage_s']:g} s {b['bound']:.3g} rad"
                                                                     for b in s["bounds"]))
     print("ranking:", report["ranking"])
+    nav = json.loads((ROOT / "walk/nav_report/report.json").read_text())
+    for s in nav["sensors"]:
+        if s["max_outage_s"] is not None:
+            print(f"nav scene, {s['name']} alone: {s['max_outage_s']:.4g} s within the requirement")
+    for imu in nav["navigation"]["imus"]:
+        print(f"nav scene, {imu['name']}: {imu['longest_outage_s']:.4g} s within "
+              f"{nav['navigation']['requirement_text']}; meets: {imu['meets_requirement']}; "
+              f"unit-to-unit: {imu['unit_to_unit']}")
+    print("IMU ranking:", nav["navigation"]["ranking"])
     print((ROOT / "walk/imu.yaml").read_text())
 
 

@@ -219,7 +219,7 @@ def test_max_position_requirement(folders, tmp_path, capsys):
     assert code == 0
     req = json.loads((out / "summary.json").read_text())["requirement"]
     assert req["max_error_m"] == 5.0 and req["longest_outage_s"] > 0
-    assert f"within 5 m at 95 % for {req['longest_outage_s']:g} s" in capsys.readouterr().out
+    assert f"within 5.00 m at 95 % for {req['longest_outage_s']:g} s" in capsys.readouterr().out
     code = main(
         [
             "nav",
@@ -234,3 +234,15 @@ def test_max_position_requirement(folders, tmp_path, capsys):
         ]
     )
     assert code == 2 and "--max-position" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "metres, text",
+    [(17382.4, "17.4 km"), (156.2, "156 m"), (1.3, "1.30 m"), (0.197, "0.197 m"),
+     (0.0042, "4.20 mm"), (999.6, "1.00 km"), (999.4, "999 m"), (1234567.0, "1,235 km"),
+     (12.345, "12.3 m")],
+)
+def test_lengths_are_printed_for_people(metres, text):
+    from bayes_imu.report.nav import format_length
+
+    assert format_length(metres) == text

@@ -185,3 +185,45 @@ def test_longest_outage_is_where_the_bound_crosses(rng):
     assert longest_outage(gyro, accel, 1e-9, max_draws=30, rng=0) == 0.0
     with pytest.raises(InputError, match="max_error"):
         longest_outage(gyro, accel, -1.0)
+
+
+@pytest.fixture(scope="module")
+def measured_gyro():
+    """A gyro fitted on 400 s of white + random walk, whose record then shows twice the drift
+    the model predicts (its contrasts scaled: mean square x 4)."""
+    from dataclasses import replace
+
+    from bayes_imu.inference.fit import fit
+
+    rng = np.random.default_rng(11)
+    n = 40000
+    y = 1e-3 * rng.standard_normal(n) + np.cumsum(rng.standard_normal(n)) * 3e-6
+    result = fit(y, rate_hz=100.0, terms=("white", "random_walk"), rng=1, progress=False)
+    doubled = replace(result.allan, contrasts=result.allan.contrasts.scaled(2.0))
+    return result, replace(result, allan=doubled)
+
+
+@pytest.mark.slow
+def test_bands_contain_the_records_own_interval(measured_gyro):
+    """Schuler off, no accelerometer noise to speak of: the tilt is the gyro's order-1 drift, so
+    the navigation band must contain the honest drift band (the record's interval), at every
+    measured outage, and be the model's band where nothing is widened."""
+    from bayes_imu.drift.bands import drift_bands
+
+    plain, doubled = measured_gyro
+    quiet = fake_fit(("white",), [[1e-30]] * plain.samples.shape[0])
+    t = np.array([1.0, 5.0, 20.0, 60.0, 150.0])
+    opts = {"calibration_s": 60.0, "schuler": False, "max_draws": plain.samples.shape[0]}
+    model = navigation_bands(plain, quiet, t, honest=False, rng=0, **opts)
+    for fit in (plain, doubled):
+        nav = navigation_bands(fit, quiet, t, rng=0, **opts).quantities["tilt"]
+        drift = drift_bands(fit, t, quantity="attitude", calibration_s=60.0, rng=0)
+        inside = t <= drift.measured_s
+        assert inside[:3].all()
+        band = model.quantities["tilt"].sigma
+        assert np.all(nav.sigma[0] <= band[0] * (1 + 1e-12))
+        assert np.all(nav.sigma[-1] >= band[-1] * (1 - 1e-12))
+        assert np.all(nav.sigma[-1][inside] >= drift.total[-1][inside] * 0.97)
+    # twice the drift on the record: the upper band reaches past twice the model's median
+    assert np.all(nav.sigma[-1][inside] >= 1.5 * band[1][inside])
+    assert np.all(nav.bound >= model.quantities["tilt"].bound * (1 - 1e-12))

@@ -99,6 +99,16 @@ _SCENE_HELP = """scene format (TOML; paths relative to the scene file):
   name = "tactical"
   kind = "gyro"
   fit = "fit_tactical"             # or fits = [...] for several units
+
+  [navigation]                     # optional: rank IMUs by their navigation error (gyro tilt
+  quantity = "position"            # included): position (default), velocity or tilt
+  max_error = "10 m"               # at credibility (the predictive bound; statistic = "sigma")
+  after_s = 30                     # optional: pass or fail at this outage (s)
+
+  [[imu]]                          # a gyro and an accelerometer [[sensor]], by name
+  name = "IMU A"
+  gyro = "budget MEMS"
+  accel = "budget accel"           # a [[sensor]] with kind = "accel" (docs/cli.md)
 """
 
 def _input_options(batch=False, optional_log=False):
@@ -434,6 +444,8 @@ def _cmd_report(args):
         report = build_report(scene, rng=args.seed, progress=progress)
         failures = write_report(report, tmp)
     _say(args, f"ranking: {', '.join(report.ranking)} ({report.reason})")
+    if report.imus:  # a [navigation] requirement: the IMUs' ranking
+        _say(args, f"IMU ranking: {', '.join(report.imu_ranking)} ({report.imu_reason})")
     _say(args, f"wrote {args.out}/report.json and report.html")
     return _pictures_status(failures)
 

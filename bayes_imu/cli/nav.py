@@ -152,7 +152,7 @@ def add_nav_parser(sub):
 def _cmd_nav(args):
     from ..drift.display import parse_amount
     from ..errors import InputError
-    from ..report.nav import SMALL_ANGLE_RAD, NavRequest, run_nav
+    from ..report.nav import SMALL_ANGLE_RAD, NavRequest, format_length, run_nav
 
     limit = (
         None
@@ -198,16 +198,15 @@ def _cmd_nav(args):
         for t in args.times:
             i = int(abs(bands.t_s - t).argmin())
             print(
-                f"after {bands.t_s[i]:g} s: {what} <= "
-                f"{position.bound[i]:.4g} m at 95 % "
-                f"(1-sigma {position.sigma[1][i]:.3g} m, 90 % band {position.sigma[0][i]:.3g}-"
-                f"{position.sigma[-1][i]:.3g} m)",
+                f"after {bands.t_s[i]:g} s: {what} <= {format_length(position.bound[i])} at 95 % "
+                f"(1-sigma {format_length(position.sigma[1][i])}, 90 % band "
+                f"{format_length(position.sigma[0][i])} to {format_length(position.sigma[-1][i])})",
                 file=sys.stdout,
             )
         if limit is not None:
             print(
                 f"{'horizontal position' if radius else 'position in this channel'} within "
-                f"{limit:g} m at 95 % for "
+                f"{format_length(limit)} at 95 % for "
                 f"{summary['requirement']['longest_outage_s']:g} s",
                 file=sys.stdout,
             )

@@ -21,13 +21,28 @@ accelerometer x and the tilt about y, gyro y) and along y (accelerometer y, gyro
 two-dimensional normal mixture. ``speed`` adds the cross-track error of a vehicle moving at
 that speed from the heading error (the vertical gyro z, no Schuler coupling): ``V`` times the
 double integral of the gyro z error.
+
+What the record measures (``honest=True``, the default): a fit of a log read in memory keeps the
+calibrated order-1 drift its own record shows (:mod:`bayes_imu.drift.direct`): a gyro's tilt, an
+accelerometer's velocity, model-free, for outages up to about half the record. Where that
+interval reaches outside the model's band, the drift bands are widened to contain it; the
+navigation bands inherit the same widening, sensor by sensor: each quantile's factor
+``f_s(t) = honest / model`` of sensor ``s`` (``<= 1`` below the median, ``>= 1`` above) is
+carried forward in time as its running extreme over the measured outages up to ``t`` (a
+navigation error at ``t`` integrates the sensor's error over the whole outage, so a misfit the
+record shows at a shorter horizon bears on it; interpolated in log time between the record's
+outages), and the band of a quantity is scaled by
+``sqrt(sum_s share_s f_s^2)``, ``share_s`` the sensor's share of the median variance. The
+predictive bound is scaled by the largest upper factor. Beyond what the record measures the
+last factor is kept (the model's extrapolation, widened as it was at the record's end).
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, default_times, model_draws
+from .bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES, default_times, drift_bands, model_draws
+from .direct import direct_contrasts
 from .navigation import EARTH_RADIUS, GRAVITY, QUANTITIES, QUANTITY_UNITS, NavLoop
 from ..errors import InputError
 from ..noise import BIAS_STARTS, TERMS
@@ -39,8 +54,11 @@ __all__ = [
     "nav_times",
     "predictive_bound",
     "longest_outage",
+    "STATISTICS",
 ]
 
+#: what a requirement bounds: the predictive error bound, or the credible bound on the 1-sigma error
+STATISTICS = ("bound", "sigma")
 _BISECTIONS = 60
 _ANGLES = 64  # trapezoid points over the half period of the radial CDF's angle integral
 
@@ -113,13 +131,24 @@ class NavigationBands:
     radius: float = EARTH_RADIUS
     speed: float = float("nan")
     n_draws: int = 0
+    measured_s: float = float("nan")
 
-    def within(self, name, max_error):
-        """Longest listed outage [s] whose ``bound`` of ``name`` is <= ``max_error`` (0: none)."""
-        bound = self.quantities[name].bound
+    def within(self, name, max_error, statistic="bound"):
+        """Longest listed outage [s] whose ``bound`` of ``name`` is <= ``max_error`` (0: none);
+        ``statistic="sigma"``: its highest 1-sigma quantile instead (the credible bound on the
+        1-sigma error)."""
+        bound = self.statistic(name, statistic)
         bad = np.flatnonzero(bound > max_error)
         ok = self.t_s[: bad[0]] if bad.size else self.t_s
         return float(ok[-1]) if ok.size else 0.0
+
+    def statistic(self, name, statistic="bound"):
+        """``(n_t,)``: the predictive error bound of ``name`` (``"bound"``) or the highest
+        quantile of its 1-sigma band (``"sigma"``)."""
+        if statistic not in STATISTICS:
+            raise InputError(f"statistic={statistic!r}: expected one of {', '.join(STATISTICS)}")
+        q = self.quantities[name]
+        return q.bound if statistic == "bound" else q.sigma[-1]
 
 
 def nav_times(dt, times=(), horizon_s=None, n=30):
@@ -249,6 +278,101 @@ def _median(v):
     return np.median(np.sqrt(v[has]), axis=0)
 
 
+#: the order-1 drift each sensor's record measures (the gyro's tilt, the accelerometer's velocity)
+_MEASURED = {"gyro": "attitude", "accel": "velocity"}
+
+
+def record_factors(fit, kind, t, q, *, bias_start, calibration_s, models="averaged",
+                   max_draws=1000):
+    """``((n_q, n_t) factors, measured_s)``: how far the record's own interval widens one sensor's
+    band (module docstring); ones, and ``nan``, where the record measures nothing.
+
+    ``fit`` a gyro (``kind="gyro"``, its tilt) or an accelerometer (``"accel"``, its velocity).
+    The factors ``honest / model`` of :func:`bayes_imu.drift.bands.drift_bands` (``max_draws``
+    draws, a fixed seed: the same fit gets the same factors in every call) are taken on the
+    record's own outage grid, ``<= 1`` for ``q < 1/2``, ``>= 1`` above, 1 at the median, as running
+    extremes over the grid; at ``t`` they are interpolated in log time (1 before the grid's first
+    outage, the last value beyond it). The grid's factors are memoised per fit.
+    """
+    q = np.asarray(q, float)
+    t = np.asarray(t, float)
+    key = (id(fit), kind, tuple(q), bias_start, float(calibration_s), models, max_draws)
+    hit = _FACTORS.get(key)
+    if hit is None or hit[0] is not fit:
+        hit = (fit, *_grid_factors(fit, kind, q, bias_start, calibration_s, models, max_draws))
+        _FACTORS[key] = hit
+        while len(_FACTORS) > _FACTORS_KEPT:
+            _FACTORS.pop(next(iter(_FACTORS)))
+    _, grid, ratio, measured = hit
+    if grid is None:
+        return np.ones((q.size, t.size)), float("nan")
+    inside = t >= grid[0]
+    log_t = np.log(np.where(inside, t, grid[0]))
+    out = np.array([np.interp(log_t, np.log(grid), r) for r in ratio])
+    return np.where(inside[None, :], out, 1.0), measured
+
+
+#: memo of :func:`record_factors`: key -> (fit, grid, factors, measured_s); the newest kept
+_FACTORS = {}
+_FACTORS_KEPT = 16
+
+
+def _grid_factors(fit, kind, q, bias_start, calibration_s, models, max_draws):
+    """``(grid [s], (n_q, n_grid) running-extreme factors, measured_s)``, or ``(None, None,
+    nan)``."""
+    contrasts = direct_contrasts(fit, _MEASURED[kind], bias_start, calibration_s)
+    if contrasts is None:
+        return None, None, float("nan")
+    bands = drift_bands(fit, contrasts.t_s, quantity=_MEASURED[kind], bias_start=bias_start,
+                        calibration_s=calibration_s, models=models, quantiles=q, rng=0,
+                        max_draws=max_draws)
+    if bands.model_total is None:
+        return None, None, float("nan")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(bands.model_total > 0, bands.total / bands.model_total, 1.0)
+    low, high = (q < 0.5)[:, None], (q > 0.5)[:, None]
+    ratio = np.where(low, np.minimum(ratio, 1.0), np.where(high, np.maximum(ratio, 1.0), 1.0))
+    ratio = np.where(
+        low, np.minimum.accumulate(ratio, axis=1), np.maximum.accumulate(ratio, axis=1)
+    )
+    return bands.t_s, ratio, float(bands.measured_s)
+
+
+def _widen(quantity, parts):
+    """``quantity`` with its band scaled by the share-weighted factors of ``parts`` (``[(median
+    variance (n_t,), factors (n_q, n_t))]``) and its bound by the largest upper factor."""
+    var = np.array([v for v, _ in parts])
+    share = var / np.maximum(var.sum(axis=0), 1e-300)
+    factors = np.sqrt(np.einsum("st,sqt->qt", share, np.array([f for _, f in parts]) ** 2))
+    upper = np.max(factors, axis=0)
+    return replace(quantity, sigma=quantity.sigma * factors, bound=quantity.bound * upper)
+
+
+def _honest(out, fits, medians, t, q, **options):
+    """The quantities of ``out`` widened by what the records measure (:func:`record_factors`);
+    ``(out, longest measured outage [s] or nan)``."""
+    kinds = ["gyro"] * (len(fits) // 2) + ["accel"] * (len(fits) // 2)
+    found = [record_factors(f, kind, t, q, **options) for f, kind in zip(fits, kinds)]
+    measured = [m for _, m in found if np.isfinite(m)]
+    if not measured:
+        return out, float("nan")
+    factors = {i: f for i, (f, _) in enumerate(found)}
+    factors["heading"] = factors.get(2)
+    if len(fits) == 2:
+        members = {name: (0, 1) for name in out}
+    else:  # channel x: gyro y (1), accelerometer x (3); channel y: gyro x (0), accelerometer y (4)
+        channel = {"_x": (1, 3), "_y": (0, 4)}
+        members = {name: channel.get(name[-2:], (0, 1, 3, 4)) for name in out}
+        members["cross_track"] = ("heading",)
+    column = {name: QUANTITIES.index(name.split("_")[0]) for name in out if name != "cross_track"}
+    column["cross_track"] = 2
+    widened = {
+        name: _widen(quantity, [(medians[i][:, column[name]], factors[i]) for i in members[name]])
+        for name, quantity in out.items()
+    }
+    return widened, float(min(measured))
+
+
 def _check(gyro, accel, bias_start, models, calibration_s, speed):
     if bias_start not in BIAS_STARTS:
         raise InputError(f"bias_start={bias_start!r}: expected one of {', '.join(BIAS_STARTS)}")
@@ -295,6 +419,7 @@ def navigation_bands(
     radius=EARTH_RADIUS,
     rng=None,
     segment_spread=True,
+    honest=True,
 ):
     """Posterior of the horizontal navigation error during an outage (module docstring).
 
@@ -326,6 +451,10 @@ def navigation_bands(
     segment_spread : bool
         Widen a sensor flagged non-stationary by the spread between the parts of its log, as
         the drift bands do (:func:`bayes_imu.drift.bands.drift_draws`).
+    honest : bool
+        Widen the bands by what each sensor's record measures of its own drift
+        (:func:`record_factors`, module docstring); fits without a record (an Allan table, a
+        population's new unit, another calibration window) are the model's alone.
 
     Returns
     -------
@@ -350,9 +479,13 @@ def navigation_bands(
     n = min([max_draws] + [sum(s.shape[0] for _, s in model_draws(f, models)) for f in fits])
     picked = [_pick(f, models, n, rng) for f in fits]
 
-    def sensor(i, loop, factor=1.0):
+    medians = {}
+
+    def sensor(i, loop, factor=1.0, key=None):
         total, terms = _sensor_variance(picked[i], loop, k, factor=factor, **kw)
-        return (_segment_spread(fits[i], total, k * dt, rng) if segment_spread else total), terms
+        total = _segment_spread(fits[i], total, k * dt, rng) if segment_spread else total
+        medians[i if key is None else key] = np.median(total, axis=0)
+        return total, terms
 
     q = np.asarray(quantiles, float)
     kw = {"bias_start": bias_start, "n_cal": n_cal}
@@ -391,9 +524,13 @@ def navigation_bands(
             heading = NavLoop(
                 "accel", False, g, radius
             )  # y' = V psi, psi' = w_z: V w_z integrated twice
-            vz, tz = sensor(2, heading, float(speed) ** 2)
+            vz, tz = sensor(2, heading, float(speed) ** 2, key="heading")
             zero = np.zeros_like(vz)
             out["cross_track"] = _quantity("cross_track", "m", vz, zero, tz, {}, q, credibility, 2)
+    measured = float("nan")
+    if honest:
+        out, measured = _honest(out, fits, medians, k * dt, q, bias_start=bias_start,
+                                calibration_s=calibration_s, models=models, max_draws=max_draws)
     cal = float(calibration_s) if bias_start == "calibrated" else float("nan")
     return NavigationBands(
         k * dt,
@@ -408,27 +545,42 @@ def navigation_bands(
         float(radius),
         float("nan") if speed is None else float(speed),
         int(n),
+        measured,
     )
 
 
 def longest_outage(
-    gyro_fit, accel_fit, max_error, *, quantity="position", horizon_s=None, refine=24, **options
+    gyro_fit,
+    accel_fit,
+    max_error,
+    *,
+    quantity="position",
+    horizon_s=None,
+    refine=24,
+    statistic="bound",
+    coarse=None,
+    **options,
 ):
-    """Longest outage [s] whose predictive error bound of ``quantity`` stays <= ``max_error``.
+    """Longest outage [s] whose predictive error bound of ``quantity`` stays <= ``max_error``
+    (``statistic="sigma"``: the highest quantile of the 1-sigma band,
+    :meth:`NavigationBands.within`).
 
     The bound is evaluated on :func:`nav_times` up to ``horizon_s``, then on ``refine`` whole-sample
     times between the last listed time within the requirement and the first beyond it; ``options``
-    go to :func:`navigation_bands` (the same ``rng`` gives the same draws on both grids). Returns
+    go to :func:`navigation_bands` (the same ``rng`` gives the same draws on both grids);
+    ``coarse``, bands already computed with the same options on an increasing grid from one sample
+    to the horizon (:func:`nav_times` with any times added), replaces the first grid. Returns
     ``0.0`` when even one sample exceeds it and the horizon when it is never exceeded.
     """
     if not (np.isfinite(max_error) and max_error > 0):
         raise InputError(f"max_error={max_error!r}: expected a positive amount in SI units")
     gyro = _as_axes(gyro_fit, "gyro_fit")
     dt = gyro[0].model.dt
-    coarse = navigation_bands(gyro_fit, accel_fit, nav_times(dt, (), horizon_s), **options)
+    if coarse is None:
+        coarse = navigation_bands(gyro_fit, accel_fit, nav_times(dt, (), horizon_s), **options)
     if quantity not in coarse.quantities:
         raise InputError(f"quantity={quantity!r}: expected one of {', '.join(coarse.quantities)}")
-    bound = coarse.quantities[quantity].bound
+    bound = coarse.statistic(quantity, statistic)
     over = np.flatnonzero(bound > max_error)
     if not over.size:
         return float(coarse.t_s[-1])
@@ -437,4 +589,4 @@ def longest_outage(
     lo, hi = coarse.t_s[over[0] - 1], coarse.t_s[over[0]]
     fine = np.unique(np.round(np.linspace(lo, hi, refine + 2) / dt)) * dt
     bands = navigation_bands(gyro_fit, accel_fit, fine, **options)
-    return bands.within(quantity, max_error)
+    return bands.within(quantity, max_error, statistic)

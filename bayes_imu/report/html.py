@@ -19,6 +19,7 @@ from ..drift.bands import SENSOR_QUANTITIES
 from ..io.readers import SI_UNITS as UNITS_SI
 from ..noise.model import REGISTRY
 from .scene import MAX_SEARCH_S, OUTPUT_UNITS
+from .scene_nav import navigation_section
 
 
 __all__ = ["write_report", "report_html"]
@@ -80,7 +81,17 @@ def _comparison_figure(report, target):
 
     plt = pyplot()
     quantities = [q for q in OUTPUT_UNITS if any(q in SENSOR_QUANTITIES[s.spec.kind] for s in report.sensors)]
-    fig, axes = plt.subplots(1, len(quantities), figsize=(6 * len(quantities), 4.3), squeeze=False)
+    rows, cols = (2, max(len(quantities), 3)) if report.imus else (1, len(quantities))
+    height = 4.3 * rows + (1.2 if report.imus else 0)
+    fig, axes = plt.subplots(rows, cols, figsize=(6 * cols, height), squeeze=False)
+    if report.imus:
+        from .scene_nav import draw_imu_panels
+
+        for ax in axes[0][len(quantities):]:
+            ax.set_visible(False)
+        for ax in axes[1][3:]:
+            ax.set_visible(False)
+        draw_imu_panels(report, *axes[1][:3])
     for ax, quantity in zip(axes[0], quantities):
         for i, s in enumerate(report.sensors):
             band = next((b for b in s.bands if b.quantity == quantity), None)
@@ -110,7 +121,8 @@ def _comparison_figure(report, target):
         ax.set_ylabel(f"1-sigma {quantity} drift ({OUTPUT_UNITS[quantity]})")
         ax.set_title(f"{quantity}: bound (solid) and median (dotted)")
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(target, format="png", dpi=100)
     plt.close(fig)
@@ -283,6 +295,7 @@ requirement: {html.escape(req_text)}; bias start: {scene.bias_start}; sensors: {
 <section id="ranking"><h2>Ranking</h2><ol>{rank_rows}</ol><p class="reason">{html.escape(report.reason)}.</p></section>
 <section id="comparison"><h2>Bounds versus outage</h2>
 {_img("comparison chart", comparison)}</section>
+{navigation_section(report)}
 <section id="bounds"><h2>Table of bounds</h2><table><tr><th>sensor</th><th>quantity</th><th>outage (s)</th>
 <th>median</th><th>{cred:.0%} bound</th><th>unit</th></tr>{''.join(bound_rows)}</table></section>
 <section id="meaning"><h2>What the bound means and assumes</h2><ul>{assumptions}</ul></section>

@@ -17,7 +17,15 @@ from ..errors import InputError
 from .._version import __version__
 from .output import staged_folder
 
-__all__ = ["NavRequest", "load_nav_fits", "run_nav", "plot_nav", "CSV_COLUMNS"]
+__all__ = [
+    "NavRequest",
+    "load_nav_fits",
+    "run_nav",
+    "plot_nav",
+    "plot_horizon",
+    "format_length",
+    "CSV_COLUMNS",
+]
 
 #: nav.csv: the 90 % band of the 1-sigma error, its unit, then the predictive 95 % error bound
 CSV_COLUMNS = ("t_s", "quantity", "q05", "q50", "q95", "unit", "bound95")
@@ -125,7 +133,7 @@ def run_nav(request, *, failures=None):
     summary = _summary(bands, request, rows, gyro, accel)
     if request.max_position_m is not None:
         longest = longest_outage(
-            *pair, request.max_position_m, horizon_s=request.horizon_s, **options
+            *pair, request.max_position_m, horizon_s=request.horizon_s, coarse=bands, **options
         )
         summary["requirement"] = {
             "quantity": "position",
@@ -151,6 +159,7 @@ def run_nav(request, *, failures=None):
             "marks": bands.t_s[picked],
             "title": f"{Path(request.gyro).name} + {Path(request.accel).name}",
             "record_s": min(f.record_s for f in gyro + accel),
+            "t_max": plot_horizon(times, request.horizon_s),
         }
         if failures is None:
             plot_nav(bands, tmp / "nav.png", **picture)
@@ -158,6 +167,34 @@ def run_nav(request, *, failures=None):
             failure = draw_picture(plot_nav, bands, tmp / "nav.png", **picture)
             failures.extend([] if failure is None else [failure])
     return bands, summary
+
+
+def format_length(metres):
+    """A length for people: ``"17.4 km"``, ``"156 m"``, ``"1.30 m"``, ``"0.197 m"``, ``"4.2 mm"``
+    (three significant digits, no exponent from a millimetre to 1e6 km)."""
+    m = float(metres)
+    if not np.isfinite(m):
+        return f"{m} m"
+    size = abs(m)
+    if float(f"{size:.3g}") >= 1000.0:
+        km = m / 1000.0
+        return f"{km:,.0f} km" if abs(km) >= 999.5 else f"{_three(km)} km"
+    if size >= 0.01 or size == 0.0:
+        return f"{_three(m)} m"
+    return f"{_three(m * 1000.0)} mm" if size >= 1e-6 else f"{m:.3g} m"
+
+
+def _three(x):
+    """``x`` to three significant digits in fixed notation (``x`` from 1e-3 to 999.5)."""
+    x = float(f"{x:.3g}")  # rounded first: 999.6 is 1000, three digits "1.00e3"
+    digits = max(0, 2 - int(np.floor(np.log10(abs(x))))) if x else 2
+    return f"{x:.{digits}f}"
+
+
+def plot_horizon(times, horizon_s=None):
+    """Longest time of nav.png [s]: ``horizon_s``, else twice the longest of ``times`` and at
+    least 1200 s (the command's ``--horizon``)."""
+    return float(horizon_s) if horizon_s is not None else max(2.0 * float(np.max(times)), 1200.0)
 
 
 def _rows(bands, picked):
@@ -223,23 +260,42 @@ def _small_angle_limit(bands):
 
 
 _TERM_STYLE = {"gyro": "-", "accel": "--"}
+#: legend entries of every panel, explained once above them
+_COMMON = ("1-sigma error", "95 % error bound", ": all its terms", "median tilt >", "beyond the")
+
+
+def _common(label):
+    return any(label.startswith(c) or c in label for c in _COMMON)
+
 #: tilt beyond which the small-angle error model is marked as no longer valid [rad]
 SMALL_ANGLE_RAD = 0.1
 
 
 def plot_nav(
-    bands, path, *, marks=(), title="", record_s=None, min_probability=0.1, min_share=0.1, t_min=0.1
+    bands,
+    path,
+    *,
+    marks=(),
+    title="",
+    record_s=None,
+    min_probability=0.1,
+    min_share=0.1,
+    t_min=0.1,
+    t_max=None,
 ):
     """Log-log navigation error: 90 % band of the 1-sigma error, median, 95 % bound, each sensor's
     and each term's median contribution (gyro solid, accelerometer dashed), the Schuler period and
     the logs' length marked. Terms with posterior probability below ``min_probability``, or below
     ``min_share`` of the median total at every time, are listed, not drawn; times from ``t_min``
-    [s]."""
+    to ``t_max`` [s] (default: every time of ``bands``). The lines common to the three panels
+    are explained once, above them; each panel's legend lists its terms."""
     from .plots import plain_text, pyplot
 
     plt = pyplot()
     names = ("tilt", "velocity", "position")
-    fig, axes = plt.subplots(1, 3, figsize=(19, 8), squeeze=False)
+    fig, axes = plt.subplots(1, 3, figsize=(19, 8.5), squeeze=False)
+    t_max = bands.t_s[-1] if t_max is None else float(t_max)
+    common = {}
     period = schuler_period_s(bands.g, bands.radius)
     radial = "position_x" in bands.quantities
     colours = plt.get_cmap("tab10")
@@ -247,6 +303,7 @@ def plot_nav(
     for ax, name in zip(axes[0], names):
         q = bands.quantities[name]
         keep = (q.sigma[0] > 0) & (bands.t_s >= min(t_min, bands.t_s[-1]))
+        keep &= bands.t_s <= max(t_max, bands.t_s[keep][0] if keep.any() else t_max)
         t, median = bands.t_s[keep], q.sigma[1][keep]
         ax.fill_between(
             t,
@@ -273,11 +330,14 @@ def plot_nav(
                 label=f"{'gyro' if sensor == 'gyro' else 'accelerometer'}: all its terms, median",
             )
         source = bands.quantities[f"{name}_x"] if radial else q
-        hidden, drawn = [], 0
+        hidden, improbable, drawn = [], 0, 0
         for label, part in source.terms.items():
             share = np.max(part[keep] / median) if median.size else 0.0
-            if source.term_probability.get(label, 1.0) < min_probability or not share >= min_share:
-                hidden.append(label)
+            if source.term_probability.get(label, 1.0) < min_probability:
+                improbable += 1
+                continue
+            if not share >= min_share:
+                hidden.append(label.replace(":", " ").replace("_", " "))
                 continue
             sensor, term = label.split(":")
             ax.plot(
@@ -290,19 +350,17 @@ def plot_nav(
                 + (" (channel x)" if radial else ""),
             )
             drawn += 1
-        if hidden:
+        if hidden or improbable:
             import textwrap
 
-            ax.plot(
-                [],
-                [],
-                " ",
-                label=textwrap.fill(
-                    f"not drawn (P < {min_probability:g} or below "
-                    f"{min_share:.0%} of the total): " + ", ".join(hidden),
-                    48,
-                ),
+            text = (
+                f"not drawn, below {min_share:.0%} of the total: {', '.join(hidden)}; "
+                if hidden
+                else ""
             )
+            if improbable:
+                text += f"{improbable} terms of posterior probability < {min_probability:g}"
+            ax.plot([], [], " ", label=textwrap.fill(text.rstrip("; "), 44))
         if tilted.size and bands.t_s[tilted[0]] < t[-1]:
             ax.axvspan(
                 bands.t_s[tilted[0]],
@@ -357,13 +415,19 @@ def plot_nav(
             f"{name}{' (horizontal radius)' if radial else ''}: {start}, {loop}", fontsize=10
         )
         ax.grid(True, which="major", alpha=0.3)
-        ax.legend(
-            fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=2, frameon=False
-        )
+        ax.set_xlim(t[0], t[-1])
+        handles, labels = ax.get_legend_handles_labels()
+        own = [(h, lab) for h, lab in zip(handles, labels) if not _common(lab)]
+        common.update((lab, h) for h, lab in zip(handles, labels) if _common(lab))
+        if own:
+            ax.legend(*zip(*own), fontsize=9, loc="upper center", bbox_to_anchor=(0.5, -0.11),
+                      ncol=2, frameon=False)
+    fig.legend(list(common.values()), list(common), loc="upper center", ncol=4, fontsize=10,
+               frameon=False, bbox_to_anchor=(0.5, 0.955))
     if title:
-        fig.suptitle(f"free-inertial navigation error: {plain_text(title)}")
+        fig.suptitle(f"free-inertial navigation error: {plain_text(title)}", y=0.995)
     # fixed margins (the legends hang below the axes): tight_layout measures every tick label of
     # the many-decade log axes, a third of the figure's time
-    fig.subplots_adjust(left=0.045, right=0.99, top=0.91, bottom=0.35, wspace=0.2)
+    fig.subplots_adjust(left=0.045, right=0.99, top=0.84, bottom=0.3, wspace=0.2)
     fig.savefig(path, dpi=110)
     plt.close(fig)

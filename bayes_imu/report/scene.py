@@ -110,6 +110,8 @@ class Scene:
     bias_start: str = "calibrated"
     path: str = ""
     calibration_s: float = DEFAULT_CALIBRATION_S
+    navigation: dict | None = None
+    imus: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -179,6 +181,9 @@ class Report:
     sensors: tuple
     ranking: tuple
     reason: str
+    imus: tuple = ()
+    imu_ranking: tuple = ()
+    imu_reason: str = ""
 
     def to_json(self):
         """JSON-ready dict (``report.json``)."""
@@ -207,11 +212,19 @@ class Report:
             if s.spec.datasheet is not None:
                 entry["datasheet_check"] = s.datasheet_check
             out.append(entry)
-        return {"scene": self.scene.name, "credibility": self.scene.credibility, "outages_s": list(self.scene.outages_s),
-                "requirement": self.scene.requirement, "bias_start": self.scene.bias_start,
-                "calibration_s": self.scene.calibration_s if self.scene.bias_start == "calibrated" else None,
-                "models": "averaged over the candidate models by posterior probability", "sensors": out,
-                "ranking": list(self.ranking), "ranking_reason": self.reason, "bayes_imu_version": __version__}
+        scene = self.scene
+        doc = {"scene": scene.name, "credibility": scene.credibility,
+               "outages_s": list(scene.outages_s), "requirement": scene.requirement,
+               "bias_start": scene.bias_start,
+               "calibration_s": scene.calibration_s if scene.bias_start == "calibrated" else None,
+               "models": "averaged over the candidate models by posterior probability",
+               "sensors": out, "ranking": list(self.ranking), "ranking_reason": self.reason,
+               "bayes_imu_version": __version__}
+        if self.scene.navigation is not None:
+            from .scene_nav import navigation_json
+
+            doc["navigation"] = navigation_json(self)
+        return doc
 
 
 def _si_unit(kind):
@@ -261,7 +274,7 @@ def read_scene(path, *, allow_outside=False):
                          f"({_excerpt(str(exc).splitlines()[0] if str(exc) else exc)})") from None
     except RecursionError:
         raise InputError(f"{path}: TOML nested too deeply; expected a scene file") from None
-    _known(doc, ("scene", "requirement", "sensor"), f"{path}: top level")
+    _known(doc, ("scene", "requirement", "sensor", "navigation", "imu"), f"{path}: top level")
     scene = doc.get("scene")
     if not isinstance(scene, dict):
         raise InputError(f"{path}: missing [scene] table")
@@ -344,8 +357,11 @@ def read_scene(path, *, allow_outside=False):
     names = [s.name for s in specs]
     if len(set(names)) != len(names):
         raise InputError(f"{path}: sensor names must be unique, got {names}")
+    from .scene_nav import read_navigation
+
+    navigation, imus = read_navigation(doc, path, {s.name: s.kind for s in specs}, float(cred))
     return Scene(str(scene.get("name", path.stem)), tuple(float(v) for v in outages), float(cred), tuple(specs),
-                 requirement, bias_start, str(path), float(calibration))
+                 requirement, bias_start, str(path), float(calibration), navigation, imus)
 
 
 #: keys of a ``[[sensor]]`` with logs that say how to read them, beyond column, rate_hz and units
@@ -560,7 +576,10 @@ def build_report(scene, *, rng=None, progress=None):
         if progress is not None:
             progress(len(reports), len(scene.sensors), spec.name)
     ranking, reason = _rank(scene, reports)
-    return Report(scene, tuple(reports), ranking, reason)
+    from .scene_nav import imu_reports, rank_imus
+
+    imus = imu_reports(scene, reports, rng)  # after the sensors' streams: theirs stay the same
+    return Report(scene, tuple(reports), ranking, reason, imus, *rank_imus(scene, imus))
 
 
 def _axes(spec, rng):
