@@ -95,12 +95,12 @@ def main(argv=None):
             ("parameters_this_record", "noise_density",
              "this record alone (parameters_this_record, rad/s/sqrt(Hz))"),
             ("parameters", "noise_density",
-             "with the repeatability between parts (parameters, datasheet; rad/s/sqrt(Hz))"),
+             "with repeatability (parameters, datasheet; rad/s/sqrt(Hz))"),
             ("allan_datasheet", "angle_random_walk",
-             "IEEE reading at 1 s (allan_datasheet, deg/sqrt(h)), with repeatability")):
+             "IEEE reading at 1 s, with repeatability (deg/sqrt(h))")):
         rows, per_axis, overlaps = table(fits, block, name)
         z2 = sum(per_axis.values())
-        print(f"\n### {name} (ARW), 90% intervals: {title}\n")
+        print(f"\n### {name}, 90% intervals: {title}\n")
         print("| channel | first half | second half | difference | z | overlap |\n|---|---|---|---|---|---|")
         print("\n".join(rows))
         print(f"\nsum z^2 = {z2:.1f} on {len(fits)} pairs (99% chi-square quantile {limit:.1f}: "
