@@ -37,7 +37,11 @@ def test_held_out_seeds_are_disjoint_from_development():
         held_out, seed_start, per_family = False, 0, 50
     dev = set(vi.seeds(A))
     A.held_out = True
-    assert dev.isdisjoint(vi.seeds(A))
+    first = set(vi.seeds(A))
+    assert dev.isdisjoint(first)
+    A.held_out_range = "2"
+    assert dev.isdisjoint(vi.seeds(A)) and first.isdisjoint(vi.seeds(A))
+    del A.held_out_range
     A.held_out, A.seed_start = False, vi.HELD_OUT_START - 10
     with pytest.raises(SystemExit):
         vi.seeds(A)

@@ -25,7 +25,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .closed_forms import QUANTITY_ORDER
-from .direct import direct_contrasts, direct_edf, drift_check, honest_quantiles, same_window
+from .direct import (direct_contrasts, direct_edf, drift_check, honest_quantiles, record_edf_floor,
+                     same_window)
 from ..errors import InputError, UnmeasuredWarning
 from ..noise import BIAS_STARTS, TERMS, NoiseModel
 from ..noise.quantities import SENSORS
@@ -308,6 +309,7 @@ def direct_part(fit, draws, quantity, bias_start, calibration_s, q, total):
         return None
     edf = np.full(t.shape, np.nan)
     edf[inside] = direct_edf(fit, contrasts, t[inside])
-    check = drift_check(fit, draws, contrasts, edf)
-    honest = honest_quantiles(q, total, contrasts.at(t), edf)
+    capped = np.minimum(edf, record_edf_floor(contrasts, t))
+    check = drift_check(fit, draws, contrasts, edf, capped)
+    honest = honest_quantiles(q, total, contrasts.at(t), capped)
     return honest, float(contrasts.t_s[-1]), total, check
