@@ -226,6 +226,13 @@ def test_record_drift_check_in_summary_and_reasons(rng):
     assert "calibrated" in unmeasured_reason(fit, "zero", 10.0)
     assert "window" in unmeasured_reason(fit, "calibrated", 60.0)
     assert record_drift_check(fit, [500.0], calibration_s=10.0) is None
+    from bayes_imu.errors import UnmeasuredWarning
+
+    with pytest.warns(UnmeasuredWarning, match="10 s calibration window, not the 30 s"):
+        other = drift_bands(fit, [0.5, 5.0, 50.0], quantity="attitude", calibration_s=30.0, rng=2)
+    assert other.measured_s == 0.0 and other.extrapolated.all() and other.check is None
+    position = drift_bands(fit, [0.5, 5.0, 50.0], quantity="position", calibration_s=30.0, rng=2)
+    assert np.isnan(position.measured_s) and not position.extrapolated.any()  # order 2: never measured
     fit_table = fit_allan(allan_variance(y, rate_hz=100.0, contrast_span_s=None), terms=("white",), rng=1)
     assert "not kept" in unmeasured_reason(fit_table, "calibrated", 60.0)
 
