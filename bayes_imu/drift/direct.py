@@ -164,9 +164,10 @@ def record_edf_floor(contrasts, t):
     which are identically distributed, so its variance is at most one of theirs (Cauchy-Schwarz);
     a disjoint average of ``D`` squared contrasts has EDF ``D`` when they are uncorrelated (Gaussian
     contrasts: ``Var e^2 = 2 V^2``). For noises without spectral lines the contrasts of disjoint
-    spans are nearly uncorrelated (the contrast annihilates constants and trends of the phase), and
-    the overlapping EDF is then 1.5-3 times this floor (white, flicker, random walk of the rate): a
-    conservative cap on a model's EDF, which can be far too large when the model misses a slow term.
+    spans are nearly uncorrelated (the contrast annihilates constants and trends of the phase): the
+    exact EDF is 1.75-37 times this floor (``scripts/edf_floor_ratio.py``; about 2 for a random walk
+    of the rate or a slow bias, up to the strided starts' count for white noise far from ``k = N``).
+    A conservative cap on a model's EDF, which can be far too large when the model misses a slow term.
     """
     k = np.round(np.asarray(t, dtype=float) * contrasts.rate_hz)
     return np.maximum(1.0, np.floor(contrasts.n_samples / (k + contrasts.n_cal)))
