@@ -63,7 +63,8 @@ NAV_TIMES = (10.0, 30.0, 60.0, 120.0, 300.0, 600.0, 1200.0)
 
 
 def seeds(args):
-    start = HELD_OUT_RANGES[getattr(args, "held_out_range", "1")] if args.held_out else args.seed_start
+    held = HELD_OUT_RANGES[getattr(args, "held_out_range", "1")]
+    start = held if args.held_out else args.seed_start
     if not args.held_out and start + args.per_family > HELD_OUT_START:
         raise SystemExit("development seeds would reach the held-out range")
     return range(start, start + args.per_family)

@@ -120,7 +120,8 @@ def test_edf_against_monte_carlo(rng, terms, params):
 
 def test_record_edf_floor_counts_disjoint_contrasts():
     """floor(n / (k + N)), at least one, at whole-sample outages given in seconds."""
-    contrasts = phase_contrasts(np.zeros(1000), rate_hz=10.0, calibration_s=10.0, k=[1, 50, 400, 899])
+    contrasts = phase_contrasts(np.zeros(1000), rate_hz=10.0, calibration_s=10.0,
+                                k=[1, 50, 400, 899])
     np.testing.assert_array_equal(record_edf_floor(contrasts, [0.1, 5.0, 40.0, 89.9]),
                                   [1000 // 101, 1000 // 150, 1000 // 500, 1])
 
@@ -232,7 +233,8 @@ def test_record_drift_check_in_summary_and_reasons(rng):
         other = drift_bands(fit, [0.5, 5.0, 50.0], quantity="attitude", calibration_s=30.0, rng=2)
     assert other.measured_s == 0.0 and other.extrapolated.all() and other.check is None
     position = drift_bands(fit, [0.5, 5.0, 50.0], quantity="position", calibration_s=30.0, rng=2)
-    assert np.isnan(position.measured_s) and not position.extrapolated.any()  # order 2: never measured
+    # order 2: never measured
+    assert np.isnan(position.measured_s) and not position.extrapolated.any()
     fit_table = fit_allan(allan_variance(y, rate_hz=100.0, contrast_span_s=None), terms=("white",), rng=1)
     assert "not kept" in unmeasured_reason(fit_table, "calibrated", 60.0)
 
@@ -248,11 +250,12 @@ def test_capped_edf_is_honest_where_the_model_misses_a_slow_term(rng):
     ks = np.array([300, 1000])
     truth = NoiseModel(("white", "gauss_markov"), dt)
     params = {"noise_variance": 1.0, "bias_variance": 0.5, "time_constant": 100.0}
-    v = np.array([phase_contrasts(simulate_log(truth, params, n, rng=rng), rate_hz=10.0, calibration_s=6.0,
-                                  k=ks).mean_square for _ in range(400)])
+    v = np.array([phase_contrasts(simulate_log(truth, params, n, rng=rng), rate_hz=10.0,
+                                  calibration_s=6.0, k=ks).mean_square for _ in range(400)])
     mc = 2 * v.mean(0) ** 2 / v.var(0, ddof=1)
     wrong = contrast_edf(NoiseModel(("white",), dt), {"noise_variance": 1.0}, ks, n_cal, n,
                          contrast_stride(ks, n_cal))
-    floor = record_edf_floor(phase_contrasts(np.zeros(n), rate_hz=10.0, calibration_s=6.0, k=ks), ks * dt)
+    grid = phase_contrasts(np.zeros(n), rate_hz=10.0, calibration_s=6.0, k=ks)
+    floor = record_edf_floor(grid, ks * dt)
     assert np.all(wrong > 2 * mc)
     assert np.all(floor <= mc / 1.3)

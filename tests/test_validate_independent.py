@@ -88,7 +88,8 @@ def test_drift_alarm_line_counts_and_bounds():
     sys.path.insert(0, str(SCRIPT.parent))
     import validate_independent as vi
 
-    logs = [{"drift_check": "ok", "drift_p": 0.5}] * 59 + [{"drift_check": "n/a", "drift_p": float("nan")}]
+    logs = ([{"drift_check": "ok", "drift_p": 0.5}] * 59
+            + [{"drift_check": "n/a", "drift_p": float("nan")}])
     line = vi.drift_alarms(logs)
     assert "0/59 logs rejected" in line and f"{100 * (1 - 0.05 ** (1 / 59)):.1f}%" in line
     logs[0] = {"drift_check": "flagged", "drift_p": 0.01}

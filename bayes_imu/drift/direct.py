@@ -19,7 +19,8 @@ model's and the direct one, ``sqrt(nu V_hat / chi2_nu^{-1}(1 - q))``, each upper
 which covers it with probability ``1 - 2 q`` whatever the noise (given ``nu``), so the band covers
 at least that often whether or not the model is right. The interval's ``nu`` is the model's EDF
 capped at :func:`record_edf_floor`, the number of disjoint contrasts the record holds (a bound that
-needs no model: the model's EDF is right only where the model is). Beyond the record the band is the model's
+needs no model: the model's EDF is right only where the model is). Beyond the record the band is
+the model's
 extrapolation alone (:attr:`bayes_imu.drift.bands.DriftBands.extrapolated`).
 """
 
@@ -105,11 +106,12 @@ class DriftCheck:
         """JSON-ready (drift values times ``factor``, in ``unit``)."""
         rows = [{"t_s": float(t), "direct": float(d * factor), "direct_q05": float(lo * factor),
                  "direct_q95": float(hi * factor), "edf": float(e), "model_q05": float(a * factor),
-                 "model_q50": float(b * factor), "model_q95": float(c * factor), "p_value": float(p),
-                 "edf_interval": float(ei)}
-                for t, d, lo, hi, e, a, b, c, p, ei in zip(self.t_s, self.direct, self.direct_low, self.direct_high,
-                                                           self.edf, self.model_q05, self.model_q50, self.model_q95,
-                                                           self.p_value, self._edf_interval())]
+                 "model_q50": float(b * factor), "model_q95": float(c * factor),
+                 "p_value": float(p), "edf_interval": float(ei)}
+                for t, d, lo, hi, e, a, b, c, p, ei in zip(
+                    self.t_s, self.direct, self.direct_low, self.direct_high, self.edf,
+                    self.model_q05, self.model_q50, self.model_q95, self.p_value,
+                    self._edf_interval())]
         return {"adequate": self.adequate, "p_value": float(self.p_combined), "alpha": DRIFT_ALPHA,
                 "worst_t_s": self.worst_t_s, "calibration_s": float(self.calibration_s), "unit": unit,
                 "horizons": rows}
@@ -158,7 +160,8 @@ def direct_edf(fit, contrasts, t):
 
 def record_edf_floor(contrasts, t):
     """The EDF the record supports without a model at outages ``t`` [s]: ``floor(n / (k + N))``,
-    the number of disjoint contrasts (spans ``k + N`` samples) in the ``n``-sample record, at least 1.
+    the number of disjoint contrasts (spans ``k + N`` samples) in the ``n``-sample record, at
+    least 1.
 
     The overlapping average is the mean of the ``k + N`` disjoint-start averages (one per offset),
     which are identically distributed, so its variance is at most one of theirs (Cauchy-Schwarz);
@@ -167,7 +170,8 @@ def record_edf_floor(contrasts, t):
     spans are nearly uncorrelated (the contrast annihilates constants and trends of the phase): the
     exact EDF is 1.75-37 times this floor (``scripts/edf_floor_ratio.py``; about 2 for a random walk
     of the rate or a slow bias, up to the strided starts' count for white noise far from ``k = N``).
-    A conservative cap on a model's EDF, which can be far too large when the model misses a slow term.
+    A conservative cap on a model's EDF, which can be far too large when the model misses a slow
+    term.
     """
     k = np.round(np.asarray(t, dtype=float) * contrasts.rate_hz)
     return np.maximum(1.0, np.floor(contrasts.n_samples / (k + contrasts.n_cal)))
