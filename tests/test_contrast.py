@@ -11,7 +11,7 @@ import pytest
 
 from bayes_imu.allan.contrast import contrast_grid, phase_contrasts
 from bayes_imu.allan.estimator import allan_variance
-from bayes_imu.drift.direct import honest_quantiles
+from bayes_imu.drift.direct import honest_quantiles, record_edf_floor
 from bayes_imu.errors import InputError
 from bayes_imu.noise.avar_forms import NoiseModel
 from bayes_imu.noise.contrast_covariance import contrast_edf
@@ -112,6 +112,18 @@ def test_edf_against_monte_carlo(rng, terms, params):
                                   k=ks).mean_square for _ in range(400)])
     mc = 2 * v.mean(0) ** 2 / v.var(0, ddof=1)
     np.testing.assert_allclose(edf / mc, 1.0, atol=0.3)
+    # the model-free cap of the honest interval's EDF lies below the true one (by 1.5-3x for these
+    # noises; 1.3 leaves the Monte Carlo error room)
+    contrasts = phase_contrasts(np.zeros(n), rate_hz=10.0, calibration_s=6.0, k=ks)
+    assert np.all(record_edf_floor(contrasts, ks * dt) <= mc / 1.3)
+
+
+def test_record_edf_floor_counts_disjoint_contrasts():
+    """floor(n / (k + N)), at least one, at whole-sample outages given in seconds."""
+    contrasts = phase_contrasts(np.zeros(1000), rate_hz=10.0, calibration_s=10.0,
+                                k=[1, 50, 400, 899])
+    np.testing.assert_array_equal(record_edf_floor(contrasts, [0.1, 5.0, 40.0, 89.9]),
+                                  [1000 // 101, 1000 // 150, 1000 // 500, 1])
 
 
 def test_edf_of_white_noise_at_short_outages():
@@ -215,5 +227,35 @@ def test_record_drift_check_in_summary_and_reasons(rng):
     assert "calibrated" in unmeasured_reason(fit, "zero", 10.0)
     assert "window" in unmeasured_reason(fit, "calibrated", 60.0)
     assert record_drift_check(fit, [500.0], calibration_s=10.0) is None
+    from bayes_imu.errors import UnmeasuredWarning
+
+    with pytest.warns(UnmeasuredWarning, match="10 s calibration window, not the 30 s"):
+        other = drift_bands(fit, [0.5, 5.0, 50.0], quantity="attitude", calibration_s=30.0, rng=2)
+    assert other.measured_s == 0.0 and other.extrapolated.all() and other.check is None
+    position = drift_bands(fit, [0.5, 5.0, 50.0], quantity="position", calibration_s=30.0, rng=2)
+    # order 2: never measured
+    assert np.isnan(position.measured_s) and not position.extrapolated.any()
     fit_table = fit_allan(allan_variance(y, rate_hz=100.0, contrast_span_s=None), terms=("white",), rng=1)
     assert "not kept" in unmeasured_reason(fit_table, "calibrated", 60.0)
+
+
+@pytest.mark.slow
+def test_capped_edf_is_honest_where_the_model_misses_a_slow_term(rng):
+    """A white-only model's EDF of a white + slow Gauss-Markov record is far too large (its interval
+    too narrow); the record's floor is not. 400 simulated records; the Monte Carlo EDF's relative
+    error is about 0.1."""
+    from bayes_imu.allan.contrast import contrast_stride
+
+    dt, n, n_cal = 0.1, 2**12, 60
+    ks = np.array([300, 1000])
+    truth = NoiseModel(("white", "gauss_markov"), dt)
+    params = {"noise_variance": 1.0, "bias_variance": 0.5, "time_constant": 100.0}
+    v = np.array([phase_contrasts(simulate_log(truth, params, n, rng=rng), rate_hz=10.0,
+                                  calibration_s=6.0, k=ks).mean_square for _ in range(400)])
+    mc = 2 * v.mean(0) ** 2 / v.var(0, ddof=1)
+    wrong = contrast_edf(NoiseModel(("white",), dt), {"noise_variance": 1.0}, ks, n_cal, n,
+                         contrast_stride(ks, n_cal))
+    grid = phase_contrasts(np.zeros(n), rate_hz=10.0, calibration_s=6.0, k=ks)
+    floor = record_edf_floor(grid, ks * dt)
+    assert np.all(wrong > 2 * mc)
+    assert np.all(floor <= mc / 1.3)

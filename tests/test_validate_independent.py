@@ -37,7 +37,11 @@ def test_held_out_seeds_are_disjoint_from_development():
         held_out, seed_start, per_family = False, 0, 50
     dev = set(vi.seeds(A))
     A.held_out = True
-    assert dev.isdisjoint(vi.seeds(A))
+    first = set(vi.seeds(A))
+    assert dev.isdisjoint(first)
+    A.held_out_range = "2"
+    assert dev.isdisjoint(vi.seeds(A)) and first.isdisjoint(vi.seeds(A))
+    del A.held_out_range
     A.held_out, A.seed_start = False, vi.HELD_OUT_START - 10
     with pytest.raises(SystemExit):
         vi.seeds(A)
@@ -76,3 +80,18 @@ def test_nav_mode_reads_the_documented_nav_csv(tmp_path, mode, expected):
     assert proc.returncode == 0, proc.stderr[-2000:]
     for q in ("position", "velocity"):
         assert f"nav {q}: {expected}" in proc.stdout, proc.stdout
+
+
+def test_drift_alarm_line_counts_and_bounds():
+    """The false-alarm line: rejections over the logs the check ran on, with the exact one-sided
+    95% Clopper-Pearson bound (0 of 59 -> 1 - 0.05^(1/59) = 4.95%)."""
+    sys.path.insert(0, str(SCRIPT.parent))
+    import validate_independent as vi
+
+    logs = ([{"drift_check": "ok", "drift_p": 0.5}] * 59
+            + [{"drift_check": "n/a", "drift_p": float("nan")}])
+    line = vi.drift_alarms(logs)
+    assert "0/59 logs rejected" in line and f"{100 * (1 - 0.05 ** (1 / 59)):.1f}%" in line
+    logs[0] = {"drift_check": "flagged", "drift_p": 0.01}
+    assert "1/59 logs rejected (1.7%" in vi.drift_alarms(logs)
+    assert "not available" in vi.drift_alarms(logs[-1:])

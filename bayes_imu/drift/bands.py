@@ -25,7 +25,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .closed_forms import QUANTITY_ORDER
-from .direct import direct_contrasts, direct_edf, drift_check, honest_quantiles, same_window
+from .direct import (direct_contrasts, direct_edf, drift_check, honest_quantiles, record_edf_floor,
+                     same_window)
 from ..errors import InputError, UnmeasuredWarning
 from ..noise import BIAS_STARTS, TERMS, NoiseModel
 from ..noise.quantities import SENSORS
@@ -71,7 +72,9 @@ class DriftBands:
     measured_s : float
         Longest horizon the record measures directly (calibrated attitude / velocity,
         :mod:`bayes_imu.drift.direct`): up to it ``total`` contains the record's own interval;
-        beyond it the bands are the model's extrapolation. ``nan`` when nothing is measured.
+        beyond it the bands are the model's extrapolation. ``nan`` when nothing is measured;
+        ``0`` when the record measured another calibration window than the one asked (the band
+        is then the model's at every horizon, all marked :attr:`extrapolated`).
     model_total : (n_q, n_t) ndarray or None
         The model's quantiles before the record's interval was included (``None`` when equal).
     check : DriftCheck or None
@@ -282,25 +285,30 @@ def drift_bands(fit, t=None, *, quantity, bias_start="calibrated", calibration_s
 
 def _warn_other_window(fit, quantity, bias_start, calibration_s):
     """Calibrated attitude / velocity bands at a window other than the one the record measured:
-    they are the model's alone (honest only within the model list), which the caller can mend."""
+    they are the model's alone (honest only within the model list), which the caller can mend.
+    Returns whether it warned."""
     import warnings
 
     measured = getattr(getattr(fit, "allan", None), "contrasts", None)
     if (measured is None or bias_start != "calibrated" or QUANTITY_ORDER[quantity] != 1
             or same_window(measured, calibration_s)):
-        return
+        return False
     warnings.warn(f"the record measured its own drift for a {measured.calibration_s:g} s calibration "
                   f"window, not the {calibration_s:g} s asked: these bands are the model's alone; "
                   f"compute the Allan variance with contrast_span_s={calibration_s:g} for bands that "
                   "contain what the record shows", UnmeasuredWarning, stacklevel=4)
+    return True
 
 
 def direct_part(fit, draws, quantity, bias_start, calibration_s, q, total):
     """``(honest total, measured_s, model total, DriftCheck)``, or ``None`` where the record measures
-    nothing of these drift semantics (:mod:`bayes_imu.drift.direct`)."""
+    nothing of these drift semantics (:mod:`bayes_imu.drift.direct`); at a calibration window other
+    than the one the record measured, the model's band with ``measured_s = 0`` (every horizon marked
+    extrapolated) and a warning."""
     contrasts = direct_contrasts(fit, quantity, bias_start, calibration_s)
     if contrasts is None:
-        _warn_other_window(fit, quantity, bias_start, calibration_s)
+        if _warn_other_window(fit, quantity, bias_start, calibration_s):
+            return total, 0.0, None, None
         return None
     t = draws["t_s"]
     inside = contrasts.covers(t)
@@ -308,6 +316,7 @@ def direct_part(fit, draws, quantity, bias_start, calibration_s, q, total):
         return None
     edf = np.full(t.shape, np.nan)
     edf[inside] = direct_edf(fit, contrasts, t[inside])
-    check = drift_check(fit, draws, contrasts, edf)
-    honest = honest_quantiles(q, total, contrasts.at(t), edf)
+    capped = np.minimum(edf, record_edf_floor(contrasts, t))
+    check = drift_check(fit, draws, contrasts, edf, capped)
+    honest = honest_quantiles(q, total, contrasts.at(t), capped)
     return honest, float(contrasts.t_s[-1]), total, check

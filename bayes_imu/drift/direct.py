@@ -17,7 +17,10 @@ measures"): within the record, each lower quantile ``q < 1/2`` of the band is th
 model's and the direct one, ``sqrt(nu V_hat / chi2_nu^{-1}(1 - q))``, each upper quantile the larger
 (the median stays the model's). The band then contains the data's own interval for the true drift,
 which covers it with probability ``1 - 2 q`` whatever the noise (given ``nu``), so the band covers
-at least that often whether or not the model is right. Beyond the record the band is the model's
+at least that often whether or not the model is right. The interval's ``nu`` is the model's EDF
+capped at :func:`record_edf_floor`, the number of disjoint contrasts the record holds (a bound that
+needs no model: the model's EDF is right only where the model is). Beyond the record the band is
+the model's
 extrapolation alone (:attr:`bayes_imu.drift.bands.DriftBands.extrapolated`).
 """
 
@@ -33,7 +36,7 @@ from ..noise.contrast_covariance import contrast_edf
 special = LazyModule("scipy.special")
 
 __all__ = ["DriftCheck", "drift_check", "direct_contrasts", "direct_edf", "honest_quantiles", "record_drift_check",
-           "unmeasured_reason", "same_window", "DRIFT_ALPHA"]
+           "unmeasured_reason", "same_window", "record_edf_floor", "DRIFT_ALPHA"]
 
 #: false-alarm rate of the drift-space check on a correct model
 DRIFT_ALPHA = 0.05
@@ -52,8 +55,10 @@ class DriftCheck:
     t_s : (n_t,) ndarray
         Horizons checked [s].
     direct, direct_low, direct_high : (n_t,) ndarray
-        1-sigma drift measured from the record and its 90% interval [unit x s].
+        1-sigma drift measured from the record and its 90% interval [unit x s] (EDF
+        :attr:`edf_interval`: what the honest band contains).
     edf : (n_t,) ndarray
+        EDF of the direct estimate under the fitted model (the check's null).
     model_q05, model_q50, model_q95 : (n_t,) ndarray
         The model's band there [unit x s] (before any honest widening).
     p_value : (n_t,) ndarray
@@ -61,6 +66,8 @@ class DriftCheck:
     p_combined : float
         Simes' combination over horizons.
     calibration_s : float
+    edf_interval : (n_t,) ndarray
+        EDF of the record's interval: :attr:`edf` capped at :func:`record_edf_floor`.
     """
 
     t_s: np.ndarray
@@ -74,6 +81,7 @@ class DriftCheck:
     p_value: np.ndarray
     p_combined: float
     calibration_s: float
+    edf_interval: np.ndarray = None
 
     def scaled(self, factor):
         """The same check in another unit (drift values times ``factor``)."""
@@ -82,6 +90,9 @@ class DriftCheck:
         f = abs(factor)
         return replace(self, direct=self.direct * f, direct_low=self.direct_low * f, direct_high=self.direct_high * f,
                        model_q05=self.model_q05 * f, model_q50=self.model_q50 * f, model_q95=self.model_q95 * f)
+
+    def _edf_interval(self):
+        return self.edf if self.edf_interval is None else self.edf_interval
 
     @property
     def adequate(self):
@@ -95,10 +106,12 @@ class DriftCheck:
         """JSON-ready (drift values times ``factor``, in ``unit``)."""
         rows = [{"t_s": float(t), "direct": float(d * factor), "direct_q05": float(lo * factor),
                  "direct_q95": float(hi * factor), "edf": float(e), "model_q05": float(a * factor),
-                 "model_q50": float(b * factor), "model_q95": float(c * factor), "p_value": float(p)}
-                for t, d, lo, hi, e, a, b, c, p in zip(self.t_s, self.direct, self.direct_low, self.direct_high,
-                                                       self.edf, self.model_q05, self.model_q50, self.model_q95,
-                                                       self.p_value)]
+                 "model_q50": float(b * factor), "model_q95": float(c * factor),
+                 "p_value": float(p), "edf_interval": float(ei)}
+                for t, d, lo, hi, e, a, b, c, p, ei in zip(
+                    self.t_s, self.direct, self.direct_low, self.direct_high, self.edf,
+                    self.model_q05, self.model_q50, self.model_q95, self.p_value,
+                    self._edf_interval())]
         return {"adequate": self.adequate, "p_value": float(self.p_combined), "alpha": DRIFT_ALPHA,
                 "worst_t_s": self.worst_t_s, "calibration_s": float(self.calibration_s), "unit": unit,
                 "horizons": rows}
@@ -145,6 +158,25 @@ def direct_edf(fit, contrasts, t):
     return np.exp(np.interp(np.log(k), np.log(nodes), np.log(edf)))
 
 
+def record_edf_floor(contrasts, t):
+    """The EDF the record supports without a model at outages ``t`` [s]: ``floor(n / (k + N))``,
+    the number of disjoint contrasts (spans ``k + N`` samples) in the ``n``-sample record, at
+    least 1.
+
+    The overlapping average is the mean of the ``k + N`` disjoint-start averages (one per offset),
+    which are identically distributed, so its variance is at most one of theirs (Cauchy-Schwarz);
+    a disjoint average of ``D`` squared contrasts has EDF ``D`` when they are uncorrelated (Gaussian
+    contrasts: ``Var e^2 = 2 V^2``). For noises without spectral lines the contrasts of disjoint
+    spans are nearly uncorrelated (the contrast annihilates constants and trends of the phase): the
+    exact EDF is 1.75-37 times this floor (``scripts/edf_floor_ratio.py``; about 2 for a random walk
+    of the rate or a slow bias, up to the strided starts' count for white noise far from ``k = N``).
+    A conservative cap on a model's EDF, which can be far too large when the model misses a slow
+    term.
+    """
+    k = np.round(np.asarray(t, dtype=float) * contrasts.rate_hz)
+    return np.maximum(1.0, np.floor(contrasts.n_samples / (k + contrasts.n_cal)))
+
+
 def honest_quantiles(quantiles, total, mean_square, edf):
     """The band's quantiles widened to contain the record's own interval (module docstring).
 
@@ -166,10 +198,11 @@ def honest_quantiles(quantiles, total, mean_square, edf):
     return np.where(q < 0.5, lower, np.where(q > 0.5, upper, total))
 
 
-def drift_check(fit, draws, contrasts, edf):
+def drift_check(fit, draws, contrasts, edf, edf_interval=None):
     """:class:`DriftCheck` from drift draws (:func:`bayes_imu.drift.bands.drift_draws` output).
 
-    ``draws["t_s"]`` are the horizons; only those ``contrasts`` covers are checked.
+    ``draws["t_s"]`` are the horizons; only those ``contrasts`` covers are checked. ``edf`` (the
+    model's) gives the p-values, ``edf_interval`` (default ``edf``) the record's interval.
     """
     t = np.asarray(draws["t_s"], dtype=float)
     inside = contrasts.covers(t)
@@ -183,10 +216,11 @@ def drift_check(fit, draws, contrasts, edf):
     order = np.sort(p)
     simes = float(np.min(order * p.size / np.arange(1, p.size + 1))) if p.size else 1.0
     band = np.quantile(draws["total"][:, inside], [0.05, 0.5, 0.95], axis=0)
-    low = np.sqrt(nu * v_hat / (2.0 * special.gammainccinv(nu / 2.0, 0.05)))
-    high = np.sqrt(nu * v_hat / (2.0 * special.gammainccinv(nu / 2.0, 0.95)))
+    nu_i = nu if edf_interval is None else np.asarray(edf_interval, dtype=float)[inside]
+    low = np.sqrt(nu_i * v_hat / (2.0 * special.gammainccinv(nu_i / 2.0, 0.05)))
+    high = np.sqrt(nu_i * v_hat / (2.0 * special.gammainccinv(nu_i / 2.0, 0.95)))
     return DriftCheck(t[inside], np.sqrt(v_hat), low, high, nu, *band, p, min(1.0, simes),
-                      contrasts.calibration_s)
+                      contrasts.calibration_s, nu_i)
 
 
 def unmeasured_reason(fit, bias_start, calibration_s):

@@ -552,6 +552,8 @@ def _draw_measured(ax, bands, t):
     if edge < t[-1]:
         what = (f"beyond what the log measures ({edge:.4g} s): model extrapolation" if np.isfinite(measured)
                 else f"beyond the log ({edge:.4g} s): extrapolation")
+        if measured == 0.0:
+            what, edge = "the log measured another calibration window: the model's alone", t[0]
         ax.axvspan(edge, t[-1], color="gray", alpha=0.12, hatch="//" if np.isfinite(measured) else None,
                    label=what)
 
