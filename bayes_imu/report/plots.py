@@ -310,7 +310,7 @@ def _corner_grid(plt, data, labels, bins=20):
                                   axes_scale=["log", "log"], bins=bins, color="k")
                     _set_ticks(ax.yaxis, ticks[i], labelled=j == 0, label=labels[i])
                 _set_ticks(ax.xaxis, ticks[j], labelled=i == k - 1, label=labels[j])
-                ax.tick_params(which="both", labelsize=7)
+                ax.tick_params(which="both", labelsize=CORNER_FONT)
     return fig
 
 
@@ -321,9 +321,12 @@ def _draw_range(x):
 
 
 #: the corner grid's tick labels: none nearer than LABEL_END of the axis's log length to its ends (where two
-#: others can be labelled), none nearer than LABEL_GAP to one another (45-degree labels of 7 points on a
-#: 1.9-inch panel: a label reaches about a tenth of the panel beyond its tick)
-LABEL_END, LABEL_GAP = 0.1, 0.15
+#: others can be labelled), none nearer than LABEL_GAP to one another (45-degree labels of CORNER_FONT
+#: points on a 1.9-inch panel: a label reaches about a fifth of the panel beyond its tick)
+LABEL_END, LABEL_GAP = 0.1, 0.22
+#: the corner grid's font size (points) of tick labels, axis labels and titles: 7 read as tiny at full
+#: size (a new user's finding)
+CORNER_FONT = 9
 
 
 def _log_ticks(low, high, max_labels=4):
@@ -407,7 +410,7 @@ def _set_ticks(axis, ticks, *, labelled, label):
     if labelled:
         axis.set_major_formatter(plain_log_formatter(labelOnlyBase=False, minor_thresholds=(np.inf, np.inf)))
         axis.axes.tick_params(axis=name, which="major", labelrotation=45)
-        axis.set_label_text(label, fontsize=8)
+        axis.set_label_text(label, fontsize=CORNER_FONT)
     else:
         axis.set_major_formatter(NullFormatter())
         axis.axes.tick_params(axis=name, which="both", **{"labelbottom" if name == "x" else "labelleft": False})
@@ -427,7 +430,7 @@ def _diagonal_panel(ax, x, limits, bins):
     ax.set_ylim(0.0, 1.1 * counts.max())
     ax.yaxis.set_major_locator(NullLocator())
     ax.yaxis.set_minor_locator(NullLocator())
-    ax.set_title(f"{q[1]:.4g}\n[{q[0]:.3g}, {q[2]:.3g}]", fontsize=7)
+    ax.set_title(f"{q[1]:.4g}\n[{q[0]:.3g}, {q[2]:.3g}]", fontsize=CORNER_FONT)
 
 
 _SUPERSCRIPT = str.maketrans("-0123456789", "\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079")
