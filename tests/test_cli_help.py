@@ -74,6 +74,17 @@ def test_fit_drift_in_degrees(tmp_path):
         r, d = r.split(","), d.split(",")
         assert (r[5], d[5]) == ("rad", "deg")
         assert float(d[3]) == pytest.approx(float(r[3]) * 180 / math.pi, rel=1e-8)
+    # the parameters too, beside SI (issue 38): a variance by (180/pi)^2, a density by 180/pi
+    si = json.loads((tmp_path / "rad" / "summary.json").read_text())
+    shown = json.loads((tmp_path / "deg" / "summary.json").read_text())
+    assert "parameters_display" not in si and shown["parameters"] == si["parameters"]
+    variance, density = (shown["parameters_display"][k] for k in ("noise_variance", "noise_density"))
+    assert variance["unit"] == "(deg/s)^2" and density["unit"] == "deg/s/sqrt(Hz)"
+    for key in ("median", "q05", "q95"):
+        assert variance[key] == pytest.approx(si["parameters"]["noise_variance"][key]
+                                              * (180 / math.pi) ** 2, rel=1e-12)
+        assert density[key] == pytest.approx(si["parameters"]["noise_density"][key] * 180 / math.pi,
+                                             rel=1e-12)
 
 
 @pytest.mark.parametrize("given, quantity, si", [

@@ -43,7 +43,7 @@ from .._progress import progress_bar, show_progress
 from ..allan.pipeline import LogSource, allan_from_source
 from .extra import add_commands, add_fit_options, datasheet_hook
 from ..drift.bands import DEFAULT_CALIBRATION_S, MODEL_CHOICES
-from ..drift.display import DISPLAY_CHOICES, display_unit
+from ..drift.display import DISPLAY_CHOICES, display_parameters, display_unit, rate_display
 from .nav import add_nav_parser
 from ..drift.closed_forms import DRIFT_BIAS_STARTS, QUANTITY_ORDER, SI_OUTPUT_UNITS
 from ..errors import BayesIMUError, InputError
@@ -383,15 +383,19 @@ def _fit_axis(request, args, allan, unit, info, column, out, writer):
     # parameters takes longer than allan_fit.png (corner.png of 3, 5 and 7 parameters 0.14-0.16, 0.33 and 0.57-0.59 s,
     # allan_fit.png 0.17-0.20 s: scripts/study_speed_options.py --figures)
     label = f"{Path(info['log']).name}: {column}"
+    shown, scale = rate_display(unit, request.display_units)  # --display-units: figures too
     figures = [(plot_allan_fit, result, out / "allan_fit.png",
-                {"label": label, "unit": unit, "rng": request.seed}),
-               (plot_corner, result, out / "corner.png", {"unit": unit})]
+                {"label": label, "unit": shown, "rng": request.seed, "scale": scale}),
+               (plot_corner, result, out / "corner.png", {"unit": shown, "scale": scale})]
     for plot, *arguments, options in (figures[::-1] if result.samples.shape[1] >= 4 else figures):
         writer.picture(plot, *arguments, **options)
     drift = drift_outputs(result, request, unit) if request.sensor else None
     summary = axis_summary(result, unit=unit, info=info, column=column, drift=drift)
     _say(args, _model_line(summary, result.diagnostics["converged"]))
-    for name, p in summary["parameters"].items():
+    displayed = display_parameters(summary["parameters"], unit, request.display_units)
+    if displayed is not None:  # beside the SI values
+        summary["parameters_display"] = displayed
+    for name, p in (displayed or summary["parameters"]).items():
         _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
     _say_datasheet(args, summary["datasheet"])
     _say_readout(args, summary["allan_datasheet"])
