@@ -38,9 +38,11 @@ UNITS = {
     "rad/s": ("gyro", 1.0),
     "deg/s": ("gyro", np.pi / 180.0),
     "deg/h": ("gyro", np.pi / 180.0 / 3600.0),
+    "mrad/s": ("gyro", 1e-3),
     "m/s^2": ("accel", 1.0),
     "g": ("accel", 9.80665),
     "mg": ("accel", 9.80665e-3),
+    "ug": ("accel", 9.80665e-6),
 }
 #: the SI unit of each sensor kind's rate samples
 SI_UNITS = {"gyro": "rad/s", "accel": "m/s^2"}
