@@ -135,6 +135,10 @@ def _input_options(batch=False, optional_log=False):
     common.add_argument("--units", "--unit", dest="units", choices=tuple(UNITS) + tuple(INCREMENT_UNITS),
                         help="units of the column(s), converted to SI (rad/s, m/s^2): rates " + ", ".join(UNITS)
                              + "; increments " + ", ".join(INCREMENT_UNITS) + "; default: left as they are")
+    common.add_argument("--where", metavar="FILTER",
+                        help="keep only the rows satisfying FILTER, e.g. 'period == 0' or "
+                             "'period == 2 and status != 1' (COLUMN OP NUMBER joined by and; OP one "
+                             "of == != < <= > >=; text logs read in memory)")
     common.add_argument("--trust-units", action="store_true",
                         help="skip the check that a static log is plausible in --units (a moving "
                              "log, a test rig)")

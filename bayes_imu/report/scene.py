@@ -349,7 +349,7 @@ def read_scene(path, *, allow_outside=False):
 
 
 #: keys of a ``[[sensor]]`` with logs that say how to read them, beyond column, rate_hz and units
-_READING = ("time_column", "time_unit", "gaps", "topic", "input", "stream")
+_READING = ("time_column", "time_unit", "gaps", "topic", "input", "stream", "where")
 
 
 def _reading(entry, kind, where):
@@ -379,8 +379,17 @@ def _reading(entry, kind, where):
         what = f"a {kind}" + (" (increments)" if kind_of_input == "increments" else "")
         raise InputError(f"{where}: units={_excerpt(units)}: expected one of {', '.join(allowed)} "
                          f"for {what}")
+    rows = _get(entry, "where", str, where, required=False)
+    if rows is not None:
+        from ..io.rows import parse_where
+
+        try:
+            parse_where(rows)
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
     return LogSource(topic=topic, stream=stream, rate=rate, time_column=time_column,
-                     time_unit=time_unit, gaps=gaps, input=kind_of_input, units=units, sensor=kind)
+                     time_unit=time_unit, gaps=gaps, input=kind_of_input, units=units, sensor=kind,
+                     where=rows)
 
 
 def _datasheet(entry, path, kind, where, allow_outside=False):
