@@ -571,6 +571,7 @@ def _cmd_fit_population(args):
     from ..report.fleet import job_name
     from ..report.plots import plot_population
     from ..inference.population import fit_population
+    from ..inference.population_archive import save_population
 
     if args.column is not None and "," in args.column:
         raise InputError(f"--column {args.column!r}: fit-population takes one column (one axis of every unit)")
@@ -615,6 +616,7 @@ def _cmd_fit_population(args):
                                       calibration_s=args.calibration, rng=args.seed).scaled(factor)
                           for f in pop.unit_fits]
         write_json(tmp / "summary.json", summary)
+        save_population(pop, tmp)  # report and export read it instead of fitting again
         args.picture_failures.append(draw_picture(plot_population, pop, tmp / "population.png", unit=unit,
                                                   bands=bands, unit_bands=unit_bands, rng=args.seed,
                                                   drift_unit=drift_unit))

@@ -201,8 +201,9 @@ class Report:
                 entry.update(model=summary["model"], parameters=summary["new_unit"], population=summary["population"],
                              units=summary["units"], structures=summary["structures"],
                              diagnostics=summary["diagnostics"])
+                n_units = len(s.axes[s.worst].population.labels)
                 entry["unit_to_unit"] = (f"included: the bounds are for a NEW unit of this model (posterior "
-                                         f"predictive of a hierarchical fit of {len(s.spec.paths)} units)")
+                                         f"predictive of a hierarchical fit of {n_units} units)")
             entry.update(bounds=list(s.bounds), max_outage_s=s.max_outage_s)
             if s.spec.datasheet is not None:
                 entry["datasheet_check"] = s.datasheet_check
@@ -575,8 +576,11 @@ def build_report(scene, *, rng=None, progress=None):
 def _axes(spec, rng):
     """The :class:`AxisResult` of each axis of a sensor (fitting its logs or reading its fit folders)."""
     from ..inference.population import fit_population
+    from ..inference.population_archive import is_population_folder
 
     where = f"sensor {_excerpt(spec.name)}: "
+    if spec.source == "fit" and is_population_folder(spec.paths[0]):
+        return [_saved_population(spec.paths[0], spec, where)]  # read, not fitted again
     if spec.source in ("fit", "fits"):
         per_unit = [_saved_axes(p, spec, where) for p in spec.paths]
         names = [n for n, _ in per_unit[0]]
@@ -605,6 +609,23 @@ def _axes(spec, rng):
 
 def _label(path, i):
     return f"{i + 1}: {path.name}"
+
+
+def _saved_population(folder, spec, where):
+    """The :class:`AxisResult` of a ``bayes-imu fit-population`` folder: its new-unit predictive
+    and the population as fitted there (:mod:`bayes_imu.inference.population_archive`)."""
+    from ..inference.population_archive import load_population
+    from ..io.readers import read_json_object
+
+    try:
+        summary = read_json_object(Path(folder) / "summary.json", "a bayes-imu fit-population summary")
+        if summary.get("unit") != spec.units:
+            raise InputError(f"{folder}: fitted in {_excerpt(summary.get('unit'))}; a {spec.kind} "
+                             f"report needs a fit in {spec.units} (run fit-population with --units)")
+        pop = load_population(folder)
+    except InputError as exc:
+        raise InputError(f"{where}{exc}") from None
+    return AxisResult(str(summary.get("column", Path(folder).name)), pop.new_unit, None, pop)
 
 
 def _saved_axes(folder, spec, where):
