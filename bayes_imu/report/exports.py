@@ -45,7 +45,7 @@ import numpy as np
 from .._version import __version__
 from ..drift.overbound import overbound as overbound_pair
 from ..errors import InputError
-from .kalibr import axis_densities, fit_folders
+from .kalibr import axis_densities, fit_folders, rate_of
 
 __all__ = [
     "ImuNoise",
@@ -131,7 +131,9 @@ class ExportValues:
         """Key -> written overbound over the point value (``nan`` without an overbound)."""
         if self.bound is None:
             return {k: float("nan") for k in self.point.present()}
-        return {k: v / self.point.present()[k] for k, v in self.bound.present().items()}
+        point = self.point.present()  # a model without a random walk: its point value is 0
+        return {k: v / point[k] if point[k] > 0 else (math.inf if v > 0 else math.nan)
+                for k, v in self.bound.present().items()}
 
 
 def export_values(
@@ -178,7 +180,7 @@ def export_values(
             check = getattr(axis.fit, "adequacy", None)
             if check is not None and not check.adequate:
                 inadequate.append(axis.label)
-            rates.add(float(axis.fit.allan.rate_hz))
+            rates.add(rate_of(axis.fit))
     if len(rates) != 1:
         raise InputError(f"fits have different rates {sorted(rates)} Hz: expected one IMU rate")
     rate = rates.pop()

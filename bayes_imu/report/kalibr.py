@@ -31,6 +31,7 @@ its parts (repeatability, :mod:`bayes_imu.inference.repeatability`), as ``summar
 """
 
 from dataclasses import dataclass, field
+from pathlib import Path
 import math
 import re
 
@@ -38,11 +39,11 @@ import numpy as np
 
 from ..errors import InputError
 from ..inference.repeatability import normal_scores, repeatability_spread
-from ..io.readers import UNITS
+from ..io.readers import UNITS, read_json_object
 from ..noise.quantities import SENSORS
 
 __all__ = ["KalibrAxis", "KalibrValues", "kalibr_values", "kalibr_values_from_folders", "write_kalibr_yaml",
-           "axis_densities", "fit_folders"]
+           "axis_densities", "fit_folders", "rate_of"]
 
 _KINDS = {name: s.long_name for name, s in SENSORS.items()}
 
@@ -116,7 +117,7 @@ def kalibr_values(gyro=(), accel=(), *, credibility=None):
                 inadequate.append(axis.label)
             for key, draws in (("noise_density", d), ("random_walk", w)):
                 per_axis.setdefault(f"{_KINDS[kind]}_{key}", []).append((axis.label, float(np.quantile(draws, q))))
-            rates.add(float(axis.fit.allan.rate_hz))
+            rates.add(rate_of(axis.fit))
     for key, rows in per_axis.items():
         values[key] = max(v for _, v in rows)
     if len(rates) != 1:
@@ -129,10 +130,16 @@ def kalibr_values(gyro=(), accel=(), *, credibility=None):
 def fit_folders(folders, kind):
     """:class:`KalibrAxis` of every axis in ``bayes-imu fit`` folders (several-column fits expand)."""
     from ..inference.archive import fit_axes, load_fit
+    from ..inference.population_archive import is_population_folder, load_population
 
     out = []
     for folder in folders:
-        for _, place, s in fit_axes(folder):
+        if is_population_folder(folder):  # fit-population: its new-unit predictive
+            places = [(Path(folder), read_json_object(Path(folder) / "summary.json",
+                                                      "a bayes-imu fit-population summary"))]
+        else:
+            places = [(place, s) for _, place, s in fit_axes(folder)]
+        for place, s in places:
             unit = s.get("unit")
             if unit not in UNITS:
                 raise InputError(f"{place / 'summary.json'}: unit {unit!r}: expected one of {', '.join(UNITS)} "
@@ -140,8 +147,17 @@ def fit_folders(folders, kind):
             unit_kind, factor = UNITS[unit]
             if unit_kind != kind:
                 raise InputError(f"{place}: unit {unit!r} is not a {kind} unit")
-            out.append(KalibrAxis(str(place), load_fit(place), factor))
+            if is_population_folder(place):
+                out.append(KalibrAxis(f"{place} (new unit)", load_population(place).new_unit, factor))
+            else:
+                out.append(KalibrAxis(str(place), load_fit(place), factor))
     return out
+
+
+def rate_of(fit):
+    """Sample rate [Hz] of a fit (its Allan variance's), or of a population's new unit (its model's)."""
+    allan = getattr(fit, "allan", None)
+    return float(allan.rate_hz) if allan is not None else 1.0 / fit.model.dt
 
 
 def kalibr_values_from_folders(gyro_dirs=(), accel_dirs=(), *, credibility=None):
