@@ -99,3 +99,18 @@ def test_requirement_units(given, quantity, si):
 def test_requirement_unit_errors(given):
     with pytest.raises(InputError, match="req"):
         parse_amount(given, "attitude", "req")
+
+
+def test_ranking_reason_echoes_a_requirement_as_given():
+    """A requirement of "1 deg" was echoed as 0.0174533 rad only (issue 38): now as given, SI beside."""
+    from types import SimpleNamespace
+
+    from bayes_imu.report.scene import _rank
+
+    req = {"quantity": "attitude", "max_error": math.pi / 180, "unit": "rad", "given": "1 deg"}
+    scene = SimpleNamespace(outages_s=(10.0,), requirement=req, credibility=0.95)
+    reports = [SimpleNamespace(spec=SimpleNamespace(name=n, kind="gyro"), max_outage_s=t,
+                               bounds=({"outage_s": 10.0, "quantity": "attitude", "bound": b},))
+               for n, t, b in (("a", 5.0, 0.1), ("b", 50.0, 0.01))]
+    order, reason = _rank(scene, reports)
+    assert order == ("b", "a") and "within 1 deg (0.0174533 rad)" in reason

@@ -660,6 +660,9 @@ def _rank(scene, reports):
                   "smallest first (comparable within one sensor kind)")
     else:
         order = sorted(reports, key=lambda r: (r.max_outage_s is None, -(r.max_outage_s or 0.0), last_bound(r)))
+        limit = f"{req['max_error']:g} {req['unit']}"
+        if req.get("given"):  # as the scene gave it ("1 deg"), SI beside it
+            limit = f"{req['given']} ({limit})"
         reason = (f"ranked by the longest outage whose {scene.credibility:.0%} bound on {req['quantity']} stays within "
-                  f"{req['max_error']:g} {req['unit']}; ties by the bound at {t_max:g} s")
+                  f"{limit}; ties by the bound at {t_max:g} s")
     return tuple(r.spec.name for r in order), reason
