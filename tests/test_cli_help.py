@@ -78,7 +78,8 @@ def test_fit_drift_in_degrees(tmp_path):
     si = json.loads((tmp_path / "rad" / "summary.json").read_text())
     shown = json.loads((tmp_path / "deg" / "summary.json").read_text())
     assert "parameters_display" not in si and shown["parameters"] == si["parameters"]
-    variance, density = (shown["parameters_display"][k] for k in ("noise_variance", "noise_density"))
+    variance, density = (shown["parameters_display"][k]
+                         for k in ("noise_variance", "noise_density"))
     assert variance["unit"] == "(deg/s)^2" and density["unit"] == "deg/s/sqrt(Hz)"
     for key in ("median", "q05", "q95"):
         assert variance[key] == pytest.approx(si["parameters"]["noise_variance"][key]
@@ -102,7 +103,8 @@ def test_requirement_unit_errors(given):
 
 
 def test_ranking_reason_echoes_a_requirement_as_given():
-    """A requirement of "1 deg" was echoed as 0.0174533 rad only (issue 38): now as given, SI beside."""
+    """A requirement of "1 deg" was echoed as 0.0174533 rad only (issue 38): now as given, SI
+    beside it."""
     from types import SimpleNamespace
 
     from bayes_imu.report.scene import _rank

@@ -274,15 +274,15 @@ def _report_reads_the_population_folder(tmp_path, out, summary):
     entry = report.to_json()["sensors"][0]
     assert "3 units" in entry["unit_to_unit"] and entry["parameters"] == summary["new_unit"]
     # export from the folder: the new unit's white-noise density, sqrt(variance dt) (white only)
-    assert main(["export", "--gyro", str(out), "--format", "kalibr", "--out", str(tmp_path / "k.yaml"),
-                 "--quiet"]) == 0
+    assert main(["export", "--gyro", str(out), "--format", "kalibr", "--out",
+                 str(tmp_path / "k.yaml"), "--quiet"]) == 0
     written = dict(line.split(":", 1) for line in (tmp_path / "k.yaml").read_text().splitlines()
                    if line.startswith("gyroscope_noise_density"))
     variance = load_population(out).new_unit.draws("noise_variance")
     assert float(written["gyroscope_noise_density"]) == pytest.approx(
         float(np.median(np.sqrt(variance * 0.01))), rel=1e-9)
-    assert main(["export", "--gyro", str(out), "--format", "openvins", "--overbound", "--t-max", "10",
-                 "--out", str(tmp_path / "o.yaml"), "--quiet"]) == 0
+    assert main(["export", "--gyro", str(out), "--format", "openvins", "--overbound", "--t-max",
+                 "10", "--out", str(tmp_path / "o.yaml"), "--quiet"]) == 0
 
 
 def test_report_population_and_fit_folders(tmp_path):

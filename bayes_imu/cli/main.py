@@ -137,8 +137,8 @@ def _input_options(batch=False, optional_log=False):
                              + "; increments " + ", ".join(INCREMENT_UNITS) + "; default: left as they are")
     common.add_argument("--where", metavar="FILTER",
                         help="keep only the rows satisfying FILTER, e.g. 'period == 0' or "
-                             "'period == 2 and status != 1' (COLUMN OP NUMBER joined by and; OP one "
-                             "of == != < <= > >=; text logs read in memory)")
+                             "'period == 2 and status != 1' (COLUMN OP NUMBER joined by and; "
+                             "OP one of == != < <= > >=; text logs read in memory)")
     common.add_argument("--trust-units", action="store_true",
                         help="skip the check that a static log is plausible in --units (a moving "
                              "log, a test rig)")

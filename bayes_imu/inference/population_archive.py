@@ -1,4 +1,4 @@
-"""A population fit on disk: ``bayes-imu fit-population`` writes it, ``report`` and ``export`` read it.
+"""A population fit on disk: ``fit-population`` writes it, ``report`` and ``export`` read it.
 
 The folder holds ``population.npz`` (the hyper-posterior draws, each unit's pooled draws, the
 new-unit predictive, the structures' evidence) and ``units/<i>.npz``, each unit's own fit
@@ -41,16 +41,31 @@ def save_population(pop, folder):
     for i, fit in enumerate(pop.unit_fits):
         save_fit(fit, folder / "units" / f"{i}.npz")
     meta = {
-        "format": _FORMAT, "terms": list(pop.model.terms), "dt": pop.model.dt, "labels": list(pop.labels),
-        "selected": int(pop.selected), "diagnostics": pop.diagnostics, "spread_scale": pop.spread_scale,
+        "format": _FORMAT,
+        "terms": list(pop.model.terms),
+        "dt": pop.model.dt,
+        "labels": list(pop.labels),
+        "selected": int(pop.selected),
+        "diagnostics": pop.diagnostics,
+        "spread_scale": pop.spread_scale,
         "seed": pop.seed if isinstance(pop.seed, (int, type(None))) else str(pop.seed),
-        "structures": [{"terms": list(s.terms), "log_evidence": _json_number(s.log_evidence),
-                        "se": _json_number(s.log_evidence_se)} for s in pop.structures],
+        "structures": [
+            {
+                "terms": list(s.terms),
+                "log_evidence": _json_number(s.log_evidence),
+                "se": _json_number(s.log_evidence_se),
+            }
+            for s in pop.structures
+        ],
         "units": [{"record_s": u.record_s, "label": u.label} for u in pop.units],
         "new_unit": {"record_s": pop.new_unit.record_s, "label": pop.new_unit.label},
     }
-    arrays = {"mean": pop.mean, "spread": pop.spread, "per_unit_evidence": pop.per_unit_evidence,
-              "new_samples": pop.new_unit.samples}
+    arrays = {
+        "mean": pop.mean,
+        "spread": pop.spread,
+        "per_unit_evidence": pop.per_unit_evidence,
+        "new_samples": pop.new_unit.samples,
+    }
     if pop.new_unit.discrepancy is not None:
         arrays["new_discrepancy"] = pop.new_unit.discrepancy
     for i, u in enumerate(pop.units):
@@ -66,8 +81,9 @@ def load_population(folder):
     folder = Path(folder)
     file = folder / POPULATION_NAME
     if not file.is_file():
-        raise InputError(f"{folder}: no {POPULATION_NAME}; expected a folder written by bayes-imu "
-                         "fit-population")
+        raise InputError(
+            f"{folder}: no {POPULATION_NAME}; expected a folder written by bayes-imu fit-population"
+        )
     _check_sizes(file)
     try:
         with np.load(file, allow_pickle=False) as z:
@@ -77,18 +93,54 @@ def load_population(folder):
             raise KeyError("format")
         model = NoiseModel(tuple(meta["terms"]), meta["dt"])
         fits = tuple(load_fit(folder / "units" / f"{i}.npz") for i in range(len(meta["labels"])))
-        units = tuple(UnitPosterior(model, data[f"unit_{i}_samples"], u["record_s"], u["label"],
-                                    data.get(f"unit_{i}_discrepancy"))
-                      for i, u in enumerate(meta["units"]))
+        units = tuple(
+            UnitPosterior(
+                model,
+                data[f"unit_{i}_samples"],
+                u["record_s"],
+                u["label"],
+                data.get(f"unit_{i}_discrepancy"),
+            )
+            for i, u in enumerate(meta["units"])
+        )
         new = meta["new_unit"]
-        new_unit = UnitPosterior(model, data["new_samples"], new["record_s"], new["label"],
-                                 data.get("new_discrepancy"))
-        structures = tuple(CandidateScore(tuple(s["terms"]), np.nan if s["log_evidence"] is None
-                                          else s["log_evidence"], np.nan if s["se"] is None else s["se"],
-                                          np.nan, np.empty(0)) for s in meta["structures"])
-    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, RecursionError) as exc:
-        raise InputError(f"{file}: not a readable bayes_imu population archive "
-                         f"({type(exc).__name__})") from None
-    return PopulationResult(model, tuple(meta["labels"]), fits, units, data["mean"], data["spread"], new_unit,
-                            structures, data["per_unit_evidence"], meta["selected"], meta["diagnostics"],
-                            meta["spread_scale"], meta["seed"])
+        new_unit = UnitPosterior(
+            model, data["new_samples"], new["record_s"], new["label"], data.get("new_discrepancy")
+        )
+        structures = tuple(
+            CandidateScore(
+                tuple(s["terms"]),
+                np.nan if s["log_evidence"] is None else s["log_evidence"],
+                np.nan if s["se"] is None else s["se"],
+                np.nan,
+                np.empty(0),
+            )
+            for s in meta["structures"]
+        )
+    except (
+        OSError,
+        ValueError,
+        KeyError,
+        TypeError,
+        EOFError,
+        zipfile.BadZipFile,
+        RecursionError,
+    ) as exc:
+        raise InputError(
+            f"{file}: not a readable bayes_imu population archive ({type(exc).__name__})"
+        ) from None
+    return PopulationResult(
+        model,
+        tuple(meta["labels"]),
+        fits,
+        units,
+        data["mean"],
+        data["spread"],
+        new_unit,
+        structures,
+        data["per_unit_evidence"],
+        meta["selected"],
+        meta["diagnostics"],
+        meta["spread_scale"],
+        meta["seed"],
+    )

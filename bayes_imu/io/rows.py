@@ -26,12 +26,22 @@ from .readers import excerpt
 
 __all__ = ["RowFilter", "parse_where", "looks_iso", "iso_seconds"]
 
-_ISO = re.compile(r"^(\d{4})-(\d{2})-(\d{2})[T ](\d{2}):(\d{2}):(\d{2})(?:[.,](\d{1,9}))?"
-                  r"(Z|[+-]\d{2}(?::?\d{2})?)?$")
-_OPERATORS = {"==": np.equal, "!=": np.not_equal, "<=": np.less_equal, ">=": np.greater_equal,
-              "<": np.less, ">": np.greater}
-_CONDITION = re.compile(r"""^\s*("[^"]+"|'[^']+'|[A-Za-z0-9_.\-\[\]/]+)\s*(==|!=|<=|>=|<|>)\s*"""
-                        r"""([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*$""")
+_ISO = re.compile(
+    r"^(\d{4})-(\d{2})-(\d{2})[T ](\d{2}):(\d{2}):(\d{2})(?:[.,](\d{1,9}))?"
+    r"(Z|[+-]\d{2}(?::?\d{2})?)?$"
+)
+_OPERATORS = {
+    "==": np.equal,
+    "!=": np.not_equal,
+    "<=": np.less_equal,
+    ">=": np.greater_equal,
+    "<": np.less,
+    ">": np.greater,
+}
+_CONDITION = re.compile(
+    r"""^\s*("[^"]+"|'[^']+'|[A-Za-z0-9_.\-\[\]/]+)\s*(==|!=|<=|>=|<|>)\s*"""
+    r"""([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*$"""
+)
 _JOINERS = re.compile(r"\s+and\s+|&&|,")
 
 
@@ -71,9 +81,11 @@ def iso_seconds(stamps, lines, where):
     for i, text in enumerate(stamps):
         value = _nanoseconds(text, days)
         if value is None:
-            raise InputError(f"{where}: line {lines[i]}: time stamp {excerpt(text, 40)}; expected an "
-                             "ISO 8601 date and time like 2026-11-25T12:00:00.123Z (as the first "
-                             "rows)")
+            raise InputError(
+                f"{where}: line {lines[i]}: time stamp {excerpt(text, 40)}; expected an "
+                "ISO 8601 date and time like 2026-11-25T12:00:00.123Z (as the first "
+                "rows)"
+            )
         out[i] = value
     return (out - out[0]).astype(np.float64) * 1e-9 if out.size else out.astype(np.float64)
 
@@ -120,9 +132,11 @@ def parse_where(text):
     for part in _JOINERS.split(text.strip()):
         match = _CONDITION.match(part)
         if match is None:
-            raise InputError(f"where={excerpt(text)}: {excerpt(part.strip(), 40)} is not a condition; "
-                             "expected COLUMN OP NUMBER joined by 'and' (OP one of == != < <= > >=), "
-                             "e.g. 'period == 0 and status != 1'")
+            raise InputError(
+                f"where={excerpt(text)}: {excerpt(part.strip(), 40)} is not a condition; "
+                "expected COLUMN OP NUMBER joined by 'and' (OP one of == != < <= > >=), "
+                "e.g. 'period == 0 and status != 1'"
+            )
         column, op, number = match.groups()
         value = float(number)
         if not np.isfinite(value):

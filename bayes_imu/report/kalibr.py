@@ -148,14 +148,16 @@ def fit_folders(folders, kind):
             if unit_kind != kind:
                 raise InputError(f"{place}: unit {unit!r} is not a {kind} unit")
             if is_population_folder(place):
-                out.append(KalibrAxis(f"{place} (new unit)", load_population(place).new_unit, factor))
+                new_unit = load_population(place).new_unit
+                out.append(KalibrAxis(f"{place} (new unit)", new_unit, factor))
             else:
                 out.append(KalibrAxis(str(place), load_fit(place), factor))
     return out
 
 
 def rate_of(fit):
-    """Sample rate [Hz] of a fit (its Allan variance's), or of a population's new unit (its model's)."""
+    """Sample rate [Hz] of a fit (its Allan variance's), or of a population's new unit (its
+    model's)."""
     allan = getattr(fit, "allan", None)
     return float(allan.rate_hz) if allan is not None else 1.0 / fit.model.dt
 

@@ -329,11 +329,11 @@ def _draw_range(x):
 
 
 #: the corner grid's tick labels: none nearer than LABEL_END of the axis's log length to its ends (where two
-#: others can be labelled), none nearer than LABEL_GAP to one another (45-degree labels of CORNER_FONT
-#: points on a 1.9-inch panel: a label reaches about a fifth of the panel beyond its tick)
+#: others can be labelled), none nearer than LABEL_GAP to one another (45-degree labels of
+#: CORNER_FONT points on a 1.9-inch panel: a label reaches a fifth of the panel beyond its tick)
 LABEL_END, LABEL_GAP = 0.1, 0.22
-#: the corner grid's font size (points) of tick labels, axis labels and titles: 7 read as tiny at full
-#: size (a new user's finding)
+#: the corner grid's font size (points) of tick labels, axis labels and titles: 7 read as tiny
+#: at full size (a new user's finding)
 CORNER_FONT = 9
 
 

@@ -618,10 +618,12 @@ def _saved_population(folder, spec, where):
     from ..io.readers import read_json_object
 
     try:
-        summary = read_json_object(Path(folder) / "summary.json", "a bayes-imu fit-population summary")
+        summary = read_json_object(Path(folder) / "summary.json",
+                                   "a bayes-imu fit-population summary")
         if summary.get("unit") != spec.units:
             raise InputError(f"{folder}: fitted in {_excerpt(summary.get('unit'))}; a {spec.kind} "
-                             f"report needs a fit in {spec.units} (run fit-population with --units)")
+                             f"report needs a fit in {spec.units} (run fit-population with "
+                             "--units)")
         pop = load_population(folder)
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None
