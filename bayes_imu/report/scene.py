@@ -622,8 +622,8 @@ def _saved_population(folder, spec, where):
                                    "a bayes-imu fit-population summary")
         if summary.get("unit") != spec.units:
             raise InputError(f"{folder}: fitted in {_excerpt(summary.get('unit'))}; a {spec.kind} "
-                             f"report needs a fit in {spec.units} (run fit-population with "
-                             "--units)")
+                             f"report needs a fit in {spec.units} (a population fitted with "
+                             "its units given)")
         pop = load_population(folder)
     except InputError as exc:
         raise InputError(f"{where}{exc}") from None
