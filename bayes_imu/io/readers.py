@@ -196,7 +196,7 @@ def read_log(path, *, column, time_column=None, progress=False):
     """Read one numeric column (and optionally a time column, s) of a log; see :func:`read_columns`."""
     data = read_columns(path, columns=[column], time_column=time_column, progress=progress)
     return LogData(data.values[:, 0], data.columns, data.path, data.time_s, data.lines, data.delimiter, data.header,
-                   data.time_name)
+                   data.time_name, data.time_iso)
 
 
 def read_columns(path, *, columns, time_column=None, progress=False, signal=True, where=None):
