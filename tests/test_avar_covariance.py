@@ -122,3 +122,23 @@ def test_adjacent_octave_correlation():
         sd = np.sqrt(np.diag(cov))
         rho = np.diag(cov, 1) / (sd[:-1] * sd[1:])
         assert np.all((rho[2:] > lo) & (rho[2:] < hi)), rho
+
+
+def test_vibration_path_keeps_a_random_walk_exact_on_long_records():
+    """Regression (a plan predicting wider intervals for longer records): with a vibration line
+    every lag is summed from a table of D, and a rate random walk's D(l) ~ l^3 cancelled
+    catastrophically in second differences at lags of the record's order (Var of the estimate at
+    one sample 470x too large on 8.6e6 samples). Reference: white + random walk at cluster size
+    1, d_i = e_{i+1} - e_i + w_i is MA(1) with variance s = 2 sigma^2 + q^2 dt and lag-one
+    covariance -sigma^2, so by Isserlis Var(avar_1) = (M s^2 + 2 (M - 1) sigma^4) / (2 M^2),
+    exact in rationals; the line's amplitude (1e-12) adds a relative 1e-21."""
+    from fractions import Fraction
+
+    n, dt, var, q = 100_000, 0.01, 1e-3, 20.0
+    model = NoiseModel(("white", "random_walk", "vibration"), dt=dt)
+    p = {"noise_variance": var, "rate_random_walk": q, "vibration_frequency": 0.559,
+         "vibration_amplitude": 1e-12}
+    got = avar_covariance(model, p, np.array([1, 2]), n)[0, 0]
+    big_m, s2, s = n - 1, Fraction(var) ** 2, 2 * Fraction(var) + Fraction(q) ** 2 * Fraction(dt)
+    exact = (big_m * s * s + 2 * (big_m - 1) * s2) / (2 * big_m**2)
+    assert got == pytest.approx(float(exact), rel=1e-9)

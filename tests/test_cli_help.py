@@ -74,6 +74,18 @@ def test_fit_drift_in_degrees(tmp_path):
         r, d = r.split(","), d.split(",")
         assert (r[5], d[5]) == ("rad", "deg")
         assert float(d[3]) == pytest.approx(float(r[3]) * 180 / math.pi, rel=1e-8)
+    # the parameters too, beside SI (issue 38): a variance by (180/pi)^2, a density by 180/pi
+    si = json.loads((tmp_path / "rad" / "summary.json").read_text())
+    shown = json.loads((tmp_path / "deg" / "summary.json").read_text())
+    assert "parameters_display" not in si and shown["parameters"] == si["parameters"]
+    variance, density = (shown["parameters_display"][k]
+                         for k in ("noise_variance", "noise_density"))
+    assert variance["unit"] == "(deg/s)^2" and density["unit"] == "deg/s/sqrt(Hz)"
+    for key in ("median", "q05", "q95"):
+        assert variance[key] == pytest.approx(si["parameters"]["noise_variance"][key]
+                                              * (180 / math.pi) ** 2, rel=1e-12)
+        assert density[key] == pytest.approx(si["parameters"]["noise_density"][key] * 180 / math.pi,
+                                             rel=1e-12)
 
 
 @pytest.mark.parametrize("given, quantity, si", [
@@ -88,3 +100,19 @@ def test_requirement_units(given, quantity, si):
 def test_requirement_unit_errors(given):
     with pytest.raises(InputError, match="req"):
         parse_amount(given, "attitude", "req")
+
+
+def test_ranking_reason_echoes_a_requirement_as_given():
+    """A requirement of "1 deg" was echoed as 0.0174533 rad only (issue 38): now as given, SI
+    beside it."""
+    from types import SimpleNamespace
+
+    from bayes_imu.report.scene import _rank
+
+    req = {"quantity": "attitude", "max_error": math.pi / 180, "unit": "rad", "given": "1 deg"}
+    scene = SimpleNamespace(outages_s=(10.0,), requirement=req, credibility=0.95)
+    reports = [SimpleNamespace(spec=SimpleNamespace(name=n, kind="gyro"), max_outage_s=t,
+                               bounds=({"outage_s": 10.0, "quantity": "attitude", "bound": b},))
+               for n, t, b in (("a", 5.0, 0.1), ("b", 50.0, 0.01))]
+    order, reason = _rank(scene, reports)
+    assert order == ("b", "a") and "within 1 deg (0.0174533 rad)" in reason

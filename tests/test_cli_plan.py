@@ -163,3 +163,32 @@ def test_new_commands_have_help(capsys, command, words):
     assert exc.value.code == 0
     text = capsys.readouterr().out
     assert all(w in text for w in words), text
+
+
+def test_plan_given_two_folders_says_so_in_one_line(pilot, tmp_path, capsys):
+    """A new user's finding: two folders gave argparse's 'unrecognized arguments'."""
+    folder = str(pilot / "fit")
+    assert main(["plan", folder, folder, "--out", str(tmp_path / "p")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "2 pilot fit folders" in err and "expected one" in err
+    assert not (tmp_path / "p").exists()
+
+
+@pytest.mark.slow
+def test_plan_carries_an_inadequate_pilot_fit_warning(pilot, tmp_path, capsys):
+    """A new user's finding: a plan from a misfitting pilot fit said nothing of it. White noise
+    alone fitted to white + Gauss-Markov fails the check; the plan warns and records it."""
+    fit = tmp_path / "white_only"
+    argv = ["fit", str(pilot / "pilot.csv"), "--column", "gx", "--rate", "10", "--units",
+            "rad/s", "--terms", "white", "--out", str(fit), "--quiet"]
+    assert main(argv) == 0
+    assert json.loads((fit / "summary.json").read_text())["adequacy"]["adequate"] is False
+    capsys.readouterr()
+    out = tmp_path / "plan"
+    assert main(["plan", str(fit), "--lengths", "10min,1h", "--out", str(out), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert "failed its goodness-of-fit check" in err
+    assert "goodness-of-fit" in json.loads((out / "plan.json").read_text())["warnings"][0]
+    good = tmp_path / "plan_good"
+    assert main(["plan", str(pilot / "fit"), "--lengths", "1h", "--out", str(good), "--quiet"]) == 0
+    assert json.loads((good / "plan.json").read_text())["warnings"] == []

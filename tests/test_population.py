@@ -230,7 +230,7 @@ def test_fit_population_command(tmp_path, capsys):
                                       "--times", "1,10", "--quiet"]
     assert main(["fit-population", *args]) == 0
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
-        "drift.csv", "drift.png", "population.png", "summary.json"]
+        "drift.csv", "drift.png", "population.npz", "population.png", "summary.json", "units"]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["unit"] == "rad/s" and [u["label"] for u in summary["units"]] == ["unit0", "unit1", "unit2"]
     assert set(summary["drift"]) == {"attitude"}
@@ -243,6 +243,46 @@ def test_fit_population_command(tmp_path, capsys):
                  str(tmp_path / "two")]) == 2
     assert "one column" in capsys.readouterr().err
     assert not (tmp_path / "one").exists() and not (tmp_path / "two").exists()
+    _report_reads_the_population_folder(tmp_path, out, summary)
+
+
+def _report_reads_the_population_folder(tmp_path, out, summary):
+    """Issue 38: the population folder read back gives the summary it was written with, and a
+    report given it reads it: with every fit and the population sampler made to fail, it still
+    bounds the new unit of the 3 units."""
+    import bayes_imu.inference.population as population
+    import bayes_imu.report.scene as scene_module
+    from bayes_imu.inference.population_archive import load_population
+    from bayes_imu.report.scene import build_report, read_scene
+
+    back = load_population(out).summary(unit="rad/s")
+    for key in ("new_unit", "population", "units", "model"):
+        assert back[key] == summary[key], key
+
+    def refit(*args, **kwargs):
+        raise AssertionError("fitted again")
+
+    (tmp_path / "scene.toml").write_text('[scene]\noutages_s = [1, 10]\n[[sensor]]\nname = "pop"\n'
+                                         'kind = "gyro"\nfit = "pop"\n')
+    with pytest.MonkeyPatch.context() as patch:
+        for module, name in ((population, "fit_population"), (population, "fit_allan"),
+                             (scene_module, "fit_allan")):
+            patch.setattr(module, name, refit)
+        report = build_report(read_scene(tmp_path / "scene.toml"), rng=0)
+    (sensor,) = report.sensors
+    assert sensor.fit is None and sensor.posterior is sensor.axes[0].population.new_unit
+    entry = report.to_json()["sensors"][0]
+    assert "3 units" in entry["unit_to_unit"] and entry["parameters"] == summary["new_unit"]
+    # export from the folder: the new unit's white-noise density, sqrt(variance dt) (white only)
+    assert main(["export", "--gyro", str(out), "--format", "kalibr", "--out",
+                 str(tmp_path / "k.yaml"), "--quiet"]) == 0
+    written = dict(line.split(":", 1) for line in (tmp_path / "k.yaml").read_text().splitlines()
+                   if line.startswith("gyroscope_noise_density"))
+    variance = load_population(out).new_unit.draws("noise_variance")
+    assert float(written["gyroscope_noise_density"]) == pytest.approx(
+        float(np.median(np.sqrt(variance * 0.01))), rel=1e-9)
+    assert main(["export", "--gyro", str(out), "--format", "openvins", "--overbound", "--t-max",
+                 "10", "--out", str(tmp_path / "o.yaml"), "--quiet"]) == 0
 
 
 def test_report_population_and_fit_folders(tmp_path):

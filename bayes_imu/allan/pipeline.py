@@ -83,6 +83,9 @@ class LogSource:
     calibration : float or None
         Calibration window [s] of the calibrated-outage errors the record measures directly
         (:attr:`AllanResult.contrasts`, for the drift-space check); ``None`` skips them.
+    where : str or None
+        Keep only the rows of a text log satisfying this filter (``"period == 0"``,
+        :mod:`bayes_imu.io.rows`), read in memory.
     """
 
     log: Path = None
@@ -101,6 +104,7 @@ class LogSource:
     label: str = None
     calibration: float = DEFAULT_CONTRAST_SPAN_S
     trust_units: bool = False
+    where: str = None
 
     @property
     def shown(self):
@@ -300,6 +304,9 @@ def _npy_in_memory(opts, values, purpose):
     """``_read``'s outputs for a ``.npy`` log held in memory (one channel, ``rate`` given)."""
     if opts.time_column is not None or opts.time_unit is not None:
         raise InputError(f"{opts.log}: a binary log has no time column; give rate_hz")
+    if opts.where is not None:
+        raise InputError(f"{opts.log}: where={opts.where!r} filters the rows of a text log; a "
+                         "binary log has no columns to filter by")
     if opts.rate is None:
         raise InputError(f"{opts.log}: no sample rate: give rate_hz")
     bad = np.flatnonzero(~np.isfinite(values))
@@ -322,6 +329,9 @@ def _streamed(opts, purpose, grid, progress):
 
     if opts.time_column is not None or opts.time_unit is not None:
         raise InputError(f"{opts.log}: a time column is not available out of core; give rate_hz")
+    if opts.where is not None:
+        raise InputError(f"{opts.log}: where={opts.where!r} is not available out of core (stream, "
+                         "a binary log); read the text log in memory")
     binary = opts.log.suffix.lower() in BINARY_SUFFIXES
     if binary and opts.column not in (None, "0"):  # its one channel is column "0" (a scene names it)
         raise InputError(f"{opts.log}: a binary log has one channel; leave out column (or give '0')")
@@ -354,6 +364,9 @@ def _read(opts, purpose, progress):
     """Columns read in memory, cut to the usable time base, and the input description."""
     columns = _columns(opts, purpose)
     if is_bag(opts.log):
+        if opts.where is not None:
+            raise InputError(f"{opts.log}: where={opts.where!r} filters the rows of a text log; "
+                             "a ROS bag has none")
         if opts.topic is None:
             raise InputError(f"{opts.log}: a ROS bag needs a topic (a sensor_msgs/Imu topic)")
         if opts.time_unit is not None:
@@ -363,7 +376,8 @@ def _read(opts, purpose, progress):
         where, what = f"{opts.log}: {opts.topic} header stamps", "message"
     else:
         data = read_columns(
-            opts.log, columns=columns, time_column=opts.time_column, progress=progress
+            opts.log, columns=columns, time_column=opts.time_column, progress=progress,
+            where=opts.where,
         )
         where, what = f"{opts.log}: column {opts.time_column!r}", "line"
     if opts.time_unit is not None and data.time_s is None:
@@ -377,7 +391,7 @@ def _read(opts, purpose, progress):
         where=where,
         n_samples=data.values.shape[0],
         what=what,
-        time_unit="s" if is_bag(opts.log) else opts.time_unit,
+        time_unit="s" if is_bag(opts.log) or data.time_iso else opts.time_unit,
         column=getattr(data, "time_name", None),
     )
     values = data.values[timebase.start : timebase.stop]
@@ -392,6 +406,10 @@ def _read(opts, purpose, progress):
         **timebase.to_json(),
         **({"steps": steps} if steps else {}),
     }
+    if opts.where is not None:
+        info["where"] = opts.where
+    if data.time_iso:
+        info.update(time_stamps="ISO 8601", time_unit_source="ISO 8601 stamps")
     return data.columns, values, timebase.rate_hz, info
 
 

@@ -148,7 +148,7 @@ def add_commands(sub):
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     plan.add_argument(
-        "fit", type=Path, nargs="?", help="pilot fit folder (bayes-imu fit, fitted with --units)"
+        "fit", type=Path, nargs="*", help="pilot fit folder (bayes-imu fit, fitted with --units)"
     )
     plan.add_argument(
         "--datasheet",
@@ -241,6 +241,12 @@ def _plan_inputs(args):
     from ..noise.datasheet import KIND_OF_UNIT
     from ..noise.datasheet_check import spec_model
 
+    if len(args.fit) > 1:
+        raise InputError(
+            f"plan: {len(args.fit)} pilot fit folders ({', '.join(map(str, args.fit))}); expected "
+            "one (run plan once per folder, or fit the axes together: fit --column gx,gy,gz)"
+        )
+    args.fit = args.fit[0] if args.fit else None
     if (args.fit is None) == (args.datasheet is None):
         raise InputError("plan: give a pilot fit folder or --datasheet FILE (one of them)")
     if args.datasheet is not None:
@@ -258,7 +264,20 @@ def _plan_inputs(args):
         fit = load_fit(place)
         params = {p: float(np.median(fit.draws(p))) for p in fit.model.parameter_names}
         out.append((axis, fit.model, params, KIND_OF_UNIT.get(summary.get("unit")), fit.record_s))
+        args.plan_warnings.extend(_inadequate_pilot(axis, getattr(fit, "adequacy", None)))
     return out
+
+
+def _inadequate_pilot(axis, check):
+    """``[warning]`` when the pilot fit failed its goodness-of-fit check (the plan assumes its
+    model), else ``[]``."""
+    if check is None or check.adequate:
+        return []
+    return [
+        f"[{axis}] the pilot fit failed its goodness-of-fit check (p = {check.p_value:.2g}): "
+        "the plan assumes its model, so its widths may be optimistic for this sensor "
+        "(record longer, or fit more terms: bayes-imu fit --terms)"
+    ]
 
 
 def _cmd_plan(args):
@@ -268,10 +287,11 @@ def _cmd_plan(args):
     from ..report.output import staged_folder
     from ..report.planning import plan_csv, plot_plan
     from ..report.worker import draw_picture
-    from .main import _pictures_status, _say
+    from .main import _pictures_status, _say, _warn
     from .._version import __version__
 
     plans, pilot = [], None
+    args.plan_warnings = []
     for label, model, params, kind, record_s in _plan_inputs(args):
         if args.horizons and kind is None:
             raise InputError(
@@ -301,6 +321,7 @@ def _cmd_plan(args):
             "source": str(inputs[0]),
             "calibration_s": args.calibration,
             "axes": {label: {"rate_hz": p.rate_hz, "rows": p.rows()} for label, p in plans},
+            "warnings": args.plan_warnings,
         }
         (tmp / "plan.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
         failure = draw_picture(  # a picture that fails costs only the picture (exit 3)
@@ -322,6 +343,8 @@ def _cmd_plan(args):
                 + f"{_hours(length):>8}"
                 + "".join(f"{100 * np.expm1(1.6448536 * s):23.3g}%" for s in sds),
             )
+    for text in args.plan_warnings:
+        _warn(text)
     _say(args, f"wrote {args.out}/plan.csv, plan.json and plan.png")
     return _pictures_status([failure])
 

@@ -140,6 +140,10 @@ def _input_options(batch=False, optional_log=False):
     common.add_argument("--units", "--unit", dest="units", choices=tuple(UNITS) + tuple(INCREMENT_UNITS),
                         help="units of the column(s), converted to SI (rad/s, m/s^2): rates " + ", ".join(UNITS)
                              + "; increments " + ", ".join(INCREMENT_UNITS) + "; default: left as they are")
+    common.add_argument("--where", metavar="FILTER",
+                        help="keep only the rows satisfying FILTER, e.g. 'period == 0' or "
+                             "'period == 2 and status != 1' (COLUMN OP NUMBER joined by and; "
+                             "OP one of == != < <= > >=; text logs read in memory)")
     common.add_argument("--trust-units", action="store_true",
                         help="skip the check that a static log is plausible in --units (a moving "
                              "log, a test rig)")
@@ -352,7 +356,7 @@ def _say_axis(args, axis):
     _say(args, _model_line(summary, result.diagnostics["converged"]))
     _say(args, "  parameters (90% intervals include the repeatability between the log's parts; "
                "the record alone: summary.json parameters_this_record)")
-    for name, p in summary["parameters"].items():
+    for name, p in (summary.get("parameters_display") or summary["parameters"]).items():
         _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
     _say_datasheet(args, summary["datasheet"])
     _say_readout(args, summary["allan_datasheet"])

@@ -9,7 +9,8 @@ import re
 
 from ..errors import InputError
 
-__all__ = ["DISPLAY_CHOICES", "QUANTITY_UNITS", "display_unit", "parse_amount"]
+__all__ = ["DISPLAY_CHOICES", "QUANTITY_UNITS", "display_unit", "parse_amount", "rate_display",
+           "unit_power", "display_parameters"]
 
 DISPLAY_CHOICES = ("si", "deg")
 #: accepted units of a requirement on each integrated quantity: factor to SI
@@ -47,3 +48,36 @@ def parse_amount(value, quantity, where):
     if not (math.isfinite(number) and number > 0):
         raise InputError(f"{where}: {value!r}: expected a positive amount")
     return number * units[unit]
+
+
+def rate_display(unit, display):
+    """``(shown unit, factor from unit)`` of rate samples: ``rad/s`` shown as ``deg/s`` with
+    ``display="deg"`` (Allan deviations, noise parameters), any other unit unchanged."""
+    shown, factor = display_unit("rad" if unit == "rad/s" else unit, display)
+    return (f"{shown}/s", factor) if unit == "rad/s" else (unit, 1.0)
+
+
+def unit_power(template):
+    """Power of the rate unit ``{u}`` in a parameter's unit template (``"({u})^2"``: 2, ``"s"``:
+    0), :data:`bayes_imu.noise.avar_forms.PARAMETER_UNITS`."""
+    if "{u}" not in template:
+        return 0
+    match = re.search(r"\(\{u\}\)\^(\d+)", template)
+    return int(match.group(1)) if match else 1
+
+
+def display_parameters(parameters, unit, display):
+    """``summary.json``'s ``parameters`` block (name -> median, mean, q05, q95, unit) in display
+    units: ``None`` where they are the same as given (SI, or a log not in rad/s)."""
+    from ..noise.avar_forms import PARAMETER_UNITS
+
+    shown, factor = rate_display(unit, display)
+    if factor == 1.0:
+        return None
+    out = {}
+    for name, block in parameters.items():
+        template = PARAMETER_UNITS.get(name, "1")
+        scale = factor ** unit_power(template)
+        out[name] = {k: (v * scale if k != "unit" else template.format(u=shown))
+                     for k, v in block.items()}
+    return out

@@ -38,9 +38,11 @@ UNITS = {
     "rad/s": ("gyro", 1.0),
     "deg/s": ("gyro", np.pi / 180.0),
     "deg/h": ("gyro", np.pi / 180.0 / 3600.0),
+    "mrad/s": ("gyro", 1e-3),
     "m/s^2": ("accel", 1.0),
     "g": ("accel", 9.80665),
     "mg": ("accel", 9.80665e-3),
+    "ug": ("accel", 9.80665e-6),
 }
 #: the SI unit of each sensor kind's rate samples
 SI_UNITS = {"gyro": "rad/s", "accel": "m/s^2"}
@@ -170,6 +172,8 @@ class LogData:
     time_name : str or None
         The time column's name (its unit may be in it:
         :func:`bayes_imu.io.timebase.unit_from_name`).
+    time_iso : bool
+        Whether the time column held ISO 8601 stamps (``time_s`` then in seconds).
     """
 
     values: np.ndarray
@@ -180,6 +184,7 @@ class LogData:
     delimiter: str = "comma"
     header: bool = True
     time_name: str | None = None
+    time_iso: bool = False
 
     @property
     def column(self):
@@ -191,10 +196,10 @@ def read_log(path, *, column, time_column=None, progress=False):
     """Read one numeric column (and optionally a time column, s) of a log; see :func:`read_columns`."""
     data = read_columns(path, columns=[column], time_column=time_column, progress=progress)
     return LogData(data.values[:, 0], data.columns, data.path, data.time_s, data.lines, data.delimiter, data.header,
-                   data.time_name)
+                   data.time_name, data.time_iso)
 
 
-def read_columns(path, *, columns, time_column=None, progress=False, signal=True):
+def read_columns(path, *, columns, time_column=None, progress=False, signal=True, where=None):
     """Read numeric columns of a delimited text log (module docstring for the accepted forms).
 
     Parameters
@@ -211,6 +216,11 @@ def read_columns(path, *, columns, time_column=None, progress=False, signal=True
         Check each column as a sensor signal (:func:`check_signal`: not constant, not absurdly
         large);
         ``False`` for tables of other numbers (an Allan deviation table, whose column may be flat).
+    where : str or RowFilter, optional
+        Keep only the rows satisfying it (:mod:`bayes_imu.io.rows`: ``"period == 0"``).
+
+    A time column of ISO 8601 stamps (``2026-11-25T12:00:00.123Z``) is read as seconds since its
+    first stamp (:func:`bayes_imu.io.rows.iso_seconds`; ``LogData.time_iso``).
 
     Returns
     -------
@@ -231,19 +241,50 @@ def read_columns(path, *, columns, time_column=None, progress=False, signal=True
         wanted.append(resolve_column(path, fmt, time_column))
     if len(set(wanted)) != len(wanted):
         raise InputError(f"{path}: the same column is asked for twice ({', '.join(fmt['names'][i] for i in wanted)})")
-    table = _parse(path, fmt, sorted(set(wanted)), progress)
-    order = [sorted(set(wanted)).index(i) for i in wanted]
-    table = table[:, order]
+    rows = None if where is None else _row_filter(where)
+    filtered = [] if rows is None else [resolve_column(path, fmt, c) for c in rows.columns]
+    stamps = None if time_column is None else _iso_stamps(path, fmt, wanted[-1])
+    numeric = wanted[:-1] if stamps is not None else wanted
+    read = sorted(set(numeric) | set(filtered))
+    parsed = _parse(path, fmt, read, progress)
+    table = np.column_stack([parsed[:, [read.index(i) for i in numeric]]]
+                            + ([] if stamps is None else [stamps]))
     names = tuple(fmt["names"][i] for i in wanted)
+    lines = None if time_column is None else _data_line_numbers(path, fmt)
+    if rows is not None:
+        keep = rows.mask({c: parsed[:, read.index(i)] for c, i in zip(rows.columns, filtered)})
+        if not keep.any():
+            raise InputError(f"{path}: no row satisfies where={excerpt(rows.text)}; expected some "
+                             "rows to keep")
+        table, lines = table[keep], None if lines is None else lines[keep]
     for j, name in enumerate(names[: len(columns)] if signal else ()):
         check_signal(table[:, j], where=f"{path}: column {excerpt(name, 40)}")
     values = np.ascontiguousarray(table[:, : len(columns)])
-    time_s = lines = None
-    if time_column is not None:
-        time_s = np.ascontiguousarray(table[:, -1])
-        lines = _data_line_numbers(path, fmt)
+    time_s = None if time_column is None else np.ascontiguousarray(table[:, -1])
     return LogData(values, names[: len(columns)], str(path), time_s, lines, fmt["delimiter_name"], fmt["header"],
-                   names[-1] if time_column is not None and fmt["header"] else None)
+                   names[-1] if time_column is not None and fmt["header"] else None,
+                   stamps is not None)
+
+
+def _row_filter(where):
+    from .rows import parse_where
+
+    return parse_where(where)
+
+
+def _iso_stamps(path, fmt, index):
+    """Seconds since the first stamp where the time column ``index`` holds ISO 8601 stamps (its
+    first data row decides), else ``None`` (numeric stamps, read with the other columns)."""
+    from .rows import iso_seconds, looks_iso
+
+    rows = _data_lines(path, fmt)
+    first = next(rows, None)
+    rows.close()
+    if first is None or len(first[1]) <= index or not looks_iso(first[1][index]):
+        return None
+    pairs = [(n, f[index] if len(f) > index else "") for n, f in _data_lines(path, fmt)]
+    where = f"{path}: column {excerpt(fmt['names'][index], 40)}"
+    return iso_seconds([t for _, t in pairs], [n for n, _ in pairs], where)
 
 
 def check_signal(values, *, where):

@@ -64,18 +64,18 @@ def avar_covariance(model, params, m, n_samples):
     n = int(n_samples)
     tails = model_tails(model, params)
     kinds = {tail.kind for tail in tails}
-    if "deterministic" in kinds:
+    if "deterministic" in kinds or "generic" in kinds:
         lags = np.arange(n + 4 * ms.max() + 1)
-        split = {True: 0.0, False: 0.0}  # D of the deterministic terms, D of the others
+        # D of the deterministic terms, of the terms correlated beyond the overlap window, and of
+        # those that are not ("none": their c(l) is summed in the window only, as in the kernel)
+        split = {"deterministic": 0.0, "long": 0.0, "none": 0.0}
         for term, tail in zip(model.components, tails):
-            side = tail.kind == "deterministic"
-            split[side] = split[side] + term.structure(lags, params, model.dt)
-        table = np.broadcast_to(np.asarray(split[False], dtype=float), lags.shape)
-        sums = exact_pair_sums(table, ms, n, deterministic=np.asarray(split[True], dtype=float))
-    elif "generic" in kinds:
-        lags = np.arange(n + 4 * ms.max() + 1)
-        table = np.asarray(model.structure_function(lags, params), dtype=float)
-        sums = exact_pair_sums(table, ms, n)
+            key = tail.kind if tail.kind in split else "long"
+            split[key] = split[key] + term.structure(lags, params, model.dt)
+        table, local, signal = (np.broadcast_to(np.asarray(split[k], dtype=float), lags.shape)
+                                for k in ("long", "none", "deterministic"))
+        sums = exact_pair_sums(table, ms, n, local=local,
+                               deterministic=signal if "deterministic" in kinds else None)
     else:
         kmax = int(4 * ms.max() + 2)
         table = np.asarray(model.structure_function(np.arange(kmax + 1), params), dtype=float)
@@ -110,7 +110,7 @@ def model_tails(model, params):
     return tails
 
 
-def exact_pair_sums(table, ms, n, *, deterministic=None):
+def exact_pair_sums(table, ms, n, *, deterministic=None, local=None):
     """``sum_l n(l) c(l)^2`` for every pair of cluster sizes, exactly over every lag of the record.
 
     The path of a term whose correlation beyond the overlap window has no kernel form (kind
@@ -125,6 +125,13 @@ def exact_pair_sums(table, ms, n, *, deterministic=None):
     a Gaussian process of the same covariance would give the estimate about two degrees of
     freedom).
 
+    With ``local``, the table of ``D`` of terms whose second differences are uncorrelated
+    beyond the overlap window (tail kind ``"none"``: white, random walk, ...), their ``c(l)`` is
+    added in the window ``-2b <= l <= 2a`` only, from ``D`` at lags below ``4 max(m) + 1``, as
+    the compiled kernel does. Taking their second differences at lags of the order of the record
+    instead cancels catastrophically (a rate random walk's ``D(l) ~ l^3``): on 8.6e6 samples the
+    variance of the estimate at one sample came out 470 times too large.
+
     Returns
     -------
     (n_tau, n_tau) ndarray
@@ -132,23 +139,37 @@ def exact_pair_sums(table, ms, n, *, deterministic=None):
     reach = n + 2 * int(ms.max())  # |pa - l| <= reach for every pair and lag
     k = ms.size
     out = np.zeros((k, k))
+    spread = bool(np.any(table))  # any term correlated beyond the window
     for ib in range(k):
         b = int(ms[ib])
         mb = n - 2 * b + 1
-        g = _second_differences(table, b, reach)
+        g = _second_differences(table, b, reach) if spread else None
         h = None if deterministic is None else _second_differences(deterministic, b, reach)
         for ia in range(ib + 1):
             a = int(ms[ia])
             ma = n - 2 * a + 1
             lag = np.arange(-(ma - 1), mb, dtype=np.int64)
             count = (np.minimum(ma, mb - lag) - np.maximum(0, -lag)).astype(float)
-            c = _lag_covariance(g, a, mb, reach, lag.size)
+            c = _lag_covariance(g, a, mb, reach, lag.size) if spread else np.zeros(lag.size)
+            if local is not None:
+                _add_window_covariance(c, local, a, b, ma, mb)
             if h is None:
                 out[ia, ib] = out[ib, ia] = np.dot(count, c * c)
             else:
                 e = _lag_covariance(h, a, mb, reach, lag.size)
                 out[ia, ib] = out[ib, ia] = np.dot(count, c * (c + 2.0 * e))
     return out
+
+
+def _add_window_covariance(c, local, a, b, ma, mb):
+    """Add ``c(l) = -1/2 sum_{p,q} w_p w_q D(|p a - q b - l|)`` of the table ``local`` to ``c``
+    (lags ``-(M_a - 1) .. M_b - 1``) in the overlap window ``-2b <= l <= 2a`` only."""
+    lag = np.arange(max(-2 * b, -(ma - 1)), min(2 * a, mb - 1) + 1)
+    part = np.zeros(lag.size)
+    for p, wa in ((0, 1.0), (1, -2.0), (2, 1.0)):
+        for q, wb in ((0, 1.0), (1, -2.0), (2, 1.0)):
+            part += wa * wb * local[np.abs(p * a - q * b - lag)]
+    c[lag + (ma - 1)] -= 0.5 * part
 
 
 def _second_differences(table, b, reach):

@@ -45,7 +45,7 @@ import numpy as np
 from .._version import __version__
 from ..drift.overbound import overbound as overbound_pair
 from ..errors import InputError
-from .kalibr import axis_densities, comment_text, fit_folders
+from .kalibr import axis_densities, comment_text, fit_folders, rate_of
 
 __all__ = [
     "ImuNoise",
@@ -180,7 +180,7 @@ def export_values(
             check = getattr(axis.fit, "adequacy", None)
             if check is not None and not check.adequate:
                 inadequate.append(axis.label)
-            rates.add(float(axis.fit.allan.rate_hz))
+            rates.add(rate_of(axis.fit))
     if len(rates) != 1:
         raise InputError(f"fits have different rates {sorted(rates)} Hz: expected one IMU rate")
     rate = rates.pop()

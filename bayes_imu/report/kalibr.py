@@ -31,6 +31,7 @@ density read by its short-term terms, the random walk by the bias and slow terms
 """
 
 from dataclasses import dataclass, field
+from pathlib import Path
 import math
 import re
 
@@ -38,11 +39,11 @@ import numpy as np
 
 from ..errors import InputError
 from ..inference.repeatability import kalibr_group, widen
-from ..io.readers import UNITS
+from ..io.readers import UNITS, read_json_object
 from ..noise.quantities import SENSORS
 
 __all__ = ["KalibrAxis", "KalibrValues", "kalibr_values", "kalibr_values_from_folders", "write_kalibr_yaml",
-           "axis_densities", "fit_folders", "comment_text"]
+           "axis_densities", "fit_folders", "comment_text", "rate_of"]
 
 _KINDS = {name: s.long_name for name, s in SENSORS.items()}
 
@@ -120,7 +121,7 @@ def kalibr_values(gyro=(), accel=(), *, credibility=None):
                 inadequate.append(axis.label)
             for key, draws in (("noise_density", d), ("random_walk", w)):
                 per_axis.setdefault(f"{_KINDS[kind]}_{key}", []).append((axis.label, float(np.quantile(draws, q))))
-            rates.add(float(axis.fit.allan.rate_hz))
+            rates.add(rate_of(axis.fit))
     for key, rows in per_axis.items():
         values[key] = max(v for _, v in rows)
     if len(rates) != 1:
@@ -133,10 +134,16 @@ def kalibr_values(gyro=(), accel=(), *, credibility=None):
 def fit_folders(folders, kind):
     """:class:`KalibrAxis` of every axis in ``bayes-imu fit`` folders (several-column fits expand)."""
     from ..inference.archive import fit_axes, load_fit
+    from ..inference.population_archive import is_population_folder, load_population
 
     out = []
     for folder in folders:
-        for _, place, s in fit_axes(folder):
+        if is_population_folder(folder):  # fit-population: its new-unit predictive
+            places = [(Path(folder), read_json_object(Path(folder) / "summary.json",
+                                                      "a bayes-imu fit-population summary"))]
+        else:
+            places = [(place, s) for _, place, s in fit_axes(folder)]
+        for place, s in places:
             unit = s.get("unit")
             if unit not in UNITS:
                 raise InputError(f"{place / 'summary.json'}: unit {unit!r}: expected one of {', '.join(UNITS)} "
@@ -147,8 +154,19 @@ def fit_folders(folders, kind):
                 raise InputError(f"{place}: fitted in {unit!r}, {names[unit_kind][0]} unit; "
                                  f"expected {names[kind][0]} fit (give this folder with "
                                  f"{names[unit_kind][1]})")
-            out.append(KalibrAxis(str(place), load_fit(place), factor))
+            if is_population_folder(place):
+                new_unit = load_population(place).new_unit
+                out.append(KalibrAxis(f"{place} (new unit)", new_unit, factor))
+            else:
+                out.append(KalibrAxis(str(place), load_fit(place), factor))
     return out
+
+
+def rate_of(fit):
+    """Sample rate [Hz] of a fit (its Allan variance's), or of a population's new unit (its
+    model's)."""
+    allan = getattr(fit, "allan", None)
+    return float(allan.rate_hz) if allan is not None else 1.0 / fit.model.dt
 
 
 def kalibr_values_from_folders(gyro_dirs=(), accel_dirs=(), *, credibility=None):

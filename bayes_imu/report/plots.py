@@ -135,7 +135,7 @@ def plot_allan(result, path, *, label="", unit="u"):
     plt.close(fig)
 
 
-def plot_allan_fit(fit, path, *, label="", unit="u", rng=None):
+def plot_allan_fit(fit, path, *, label="", unit="u", rng=None, scale=1.0):
     """Observed Allan deviation with intervals, the 90% posterior predictive band, each term,
     and a panel of the whitened residuals of the goodness-of-fit check.
 
@@ -148,34 +148,37 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None):
     fit : FitResult
     path : path-like
     unit : str
-        Unit of the rate samples (after any conversion).
+        Unit shown: of the rate samples (after any conversion), times ``scale``.
     rng : seed for the posterior draws shown.
+    scale : float
+        Display factor of the Allan deviations (``--display-units deg``: 180/pi, ``unit`` deg/s).
     """
     plt = pyplot()
     allan = fit.allan
+    adev, adev_low, adev_high = (scale * v for v in (allan.adev, allan.adev_low, allan.adev_high))
     tau_f = np.geomspace(allan.tau[0], allan.tau[-1], 80)
     m_f = np.unique(np.maximum(1, np.round(tau_f * allan.rate_hz)).astype(np.int64))
     tau_f = m_f / allan.rate_hz
     fig, (ax, ax_r) = _fixed_panels(plt, _FIT_LAYOUT_IN)
-    err = np.vstack([allan.adev - allan.adev_low, allan.adev_high - allan.adev])
-    ax.errorbar(allan.tau, allan.adev, yerr=err, fmt="o", ms=3, capsize=2, color="k",
+    err = np.vstack([adev - adev_low, adev_high - adev])
+    ax.errorbar(allan.tau, adev, yerr=err, fmt="o", ms=3, capsize=2, color="k",
                 label=_wrapped(plain_text(label) or "observed ADEV"))
     steady = getattr(fit, "stationarity", None)
     if steady is not None and not steady.stationary:  # the parts of a log whose noise changes
         for j, part in enumerate(steady.segment_adev):
-            ax.plot(steady.tau_s, part, "-", color="0.45", lw=0.8, alpha=0.8,
+            ax.plot(steady.tau_s, scale * part, "-", color="0.45", lw=0.8, alpha=0.8,
                     label=(_wrapped(f"its {steady.n_segments} parts: noise changes (p = {steady.p_value:.2g})")
                            if j == 0 else None))
-    pred = np.sqrt(fit.predictive_avar(m_f, rng=rng))
+    pred = scale * np.sqrt(fit.predictive_avar(m_f, rng=rng))
     lo, med, hi = np.quantile(pred, [0.05, 0.5, 0.95], axis=0)
     ax.fill_between(tau_f, lo, hi, color="C0", alpha=0.3, label="posterior 90% band")
     ax.plot(tau_f, med, color="C0", lw=1.5, label=_wrapped("model: " + " + ".join(fit.model.terms)))
     for i, term in enumerate(fit.model.terms):
-        part = np.median(np.sqrt(fit.predictive_avar(m_f, rng=rng, term=term)), axis=0)
+        part = scale * np.median(np.sqrt(fit.predictive_avar(m_f, rng=rng, term=term)), axis=0)
         ax.plot(tau_f, part, "--", color=f"C{i + 1}", lw=1, label=_term_label(term, _is_accel(fit, unit)))
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_ylim(allan.adev.min() / 5, allan.adev.max() * 2)
+    ax.set_ylim(adev.min() / 5, adev.max() * 2)
     ax.set_ylabel(f"Allan deviation ({plain_text(unit)})")
     ax.set_title("Allan deviation: data and posterior")
     ax.grid(True, which="both", alpha=0.3)
@@ -242,8 +245,10 @@ def _residual_panel(ax, fit):
     ax.grid(True, which="both", alpha=0.3)
 
 
-def plot_corner(fit, path, *, unit="u"):
-    """Corner plot of the physical parameters with their units, on log axes.
+def plot_corner(fit, path, *, unit="u", scale=1.0):
+    """Corner plot of the physical parameters with their units, on log axes (``unit`` the unit
+    shown for the rate samples, each parameter times ``scale`` to its power of that unit:
+    ``--display-units deg``).
 
     Each panel's title gives the median and the 5% / 95% quantiles; tick labels are plain
     numbers (no offset notation), so a tightly pinned parameter still reads correctly. The
@@ -252,11 +257,14 @@ def plot_corner(fit, path, *, unit="u"):
     """
     plt = pyplot()
 
+    from ..drift.display import unit_power
     from ..noise.avar_forms import PARAMETER_UNITS
 
     names = fit.parameter_names
     labels = [f"{n}\n[{plain_text(PARAMETER_UNITS.get(n, '1').format(u=unit))}]" for n in names]
     data = fit.samples
+    if scale != 1.0:
+        data = data * np.array([scale ** unit_power(PARAMETER_UNITS.get(n, "1")) for n in names])
     if data.shape[1] == 1:
         fig, ax = plt.subplots(figsize=(4.5, 3.2))
         ax.hist(data[:, 0], bins=np.geomspace(data[:, 0].min(), data[:, 0].max() * (1 + 1e-12), 41), color="C0")
@@ -312,7 +320,7 @@ def _corner_grid(plt, data, labels, bins=20):
                                   axes_scale=["log", "log"], bins=bins, color="k")
                     _set_ticks(ax.yaxis, ticks[i], labelled=j == 0, label=labels[i])
                 _set_ticks(ax.xaxis, ticks[j], labelled=i == k - 1, label=labels[j])
-                ax.tick_params(which="both", labelsize=7)
+                ax.tick_params(which="both", labelsize=CORNER_FONT)
     return fig
 
 
@@ -323,9 +331,12 @@ def _draw_range(x):
 
 
 #: the corner grid's tick labels: none nearer than LABEL_END of the axis's log length to its ends (where two
-#: others can be labelled), none nearer than LABEL_GAP to one another (45-degree labels of 7 points on a
-#: 1.9-inch panel: a label reaches about a tenth of the panel beyond its tick)
-LABEL_END, LABEL_GAP = 0.1, 0.15
+#: others can be labelled), none nearer than LABEL_GAP to one another (45-degree labels of
+#: CORNER_FONT points on a 1.9-inch panel: a label reaches a fifth of the panel beyond its tick)
+LABEL_END, LABEL_GAP = 0.1, 0.22
+#: the corner grid's font size (points) of tick labels, axis labels and titles: 7 read as tiny
+#: at full size (a new user's finding)
+CORNER_FONT = 9
 
 
 def _log_ticks(low, high, max_labels=4):
@@ -409,7 +420,7 @@ def _set_ticks(axis, ticks, *, labelled, label):
     if labelled:
         axis.set_major_formatter(plain_log_formatter(labelOnlyBase=False, minor_thresholds=(np.inf, np.inf)))
         axis.axes.tick_params(axis=name, which="major", labelrotation=45)
-        axis.set_label_text(label, fontsize=8)
+        axis.set_label_text(label, fontsize=CORNER_FONT)
     else:
         axis.set_major_formatter(NullFormatter())
         axis.axes.tick_params(axis=name, which="both", **{"labelbottom" if name == "x" else "labelleft": False})
@@ -429,7 +440,7 @@ def _diagonal_panel(ax, x, limits, bins):
     ax.set_ylim(0.0, 1.1 * counts.max())
     ax.yaxis.set_major_locator(NullLocator())
     ax.yaxis.set_minor_locator(NullLocator())
-    ax.set_title(f"{q[1]:.4g}\n[{q[0]:.3g}, {q[2]:.3g}]", fontsize=7)
+    ax.set_title(f"{q[1]:.4g}\n[{q[0]:.3g}, {q[2]:.3g}]", fontsize=CORNER_FONT)
 
 
 _SUPERSCRIPT = str.maketrans("-0123456789", "\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079")

@@ -285,6 +285,7 @@ def run_allan(source, out, *, grid="octave", force=False, progress=False, on_rea
 
 def _fit_axis(request, allan, unit, info, column, folder, out, writer, *, progress, on_axis):
     from ..inference.archive import ARCHIVE_NAME, save_fit, write_netcdf
+    from ..drift.display import display_parameters, rate_display
     from ..inference.fit import fit_allan
     from .plots import plot_allan_fit, plot_corner
 
@@ -299,13 +300,17 @@ def _fit_axis(request, allan, unit, info, column, folder, out, writer, *, progre
     # (report.worker). The corner plot of four or more parameters takes longer than
     # allan_fit.png (timings: docs/speed_under_load.md#figures)
     label = f"{Path(info['log']).name}: {column}"
+    shown, scale = rate_display(unit, request.display_units)  # --display-units: figures too
     figures = [(plot_allan_fit, result, out / "allan_fit.png",
-                {"label": label, "unit": unit, "rng": request.seed}),
-               (plot_corner, result, out / "corner.png", {"unit": unit})]
+                {"label": label, "unit": shown, "rng": request.seed, "scale": scale}),
+               (plot_corner, result, out / "corner.png", {"unit": shown, "scale": scale})]
     for plot, *arguments, options in (figures[::-1] if result.samples.shape[1] >= 4 else figures):
         writer.picture(plot, *arguments, **options)
     drift = drift_outputs(result, request, unit) if request.sensor else None
     summary = axis_summary(result, unit=unit, info=info, column=column, drift=drift)
+    displayed = display_parameters(summary["parameters"], unit, request.display_units)
+    if displayed is not None:  # beside the SI values
+        summary["parameters_display"] = displayed
     checked = datasheet_summary(request, result, unit)
     if checked is not None:
         summary["datasheet_check"] = checked
@@ -377,6 +382,7 @@ def run_population(request, logs, out, *, spread_scale=1.0, force=False, progres
     from ..drift.bands import drift_bands, integrated_unit
     from ..drift.display import display_unit
     from ..inference.population import fit_population
+    from ..inference.population_archive import save_population
     from .fleet import job_name
     from .plots import plot_population
     from .scene import distinct_units
@@ -416,6 +422,7 @@ def run_population(request, logs, out, *, spread_scale=1.0, force=False, progres
                                       rng=request.seed).scaled(factor)
                           for f in pop.unit_fits]
         write_json(tmp / "summary.json", summary)
+        save_population(pop, tmp)  # report and export read it instead of fitting again
         failure = draw_picture(plot_population, pop, tmp / "population.png", unit=unit,
                                bands=bands, unit_bands=unit_bands, rng=request.seed,
                                drift_unit=drift_unit)

@@ -206,8 +206,9 @@ class Report:
                 entry.update(model=summary["model"], parameters=summary["new_unit"], population=summary["population"],
                              units=summary["units"], structures=summary["structures"],
                              diagnostics=summary["diagnostics"])
+                n_units = len(s.axes[s.worst].population.labels)
                 entry["unit_to_unit"] = (f"included: the bounds are for a NEW unit of this model (posterior "
-                                         f"predictive of a hierarchical fit of {len(s.spec.paths)} units)")
+                                         f"predictive of a hierarchical fit of {n_units} units)")
             entry.update(bounds=list(s.bounds), max_outage_s=s.max_outage_s)
             if s.spec.datasheet is not None:
                 entry["datasheet_check"] = s.datasheet_check
@@ -365,7 +366,7 @@ def read_scene(path, *, allow_outside=False):
 
 
 #: keys of a ``[[sensor]]`` with logs that say how to read them, beyond column, rate_hz and units
-_READING = ("time_column", "time_unit", "gaps", "topic", "input", "stream")
+_READING = ("time_column", "time_unit", "gaps", "topic", "input", "stream", "where")
 
 
 def _reading(entry, kind, where):
@@ -395,8 +396,17 @@ def _reading(entry, kind, where):
         what = f"a {kind}" + (" (increments)" if kind_of_input == "increments" else "")
         raise InputError(f"{where}: units={_excerpt(units)}: expected one of {', '.join(allowed)} "
                          f"for {what}")
+    rows = _get(entry, "where", str, where, required=False)
+    if rows is not None:
+        from ..io.rows import parse_where
+
+        try:
+            parse_where(rows)
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
     return LogSource(topic=topic, stream=stream, rate=rate, time_column=time_column,
-                     time_unit=time_unit, gaps=gaps, input=kind_of_input, units=units, sensor=kind)
+                     time_unit=time_unit, gaps=gaps, input=kind_of_input, units=units, sensor=kind,
+                     where=rows)
 
 
 def _datasheet(entry, path, kind, where, allow_outside=False):
@@ -585,8 +595,11 @@ def build_report(scene, *, rng=None, progress=None):
 def _axes(spec, rng):
     """The :class:`AxisResult` of each axis of a sensor (fitting its logs or reading its fit folders)."""
     from ..inference.population import fit_population
+    from ..inference.population_archive import is_population_folder
 
     where = f"sensor {_excerpt(spec.name)}: "
+    if spec.source == "fit" and is_population_folder(spec.paths[0]):
+        return [_saved_population(spec.paths[0], spec, where)]  # read, not fitted again
     if spec.source in ("fit", "fits"):
         per_unit = [_saved_axes(p, spec, where) for p in spec.paths]
         names = [n for n, _ in per_unit[0]]
@@ -615,6 +628,25 @@ def _axes(spec, rng):
 
 def _label(path, i):
     return f"{i + 1}: {path.name}"
+
+
+def _saved_population(folder, spec, where):
+    """The :class:`AxisResult` of a ``bayes-imu fit-population`` folder: its new-unit predictive
+    and the population as fitted there (:mod:`bayes_imu.inference.population_archive`)."""
+    from ..inference.population_archive import load_population
+    from ..io.readers import read_json_object
+
+    try:
+        summary = read_json_object(Path(folder) / "summary.json",
+                                   "a bayes-imu fit-population summary")
+        if summary.get("unit") != spec.units:
+            raise InputError(f"{folder}: fitted in {_excerpt(summary.get('unit'))}; a {spec.kind} "
+                             f"report needs a fit in {spec.units} (a population fitted with "
+                             "its units given)")
+        pop = load_population(folder)
+    except InputError as exc:
+        raise InputError(f"{where}{exc}") from None
+    return AxisResult(str(summary.get("column", Path(folder).name)), pop.new_unit, None, pop)
 
 
 def _saved_axes(folder, spec, where):
@@ -651,6 +683,9 @@ def _rank(scene, reports):
                   "smallest first (comparable within one sensor kind)")
     else:
         order = sorted(reports, key=lambda r: (r.max_outage_s is None, -(r.max_outage_s or 0.0), last_bound(r)))
+        limit = f"{req['max_error']:g} {req['unit']}"
+        if req.get("given"):  # as the scene gave it ("1 deg"), SI beside it
+            limit = f"{req['given']} ({limit})"
         reason = (f"ranked by the longest outage whose {scene.credibility:.0%} bound on {req['quantity']} stays within "
-                  f"{req['max_error']:g} {req['unit']}; ties by the bound at {t_max:g} s")
+                  f"{limit}; ties by the bound at {t_max:g} s")
     return tuple(r.spec.name for r in order), reason
