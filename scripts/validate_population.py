@@ -21,8 +21,10 @@ bench says about the next unit.
 Every fit is cached in ``--cache`` (``bayes_imu.inference.archive`` files), so a second run, here or
 on another machine, reuses them; ``--workers`` processes run the fits in parallel. Prints
 the table and the fractions of consistent (unit, axis, horizon) points; ``--csv`` writes
-the rows. Run: ``python scripts/validate_population.py --workers 2`` (hours on 2 cores
-without a cache); ``--quick`` takes one axis and 3 units.
+the rows, and the population samplers' convergence (R-hat, effective draws) and times (wall and
+CPU); the exit status is 1 when any population sampler did not converge. Run:
+``python scripts/validate_population.py --workers 2`` (hours on 2 cores without a cache);
+``--quick`` takes one axis and 3 units; ``--axes accel_x`` one axis of all six units.
 """
 
 import argparse
@@ -133,8 +135,10 @@ def fold(task):
     fits = [unit_fit((cache, u, axis, "auto")) for u in others]
     fits = [f if f.model.terms == structure else unit_fit((cache, u, axis, structure)) for u, f in zip(others, fits)]
     rng = np.random.default_rng(7919 * held + AXES.index(axis))
+    wall, cpu = time.perf_counter(), time.process_time()
     pop = fit_population([allan(u, axis) for u in others], labels=[f"imu{u}" for u in others], terms=structure,
                          unit_fits=fits, rng=rng)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     y = values(held, axis)
     target = allan(held, axis)
     avar = pop.new_unit.predictive_avar(target.m, edf=target.edf, n_draws=4000, rng=rng)
@@ -146,7 +150,9 @@ def fold(task):
     return {"axis": axis, "held_out": held, "structure": "+".join(structure), "drift": drift,
             "single_consistent": [float(np.mean([s[i][3] for s in single])) for i in range(len(HORIZONS))],
             "adev_consistent": float(adev_ok.mean()), "adev_points": int(adev_ok.size), "spread": spread,
-            "converged": bool(pop.diagnostics["converged"])}
+            "converged": bool(pop.diagnostics["converged"]), "rhat_max": pop.diagnostics["rhat_max"],
+            "ess_min": pop.diagnostics["ess_hyper_min"], "n_par": len(pop.parameter_names),
+            "population_s": wall, "population_cpu_s": cpu}
 
 
 def main(argv=None):
@@ -199,7 +205,10 @@ def main(argv=None):
             cells = [f"{o:9.3g} [{lo:8.3g},{hi:8.3g}]{'' if ok else '*'}" for o, lo, hi, ok in r["drift"]]
             print(f"{r['axis']:8s} {r['held_out']:4d} {r['structure']:40s} " + " ".join(cells)
                   + f"  adev {r['adev_consistent']:4.0%} of {r['adev_points']}  single-unit "
-                  + " ".join(f"{v:.0%}" for v in r["single_consistent"]), flush=True)
+                  + " ".join(f"{v:.0%}" for v in r["single_consistent"])
+                  + f"  population: {r['n_par']} parameters, {r['population_s']:.1f} s "
+                  f"(CPU {r['population_cpu_s']:.1f} s), R-hat {r['rhat_max']:.3f}, ESS {r['ess_min']:.0f}"
+                  + ("" if r["converged"] else " NOT CONVERGED"), flush=True)
             for (o, lo, hi, ok), h, single in zip(r["drift"], HORIZONS, r["single_consistent"]):
                 rows.append({"axis": r["axis"], "held_out": r["held_out"], "horizon_s": h, "observed_rms": o,
                              "q05": lo, "q95": hi, "consistent": ok, "single_unit_consistent": single,
@@ -221,10 +230,18 @@ def main(argv=None):
             print(f"  {kind}: {ok[sel].mean():.1%} (single-unit bands: {single[sel].mean():.1%})")
     print(f"single-unit bands (each of the other units alone) consistent: {single.mean():.1%}")
     print(f"held-out Allan deviation inside the new-unit 90% band: {adev.mean():.1%} of cluster sizes")
-    print(f"population samplers converged: {sum(r['converged'] for r in results)} of {len(results)}; "
-          f"{time.perf_counter() - start:.0f} s")
+    converged = sum(r["converged"] for r in results)
+    times = np.array([r["population_s"] for r in results])
+    cpu = np.array([r["population_cpu_s"] for r in results])
+    print(f"population samplers converged (R-hat < 1.01, ESS > 400 per hyper-parameter): {converged} of "
+          f"{len(results)}; population fits {np.median(times):.1f} s median, {times.max():.1f} s at most "
+          f"(CPU {np.median(cpu):.1f} s median, {cpu.max():.1f} s at most)")
+    print(f"wall time of this run: {time.perf_counter() - start:.0f} s")
     if args.csv:
         write_rows(args.csv, rows)
+    if converged < len(results):
+        print(f"error: {len(results) - converged} population fit(s) did not converge", file=sys.stderr)
+        return 1
     return 0
 
 
