@@ -176,6 +176,20 @@ def test_environment_variable_chooses_and_is_checked(monkeypatch):
         background_default()
 
 
+def test_no_output_process_on_a_busy_machine(monkeypatch):
+    """Automatic choice: a worker process only where the load leaves a CPU free (issue 39)."""
+    from bayes_imu.report import worker
+
+    monkeypatch.delenv(WORKERS_ENV, raising=False)
+    monkeypatch.setattr(worker, "usable_cpus", lambda: 2)
+    monkeypatch.setattr(worker.os, "getloadavg", lambda: (0.3, 0.3, 0.3))
+    assert background_default() is True and worker.spare_cpus() == pytest.approx(1.7)
+    monkeypatch.setattr(worker.os, "getloadavg", lambda: (2.1, 0.3, 0.3))
+    assert background_default() is False
+    monkeypatch.setenv(WORKERS_ENV, "1")  # the variable still decides
+    assert background_default() is True
+
+
 def _fit(tmp_path, name, workers, monkeypatch, log):
     monkeypatch.setenv(WORKERS_ENV, workers)
     out = tmp_path / name
