@@ -101,7 +101,10 @@ def sample_hmc(log_prob_grad, start, rng, *, max_steps=4000, n_warmup=200, rhat_
             draws.append(x.copy())
             accepts.append(accept)
         chain = np.array(draws)
-        rhat, taus = split_rhat(chain), autocorr_time(chain)
+        with np.errstate(invalid="ignore", divide="ignore"):  # a chain that never moved: NaN, not converged
+            rhat, taus = split_rhat(chain), autocorr_time(chain)
+        taus = np.where(np.isfinite(taus), taus, np.inf)
+        rhat = np.where(np.isfinite(rhat), rhat, np.inf)
         ess = effective_draws(chain, taus)
         if np.all(rhat < rhat_max) and np.all(ess > ess_min):
             converged = True

@@ -218,8 +218,9 @@ class PopulationResult:
                             "selected": i == self.selected}
                            for i, s in enumerate(self.structures)],
             "spread_prior": f"half-normal, scale {self.spread_scale:g} (ln units)",
+            # a chain that never moved has no finite R-hat: null in JSON
             "diagnostics": {k: (bool(v) if k == "converged" else int(v) if k in ("n_steps", "n_walkers", "n_draws")
-                                else float(v)) for k, v in self.diagnostics.items()},
+                                else _number(v)) for k, v in self.diagnostics.items()},
             "rate_hz": float(self.unit_fits[0].allan.rate_hz),
             "seed": self.seed if isinstance(self.seed, (int, type(None))) else str(self.seed),
             "bayes_imu_version": __version__,
