@@ -1,5 +1,6 @@
 """The output worker process (bayes_imu.report.worker) and the command's fast exit."""
 
+import io
 import json
 import multiprocessing
 import os
@@ -183,7 +184,11 @@ def test_no_output_process_on_a_busy_machine(monkeypatch):
     monkeypatch.delenv(WORKERS_ENV, raising=False)
     monkeypatch.setattr(worker, "usable_cpus", lambda: 2)
     monkeypatch.setattr(worker.os, "getloadavg", lambda: (0.3, 0.3, 0.3))
+    monkeypatch.setattr("builtins.open", lambda *a, **k: io.StringIO("0.30 0.30 0.30 1/200 999\n"))
     assert background_default() is True and worker.spare_cpus() == pytest.approx(1.7)
+    monkeypatch.setattr("builtins.open", lambda *a, **k: io.StringIO("0.30 0.30 0.30 3/200 999\n"))
+    assert background_default() is False  # two other processes running now: the average lags them
+    monkeypatch.setattr("builtins.open", lambda *a, **k: io.StringIO("0.30 0.30 0.30 1/200 999\n"))
     monkeypatch.setattr(worker.os, "getloadavg", lambda: (2.1, 0.3, 0.3))
     assert background_default() is False
     monkeypatch.setenv(WORKERS_ENV, "1")  # the variable still decides

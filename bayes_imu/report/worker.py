@@ -109,7 +109,11 @@ def background_default(automatic=True):
 
 
 def spare_cpus():
-    """Usable CPUs less the one-minute load average: the cores that other work leaves free.
+    """Usable CPUs less the load: the cores that other work leaves free.
+
+    The load is the one-minute load average, or where it is larger (it lags a load that has just
+    started by about a minute) the processes running now other than this one (``/proc/loadavg``,
+    Linux).
 
     The output process pays where it has a core of its own: on a busy machine it only adds its
     imports (measured on 2 cores under a load of 19 from other jobs, 1e6-sample ``bayes-imu fit``,
@@ -119,7 +123,12 @@ def spare_cpus():
         load = os.getloadavg()[0]
     except OSError:  # not available on this platform: as if idle
         load = 0.0
-    return usable_cpus() - load
+    try:
+        with open("/proc/loadavg") as f:
+            running = int(f.read().split()[3].split("/")[0]) - 1  # "running/total": less this process
+    except (OSError, ValueError, IndexError):
+        running = 0
+    return usable_cpus() - max(load, running)
 
 
 class OutputWriter:
