@@ -45,6 +45,8 @@ def main(argv=None):
     parser.add_argument("--real", action="store_true",
                         help="instead, the real ADIS16405 logs' gyro x axes (../shared, read as given: gzip CSV, "
                              "deg/s, 100 Hz), one run each unless --runs says otherwise")
+    parser.add_argument("--real-units", default="1,2,3,4,5,6",
+                        help="with --real: which ADIS16405 units (comma-separated, default all six)")
     parser.add_argument("--load", type=int, default=0,
                         help="busy processes to run meanwhile (default 0: idle)")
     args = parser.parse_args(argv)
@@ -79,7 +81,7 @@ def _run(args):
         if not DATA.exists():
             print(f"skipped: {DATA} not found")
             return
-        logs = [(DATA / f"adis_16405_imu{i}.csv.gz", "gyro_x_dps", 100.0) for i in range(1, 7)]
+        logs = [(DATA / f"adis_16405_imu{int(i)}.csv.gz", "gyro_x_dps", 100.0) for i in args.real_units.split(",")]
         _compare(logs, args.runs or 1)
         return
     from bayes_imu.noise.avar_forms import NoiseModel
