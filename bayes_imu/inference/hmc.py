@@ -65,12 +65,15 @@ class HMCResult:
     converged: bool
 
 
-def sample_hmc(log_prob_grad, start, rng, *, max_steps=4000, n_warmup=200, rhat_max=1.01, ess_min=400.0):
+def sample_hmc(log_prob_grad, start, rng, *, max_steps=4000, n_warmup=200, rhat_max=1.01, ess_min=400.0,
+               monitor=None):
     """Sample ``log_prob_grad`` from the rows of ``start`` ``(n_chains, n_par)`` (module docstring).
 
     ``log_prob_grad(x)`` takes ``(k, n_par)`` and returns the log density ``(k,)`` (``-inf``
     outside the support) and its gradient ``(k, n_par)``. ``max_steps``: the most sampling
-    iterations per chain after the ``n_warmup`` warm-up ones.
+    iterations per chain after the ``n_warmup`` warm-up ones. ``monitor``: a map of rows
+    ``(k, n_par) -> (k, n_par)`` to the quantities whose R-hat and effective draws decide and
+    that the chain returns (the sampler's coordinates where ``None``).
     """
     x = np.array(start, dtype=float)
     n_chains, n_par = x.shape
@@ -101,6 +104,8 @@ def sample_hmc(log_prob_grad, start, rng, *, max_steps=4000, n_warmup=200, rhat_
             draws.append(x.copy())
             accepts.append(accept)
         chain = np.array(draws)
+        if monitor is not None:
+            chain = monitor(chain.reshape(-1, n_par)).reshape(chain.shape)
         with np.errstate(invalid="ignore", divide="ignore"):  # a chain that never moved: NaN, not converged
             rhat, taus = split_rhat(chain), autocorr_time(chain)
         taus = np.where(np.isfinite(taus), taus, np.inf)

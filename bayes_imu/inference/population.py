@@ -540,9 +540,10 @@ def _sample_hyper(target, rng, max_steps):
     box = target.mean_box
     start[:, :p] = np.clip(start[:, :p], box[:, 0] + 1e-6, box[:, 1] - 1e-6)
     start[:, p:] = np.clip(start[:, p:], np.log(SPREAD_BOUNDS[0]) + 1e-6, np.log(SPREAD_BOUNDS[1]) - 1e-6)
+    scaled = _ScaledMean(target)
     with one_blas_thread():
-        run = sample_hmc(target.value_and_grad, start, rng, max_steps=max_steps, rhat_max=RHAT_MAX,
-                         ess_min=ESS_MIN)
+        run = sample_hmc(scaled.value_and_grad, scaled.to_scaled(start), rng, max_steps=max_steps,
+                         rhat_max=RHAT_MAX, ess_min=ESS_MIN, monitor=scaled.to_hyper)
     if not run.converged:
         warnings.warn(f"population sampler not converged after {run.chain.shape[0]} iterations of {N_CHAINS} "
                       f"chains (R-hat {np.max(run.rhat):.3f}, effective draws {np.min(run.ess):.0f}; needed "
@@ -553,6 +554,60 @@ def _sample_hyper(target, rng, max_steps):
                    "rhat_max": float(np.max(run.rhat)), "ess_hyper_min": float(np.min(run.ess)),
                    "accept": run.accept}
     return chain[:, :p], np.exp(chain[:, p:]), diagnostics
+
+
+class _ScaledMean:
+    """The hyper-posterior in coordinates ``(z, ln sigma)`` with ``mu = c(sigma) + t(sigma) z``.
+
+    ``c`` and ``t`` are the mean and standard deviation of ``mu`` given ``sigma`` were each unit's
+    posterior normal (centre ``m_u``, variance ``w_u^2`` of its smoothed draws):
+    ``t^-2 = sum_u 1 / (sigma^2 + w_u^2)``, ``c = t^2 sum_u m_u / (sigma^2 + w_u^2)``, per
+    parameter. The map is one to one for each ``sigma``, so the density is the same up to the
+    Jacobian ``prod t``; it takes away the funnel of ``mu`` narrowing as the spread falls below the
+    units' widths (few units, a poorly measured parameter), which a fixed step size cannot follow
+    (partial non-centring: Papaspiliopoulos, Roberts & Skold 2007, Stat. Sci. 22, 59).
+    """
+
+    def __init__(self, target):
+        self.target = target
+        self.m = np.array([d[0] for d in target.densities])  # (U, p)
+        self.w2 = np.array([d[1].var(axis=0) + d[2] for d in target.densities])  # (U, p)
+
+    def _moments(self, sigma):
+        sigma = np.clip(sigma, 0.5 * SPREAD_BOUNDS[0], 2.0 * SPREAD_BOUNDS[1])  # beyond: rejected
+        a = 1.0 / (sigma[:, None, :] ** 2 + self.w2[None])  # (W, U, p)
+        precision = a.sum(axis=1)
+        return a, precision, np.sum(a * self.m[None], axis=1) / precision, precision ** -0.5
+
+    def to_hyper(self, y):
+        p = self.target.n_par
+        _, _, c, t = self._moments(np.exp(y[:, p:]))
+        return np.concatenate([c + t * y[:, :p], y[:, p:]], axis=1)
+
+    def to_scaled(self, x):
+        p = self.target.n_par
+        _, _, c, t = self._moments(np.exp(x[:, p:]))
+        return np.concatenate([(x[:, :p] - c) / t, x[:, p:]], axis=1)
+
+    def value_and_grad(self, y):
+        p = self.target.n_par
+        z, log_sigma = y[:, :p], y[:, p:]
+        sigma = np.exp(np.clip(log_sigma, np.log(0.5 * SPREAD_BOUNDS[0]),
+                               np.log(2.0 * SPREAD_BOUNDS[1])))
+        a, precision, c, t = self._moments(sigma)
+        with np.errstate(over="ignore", invalid="ignore"):
+            mu = c + t * z  # non-finite far outside: the target rejects it
+        value, grad = self.target.value_and_grad(np.concatenate([mu, log_sigma], axis=1))
+        g_mu, g_log_sigma = grad[:, :p], grad[:, p:]
+        da = -2.0 * sigma[:, None, :] ** 2 * a * a  # d a_u / d ln sigma
+        d_precision = da.sum(axis=1)
+        dc = (np.sum(da * self.m[None], axis=1) - c * d_precision) / precision
+        dt = -0.5 * t * d_precision / precision
+        value = value + np.sum(np.log(t), axis=1)
+        with np.errstate(over="ignore", invalid="ignore"):  # a row far outside: rejected
+            g_log_sigma = g_log_sigma + g_mu * (dc + dt * z) - 0.5 * d_precision / precision
+            g = np.concatenate([g_mu * t, g_log_sigma], axis=1)
+        return value, np.where(np.isfinite(value)[:, None] & np.isfinite(g), g, 0.0)
 
 
 def _pooled_draws(phi, box, mean, spread, rng, n_hyper=400):
