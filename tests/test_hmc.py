@@ -7,11 +7,17 @@ import pytest
 from scipy import stats
 
 from bayes_imu.inference.hmc import sample_hmc, split_rhat
-from bayes_imu.inference.population import _HyperPosterior, density_log_likelihood, log_box_mass, unit_density
+from bayes_imu.inference.population import (
+    _HyperPosterior,
+    density_log_likelihood,
+    log_box_mass,
+    unit_density,
+)
 
 
 def test_hmc_draws_a_correlated_gaussian():
-    """6-D Gaussian, scales 0.01-10, correlation 0.9: means within 5 Monte Carlo sd of the exact ones
+    """6-D Gaussian, scales 0.01-10, correlation 0.9: means within 5 Monte Carlo sd of the exact
+    ones
     (sd / sqrt(ESS)), variances within 20% (ESS > 400: the variance's relative sd is < 0.1)."""
     rng = np.random.default_rng(0)
     scale = np.array([0.01, 0.1, 1.0, 10.0, 1.0, 0.3])
@@ -39,7 +45,9 @@ def test_split_rhat_is_the_textbook_formula():
     chain = rng.standard_normal((40, 3, 2)) + np.array([0.0, 0.3, -0.2])[None, :, None]
     expected = []
     for k in range(2):
-        series = [list(chain[:20, c, k]) for c in range(3)] + [list(chain[20:, c, k]) for c in range(3)]
+        series = [list(chain[:20, c, k]) for c in range(3)] + [
+            list(chain[20:, c, k]) for c in range(3)
+        ]
         n = 20
         means = [sum(s) / n for s in series]
         grand = sum(means) / len(means)
@@ -50,19 +58,29 @@ def test_split_rhat_is_the_textbook_formula():
 
 
 def _population(rng, p=3, units=4, n=300):
-    phis = [rng.normal(size=p) + rng.uniform(0.05, 0.5, p) * rng.standard_normal((n, p)) for _ in range(units)]
+    phis = [
+        rng.normal(size=p) + rng.uniform(0.05, 0.5, p) * rng.standard_normal((n, p))
+        for _ in range(units)
+    ]
     boxes = [np.column_stack([f.mean(axis=0) - 2.0, f.mean(axis=0) + 3.0]) for f in phis]
     return phis, boxes
 
 
 @pytest.mark.parametrize("smoothing", [True, False])
 def test_hyper_posterior_gradient_matches_finite_differences(smoothing):
-    """The boxes are tight (the truncation mass matters); central differences of the log posterior."""
+    """The boxes are tight (the truncation mass matters); central differences of the log
+    posterior."""
     rng = np.random.default_rng(2)
     phis, boxes = _population(rng)
     target = _HyperPosterior(phis, boxes, 0.7, smoothing=smoothing)
-    x = np.concatenate([np.mean([f.mean(axis=0) for f in phis], axis=0)[None] + 0.1 * rng.standard_normal((3, 3)),
-                        np.log(rng.uniform(0.05, 2.0, (3, 3)))], axis=1)
+    x = np.concatenate(
+        [
+            np.mean([f.mean(axis=0) for f in phis], axis=0)[None]
+            + 0.1 * rng.standard_normal((3, 3)),
+            np.log(rng.uniform(0.05, 2.0, (3, 3))),
+        ],
+        axis=1,
+    )
     value, grad = target.value_and_grad(x)
     np.testing.assert_allclose(value, target(x), rtol=1e-12)
     h = 1e-6
@@ -90,7 +108,9 @@ def test_smoothed_unit_likelihood_is_a_sum_of_gaussians():
     got = density_log_likelihood((centre, q, kernel), mu, sigma)
     for w in range(4):
         logs = stats.norm.logpdf(centre + q, mu[w], np.sqrt(sigma[w] ** 2 + kernel)).sum(axis=1)
-        assert got[w] == pytest.approx(np.log(np.mean(np.exp(logs - logs.max()))) + logs.max(), rel=1e-11)
+        assert got[w] == pytest.approx(
+            np.log(np.mean(np.exp(logs - logs.max()))) + logs.max(), rel=1e-11
+        )
 
 
 def test_box_mass_gradient_in_the_tails():
@@ -103,22 +123,31 @@ def test_box_mass_gradient_in_the_tails():
         e = np.zeros(3)
         e[d] = h
         num_mu = (log_box_mass(box, mu + e, sigma) - log_box_mass(box, mu - e, sigma)) / (2 * h)
-        num_ls = (log_box_mass(box, mu, sigma * np.exp(e)) - log_box_mass(box, mu, sigma * np.exp(-e))) / (2 * h)
+        num_ls = (
+            log_box_mass(box, mu, sigma * np.exp(e)) - log_box_mass(box, mu, sigma * np.exp(-e))
+        ) / (2 * h)
         np.testing.assert_allclose(g_mu[:, d], num_mu, rtol=1e-5, atol=1e-7)
         np.testing.assert_allclose(g_log_sigma[:, d], num_ls, rtol=1e-5, atol=1e-7)
 
 
 def test_scaled_mean_coordinates_keep_the_density():
     """``(z, ln sigma)`` -> ``(mu, ln sigma)`` and back; the density there is the target's times the
-    Jacobian prod t (a numerical derivative of the map), and its gradient matches finite differences."""
+    Jacobian prod t (a numerical derivative of the map), and its gradient matches finite
+    differences."""
     from bayes_imu.inference.population import _ScaledMean
 
     rng = np.random.default_rng(4)
     phis, boxes = _population(rng)
     target = _HyperPosterior(phis, boxes, 0.7)
     scaled = _ScaledMean(target)
-    x = np.concatenate([np.mean([f.mean(axis=0) for f in phis], axis=0)[None] + 0.1 * rng.standard_normal((3, 3)),
-                        np.log(rng.uniform(0.05, 2.0, (3, 3)))], axis=1)
+    x = np.concatenate(
+        [
+            np.mean([f.mean(axis=0) for f in phis], axis=0)[None]
+            + 0.1 * rng.standard_normal((3, 3)),
+            np.log(rng.uniform(0.05, 2.0, (3, 3))),
+        ],
+        axis=1,
+    )
     y = scaled.to_scaled(x)
     np.testing.assert_allclose(scaled.to_hyper(y), x, rtol=1e-12, atol=1e-12)
     value, grad = scaled.value_and_grad(y)
@@ -128,8 +157,12 @@ def test_scaled_mean_coordinates_keep_the_density():
         for i in range(6):
             e = np.zeros((1, 6))
             e[0, i] = h
-            jac[:, i] = (scaled.to_hyper(y[row:row + 1] + e) - scaled.to_hyper(y[row:row + 1] - e))[0] / (2 * h)
-        assert value[row] == pytest.approx(target(x[row:row + 1])[0] + np.log(abs(np.linalg.det(jac))), rel=1e-8)
+            jac[:, i] = (
+                scaled.to_hyper(y[row : row + 1] + e) - scaled.to_hyper(y[row : row + 1] - e)
+            )[0] / (2 * h)
+        assert value[row] == pytest.approx(
+            target(x[row : row + 1])[0] + np.log(abs(np.linalg.det(jac))), rel=1e-8
+        )
     for i in range(6):
         e = np.zeros(6)
         e[i] = h
@@ -146,5 +179,9 @@ def test_two_units_converge():
     phis = [m + 0.02 * rng.standard_normal((800, 1)) for m in (-9.2, -9.25)]
     target = _HyperPosterior(phis, [np.array([[-20.0, 0.0]])] * 2, 1.0)
     _, spread, diagnostics = _sample_hyper(target, rng, max_steps=1000)
-    assert diagnostics["converged"] and diagnostics["rhat_max"] < 1.01 and diagnostics["ess_hyper_min"] > 400
+    assert (
+        diagnostics["converged"]
+        and diagnostics["rhat_max"] < 1.01
+        and diagnostics["ess_hyper_min"] > 400
+    )
     assert np.quantile(spread[:, 0], 0.05) < 0.02 < 0.3 < np.quantile(spread[:, 0], 0.95)

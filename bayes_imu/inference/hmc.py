@@ -22,7 +22,14 @@ import numpy as np
 
 from .sampling import autocorr_time
 
-__all__ = ["HMCResult", "sample_hmc", "split_rhat", "effective_draws", "TARGET_ACCEPT", "TRAJECTORY"]
+__all__ = [
+    "HMCResult",
+    "sample_hmc",
+    "split_rhat",
+    "effective_draws",
+    "TARGET_ACCEPT",
+    "TRAJECTORY",
+]
 
 #: acceptance rate the step size is adapted to
 TARGET_ACCEPT = 0.8
@@ -65,8 +72,17 @@ class HMCResult:
     converged: bool
 
 
-def sample_hmc(log_prob_grad, start, rng, *, max_steps=4000, n_warmup=200, rhat_max=1.01, ess_min=400.0,
-               monitor=None):
+def sample_hmc(
+    log_prob_grad,
+    start,
+    rng,
+    *,
+    max_steps=4000,
+    n_warmup=200,
+    rhat_max=1.01,
+    ess_min=400.0,
+    monitor=None,
+):
     """Sample ``log_prob_grad`` from the rows of ``start`` ``(n_chains, n_par)`` (module docstring).
 
     ``log_prob_grad(x)`` takes ``(k, n_par)`` and returns the log density ``(k,)`` (``-inf``
@@ -91,7 +107,7 @@ def sample_hmc(log_prob_grad, start, rng, *, max_steps=4000, n_warmup=200, rhat_
         adapt.update(accept)
         history.append(x.copy())
         if i + 1 in windows:
-            recent = np.concatenate(history[len(history) // 2:])
+            recent = np.concatenate(history[len(history) // 2 :])
             inv_mass = np.maximum(np.var(recent, axis=0), 1e-12)
             history = []
             adapt = _DualAveraging(_initial_step(log_prob_grad, x, logp, grad, inv_mass, rng))
@@ -106,7 +122,9 @@ def sample_hmc(log_prob_grad, start, rng, *, max_steps=4000, n_warmup=200, rhat_
         chain = np.array(draws)
         if monitor is not None:
             chain = monitor(chain.reshape(-1, n_par)).reshape(chain.shape)
-        with np.errstate(invalid="ignore", divide="ignore"):  # a chain that never moved: NaN, not converged
+        with np.errstate(
+            invalid="ignore", divide="ignore"
+        ):  # a chain that never moved: NaN, not converged
             rhat, taus = split_rhat(chain), autocorr_time(chain)
         taus = np.where(np.isfinite(taus), taus, np.inf)
         rhat = np.where(np.isfinite(rhat), rhat, np.inf)
@@ -114,16 +132,19 @@ def sample_hmc(log_prob_grad, start, rng, *, max_steps=4000, n_warmup=200, rhat_
         if np.all(rhat < rhat_max) and np.all(ess > ess_min):
             converged = True
             break
-    return HMCResult(chain, rhat, ess, taus, float(np.mean(accepts)), float(step), int(n_warmup), converged)
+    return HMCResult(
+        chain, rhat, ess, taus, float(np.mean(accepts)), float(step), int(n_warmup), converged
+    )
 
 
 def split_rhat(chain):
-    """Split R-hat of each parameter of ``chain`` ``(steps, chains, parameters)``: every chain cut in
+    """Split R-hat of each parameter of ``chain`` ``(steps, chains, parameters)``: every chain cut
+    in
     two halves, each half a chain (Gelman et al. 2013, Bayesian Data Analysis, 3rd ed., eq 11.4):
     ``sqrt(((n - 1) / n W + B / n) / W)``, ``W`` the mean within-chain variance and ``B / n`` the
     variance of the chains' means."""
     n = chain.shape[0] // 2
-    halves = np.concatenate([chain[:n], chain[n:2 * n]], axis=1)
+    halves = np.concatenate([chain[:n], chain[n : 2 * n]], axis=1)
     within = np.mean(np.var(halves, axis=0, ddof=1), axis=0)
     between = np.var(np.mean(halves, axis=0), axis=0, ddof=1)
     return np.sqrt(((n - 1) / n * within + between) / within)
@@ -161,7 +182,8 @@ def _transition(log_prob_grad, x, logp, grad, step, inv_mass, rng):
 
 
 def _initial_step(log_prob_grad, x, logp, grad, inv_mass, rng):
-    """A first step size: halved or doubled until one leapfrog step accepts about half (Hoffman & Gelman
+    """A first step size: halved or doubled until one leapfrog step accepts about half (Hoffman &
+    Gelman
     2014, algorithm 4, over all chains)."""
     p = rng.standard_normal(x.shape) / np.sqrt(inv_mass)
 
@@ -170,7 +192,9 @@ def _initial_step(log_prob_grad, x, logp, grad, inv_mass, rng):
         xn = x + eps * inv_mass * pn
         lpn, gn = log_prob_grad(xn)
         pn = pn + 0.5 * eps * np.where(np.isfinite(lpn)[:, None], gn, 0.0)
-        dh = (logp - 0.5 * np.sum(p * p * inv_mass, axis=1)) - (lpn - 0.5 * np.sum(pn * pn * inv_mass, axis=1))
+        dh = (logp - 0.5 * np.sum(p * p * inv_mass, axis=1)) - (
+            lpn - 0.5 * np.sum(pn * pn * inv_mass, axis=1)
+        )
         with np.errstate(over="ignore", invalid="ignore"):
             return float(np.mean(np.nan_to_num(np.exp(np.minimum(-dh, 0.0)), nan=0.0)))
 
@@ -185,7 +209,8 @@ def _initial_step(log_prob_grad, x, logp, grad, inv_mass, rng):
 
 
 class _DualAveraging:
-    """Step size by dual averaging (Hoffman & Gelman 2014, eqs 5-6: gamma 0.05, t0 10, kappa 0.75)."""
+    """Step size by dual averaging (Hoffman & Gelman 2014, eqs 5-6: gamma 0.05, t0 10,
+    kappa 0.75)."""
 
     def __init__(self, step):
         self.mu = np.log(10.0 * step)
@@ -199,7 +224,7 @@ class _DualAveraging:
         eta = 1.0 / (self.t + 10.0)
         self.bar = (1.0 - eta) * self.bar + eta * (TARGET_ACCEPT - accept)
         log_step = self.mu - np.sqrt(self.t) / 0.05 * self.bar
-        weight = self.t ** -0.75
+        weight = self.t**-0.75
         self.log_bar = weight * log_step + (1.0 - weight) * self.log_bar
         self.step = float(np.exp(log_step))
 
