@@ -18,7 +18,10 @@ process). The issue's goal is a ratio of at most 2.
 ``--load N`` starts N busy processes (a pure-Python loop each, one per core on a 2-core machine)
 before the first run and stops them after the last: both tools are timed on a machine as busy as a
 user's often is (issue 39: fit and peer side by side under the same load). The load average at the
-start and end is printed; the goals are a median ratio <= 1.6 idle and <= 2.5 under load.
+start and end is printed; the goals are a median ratio <= 1.6 idle and <= 2.5 under load. Each row
+also gives the CPU time (user + system) of each tool's process tree, ``cpu_ratio`` their ratio: on a
+machine loaded by others, a fair proxy of the idle wall-time ratio (where neither waits for the other
+core).
 """
 
 import argparse
@@ -42,6 +45,8 @@ def main(argv=None):
     parser.add_argument("--real", action="store_true",
                         help="instead, the real ADIS16405 logs' gyro x axes (../shared, read as given: gzip CSV, "
                              "deg/s, 100 Hz), one run each unless --runs says otherwise")
+    parser.add_argument("--real-units", default="1,2,3,4,5,6",
+                        help="with --real: which ADIS16405 units (comma-separated, default all six)")
     parser.add_argument("--load", type=int, default=0,
                         help="busy processes to run meanwhile (default 0: idle)")
     args = parser.parse_args(argv)
@@ -76,7 +81,7 @@ def _run(args):
         if not DATA.exists():
             print(f"skipped: {DATA} not found")
             return
-        logs = [(DATA / f"adis_16405_imu{i}.csv.gz", "gyro_x_dps", 100.0) for i in range(1, 7)]
+        logs = [(DATA / f"adis_16405_imu{int(i)}.csv.gz", "gyro_x_dps", 100.0) for i in args.real_units.split(",")]
         _compare(logs, args.runs or 1)
         return
     from bayes_imu.noise.avar_forms import NoiseModel
@@ -94,24 +99,32 @@ def _run(args):
 def _compare(logs, runs):
     """``bayes-imu fit`` and the peer, each in a fresh process, ``runs`` times on each (log, column, rate)."""
     peer = _peer_available()
-    print(f"{'run':>3s} {'log':>24s} {'fit_s':>7s} {'peer_s':>7s} {'ratio':>6s}  model")
-    ours, theirs = [], []
+    print(f"{'run':>3s} {'log':>24s} {'fit_s':>7s} {'peer_s':>7s} {'ratio':>6s} {'fit_cpu':>7s} {'peer_cpu':>8s} "
+          f"{'cpu_ratio':>9s}  model")
+    ours, theirs, our_cpu, their_cpu = [], [], [], []
     with tempfile.TemporaryDirectory() as tmp:
         for log, column, rate in logs:
             for run in range(runs):
                 out = Path(tmp) / f"out{len(ours)}"
+                cpu = _children_cpu()
                 start = time.perf_counter()
                 proc = subprocess.run([sys.executable, "-m", "bayes_imu.cli", "fit", str(log), "--column", column,
                                        "--rate", f"{rate:g}", "--out", str(out), "--seed", str(run)],
                                       capture_output=True, text=True, check=True)
                 ours.append(time.perf_counter() - start)
+                our_cpu.append(_children_cpu() - cpu)
+                cpu = _children_cpu()
                 theirs.append(_time_peer(log, column, rate) if peer else float("nan"))
-                print(f"{run:3d} {Path(log).name:>24s} {ours[-1]:7.2f} {theirs[-1]:7.2f} {ours[-1] / theirs[-1]:6.2f}  "
+                their_cpu.append(_children_cpu() - cpu if peer else float("nan"))
+                print(f"{run:3d} {Path(log).name:>24s} {ours[-1]:7.2f} {theirs[-1]:7.2f} {ours[-1] / theirs[-1]:6.2f} "
+                      f"{our_cpu[-1]:7.2f} {their_cpu[-1]:8.2f} {our_cpu[-1] / their_cpu[-1]:9.2f}  "
                       f"{proc.stdout.splitlines()[0]}")
     if peer:
         print(f"\nmedian: bayes-imu fit {np.median(ours):.2f} s, allan-variance {np.median(theirs):.2f} s, "
               f"ratio {np.median(ours) / np.median(theirs):.2f} "
-              "(goals: <= 1.6 idle, <= 2.5 under load)")
+              "(goals: <= 1.6 idle, <= 2.5 under load); CPU time (user + system, the command's processes "
+              f"and threads): {np.median(our_cpu):.2f} s and {np.median(their_cpu):.2f} s, ratio "
+              f"{np.median(our_cpu) / np.median(their_cpu):.2f}")
     else:
         print("\nallan-variance not installed (pip install allan-variance): no peer timing")
 
@@ -124,6 +137,15 @@ x = pd.read_csv(sys.argv[1])[sys.argv[2]].to_numpy()
 tau, avar = compute_avar(x, dt=1.0 / float(sys.argv[3]))
 params, prediction = estimate_parameters(tau, avar)
 """
+
+
+def _children_cpu():
+    """CPU time (user + system, s) of this process's finished children so far (their own children
+    and threads included where they were waited for)."""
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def _peer_available():

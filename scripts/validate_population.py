@@ -21,8 +21,10 @@ bench says about the next unit.
 Every fit is cached in ``--cache`` (``bayes_imu.inference.archive`` files), so a second run, here or
 on another machine, reuses them; ``--workers`` processes run the fits in parallel. Prints
 the table and the fractions of consistent (unit, axis, horizon) points; ``--csv`` writes
-the rows. Run: ``python scripts/validate_population.py --workers 2`` (hours on 2 cores
-without a cache); ``--quick`` takes one axis and 3 units.
+the rows, and the population samplers' convergence (R-hat, effective draws) and times (wall and
+CPU); the exit status is 1 when any population sampler did not converge. Run:
+``python scripts/validate_population.py --workers 2`` (hours on 2 cores without a cache);
+``--quick`` takes one axis and 3 units; ``--axes accel_x`` one axis of all six units.
 """
 
 import argparse
@@ -133,8 +135,10 @@ def fold(task):
     fits = [unit_fit((cache, u, axis, "auto")) for u in others]
     fits = [f if f.model.terms == structure else unit_fit((cache, u, axis, structure)) for u, f in zip(others, fits)]
     rng = np.random.default_rng(7919 * held + AXES.index(axis))
+    wall, cpu = time.perf_counter(), time.process_time()
     pop = fit_population([allan(u, axis) for u in others], labels=[f"imu{u}" for u in others], terms=structure,
                          unit_fits=fits, rng=rng)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     y = values(held, axis)
     target = allan(held, axis)
     avar = pop.new_unit.predictive_avar(target.m, edf=target.edf, n_draws=4000, rng=rng)
@@ -146,7 +150,30 @@ def fold(task):
     return {"axis": axis, "held_out": held, "structure": "+".join(structure), "drift": drift,
             "single_consistent": [float(np.mean([s[i][3] for s in single])) for i in range(len(HORIZONS))],
             "adev_consistent": float(adev_ok.mean()), "adev_points": int(adev_ok.size), "spread": spread,
-            "converged": bool(pop.diagnostics["converged"])}
+            "converged": bool(pop.diagnostics["converged"]),
+            "rhat_max": pop.diagnostics["rhat_max"], "ess_min": pop.diagnostics["ess_hyper_min"],
+            "n_par": len(pop.parameter_names),
+            "population_s": wall, "population_cpu_s": cpu}
+
+
+def all_units(cache, units, axis, structure):
+    """The population of every unit (no held-out one): its time (wall and CPU), R-hat and ESS."""
+    from bayes_imu.inference.population import fit_population
+
+    fits = [unit_fit((cache, u, axis, "auto")) for u in units]
+    fits = [f if f.model.terms == structure else unit_fit((cache, u, axis, structure))
+            for u, f in zip(units, fits)]
+    wall, cpu = time.perf_counter(), time.process_time()
+    pop = fit_population([allan(u, axis) for u in units], labels=[f"imu{u}" for u in units],
+                         terms=structure, unit_fits=fits, rng=AXES.index(axis))
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    d = pop.diagnostics
+    print(f"{axis}: population of all {len(units)} units, {len(pop.parameter_names)} parameters "
+          f"each: {wall:.1f} s (CPU {cpu:.1f} s), R-hat {d['rhat_max']:.4f}, ESS "
+          f"{d['ess_hyper_min']:.0f}, {d['n_steps']} iterations x {d['n_walkers']} chains"
+          + ("" if d["converged"] else " NOT CONVERGED"), flush=True)
+    return {"axis": axis, "converged": bool(d["converged"]), "population_s": wall,
+            "population_cpu_s": cpu}
 
 
 def main(argv=None):
@@ -174,7 +201,7 @@ def main(argv=None):
     pool = ProcessPoolExecutor(args.workers) if args.workers > 1 else None
     run = pool.map if pool else map
     start = time.perf_counter()
-    results, rows = [], []
+    results, rows, whole_units = [], [], []
     for a in axes:  # one axis at a time: a partial run gives whole axes
         print(f"[{a}] single-unit fits, evidences, common structures, {len(units)} folds", flush=True)
         autos = dict(zip(units, run(unit_fit, [(cache, u, a, "auto") for u in units])))
@@ -191,15 +218,24 @@ def main(argv=None):
                                      float(np.sqrt(sum(evid[u][s][1] ** 2 for u in others))), np.nan, np.empty(0))
                       for s in structures]
             folds.append((cache, units, a, h, structures[select(summed)], args.calibration))
+        every = [CandidateScore(s, sum(evid[u][s][0] for u in units),
+                                float(np.sqrt(sum(evid[u][s][1] ** 2 for u in units))), np.nan,
+                                np.empty(0)) for s in structures]
+        whole = structures[select(every)]  # the population of every unit: the speed goal's case
         needed = sorted({(cache, u, a, f[4]) for f in folds for u in units
-                         if u != f[3] and autos[u].model.terms != f[4]})
+                         if u != f[3] and autos[u].model.terms != f[4]}
+                        | {(cache, u, a, whole) for u in units if autos[u].model.terms != whole})
         list(run(unit_fit, needed))
+        whole_units.append(all_units(cache, units, a, whole))
         for r in run(fold, folds):
             results.append(r)
             cells = [f"{o:9.3g} [{lo:8.3g},{hi:8.3g}]{'' if ok else '*'}" for o, lo, hi, ok in r["drift"]]
             print(f"{r['axis']:8s} {r['held_out']:4d} {r['structure']:40s} " + " ".join(cells)
                   + f"  adev {r['adev_consistent']:4.0%} of {r['adev_points']}  single-unit "
-                  + " ".join(f"{v:.0%}" for v in r["single_consistent"]), flush=True)
+                  + " ".join(f"{v:.0%}" for v in r["single_consistent"])
+                  + f"  population: {r['n_par']} parameters, {r['population_s']:.1f} s "
+                  f"(CPU {r['population_cpu_s']:.1f} s), R-hat {r['rhat_max']:.3f}, ESS {r['ess_min']:.0f}"
+                  + ("" if r["converged"] else " NOT CONVERGED"), flush=True)
             for (o, lo, hi, ok), h, single in zip(r["drift"], HORIZONS, r["single_consistent"]):
                 rows.append({"axis": r["axis"], "held_out": r["held_out"], "horizon_s": h, "observed_rms": o,
                              "q05": lo, "q95": hi, "consistent": ok, "single_unit_consistent": single,
@@ -221,10 +257,23 @@ def main(argv=None):
             print(f"  {kind}: {ok[sel].mean():.1%} (single-unit bands: {single[sel].mean():.1%})")
     print(f"single-unit bands (each of the other units alone) consistent: {single.mean():.1%}")
     print(f"held-out Allan deviation inside the new-unit 90% band: {adev.mean():.1%} of cluster sizes")
-    print(f"population samplers converged: {sum(r['converged'] for r in results)} of {len(results)}; "
-          f"{time.perf_counter() - start:.0f} s")
+    for w in whole_units:
+        print(f"population of every unit, {w['axis']}: {w['population_s']:.1f} s "
+              f"(CPU {w['population_cpu_s']:.1f} s), "
+              f"converged: {w['converged']}")
+    results = results + whole_units  # every population sampler counts
+    converged = sum(r["converged"] for r in results)
+    times = np.array([r["population_s"] for r in results])
+    cpu = np.array([r["population_cpu_s"] for r in results])
+    print(f"population samplers converged (R-hat < 1.01, ESS > 400 per hyper-parameter): {converged} of "
+          f"{len(results)}; population fits {np.median(times):.1f} s median, {times.max():.1f} s at most "
+          f"(CPU {np.median(cpu):.1f} s median, {cpu.max():.1f} s at most)")
+    print(f"wall time of this run: {time.perf_counter() - start:.0f} s")
     if args.csv:
         write_rows(args.csv, rows)
+    if converged < len(results):
+        print(f"error: {len(results) - converged} population fit(s) did not converge", file=sys.stderr)
+        return 1
     return 0
 
 

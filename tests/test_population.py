@@ -57,7 +57,7 @@ def test_hyper_posterior_matches_exact_normal_normal_reference():
     rng = np.random.default_rng(1)
     m = np.array([0.10, -0.15, 0.32, 0.05, -0.02])
     s = 0.02
-    phis = [mi + s * rng.standard_normal((4000, 1)) for mi in m]
+    phis = [mi + s * rng.standard_normal((1500, 1)) for mi in m]  # their means within s / 39 of m
     boxes = [np.array([[-20.0, 20.0]])] * len(m)
     target = _HyperPosterior(phis, boxes, spread_scale=1.0)
     _, spread, diag = _sample_hyper(target, rng, max_steps=40000)
@@ -381,3 +381,33 @@ def test_fixed_terms_write_valid_json_and_a_failing_unit_is_named(tmp_path, monk
     with pytest.raises(ModelError, match=r"^unit 'unit 2': no model converged$"):
         population.fit_population([allan_variance(np.loadtxt(p, skiprows=1), rate_hz=100.0) for p in logs],
                                   terms=("white",), rng=0)
+
+
+def test_unconverged_population_is_a_loud_failure(tmp_path, monkeypatch, capsys):
+    """A population sampler that does not converge: a ConvergenceWarning, ``converged: false`` with its
+    R-hat and effective draws in summary.json, and exit status 4 after the numbers are written."""
+    import bayes_imu.inference.population as population
+    from bayes_imu.cli.main import NOT_CONVERGED_STATUS
+    from bayes_imu.errors import ConvergenceWarning
+
+    rng = np.random.default_rng(5)
+    logs = []
+    for i in range(2):
+        logs.append(tmp_path / f"unit{i}.csv")
+        logs[-1].write_text("gx\n" + "".join(f"{v:.8f}\n" for v in 0.01 * rng.standard_normal(5000)))
+    # an effective-draw goal no chain of 100 iterations reaches
+    real = population.sample_hmc
+    monkeypatch.setattr(population, "sample_hmc",
+                        lambda *args, **options: real(*args, **{**options, "max_steps": 100, "ess_min": 1e9}))
+    with pytest.warns(ConvergenceWarning, match="population sampler not converged"):
+        pop = population.fit_population([allan_variance(np.loadtxt(p, skiprows=1), rate_hz=100.0) for p in logs],
+                                        terms=("white",), rng=0)
+    assert pop.diagnostics["converged"] is False and pop.diagnostics["n_steps"] == 100
+    out = tmp_path / "pop"
+    status = main(["fit-population", *map(str, logs), "--column", "gx", "--rate", "100", "--terms", "white",
+                   "--out", str(out), "--quiet"])
+    assert status == NOT_CONVERGED_STATUS == 4
+    diagnostics = json.loads((out / "summary.json").read_text())["diagnostics"]
+    assert diagnostics["converged"] is False and diagnostics["ess_hyper_min"] < 1e9
+    assert diagnostics["rhat_max"] is None or diagnostics["rhat_max"] > 0
+    assert "population sampler did not converge" in capsys.readouterr().err

@@ -1,5 +1,6 @@
 """The output worker process (bayes_imu.report.worker) and the command's fast exit."""
 
+import io
 import json
 import multiprocessing
 import os
@@ -174,6 +175,24 @@ def test_environment_variable_chooses_and_is_checked(monkeypatch):
     monkeypatch.setenv(WORKERS_ENV, "yes")
     with pytest.raises(InputError, match=f"{WORKERS_ENV}='yes': expected 0 or 1"):
         background_default()
+
+
+def test_no_output_process_on_a_busy_machine(monkeypatch):
+    """Automatic choice: a worker process only where the load leaves a CPU free (issue 39)."""
+    from bayes_imu.report import worker
+
+    monkeypatch.delenv(WORKERS_ENV, raising=False)
+    monkeypatch.setattr(worker, "usable_cpus", lambda: 2)
+    monkeypatch.setattr(worker.os, "getloadavg", lambda: (0.3, 0.3, 0.3))
+    monkeypatch.setattr("builtins.open", lambda *a, **k: io.StringIO("0.30 0.30 0.30 1/200 999\n"))
+    assert background_default() is True and worker.spare_cpus() == pytest.approx(1.7)
+    monkeypatch.setattr("builtins.open", lambda *a, **k: io.StringIO("0.30 0.30 0.30 3/200 999\n"))
+    assert background_default() is False  # two other processes running now: the average lags them
+    monkeypatch.setattr("builtins.open", lambda *a, **k: io.StringIO("0.30 0.30 0.30 1/200 999\n"))
+    monkeypatch.setattr(worker.os, "getloadavg", lambda: (2.1, 0.3, 0.3))
+    assert background_default() is False
+    monkeypatch.setenv(WORKERS_ENV, "1")  # the variable still decides
+    assert background_default() is True
 
 
 def _fit(tmp_path, name, workers, monkeypatch, log):

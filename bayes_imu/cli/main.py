@@ -536,7 +536,19 @@ def _cmd_fit_population(args):
                          on_fit=lambda run: _say_population(args, run))
     _say(args, f"wrote {args.out}")
     args.picture_failures.extend(run.picture_failures)
-    return _pictures_status(args.picture_failures)
+    status = _pictures_status(args.picture_failures)
+    d = run.population.diagnostics
+    if not d["converged"]:
+        _warn(f"the population sampler did not converge (R-hat {d['rhat_max']:.3f}, effective draws "
+              f"{d['ess_hyper_min']:.0f}; needed < 1.01 and > 400): the numbers in {args.out} are not "
+              f"reliable (exit status {NOT_CONVERGED_STATUS})")
+        return NOT_CONVERGED_STATUS
+    return status
+
+
+#: exit status of ``fit-population`` when its numbers were written but the population sampler did
+#: not converge
+NOT_CONVERGED_STATUS = 4
 
 
 def _say_population(args, run):
