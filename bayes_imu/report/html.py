@@ -165,7 +165,17 @@ def _parameter_rows(quantiles, kind, display, digits=".4g"):
             cells += "".join(f"<td>{d[k]:{digits}}</td>" for k in ("q05", "median", "q95"))
             cells += f"<td>{html.escape(d['unit'])}</td>"
         rows.append(f"<tr><td>{html.escape(n)}</td>{cells}</tr>")
+    if shown is not None and "noise_density" in quantiles:  # as a datasheet gives it
+        arw = "".join(f"<td>{v:{digits}}</td>" for v in quantiles["noise_density"])
+        arw += "".join(f"<td>{shown['noise_density'][k] * _PER_SQRT_HOUR:{digits}}</td>"
+                       for k in ("q05", "median", "q95"))
+        rows.append(f"<tr><td>angle random walk (noise_density)</td>{arw}"
+                    f"<td>{html.escape(shown['noise_density']['unit'].split('/')[0])}/sqrt(h)</td></tr>")
     return "".join(rows)
+
+
+#: a density per sqrt(s) (e.g. deg/s/sqrt(Hz) = deg/sqrt(s)) per sqrt(h): sqrt(3600 s/h)
+_PER_SQRT_HOUR = 60.0
 
 
 def _parameter_head(title, kind, display, sep=""):
