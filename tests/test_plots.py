@@ -171,6 +171,14 @@ def test_population_plot(tmp_path, figures):
     for word in ("new unit, 90% predictive band", "a", "b", "c", "Allan deviation (rad/s)",
                  "1-sigma attitude error (rad)", "a alone, median"):
         assert word in text, word
+    # --display-units deg (issue 38): the Allan panel in deg/s, each value times 180/pi
+    plots.plot_population(pop, tmp_path / "d.png", unit="deg/s", rng=0, scale=180 / np.pi)
+    plots.plot_population(pop, tmp_path / "r.png", unit="rad/s", rng=0)
+    rad, deg = figures[-1].axes[0], figures[-2].axes[0]
+    assert deg.get_ylabel() == "Allan deviation (deg/s)" and len(deg.lines) == len(rad.lines) == 4
+    for r, d in zip(rad.lines, deg.lines):
+        assert np.array_equal(d.get_xdata(), r.get_xdata())
+        assert d.get_ydata() == pytest.approx(r.get_ydata() * 180 / np.pi, rel=1e-14)
 
 
 def test_corner_without_arviz_draws_the_same_figure_and_keeps_its_arviz_entry_point(tmp_path, fit):

@@ -227,13 +227,19 @@ def test_fit_population_command(tmp_path, capsys):
     paths = _write_units(tmp_path, 3, np.random.default_rng(8))
     out = tmp_path / "pop"
     args = [str(p) for p in paths] + ["--column", "gx", "--rate", "100", "--units", "rad/s", "--out", str(out),
-                                      "--times", "1,10", "--quiet"]
+                                      "--times", "1,10", "--quiet", "--display-units", "deg"]
     assert main(["fit-population", *args]) == 0
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
         "drift.csv", "drift.png", "population.npz", "population.png", "summary.json", "units"]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["unit"] == "rad/s" and [u["label"] for u in summary["units"]] == ["unit0", "unit1", "unit2"]
     assert set(summary["drift"]) == {"attitude"}
+    # --display-units deg (issue 38): the new unit beside SI, a variance by (180/pi)^2
+    for name, power in (("noise_variance", 2), ("noise_density", 1)):
+        si, shown = summary["new_unit"][name], summary["new_unit_display"][name]
+        assert shown["unit"] == si["unit"].replace("rad", "deg")
+        for key in ("median", "q05", "q95"):
+            assert shown[key] == pytest.approx(si[key] * (180 / np.pi) ** power, rel=1e-14)
     rows = (out / "drift.csv").read_text().splitlines()
     assert [r.split(",")[0] for r in rows[1:]] == ["1", "10"]
     assert main(["fit-population", str(paths[0]), "--column", "gx", "--rate", "100", "--out",

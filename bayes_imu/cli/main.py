@@ -74,6 +74,7 @@ _SCENE_HELP = """scene format (TOML; paths relative to the scene file):
   credibility = 0.95               # the bound is this posterior quantile of the 1-sigma drift
   bias_start = "calibrated"        # or "zero" (the paper), "stationary"
   calibration_s = 60               # bias = mean of the last 60 s before the outage
+  display_units = "si"             # or "deg": the report also in degrees (--display-units)
 
   [requirement]                    # optional: longest acceptable outage and ranking
   quantity = "attitude"            # attitude (gyro), velocity or position (accelerometer)
@@ -235,6 +236,10 @@ def _build_parser():
     report.add_argument("--seed", type=_seed_type, default=0, help="random seed (0 to 2**32 - 1), default 0")
     report.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
     report.add_argument("--quiet", action="store_true", help="no progress messages")
+    report.add_argument("--display-units", choices=DISPLAY_CHOICES, default=None,
+                        help="units shown in report.html, comparison.png and report.json's "
+                             "*_display values: si (default, or the scene's display_units) or deg "
+                             "(attitude in degrees, gyro parameters in deg/s); SI values are kept")
     report.add_argument("--allow-outside", action="store_true",
                         help="read logs and fit folders outside the scene's folder (default: "
                              "refused)")
@@ -442,6 +447,8 @@ def _cmd_report(args):
     from ..report.html import write_report
 
     scene = read_scene(args.scene, allow_outside=args.allow_outside)
+    if args.display_units is not None:  # the command's choice over the scene's display_units
+        scene = dataclasses.replace(scene, display_units=args.display_units)
     inputs = [args.scene] + [p for s in scene.sensors for p in s.paths]
     staged = staged_folder(args.out, force=args.force, inputs=inputs)
     with staged as tmp, _sensor_progress(args, scene) as progress:
@@ -557,7 +564,7 @@ def _say_population(args, run):
     _say(args, f"common model: {' + '.join(pop.model.terms)} ({len(pop.labels)} units; "
                f"population sampler converged: {pop.diagnostics['converged']})")
     _say(args, "a new unit of this model (unit-to-unit spread included):")
-    for name, p in summary["new_unit"].items():
+    for name, p in (summary.get("new_unit_display") or summary["new_unit"]).items():
         _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] "
                    f"{p['unit']}")
     _say_datasheet(args, summary["new_unit_datasheet"])

@@ -16,6 +16,7 @@ import json
 import numpy as np
 
 from ..drift.bands import SENSOR_QUANTITIES
+from ..drift.display import display_unit, display_parameters, rate_display
 from ..io.readers import SI_UNITS as UNITS_SI
 from ..noise.model import REGISTRY
 from .scene import MAX_SEARCH_S, OUTPUT_UNITS
@@ -76,6 +77,11 @@ def _data_uri(png):
     return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
 
 
+def _shown(report, quantity):
+    """``(unit, factor from SI)`` of ``quantity``'s drift in the report's display units."""
+    return display_unit(OUTPUT_UNITS[quantity], report.scene.display_units)
+
+
 def _comparison_figure(report, target):
     from .plots import plain_text, pyplot
 
@@ -93,10 +99,12 @@ def _comparison_figure(report, target):
             ax.set_visible(False)
         draw_imu_panels(report, *axes[1][:3])
     for ax, quantity in zip(axes[0], quantities):
+        unit, factor = _shown(report, quantity)
         for i, s in enumerate(report.sensors):
             band = next((b for b in s.bands if b.quantity == quantity), None)
             if band is None:
                 continue
+            band = band.scaled(factor) if factor != 1.0 else band
             keep = band.total[-1] > 0
             ax.plot(band.t_s[keep], band.total[-1][keep], color=f"C{i}", label=f"{plain_text(s.spec.name)} ({band.quantiles[-1]:.0%} bound)")
             ax.plot(band.t_s[keep], band.total[1][keep], color=f"C{i}", ls=":", lw=1)
@@ -107,18 +115,19 @@ def _comparison_figure(report, target):
         req = report.scene.requirement
         if req and req["quantity"] == quantity:
             given = f" ({req['given']})" if req.get("given") else ""
-            ax.axhline(req["max_error"], color="red", lw=1,
-                       label=f"requirement {req['max_error']:.4g} {req['unit']}{given}")
+            limit = req["max_error"] * factor
+            ax.axhline(limit, color="red", lw=1,
+                       label=f"requirement {limit:.4g} {unit}{given}")
             for i, s in enumerate(report.sensors):
                 t_max = s.max_outage_s
                 if t_max is not None and 0 < t_max < MAX_SEARCH_S:
-                    ax.plot([t_max], [req["max_error"]], marker="v", ms=8, color=f"C{i}", ls="none",
+                    ax.plot([t_max], [limit], marker="v", ms=8, color=f"C{i}", ls="none",
                             label=f"{plain_text(s.spec.name)}: longest acceptable outage "
                                   f"{t_max:.3g} s")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("outage duration (s)")
-        ax.set_ylabel(f"1-sigma {quantity} drift ({OUTPUT_UNITS[quantity]})")
+        ax.set_ylabel(f"1-sigma {quantity} drift ({unit})")
         ax.set_title(f"{quantity}: bound (solid) and median (dotted)")
         ax.grid(True, which="both", alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
@@ -142,9 +151,44 @@ def _source_text(s):
     return f"{spec.kind}, {where}{axes}"
 
 
-def _sensor_section(s, cred, failures=None):
+def _parameter_rows(quantiles, kind, display, digits=".4g"):
+    """Table rows ``name, 5%, median, 95%`` (SI) of ``quantiles`` (name -> three values), with
+    the same three in display units and their unit beside them where those differ from SI."""
+    blocks = {n: {"q05": q[0], "median": q[1], "q95": q[2], "unit": ""}
+              for n, q in quantiles.items()}
+    shown = display_parameters(blocks, UNITS_SI[kind], display)
+    rows = []
+    for n, q in quantiles.items():
+        cells = "".join(f"<td>{v:{digits}}</td>" for v in q)
+        if shown is not None:
+            d = shown[n]
+            cells += "".join(f"<td>{d[k]:{digits}}</td>" for k in ("q05", "median", "q95"))
+            cells += f"<td>{html.escape(d['unit'])}</td>"
+        rows.append(f"<tr><td>{html.escape(n)}</td>{cells}</tr>")
+    if shown is not None and "noise_density" in quantiles:  # as a datasheet gives it
+        arw = "".join(f"<td>{v:{digits}}</td>" for v in quantiles["noise_density"])
+        arw += "".join(f"<td>{shown['noise_density'][k] * _PER_SQRT_HOUR:{digits}}</td>"
+                       for k in ("q05", "median", "q95"))
+        rows.append(f"<tr><td>angle random walk (noise_density)</td>{arw}"
+                    f"<td>{html.escape(shown['noise_density']['unit'].split('/')[0])}/sqrt(h)</td></tr>")
+    return "".join(rows)
+
+
+#: a density per sqrt(s) (e.g. deg/s/sqrt(Hz) = deg/sqrt(s)) per sqrt(h): sqrt(3600 s/h)
+_PER_SQRT_HOUR = 60.0
+
+
+def _parameter_head(title, kind, display, sep=""):
+    """The header row of :func:`_parameter_rows`."""
+    extra = ""
+    if rate_display(UNITS_SI[kind], display)[1] != 1.0:
+        extra = "<th>5% (shown)</th><th>median (shown)</th><th>95% (shown)</th><th>unit shown</th>"
+    return f"<tr><th>{title}</th>{sep}<th>5%</th><th>median</th><th>95%</th>{extra}</tr>"
+
+
+def _sensor_section(s, cred, failures=None, display="si"):
     if s.fit is None:
-        return _population_section(s, failures)
+        return _population_section(s, failures, display)
     from .plots import plot_allan_fit, plot_drift
 
     fit = s.fit
@@ -155,16 +199,17 @@ def _sensor_section(s, cred, failures=None):
     if runner is not None:
         why += f"; best alternative {' + '.join(runner.terms)} at {runner.log_evidence:.2f} ({chosen.log_evidence - runner.log_evidence:+.2f} nats)"
     d = fit.diagnostics
-    rows = "".join(
-        f"<tr><td>{html.escape(n)}</td><td>{q[0]:.4g}</td><td>{q[1]:.4g}</td><td>{q[2]:.4g}</td></tr>"
-        for n, q in fit.repeatability_quantiles().items()  # what summary.json parameters prints
-    )
+    # what summary.json parameters prints
+    rows = _parameter_rows(fit.repeatability_quantiles(), s.spec.kind, display)
+    head = _parameter_head("parameter (SI; 90% including the repeatability between the log's "
+                           "parts)", s.spec.kind, display, "\n")
     sheet = _datasheet_table(s)
+    rate_unit, scale = rate_display(UNITS_SI[s.spec.kind], display)
     allan_png = _png(lambda target: plot_allan_fit(fit, target, label=s.spec.name,
-                                                   unit=UNITS_SI[s.spec.kind], rng=0),
+                                                   unit=rate_unit, rng=0, scale=scale),
                      failures=failures, name=f"report.html: the Allan fit of {s.spec.name[:40]}")
-    units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
-    drift_png = _png(lambda target: plot_drift(s.bands, target, units=units, title=s.spec.name),
+    bands, units = _shown_bands(s.bands, display)
+    drift_png = _png(lambda target: plot_drift(bands, target, units=units, title=s.spec.name),
                      failures=failures, name=f"report.html: the drift bands of {s.spec.name[:40]}")
     conv = "converged" if d["converged"] else "NOT CONVERGED: treat with caution"
     a = fit.adequacy
@@ -182,11 +227,17 @@ model may be worse (list several units' logs to bound a new unit).</p>
 <p class="adequacy">Goodness of fit: p = {a.p_value:.2g}, worst at tau = {a.worst_tau_s:g} s: {html.escape(fit_check)}.</p>
 {_drift_check_text(s.bands)}
 <p class="diagnostics">Sampler: {conv}; {rhat}{d['n_steps']} steps x {d['n_walkers']} walkers.</p>
-<table><tr><th>parameter (SI; 90% including the repeatability between the log's parts)</th>
-<th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>{sheet}
+<table>{head}{rows}</table>{sheet}
 {_img(f"Allan fit of {s.spec.name}", allan_png)}
 {_img(f"drift bands of {s.spec.name}", drift_png)}
 </section>"""
+
+
+def _shown_bands(bands, display):
+    """``(bands, units)``: a sensor's drift bands and their units in display units."""
+    shown = [display_unit(OUTPUT_UNITS[b.quantity], display) for b in bands]
+    return ([b.scaled(f) if f != 1.0 else b for b, (_, f) in zip(bands, shown)],
+            [u for u, _ in shown])
 
 
 def _drift_check_text(bands):
@@ -216,13 +267,12 @@ def _datasheet_table(s):
             f'<p class="datasheet">{verdict}</p>')
 
 
-def _population_section(s, failures=None):
+def _population_section(s, failures=None, display="si"):
     from .plots import plot_drift, plot_population
 
     pop = s.axes[s.worst].population
-    rows = "".join(
-        f"<tr><td>{html.escape(n)}</td><td>{q[0]:.4g}</td><td>{q[1]:.4g}</td><td>{q[2]:.4g}</td></tr>"
-        for n, q in pop.new_unit.quantiles().items())
+    rows = _parameter_rows(pop.new_unit.quantiles(), s.spec.kind, display)
+    head = _parameter_head("new unit (SI)", s.spec.kind, display)
     spread = "".join(
         f"<tr><td>{html.escape(n)}</td><td>{q[0]:.3g}</td><td>{q[1]:.3g}</td><td>{q[2]:.3g}</td></tr>"
         for n, q in pop.spread_quantiles().items())
@@ -230,10 +280,11 @@ def _population_section(s, failures=None):
     check = ("every unit's fit adequate" if not inadequate else
              "INADEQUATE fits (intervals widened where a discrepancy was fitted): " + ", ".join(inadequate))
     sheet = _datasheet_table(s)
-    pop_png = _png(lambda target: plot_population(pop, target, unit=UNITS_SI[s.spec.kind], rng=0),
+    rate_unit, scale = rate_display(UNITS_SI[s.spec.kind], display)
+    pop_png = _png(lambda target: plot_population(pop, target, unit=rate_unit, rng=0, scale=scale),
                    failures=failures, name=f"report.html: the population of {s.spec.name[:40]}")
-    units = [OUTPUT_UNITS[b.quantity] for b in s.bands]
-    drift_png = _png(lambda target: plot_drift(s.bands, target, units=units,
+    bands, units = _shown_bands(s.bands, display)
+    drift_png = _png(lambda target: plot_drift(bands, target, units=units,
                                                title=f"{s.spec.name}: a new unit"),
                      failures=failures, name=f"report.html: the drift bands of {s.spec.name[:40]}")
     return f"""
@@ -243,7 +294,7 @@ def _population_section(s, failures=None):
 predictive of a hierarchical fit of {len(pop.labels)} units.</p>
 <p class="model">Common model: <b>{html.escape(' + '.join(pop.model.terms))}</b> (summed evidence over the units);
 {html.escape(check)}; population sampler {'converged' if pop.diagnostics['converged'] else 'NOT CONVERGED'}.</p>
-<table><tr><th>new unit (SI)</th><th>5%</th><th>median</th><th>95%</th></tr>{rows}</table>{sheet}
+<table>{head}{rows}</table>{sheet}
 <table><tr><th>unit-to-unit spread (ln units)</th><th>5%</th><th>median</th><th>95%</th></tr>{spread}</table>
 {_img(f"population of {s.spec.name}", pop_png)}
 {_img(f"drift bands of {s.spec.name}", drift_png)}
@@ -259,6 +310,13 @@ def report_html(report, comparison_png=None, *, failures=None):
     req = scene.requirement
     req_text = (f"{req['quantity']} error (1-sigma) at most {req['max_error']:.4g} {req['unit']}"
                 + (f" (given as {req['given']})" if req.get("given") else "") if req else "none")
+    if req and _shown(report, req["quantity"])[1] != 1.0 and not req.get("given"):
+        unit, factor = _shown(report, req["quantity"])
+        req_text += f" ({req['max_error'] * factor:.4g} {unit})"
+    display = scene.display_units
+    shown_head = ""
+    if any(_shown(report, b["quantity"])[1] != 1.0 for s in report.sensors for b in s.bounds):
+        shown_head = f"<th>median (shown)</th><th>{cred:.0%} bound (shown)</th><th>unit shown</th>"
     if comparison_png is None:
         comparison = _png(_comparison_figure, report, failures=failures,
                           name="report.html: the comparison chart")
@@ -268,8 +326,15 @@ def report_html(report, comparison_png=None, *, failures=None):
     for s in report.sensors:
         for b in s.bounds:
             star = "*" if b.get("extrapolated") else ""
+            shown = ""
+            if shown_head:
+                unit, factor = _shown(report, b["quantity"])
+                shown = (f"<td>{b['median'] * factor:.4g}</td><td>{b['bound'] * factor:.4g}</td>"
+                         f"<td>{unit}</td>")
             bound_rows.append(f"<tr><td>{html.escape(s.spec.name)}</td><td>{b['quantity']}</td><td>{b['outage_s']:g}{star}</td>"
-                              f"<td>{b['median']:.4g}</td><td>{b['bound']:.4g}</td><td>{b['unit']}</td></tr>")
+                              f"<td>{b['median']:.4g}</td><td>{b['bound']:.4g}</td>"
+                              f"<td>{b['unit']}</td>"
+                              f"{shown}</tr>")
     rank_rows = "".join(
         f"<li>{html.escape(name)}" + (f": longest outage within the requirement {_fmt_time(s.max_outage_s)}"
                                         + _beyond_log(s)
@@ -277,11 +342,12 @@ def report_html(report, comparison_png=None, *, failures=None):
         + "</li>"
         for name in report.ranking for s in report.sensors if s.spec.name == name
     )
+    bound_rows = "".join(bound_rows)
     start = (f"calibrated over {scene.calibration_s:g} s" if scene.bias_start == "calibrated" else scene.bias_start)
     terms = ", ".join(t.plot_label for t in REGISTRY.values())  # each term's own name (noise.model)
     assumptions = "".join(f"<li>{html.escape(a.format(cred=cred, start=start, terms=terms))}</li>"
                           for a in ASSUMPTIONS)
-    sections = "".join(_sensor_section(s, cred, failures) for s in report.sensors)
+    sections = "".join(_sensor_section(s, cred, failures, display) for s in report.sensors)
     from .._version import __version__
 
     return f"""<!DOCTYPE html>
@@ -297,7 +363,7 @@ requirement: {html.escape(req_text)}; bias start: {scene.bias_start}; sensors: {
 {_img("comparison chart", comparison)}</section>
 {navigation_section(report)}
 <section id="bounds"><h2>Table of bounds</h2><table><tr><th>sensor</th><th>quantity</th><th>outage (s)</th>
-<th>median</th><th>{cred:.0%} bound</th><th>unit</th></tr>{''.join(bound_rows)}</table></section>
+<th>median</th><th>{cred:.0%} bound</th><th>unit</th>{shown_head}</tr>{bound_rows}</table></section>
 <section id="meaning"><h2>What the bound means and assumes</h2><ul>{assumptions}</ul></section>
 <section id="sensors"><h2>Sensors</h2>{sections}</section>
 <footer><p>bayes_imu {__version__}; scene file {html.escape(scene.path)}.</p></footer>

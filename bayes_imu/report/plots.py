@@ -569,7 +569,8 @@ def _draw_measured(ax, bands, t):
                    label=what)
 
 
-def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None, drift_unit=None):
+def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None, drift_unit=None,
+                    scale=1.0):
     """Population fit: every unit's Allan deviation with the new-unit 90% band; optionally the
     new-unit drift band against each unit's own (single-unit) drift median.
 
@@ -584,6 +585,8 @@ def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None,
         Each unit's single-unit bands of the same quantity (medians drawn).
     drift_unit : str, optional
         Unit of the drift values shown (default: the integrated unit of ``unit``).
+    scale : float
+        Display factor of the Allan deviations (``--display-units deg``: 180/pi, ``unit`` deg/s).
     """
     plt = pyplot()
     panels = 2 if bands is not None else 1
@@ -594,12 +597,12 @@ def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None,
     tau_hi = max(f.allan.tau[-1] for f in pop.unit_fits)
     m_f = np.unique(np.maximum(1, np.round(np.geomspace(tau_lo, tau_hi, 80) * first.rate_hz)).astype(np.int64))
     tau_f = m_f / first.rate_hz
-    pred = np.sqrt(pop.new_unit.predictive_avar(m_f, rng=rng))
+    pred = scale * np.sqrt(pop.new_unit.predictive_avar(m_f, rng=rng))
     lo, med, hi = np.quantile(pred, [0.05, 0.5, 0.95], axis=0)
     ax.fill_between(tau_f, lo, hi, color="0.6", alpha=0.45, label="new unit, 90% predictive band")
     ax.plot(tau_f, med, color="k", lw=1.5, label="new unit, median")
     for i, (label, f) in enumerate(zip(pop.labels, pop.unit_fits)):
-        ax.plot(f.allan.tau, f.allan.adev, "o-", ms=3, lw=0.8, color=f"C{i % 10}", label=plain_text(label))
+        ax.plot(f.allan.tau, scale * f.allan.adev, "o-", ms=3, lw=0.8, color=f"C{i % 10}", label=plain_text(label))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("averaging time tau (s)")

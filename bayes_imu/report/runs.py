@@ -380,7 +380,7 @@ def run_population(request, logs, out, *, spread_scale=1.0, force=False, progres
     PopulationRun
     """
     from ..drift.bands import drift_bands, integrated_unit
-    from ..drift.display import display_unit
+    from ..drift.display import display_parameters, display_unit, rate_display
     from ..inference.population import fit_population
     from ..inference.population_archive import save_population
     from .fleet import job_name
@@ -408,6 +408,9 @@ def run_population(request, logs, out, *, spread_scale=1.0, force=False, progres
                              spread_scale=spread_scale, progress=progress)
         drift = drift_outputs(pop.new_unit, request, unit) if request.sensor else None
         summary = population_summary(pop, unit=unit, column=columns[0], infos=infos, drift=drift)
+        shown = display_parameters(summary["new_unit"], unit, request.display_units)
+        if shown is not None:  # beside the SI values, as fit's parameters_display
+            summary["new_unit_display"] = shown
         run = PopulationRun(pop, summary, drift)
         if on_fit is not None:
             on_fit(run)
@@ -423,8 +426,9 @@ def run_population(request, logs, out, *, spread_scale=1.0, force=False, progres
                           for f in pop.unit_fits]
         write_json(tmp / "summary.json", summary)
         save_population(pop, tmp)  # report and export read it instead of fitting again
-        failure = draw_picture(plot_population, pop, tmp / "population.png", unit=unit,
+        rate_unit, scale = rate_display(unit, request.display_units)  # the Allan panel
+        failure = draw_picture(plot_population, pop, tmp / "population.png", unit=rate_unit,
                                bands=bands, unit_bands=unit_bands, rng=request.seed,
-                               drift_unit=drift_unit)
+                               drift_unit=drift_unit, scale=scale)
     failures = () if failure is None else (failure,)
     return dataclasses.replace(run, picture_failures=failures)

@@ -36,7 +36,7 @@ import numpy as np
 from ..allan.pipeline import LogSource, allan_from_source
 from ..drift.bands import DEFAULT_CALIBRATION_S, SENSOR_QUANTITIES, drift_bands, drift_draws
 from ..noise import BIAS_STARTS
-from ..drift.display import parse_amount
+from ..drift.display import DISPLAY_CHOICES, parse_amount
 from ..errors import InputError
 from ..inference.fit import fit_allan
 from ..drift.closed_forms import SI_OUTPUT_UNITS
@@ -112,6 +112,9 @@ class Scene:
     calibration_s: float = DEFAULT_CALIBRATION_S
     navigation: dict | None = None
     imus: tuple = ()
+    #: ``"si"`` or ``"deg"`` (``[scene] display_units``, ``bayes-imu report --display-units``):
+    #: report.html, comparison.png and report.json's ``*_display`` values; SI values are kept
+    display_units: str = "si"
 
 
 @dataclass(frozen=True)
@@ -225,7 +228,33 @@ class Report:
             from .scene_nav import navigation_json
 
             doc["navigation"] = navigation_json(self)
+        if scene.display_units != "si":  # display values beside the SI ones, which stay
+            _add_display(doc, self)
         return doc
+
+
+def _add_display(doc, report):
+    """``report.json`` under ``display_units = "deg"``: ``display_units``, the requirement's
+    ``requirement_display``, and each sensor's ``parameters_display`` (a gyro's) and
+    ``bounds_display`` (attitude in deg), beside the SI values."""
+    from ..drift.display import display_parameters, display_unit
+
+    display = report.scene.display_units
+    doc["display_units"] = display
+    req = doc["requirement"]
+    if req is not None:
+        unit, factor = display_unit(req["unit"], display)
+        doc["requirement_display"] = {"quantity": req["quantity"],
+                                      "max_error": req["max_error"] * factor, "unit": unit}
+    for entry, s in zip(doc["sensors"], report.sensors):
+        shown = display_parameters(entry["parameters"], _si_unit(s.spec.kind), display)
+        if shown is not None:
+            entry["parameters_display"] = shown
+        rows = []
+        for b in entry["bounds"]:
+            unit, factor = display_unit(b["unit"], display)
+            rows.append(dict(b, bound=b["bound"] * factor, median=b["median"] * factor, unit=unit))
+        entry["bounds_display"] = rows
 
 
 def _si_unit(kind):
@@ -279,8 +308,12 @@ def read_scene(path, *, allow_outside=False):
     scene = doc.get("scene")
     if not isinstance(scene, dict):
         raise InputError(f"{path}: missing [scene] table")
-    _known(scene, ("name", "outages_s", "credibility", "bias_start", "calibration_s", "allow_outside"),
-           f"{path}: [scene]")
+    _known(scene, ("name", "outages_s", "credibility", "bias_start", "calibration_s", "allow_outside",
+                   "display_units"), f"{path}: [scene]")
+    display = scene.get("display_units", "si")
+    if display not in DISPLAY_CHOICES:
+        raise InputError(f"{path}: [scene] display_units={_excerpt(display)}: expected one of "
+                         f"{', '.join(DISPLAY_CHOICES)}")
     outside = scene.get("allow_outside", False)
     if not isinstance(outside, bool):
         raise InputError(f"{path}: [scene] allow_outside={_excerpt(outside)}: expected true or "
@@ -362,7 +395,8 @@ def read_scene(path, *, allow_outside=False):
 
     navigation, imus = read_navigation(doc, path, {s.name: s.kind for s in specs}, float(cred))
     return Scene(str(scene.get("name", path.stem)), tuple(float(v) for v in outages), float(cred), tuple(specs),
-                 requirement, bias_start, str(path), float(calibration), navigation, imus)
+                 requirement, bias_start, str(path), float(calibration), navigation, imus,
+                 display)
 
 
 #: keys of a ``[[sensor]]`` with logs that say how to read them, beyond column, rate_hz and units
