@@ -3,9 +3,9 @@
 ``bayes_imu._compiled`` is the ahead-of-time build (numba's AOT compiler, ``numba.pycc``) of the
 kernels in ``bayes_imu/allan/_sources.py`` and ``bayes_imu/noise/_sources.py``: the same Python
 functions that numba JIT-compiles at run time for long records (and everywhere, where the build
-had no AOT compiler). The drift grid is among them, so a fit with drift bands compiles nothing either. A command that fits an ordinary
-log then never imports numba nor loads its compiler (timings: docs/speed_under_load.md#imports).
-The code targets
+had no AOT compiler). The drift grid is among them, so a fit with drift bands compiles nothing
+either. A command that fits an ordinary log then never imports numba nor loads its compiler
+(timings: docs/speed_under_load.md#imports). The code targets
 any x86-64 (or the build machine's architecture family), not the build CPU, so a wheel runs
 wherever it is installed. Where numba has no AOT compiler the package is built without the
 extension and every kernel is JIT-compiled on first use, as before (a warning says so).
@@ -31,17 +31,27 @@ KERNELS = {
     "sums_all": ("allan", "f8[::1](f8[::1], i8[::1], i8)"),
     "sum3": ("allan", "f8(f8[::1], f8[::1], f8[::1], i8)"),
     "pair_sums": ("allan", "f8[:, ::1](f8[::1], i8[::1], i8, f8, f8[::1], f8[::1])"),
-    "avar_rows": ("noise", "void(f8[::1], f8[:, ::1], f8[::1], f8[::1], f8[::1], f8[::1], f8[:, ::1], f8, f8[:, ::1])"),
-    "drift_rows": ("noise", "void(i8, f8[::1], f8[::1], f8[::1], f8[:, ::1], f8[::1], f8, f8[::1], f8[::1], f8[:, ::1], "
-                            "f8[:, ::1], f8[:, ::1], f8[:, ::1], f8[:, ::1], f8[:, ::1])"),
+    "avar_rows": (
+        "noise",
+        "void(f8[::1], f8[:, ::1], f8[::1], f8[::1], f8[::1], f8[::1], f8[:, ::1], f8, f8[:, ::1])",
+    ),
+    "drift_rows": (
+        "noise",
+        "void(i8, f8[::1], f8[::1], f8[::1], f8[:, ::1], f8[::1], f8, f8[::1], f8[::1], f8[:, "
+        "::1], f8[:, ::1], f8[:, ::1], f8[:, ::1], f8[:, ::1], f8[:, ::1])",
+    ),
 }
 
 
 def _load(stage):
-    """A kernel source module ``bayes_imu.<stage>._sources`` from this tree, its package-relative imports
-    (``noise/_sources.py`` compiles formulas of ``noise/euler_sums.py``) resolved in stand-in packages, so
-    that neither the installed package nor the packages' ``__init__`` (and what they import) is needed."""
-    for name, folder in (("bayes_imu", HERE / "bayes_imu"), (f"bayes_imu.{stage}", HERE / "bayes_imu" / stage)):
+    """A kernel source module ``bayes_imu.<stage>._sources`` from this tree, its package-relative
+    imports (``noise/_sources.py`` compiles formulas of ``noise/euler_sums.py``) resolved in
+    stand-in packages, so that neither the installed package nor the packages' ``__init__`` (and
+    what they import) is needed."""
+    for name, folder in (
+        ("bayes_imu", HERE / "bayes_imu"),
+        (f"bayes_imu.{stage}", HERE / "bayes_imu" / stage),
+    ):
         if name not in sys.modules:
             package = types.ModuleType(name)
             package.__path__ = [str(folder)]
@@ -84,7 +94,10 @@ def precompiled_kernels():
         from numba.core.cpu import FastMathOptions
         from numba.pycc import CC
     except ImportError as exc:
-        warnings.warn(f"bayes_imu: building without precompiled kernels ({exc}); they are JIT-compiled on first use")
+        warnings.warn(
+            f"bayes_imu: building without precompiled kernels ({exc}); they are JIT-compiled on "
+            "first use"
+        )
         return None
     _check_compiler_hook(pycc_compiler)
     sources = {stage: _load(stage) for stage in ("allan", "noise")}
@@ -93,7 +106,8 @@ def precompiled_kernels():
 
     def compile_extra(typingctx, targetctx, func, args, return_type, flags, *rest, **kwargs):
         # the AOT compiler gives every export one set of flags: the sum-of-squares kernels get their
-        # fast-math flags here (as their JIT build does), the running sums keep strict IEEE arithmetic
+        # fast-math flags here (as their JIT build does), the running sums keep strict IEEE
+        # arithmetic
         if func.__name__ in fastmath and func.__module__ == sources["allan"].__name__:
             flags = copy.copy(flags)
             flags.fastmath = FastMathOptions(fastmath[func.__name__])

@@ -33,11 +33,19 @@ def progress_bar(*, total=None, desc="", unit="it", enabled=False):
         from tqdm import tqdm
     except ImportError:  # optional: no bar rather than an error
         return _Silent()
-    return tqdm(total=total, desc=desc, unit=unit, unit_scale=unit == "B", leave=False, file=sys.stderr,
-                dynamic_ncols=True)
+    return tqdm(
+        total=total,
+        desc=desc,
+        unit=unit,
+        unit_scale=unit == "B",
+        leave=False,
+        file=sys.stderr,
+        dynamic_ncols=True,
+    )
 
 
 def show_progress(quiet=False, stream=None):
-    """Whether a command should draw progress bars: a terminal on standard error and not ``quiet``."""
+    """Whether a command should draw progress bars: a terminal on standard error and not
+    ``quiet``."""
     stream = sys.stderr if stream is None else stream
     return not quiet and hasattr(stream, "isatty") and stream.isatty()

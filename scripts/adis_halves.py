@@ -52,7 +52,9 @@ def half_fits(cache=None, data=DATA):
                 half = y.size // 2
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", ConvergenceWarning)
-                    fit = fit_allan(allan_variance(y[half * part: half * (part + 1)], rate_hz=RATE), rng=0)
+                    fit = fit_allan(
+                        allan_variance(y[half * part : half * (part + 1)], rate_hz=RATE), rng=0
+                    )
                 if path is not None:
                     save_fit(fit, path)
                 fits.append(fit)
@@ -71,9 +73,12 @@ def table(fits, block, name="noise_density"):
         over = p[0]["q05"] <= p[1]["q95"] and p[1]["q05"] <= p[0]["q95"]
         z2[axis] += z * z
         overlaps += over
-        rows.append(f"| adis{unit} gyro {axis} | {p[0]['median']:.4e} [{p[0]['q05']:.4e}, {p[0]['q95']:.4e}] | "
-                    f"{p[1]['median']:.4e} [{p[1]['q05']:.4e}, {p[1]['q95']:.4e}] | "
-                    f"{100 * (p[0]['median'] / p[1]['median'] - 1):+.2f}% | {z:+.2f} | {'yes' if over else 'no'} |")
+        rows.append(
+            f"| adis{unit} gyro {axis} | {p[0]['median']:.4e} [{p[0]['q05']:.4e}, "
+            f"{p[0]['q95']:.4e}] | {p[1]['median']:.4e} [{p[1]['q05']:.4e}, {p[1]['q95']:.4e}] | "
+            f"{100 * (p[0]['median'] / p[1]['median'] - 1):+.2f}% | {z:+.2f} | "
+            f"{'yes' if over else 'no'} |"
+        )
     return rows, z2, overlaps
 
 
@@ -101,10 +106,16 @@ def main(argv=None):
         rows, per_axis, overlaps = table(fits, block, name)
         z2 = sum(per_axis.values())
         print(f"\n### {name}, 90% intervals: {title}\n")
-        print("| channel | first half | second half | difference | z | overlap |\n|---|---|---|---|---|---|")
+        print(
+            "| channel | first half | second half | difference | z | overlap "
+            "|\n|---|---|---|---|---|---|"
+        )
         print("\n".join(rows))
-        print(f"\nsum z^2 = {z2:.1f} on {len(fits)} pairs (99% chi-square quantile {limit:.1f}: "
-              f"{'within' if z2 <= limit else 'NOT within'}); intervals overlap on {overlaps} of {len(fits)}")
+        print(
+            f"\nsum z^2 = {z2:.1f} on {len(fits)} pairs (99% chi-square quantile {limit:.1f}: "
+            f"{'within' if z2 <= limit else 'NOT within'}); intervals overlap on {overlaps} of "
+            f"{len(fits)}"
+        )
         axis_limit = stats.chi2.ppf(0.99, len(fits) // 2)
         print("per axis: " + "; ".join(f"gyro {a}: {v:.1f}" for a, v in per_axis.items())
               + f" (99% quantile on {len(fits) // 2}: {axis_limit:.1f})")

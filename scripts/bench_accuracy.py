@@ -30,14 +30,18 @@ def wls(model, allan, starts):
     evaluate = model.avar_evaluator(allan.m)
     best = None
     for start in starts:
-        res = optimize.least_squares(lambda p: (allan.avar - evaluate(np.exp(p))) * weights, start, method="lm")
+        res = optimize.least_squares(
+            lambda p: (allan.avar - evaluate(np.exp(p))) * weights, start, method="lm"
+        )
         if best is None or res.cost < best.cost:
             best = res
     return dict(zip(model.parameter_names, np.exp(best.x)))
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--n-logs", type=int, default=20)
     parser.add_argument("--samples", type=int, default=1_000_000)
     parser.add_argument("--seed", type=int, default=7)
@@ -56,17 +60,26 @@ def main(argv=None):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)
             result = fit_allan(allan, terms=model.terms, rng=rng)
-        est = {"bayes_imu": {k: float(np.median(result.draws(k))) for k in TRUTH}, "WLS": wls(model, allan, _starts(model, allan, None))}
+        est = {
+            "bayes_imu": {k: float(np.median(result.draws(k))) for k in TRUTH},
+            "WLS": wls(model, allan, _starts(model, allan, None)),
+        }
         for method, values in est.items():
             for k in TRUTH:
                 errors[method][k].append(np.log(values[k] / TRUTH[k]))
     print(f"{args.n_logs} logs of {args.samples} samples, white + Gauss-Markov, truth {TRUTH}\n")
-    print(f"{'parameter':16s} {'method':10s} {'median |rel err|':>16s} {'rms log err':>11s} {'max |rel err|':>13s}")
+    print(
+        f"{'parameter':16s} {'method':10s} {'median |rel err|':>16s} {'rms log err':>11s} "
+        f"{'max |rel err|':>13s}"
+    )
     for k in TRUTH:
         for method in errors:
             e = np.array(errors[method][k])
             rel = np.abs(np.expm1(e))
-            print(f"{k:16s} {method:10s} {np.median(rel):16.4f} {np.sqrt(np.mean(e * e)):11.4f} {rel.max():13.4f}")
+            print(
+                f"{k:16s} {method:10s} {np.median(rel):16.4f} {np.sqrt(np.mean(e * e)):11.4f} "
+                f"{rel.max():13.4f}"
+            )
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-"""Benchmark: bayes_imu.allan_variance vs allantools.oadev, side by side, and the memory-bandwidth floor.
+"""Benchmark: bayes_imu.allan_variance vs allantools.oadev, side by side, and the memory-bandwidth
+floor.
 
 Same data (white + random-walk rate noise), same octave cluster sizes, same values
 (maximum relative difference printed). Prints one table row per record length:
@@ -50,24 +51,37 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--sizes", default="1e5,1e6,1e7", help="comma-separated record lengths")
     parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--stages", action="store_true", help="also time each stage of the values alone")
+    parser.add_argument(
+        "--stages", action="store_true", help="also time each stage of the values alone"
+    )
     args = parser.parse_args(argv)
     import allantools
 
     from bayes_imu.allan.estimator import allan_variance
-    from bayes_imu.allan.kernels import allan_sums, phase_from_rate, record_mean, second_difference_sum, threads_for
+    from bayes_imu.allan.kernels import (
+        allan_sums,
+        phase_from_rate,
+        record_mean,
+        second_difference_sum,
+        threads_for,
+    )
 
     one_pass = _one_pass_kernel()
 
     rng = np.random.default_rng(1)
     allan_variance(rng.standard_normal(1000), rate_hz=100.0)  # compile / load the numba cache
-    print(f"{'samples':>10s} {'threads':>7s} {'allantools_s':>12s} {'values_s':>9s} {'full_s':>7s} {'speedup_values':>14s} "
-          f"{'speedup_full':>12s} {'floor_s':>8s} {'values/floor':>12s} {'per_size_s':>10s} {'values/per_size':>15s} "
-          f"{'max_rel_diff':>12s} {'peak_mem_x_input':>16s}")
+    print(
+        f"{'samples':>10s} {'threads':>7s} {'allantools_s':>12s} {'values_s':>9s} {'full_s':>7s} "
+        f"{'speedup_values':>14s} {'speedup_full':>12s} {'floor_s':>8s} {'values/floor':>12s} "
+        f"{'per_size_s':>10s} {'values/per_size':>15s} {'max_rel_diff':>12s} "
+        f"{'peak_mem_x_input':>16s}"
+    )
     stages = []
     for n in (int(float(s)) for s in args.sizes.split(",")):
         y = rng.standard_normal(n) + np.cumsum(rng.standard_normal(n)) * 1e-3
-        t_at, (taus, adev_at, _, _) = best_time(lambda: allantools.oadev(y, rate=100.0, data_type="freq", taus="octave"), args.repeat)
+        t_at, (taus, adev_at, _, _) = best_time(
+            lambda: allantools.oadev(y, rate=100.0, data_type="freq", taus="octave"), args.repeat
+        )
         ms = np.round(taus * 100).astype(np.int64)
 
         def values_only():
@@ -92,7 +106,12 @@ def main(argv=None):
             x = phase_from_rate(y, record_mean(y))
             numba.set_num_threads(threads_for(x.size))
             try:
-                return [second_difference_sum(x[:x.size - 2 * m], x[:x.size - 2 * m], x[:x.size - 2 * m]) for m in ms]
+                return [
+                    second_difference_sum(
+                        x[: x.size - 2 * m], x[: x.size - 2 * m], x[: x.size - 2 * m]
+                    )
+                    for m in ms
+                ]
             finally:
                 numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
 
@@ -103,32 +122,43 @@ def main(argv=None):
         allan_variance(y, rate_hz=100.0, m=ms)
         peak = tracemalloc.get_traced_memory()[1]
         tracemalloc.stop()
-        diff = max(np.max(np.abs(np.sqrt(avar) / adev_at - 1)), np.max(np.abs(result.adev / adev_at - 1)))
-        print(f"{n:10d} {threads_for(n):7d} {t_at:12.3f} {t_values:9.3f} {t_full:7.3f} {t_at / t_values:14.1f} "
-              f"{t_at / t_full:12.1f} {t_floor:8.3f} {t_values / t_floor:12.2f} {t_per_size:10.3f} {t_values / t_per_size:15.2f} "
-              f"{diff:12.1e} {peak / y.nbytes:16.2f}")
+        diff = max(
+            np.max(np.abs(np.sqrt(avar) / adev_at - 1)), np.max(np.abs(result.adev / adev_at - 1))
+        )
+        print(
+            f"{n:10d} {threads_for(n):7d} {t_at:12.3f} {t_values:9.3f} {t_full:7.3f} "
+            f"{t_at / t_values:14.1f} {t_at / t_full:12.1f} {t_floor:8.3f} "
+            f"{t_values / t_floor:12.2f} {t_per_size:10.3f} {t_values / t_per_size:15.2f} "
+            f"{diff:12.1e} {peak / y.nbytes:16.2f}"
+        )
         if args.stages:
             stages.append((n, _stage_times(y, ms, args.repeat), t_values, t_floor))
     if stages:
-        print(f"\n{'samples':>10s} {'mean_s':>8s} {'running_sum_s':>13s} {'sums_small_s':>12s} {'sums_large_s':>12s} "
-              f"{'added_s':>8s} {'values_s':>9s} {'floor_s':>8s}   per floor: {'mean':>5s} {'run':>5s} {'small':>5s} "
-              f"{'large':>5s} {'added':>5s} {'values':>6s}")
+        print(
+            f"\n{'samples':>10s} {'mean_s':>8s} {'running_sum_s':>13s} {'sums_small_s':>12s} "
+            f"{'sums_large_s':>12s} {'added_s':>8s} {'values_s':>9s} {'floor_s':>8s}   per floor: "
+            f"{'mean':>5s} {'run':>5s} {'small':>5s} {'large':>5s} {'added':>5s} {'values':>6s}"
+        )
         for n, parts, t_values, t_floor in stages:
             mean, running, small, large = parts
             added = float(np.nansum(parts))
-            print(f"{n:10d} {mean:8.4f} {running:13.4f} {small:12.4f} {_or_dash(large, 12)} {added:8.4f} {t_values:9.4f} "
-                  f"{t_floor:8.4f}   {'':10s} " + " ".join(_or_dash(p / t_floor, 5, 2) for p in parts)
-                  + f" {added / t_floor:5.2f} {t_values / t_floor:6.2f}")
+            print(
+                f"{n:10d} {mean:8.4f} {running:13.4f} {small:12.4f} {_or_dash(large, 12)} "
+                f"{added:8.4f} {t_values:9.4f} {t_floor:8.4f}   {'':10s} "
+                + " ".join(_or_dash(p / t_floor, 5, 2) for p in parts)
+                + f" {added / t_floor:5.2f} {t_values / t_floor:6.2f}"
+            )
 
 
 def _or_dash(value, width, digits=4):
-    """``value`` right-aligned in ``width`` characters, or a dash where it is NaN (a stage the record does not run)."""
+    """``value`` right-aligned in ``width`` characters, or a dash where it is NaN (a stage the
+    record does not run)."""
     return f"{'-':>{width}s}" if np.isnan(value) else f"{value:{width}.{digits}f}"
 
 
 def _stage_times(y, ms, repeat):
-    """Best times (s) of the values' stages, each alone: mean, running sum, sums of the sizes below a block,
-    and sums of the sizes from a block up (NaN where there are none)."""
+    """Best times (s) of the values' stages, each alone: mean, running sum, sums of the sizes below
+    a block, and sums of the sizes from a block up (NaN where there are none)."""
     from bayes_imu.allan import kernels
 
     mean, mu = best_time(lambda: kernels.record_mean(y), repeat)
@@ -142,7 +172,8 @@ def _stage_times(y, ms, repeat):
 
 
 def _one_pass_kernel():
-    """Compiled floor: write ``out[i + 1] = y[i]`` block by block, then sum ``out`` (fixed-order totals)."""
+    """Compiled floor: write ``out[i + 1] = y[i]`` block by block, then sum ``out`` (fixed-order
+    totals)."""
     import numba
 
     @numba.njit(parallel=True)

@@ -59,7 +59,8 @@ def bench_bands(rng, t, n_draws=10_000):
                                10 ** rng.uniform(0, 4, n_draws), rng.uniform(1e-5, 1e-4, n_draws)])
     fit = FitResult(model, samples, np.zeros(n_draws), None, (), 0, {}, "bench", None)
     print(f"\n{'drift_bands':10s} {'draws':>6s} {'times':>6s} {'seconds':>8s}")
-    drift_bands(fit, t, quantity="attitude", bias_start="stationary")  # warm-up: loads the compiled kernel
+    # warm-up: loads the compiled kernel
+    drift_bands(fit, t, quantity="attitude", bias_start="stationary")
     for quantity in ("attitude", "position"):
         start = time.perf_counter()
         drift_bands(fit, t, quantity=quantity, bias_start="stationary")

@@ -25,7 +25,14 @@ import numpy as np
 
 
 def write_logs(folder, rows, rng):
-    data = rng.standard_normal((rows, 6)) * [0.05, 0.05, 0.05, 0.003, 0.003, 0.003] + [0, 0, 0, 0, 0, -1.0]
+    data = rng.standard_normal((rows, 6)) * [0.05, 0.05, 0.05, 0.003, 0.003, 0.003] + [
+        0,
+        0,
+        0,
+        0,
+        0,
+        -1.0,
+    ]
     t = np.arange(rows) / 100.0
     table = np.column_stack([t, data])
     header = "time,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z"
@@ -34,7 +41,9 @@ def write_logs(folder, rows, rng):
     text = plain.read_bytes()
     (folder / "log.csv.gz").write_bytes(gzip.compress(text, compresslevel=6))
     (folder / "log.txt").write_bytes(text.replace(b",", b" "))
-    return {"csv": plain, "csv.gz": folder / "log.csv.gz", "whitespace": folder / "log.txt"}, len(text)
+    return {"csv": plain, "csv.gz": folder / "log.csv.gz", "whitespace": folder / "log.txt"}, len(
+        text
+    )
 
 
 def best_time(fn, repeat):
@@ -47,7 +56,9 @@ def best_time(fn, repeat):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--rows", type=float, default=2e6)
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args(argv)
@@ -58,39 +69,67 @@ def main(argv=None):
         files, n_bytes = write_logs(Path(tmp), rows, np.random.default_rng(0))
         print(f"{rows} rows x 7 columns, {n_bytes / 1e6:.1f} MB of text "
               f"(gzip {files['csv.gz'].stat().st_size / 1e6:.1f} MB)\n")
-        print(f"{'file':11s} {'columns read':>12s} {'time_s':>7s} {'MB/s':>6s} {'Msamples/s':>10s}  path")
+        print(
+            f"{'file':11s} {'columns read':>12s} {'time_s':>7s} {'MB/s':>6s} {'Msamples/s':>10s}  "
+            "path"
+        )
         for name, path in files.items():
             for cols in (["gyro_x"], ["gyro_x", "gyro_y", "gyro_z"]):
                 t = best_time(lambda: read_columns(path, columns=cols), args.repeat)
-                print(f"{name:11s} {len(cols):12d} {t:7.2f} {n_bytes / 1e6 / t:6.0f} {rows * len(cols) / 1e6 / t:10.1f}  "
-                      f"{_path_taken(path, len(cols))}")
+                print(
+                    f"{name:11s} {len(cols):12d} {t:7.2f} {n_bytes / 1e6 / t:6.0f} "
+                    f"{rows * len(cols) / 1e6 / t:10.1f}  {_path_taken(path, len(cols))}"
+                )
         fmt = sniff_file(files["csv"])
         t = best_time(lambda: _parse_pandas(files["csv"], fmt, [1], False), args.repeat)
-        print(f"{'csv':11s} {1:12d} {t:7.2f} {n_bytes / 1e6 / t:6.0f} {rows / 1e6 / t:10.1f}  pandas (its path alone)")
+        print(
+            f"{'csv':11s} {1:12d} {t:7.2f} {n_bytes / 1e6 / t:6.0f} {rows / 1e6 / t:10.1f}  pandas "
+            "(its path alone)"
+        )
         t = best_time(lambda: np.loadtxt(files["csv"], delimiter=",", skiprows=1, usecols=[1]), 1)
-        print(f"{'csv':11s} {1:12d} {t:7.2f} {n_bytes / 1e6 / t:6.0f} {rows / 1e6 / t:10.1f}  numpy.loadtxt (no checks)")
+        print(
+            f"{'csv':11s} {1:12d} {t:7.2f} {n_bytes / 1e6 / t:6.0f} {rows / 1e6 / t:10.1f}  "
+            "numpy.loadtxt (no checks)"
+        )
         # one channel with its time stamps: numpy's reader, the fast path (no pandas import)
         two = Path(tmp) / "channel.csv"
-        np.savetxt(two, np.column_stack([np.arange(rows) / 100.0, np.random.default_rng(1).standard_normal(rows) * 0.05]),
-                   fmt="%.8g", delimiter=",", header="time,gyro_x", comments="")
+        np.savetxt(
+            two,
+            np.column_stack(
+                [np.arange(rows) / 100.0, np.random.default_rng(1).standard_normal(rows) * 0.05]
+            ),
+            fmt="%.8g",
+            delimiter=",",
+            header="time,gyro_x",
+            comments="",
+        )
         size = two.stat().st_size
         t = best_time(lambda: read_columns(two, columns=["gyro_x"]), args.repeat)
-        print(f"\n{'time,gyro_x':11s} {1:12d} {t:7.2f} {size / 1e6 / t:6.0f} {rows / 1e6 / t:10.1f}  "
-              f"{_path_taken(two, 1)} (a 2-column log, {size / 1e6:.0f} MB)")
-        fresh = ("import sys, time; start = time.perf_counter(); from bayes_imu.io.readers import read_columns; "
-                 f"read_columns({str(files['csv.gz'])!r}, columns=['gyro_x']); "
-                 "print(time.perf_counter() - start, 'pandas' in sys.modules)")
+        print(
+            f"\n{'time,gyro_x':11s} {1:12d} {t:7.2f} {size / 1e6 / t:6.0f} {rows / 1e6 / t:10.1f}  "
+            f"{_path_taken(two, 1)} (a 2-column log, {size / 1e6:.0f} MB)"
+        )
+        fresh = (
+            "import sys, time; start = time.perf_counter(); from bayes_imu.io.readers import "
+            f"read_columns; read_columns({str(files['csv.gz'])!r}, columns=['gyro_x']); "
+            "print(time.perf_counter() - start, 'pandas' in sys.modules)"
+        )
         times = []
         for _ in range(args.repeat):
-            out = subprocess.run([sys.executable, "-c", fresh], capture_output=True, text=True, check=True).stdout.split()
+            out = subprocess.run(
+                [sys.executable, "-c", fresh], capture_output=True, text=True, check=True
+            ).stdout.split()
             times.append(float(out[0]))
-        print(f"\none column of the gzip CSV in a fresh process (imports included): {min(times):.2f} s, best of "
-              f"{args.repeat}; pandas imported: {out[1]}")
+        print(
+            f"\none column of the gzip CSV in a fresh process (imports included): {min(times):.2f} "
+            f"s, best of {args.repeat}; pandas imported: {out[1]}"
+        )
 
 
 def _path_taken(path, n_columns):
-    """Which reader takes ``n_columns`` of ``path`` in this process now: numpy's (the fast path) or pandas' (where
-    numpy's is not tried, :func:`~bayes_imu.io.readers._numpy_first`, or leaves the file to pandas)."""
+    """Which reader takes ``n_columns`` of ``path`` in this process now: numpy's (the fast path) or
+    pandas' (where numpy's is not tried, :func:`~bayes_imu.io.readers._numpy_first`, or leaves the
+    file to pandas)."""
     from bayes_imu._progress import progress_bar
     from bayes_imu.io.readers import _numpy_first, _parse_plain, sniff_file
 

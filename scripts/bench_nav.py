@@ -114,10 +114,27 @@ def main(argv=None):
                               opts.runs, opts.csv)
     rows = []
     if opts.refit is not None:
-        for name, column, unit in ((opts.gyro, "gyro_y_dps", "deg/s"), (opts.accel, "accel_x_g", "g")):
+        for name, column, unit in (
+            (opts.gyro, "gyro_y_dps", "deg/s"),
+            (opts.accel, "accel_x_g", "g"),
+        ):
             kind = "gyro" if "gyro" in column else "accel"
-            args = ["fit", str(opts.refit.resolve()), "--column", column, "--rate", "100", "--units",
-                    unit, "--sensor", kind, "--out", f"bench_{name}", "--force", "--quiet"]
+            args = [
+                "fit",
+                str(opts.refit.resolve()),
+                "--column",
+                column,
+                "--rate",
+                "100",
+                "--units",
+                unit,
+                "--sensor",
+                kind,
+                "--out",
+                f"bench_{name}",
+                "--force",
+                "--quiet",
+            ]
             rows.append((f"bayes-imu fit --sensor {kind} ({column})",
                          *timed(lambda a=args: cli(a, opts.work), opts.runs)))
     gyro, accel = load_fit(opts.work / opts.gyro), load_fit(opts.work / opts.accel)

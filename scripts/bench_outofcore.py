@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-CHILD = r"""
+CHILD = (r"""
 import json, resource, sys, time
 import numpy as np
 mode, path, rate = sys.argv[1], sys.argv[2], float(sys.argv[3])
@@ -37,9 +37,10 @@ else:
     result = allan_variance(np.fromfile(path, dtype="<f8"), rate_hz=rate)
 seconds = time.perf_counter() - start
 np.save(path + "." + mode + ".avar.npy", result.avar)
-print(json.dumps({"seconds": seconds, "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+print(json.dumps({"seconds": seconds, "peak_mb": """
+r"""resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
                   "n_tau": int(result.m.size)}))
-"""
+""")
 
 
 def write_log(path, n, rng, chunk=1 << 24):
@@ -54,21 +55,29 @@ def write_log(path, n, rng, chunk=1 << 24):
 
 
 def run(mode, path, rate):
-    proc = subprocess.run([sys.executable, "-c", CHILD, mode, str(path), str(rate)], capture_output=True, text=True,
-                          check=True)
+    proc = subprocess.run(
+        [sys.executable, "-c", CHILD, mode, str(path), str(rate)],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--sizes", default="1e8,1e9")
     parser.add_argument("--dir", type=Path, default=Path(tempfile.gettempdir()))
     parser.add_argument("--in-memory-max", type=float, default=1e8)
     parser.add_argument("--rate", type=float, default=1000.0)
     args = parser.parse_args(argv)
     rng = np.random.default_rng(3)
-    print(f"{'samples':>8s} {'log GB':>7s} {'mode':10s} {'time_s':>7s} {'Msamples/s':>10s} {'peak MB':>8s} "
-          f"{'peak/log':>8s} {'max rel diff':>12s}")
+    print(
+        f"{'samples':>8s} {'log GB':>7s} {'mode':10s} {'time_s':>7s} {'Msamples/s':>10s} "
+        f"{'peak MB':>8s} {'peak/log':>8s} {'max rel diff':>12s}"
+    )
     for n in (int(float(v)) for v in args.sizes.split(",")):
         with tempfile.TemporaryDirectory(dir=args.dir) as tmp:
             path = Path(tmp) / "log.f64"
@@ -84,8 +93,11 @@ def main(argv=None):
                 b = np.load(str(path) + ".in_memory.avar.npy")
                 diff = f"{np.max(np.abs(a / b - 1.0)):.1e}"
             for mode, r in results.items():
-                print(f"{n:8.0e} {size_gb:7.2f} {mode:10s} {r['seconds']:7.1f} {n / 1e6 / r['seconds']:10.1f} "
-                      f"{r['peak_mb']:8.0f} {r['peak_mb'] / 1e3 / size_gb:8.3f} {diff:>12s}")
+                print(
+                    f"{n:8.0e} {size_gb:7.2f} {mode:10s} {r['seconds']:7.1f} "
+                    f"{n / 1e6 / r['seconds']:10.1f} {r['peak_mb']:8.0f} "
+                    f"{r['peak_mb'] / 1e3 / size_gb:8.3f} {diff:>12s}"
+                )
             print(f"         (writing the {size_gb:.1f} GB log took {written:.0f} s; "
                   f"{os.cpu_count()} cores, {results['outofcore']['n_tau']} cluster sizes)")
     return 0

@@ -1,4 +1,5 @@
-"""Simulation study of the population fit: coverage of the unit-to-unit spread and of a new unit's drift.
+"""Simulation study of the population fit: coverage of the unit-to-unit spread and of a new unit's \
+drift.
 
 Scenes: a population of units of one sensor model, white noise + Gauss-Markov bias at
 100 Hz (medians: white 1e-5 (rad/s)^2 per sample, bias variance 4e-9 (rad/s)^2, time
@@ -60,8 +61,13 @@ def replicate(task):
     spread_in = (lo <= spread) & (spread <= hi)
     ratio = np.median(pop.spread, axis=0) / spread
     new = np.exp(mu + spread * rng.standard_normal(mu.size))
-    truth = drift_draws(UnitPosterior(model, new[None, :], np.inf), np.array(HORIZONS), quantity="attitude",
-                        bias_start="calibrated", calibration_s=60.0)["total"][0]
+    truth = drift_draws(
+        UnitPosterior(model, new[None, :], np.inf),
+        np.array(HORIZONS),
+        quantity="attitude",
+        bias_start="calibrated",
+        calibration_s=60.0,
+    )["total"][0]
 
     def covered(posterior):
         d = drift_draws(posterior, np.array(HORIZONS), quantity="attitude", bias_start="calibrated",
@@ -69,17 +75,28 @@ def replicate(task):
         q05, q95 = np.quantile(d, [0.05, 0.95], axis=0)
         return (q05 <= truth) & (truth <= q95)
 
-    return {"spread": spread, "units": n_units, "rep": rep, "spread_in": spread_in.tolist(),
-            "ratio": ratio.tolist(), "new_in": covered(pop.new_unit).tolist(), "single_in": covered(fits[0]).tolist(),
-            "converged": bool(pop.diagnostics["converged"])}
+    return {
+        "spread": spread,
+        "units": n_units,
+        "rep": rep,
+        "spread_in": spread_in.tolist(),
+        "ratio": ratio.tolist(),
+        "new_in": covered(pop.new_unit).tolist(),
+        "single_in": covered(fits[0]).tolist(),
+        "converged": bool(pop.diagnostics["converged"]),
+    }
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--reps", type=int, default=40, help="replicates per cell")
-    parser.add_argument("--samples", type=int, default=200_000, help="samples per unit log (100 Hz)")
+    parser.add_argument(
+        "--samples", type=int, default=200_000, help="samples per unit log (100 Hz)"
+    )
     parser.add_argument("--workers", type=int, default=1)
-    parser.add_argument("--quick", action="store_true", help="one replicate of two cells, short logs")
+    parser.add_argument(
+        "--quick", action="store_true", help="one replicate of two cells, short logs"
+    )
     parser.add_argument("--csv", help="also write one row per replicate here")
     args = parser.parse_args(argv)
     cells = [(0.1, 3), (0.3, 3)] if args.quick else [(s, u) for s in (0.1, 0.3) for u in (3, 5, 8)]
@@ -92,8 +109,10 @@ def main(argv=None):
             results = list(pool.map(replicate, tasks))
     else:
         results = [replicate(t) for t in tasks]
-    print(f"{'spread':>6s} {'units':>5s} {'reps':>4s} {'spread cov.':>14s} {'new-unit drift cov.':>20s} "
-          f"{'single-unit cov.':>17s} {'post/true spread':>16s}")
+    print(
+        f"{'spread':>6s} {'units':>5s} {'reps':>4s} {'spread cov.':>14s} "
+        f"{'new-unit drift cov.':>20s} {'single-unit cov.':>17s} {'post/true spread':>16s}"
+    )
     rows = []
     for s, u in cells:
         rs = [r for r in results if r["spread"] == s and r["units"] == u]
@@ -104,10 +123,19 @@ def main(argv=None):
         se = np.sqrt(0.9 * 0.1 / len(rs))  # per-horizon binomial SE at 90%, replicates independent
         print(f"{s:6.1f} {u:5d} {len(rs):4d} {sp.mean():8.2f} +-{np.sqrt(0.09 / sp.size):.2f} "
               f"{nu.mean():13.2f} +-{se:.2f} {si.mean():17.2f} {ratio:16.2f}")
-        rows.append({"spread": s, "units": u, "reps": len(rs), "spread_coverage": sp.mean(),
-                     "new_unit_coverage": nu.mean(), "new_unit_by_horizon": nu.mean(axis=0).round(3).tolist(),
-                     "single_unit_coverage": si.mean(), "median_spread_ratio": ratio,
-                     "converged": sum(r["converged"] for r in rs)})
+        rows.append(
+            {
+                "spread": s,
+                "units": u,
+                "reps": len(rs),
+                "spread_coverage": sp.mean(),
+                "new_unit_coverage": nu.mean(),
+                "new_unit_by_horizon": nu.mean(axis=0).round(3).tolist(),
+                "single_unit_coverage": si.mean(),
+                "median_spread_ratio": ratio,
+                "converged": sum(r["converged"] for r in rs),
+            }
+        )
     print(f"new-unit coverage by horizon {list(HORIZONS)} s: " + "; ".join(
         f"s={r['spread']:g} U={r['units']}: {r['new_unit_by_horizon']}" for r in rows))
     print(f"{len(tasks)} replicates in {time.perf_counter() - start:.0f} s")

@@ -40,7 +40,8 @@ import numpy as np
 
 RATE = 100.0
 DT = 1.0 / RATE
-GRADES = {  # per-sample white variance (deg/s)^2 at 100 Hz, bias variance (deg/s)^2, time constant (s)
+# per-sample white variance (deg/s)^2 at 100 Hz, bias variance (deg/s)^2, time constant (s)
+GRADES = {
     "consumer": {"noise_variance": 0.25, "bias_variance": 1e-3, "time_constant": 30.0},
     "industrial": {"noise_variance": 2.5e-3, "bias_variance": 1e-5, "time_constant": 100.0},
     "tactical": {"noise_variance": 2.5e-5, "bias_variance": 1e-8, "time_constant": 300.0},
@@ -56,16 +57,25 @@ def drift(params):
     from bayes_imu import drift_sigma
 
     q, s2, tau = (np.atleast_1d(params[k])[:, None] for k in NAMES)
-    return drift_sigma(DRIFT_T[None, :], quantity="attitude", dt=DT, noise_variance=q, bias_variance=s2,
-                       time_constant=tau).total
+    return drift_sigma(
+        DRIFT_T[None, :],
+        quantity="attitude",
+        dt=DT,
+        noise_variance=q,
+        bias_variance=s2,
+        time_constant=tau,
+    ).total
 
 
 def slope(allan):
     log_tau, log_avar = np.log(allan.tau), np.log(allan.avar)
     at_one = np.exp(np.interp(0.0, log_tau, log_avar))  # AVAR at tau = 1 s (log-log interpolation)
     i = int(np.argmin(allan.adev))
-    return {"noise_variance": at_one * 1.0 / DT, "bias_variance": (allan.adev[i] / FLICKER_FACTOR) ** 2,
-            "time_constant": float(allan.tau[i])}, None
+    return {
+        "noise_variance": at_one * 1.0 / DT,
+        "bias_variance": (allan.adev[i] / FLICKER_FACTOR) ** 2,
+        "time_constant": float(allan.tau[i]),
+    }, None
 
 
 def _model():
@@ -87,7 +97,9 @@ def ls_log_adev(allan):
     evaluate = model.avar_evaluator(allan.m)
     best = None
     for start in _starts(allan):
-        res = optimize.least_squares(lambda p: 0.5 * (np.log(evaluate(np.exp(p))) - np.log(allan.avar)), start)
+        res = optimize.least_squares(
+            lambda p: 0.5 * (np.log(evaluate(np.exp(p))) - np.log(allan.avar)), start
+        )
         if best is None or res.cost < best.cost:
             best = res
     return dict(zip(NAMES, np.exp(best.x))), None
@@ -121,8 +133,14 @@ def map_laplace(allan, rng):
 
     model = _model()
     pilot = _pilot(model, allan)
-    post = LogPosterior.from_covariance(model, allan, _covariance(model, pilot, allan), model.avar(allan.m, pilot),
-                                        default_bounds(model, allan), kind="copula")
+    post = LogPosterior.from_covariance(
+        model,
+        allan,
+        _covariance(model, pilot, allan),
+        model.avar(allan.m, pilot),
+        default_bounds(model, allan),
+        kind="copula",
+    )
     phi = posterior_mode(post, [np.log([pilot[k] for k in NAMES]), *_starts(allan)]).phi
     hessian = negative_hessian(post.log_likelihood, phi)  # the prior is flat in log parameters
     w, v = np.linalg.eigh(hessian)
@@ -132,7 +150,9 @@ def map_laplace(allan, rng):
 
 def _gaussian_draws(mean, cov, rng, n=2000):
     # an unidentified parameter (T on a short log) has a huge log variance: clamp to finite values
-    draws = np.exp(np.clip(rng.multivariate_normal(mean, cov, size=n, check_valid="ignore"), -300.0, 300.0))
+    draws = np.exp(
+        np.clip(rng.multivariate_normal(mean, cov, size=n, check_valid="ignore"), -300.0, 300.0)
+    )
     return {k: draws[:, i] for i, k in enumerate(NAMES)}
 
 
@@ -175,10 +195,15 @@ def one_log(job):
         for t, e, d in zip(DRIFT_T, est_drift, true_drift):
             row[f"err_drift{t:g}"] = e / d - 1.0
         if draws is not None:
-            row["cover_noise_variance"] = float(np.quantile(draws["noise_variance"], 0.05) <= truth["noise_variance"]
-                                                <= np.quantile(draws["noise_variance"], 0.95))
+            row["cover_noise_variance"] = float(
+                np.quantile(draws["noise_variance"], 0.05)
+                <= truth["noise_variance"]
+                <= np.quantile(draws["noise_variance"], 0.95)
+            )
             d600 = drift(draws)[:, 1]
-            row["cover_drift600"] = float(np.quantile(d600, 0.05) <= true_drift[1] <= np.quantile(d600, 0.95))
+            row["cover_drift600"] = float(
+                np.quantile(d600, 0.05) <= true_drift[1] <= np.quantile(d600, 0.95)
+            )
         out.append(row)
     return out
 
@@ -204,15 +229,20 @@ def summarise(rows):
 
 
 def print_table(table):
-    head = (f"{'grade':10s} {'samples':>8s} {'method':12s} {'time_s':>7s} {'rmse_q':>7s} {'rmse_s2':>8s} "
-            f"{'rmse_T':>8s} {'rmse_d60':>8s} {'bias_d60':>8s} {'rmse_d600':>9s} {'bias_d600':>9s} "
-            f"{'cov_q':>5s} {'cov_d600':>8s}")
+    head = (
+        f"{'grade':10s} {'samples':>8s} {'method':12s} {'time_s':>7s} {'rmse_q':>7s} "
+        f"{'rmse_s2':>8s} {'rmse_T':>8s} {'rmse_d60':>8s} {'bias_d60':>8s} {'rmse_d600':>9s} "
+        f"{'bias_d600':>9s} {'cov_q':>5s} {'cov_d600':>8s}"
+    )
     print(head)
     for r in table:
-        print(f"{r['grade']:10s} {r['n_samples']:8.0e} {r['method']:12s} {r['median_seconds']:7.3f} "
-              f"{r['rmse_noise_variance']:7.3f} {r['rmse_bias_variance']:8.3g} {r['rmse_time_constant']:8.3g} "
-              f"{r['rmse_drift60']:8.3f} {r['bias_drift60']:+8.3f} {r['rmse_drift600']:9.3f} "
-              f"{r['bias_drift600']:+9.3f} {r['cover90_noise_variance']:5.2f} {r['cover90_drift600']:8.2f}")
+        print(
+            f"{r['grade']:10s} {r['n_samples']:8.0e} {r['method']:12s} {r['median_seconds']:7.3f} "
+            f"{r['rmse_noise_variance']:7.3f} {r['rmse_bias_variance']:8.3g} "
+            f"{r['rmse_time_constant']:8.3g} {r['rmse_drift60']:8.3f} {r['bias_drift60']:+8.3f} "
+            f"{r['rmse_drift600']:9.3f} {r['bias_drift600']:+9.3f} "
+            f"{r['cover90_noise_variance']:5.2f} {r['cover90_drift600']:8.2f}"
+        )
 
 
 def pareto(table, path):
@@ -224,9 +254,19 @@ def pareto(table, path):
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for method in METHODS:
         sel = [r for r in table if r["method"] == method]
-        ax.scatter([r["median_seconds"] for r in sel], [r["rmse_drift600"] for r in sel], label=method, s=18)
-    ax.set(xscale="log", yscale="log", xlabel="median wall time per log (s)",
-           ylabel="relative RMSE of the 600 s attitude drift", title="speed against error (all grades and lengths)")
+        ax.scatter(
+            [r["median_seconds"] for r in sel],
+            [r["rmse_drift600"] for r in sel],
+            label=method,
+            s=18,
+        )
+    ax.set(
+        xscale="log",
+        yscale="log",
+        xlabel="median wall time per log (s)",
+        ylabel="relative RMSE of the 600 s attitude drift",
+        title="speed against error (all grades and lengths)",
+    )
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -234,18 +274,29 @@ def pareto(table, path):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--n-logs", type=int, default=4, help="logs per grade and length")
     parser.add_argument("--lengths", default="1e4,1e5,1e6,1e7")
     parser.add_argument("--processes", type=int, default=2)
     parser.add_argument("--seed", type=int, default=11)
-    parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs" / "speed_vs_error")
-    parser.add_argument("--quick", action="store_true", help="smoke run: 1 log, 1e4 and 1e5 samples")
+    parser.add_argument(
+        "--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs" / "speed_vs_error"
+    )
+    parser.add_argument(
+        "--quick", action="store_true", help="smoke run: 1 log, 1e4 and 1e5 samples"
+    )
     args = parser.parse_args(argv)
     if args.quick:
         args.n_logs, args.lengths = 1, "1e4,1e5"
     lengths = [int(float(v)) for v in args.lengths.split(",")]
-    jobs = [(g, n, i, args.seed, args.quick) for g in GRADES for n in lengths for i in range(args.n_logs)]
+    jobs = [
+        (g, n, i, args.seed, args.quick)
+        for g in GRADES
+        for n in lengths
+        for i in range(args.n_logs)
+    ]
     start = time.perf_counter()
     if args.processes > 1:
         with ProcessPoolExecutor(args.processes) as pool:
@@ -253,7 +304,10 @@ def main(argv=None):
     else:
         rows = [r for job in jobs for r in one_log(job)]
     table = summarise(rows)
-    print(f"{len(jobs)} logs ({args.n_logs} per grade and length), {time.perf_counter() - start:.0f} s\n")
+    print(
+        f"{len(jobs)} logs ({args.n_logs} per grade and length), {time.perf_counter() - start:.0f} "
+        "s\n"
+    )
     print_table(table)
     args.out.mkdir(parents=True, exist_ok=True)
     with open(args.out / "speed_vs_error.csv", "w", newline="") as handle:

@@ -28,7 +28,9 @@ DATASHEET_DENSITY = 0.05
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--axes", default="x,y,z")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--data", type=Path, default=SHARED, help="the smac_imudata folder")
@@ -68,7 +70,9 @@ def main(argv=None):
     print(f"\ndatasheet noise density {DATASHEET_DENSITY} deg/s/sqrt(Hz)")
     for (axis, name), iv in intervals.items():
         lo, hi = max(a for a, _ in iv), min(b for _, b in iv)
-        verdict = "overlap (replicates agree)" if lo <= hi else f"do not all overlap (gap {lo - hi:.5f})"
+        verdict = (
+            "overlap (replicates agree)" if lo <= hi else f"do not all overlap (gap {lo - hi:.5f})"
+        )
         print(f"axis {axis} {name}: six 90% intervals {verdict}; intervals span "
               f"{min(a for a, _ in iv):.5f}-{max(b for _, b in iv):.5f}")
     _print_tables(tables, axes)

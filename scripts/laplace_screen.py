@@ -32,19 +32,25 @@ def synthetic():
     for name in ("gyro_lowgrade", "gyro_highgrade", "gyro_rrw", "accel_gravity"):
         entry = truth[name]
         log = read_log(ROOT / "data_synthetic" / f"{name}.csv.gz", column=entry["column"])
-        yield f"synthetic:{name}", log.values, float(entry["rate_hz"])  # the units do not change the evidences
+        # the units do not change the evidences
+        yield f"synthetic:{name}", log.values, float(entry["rate_hz"])
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="synthetic logs and three real channels")
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "--quick", action="store_true", help="synthetic logs and three real channels"
+    )
     args = parser.parse_args(argv)
     import importlib
 
     from bayes_imu import allan_variance
     from validate_real import DATA, RATE, channels
 
-    fit_module = importlib.import_module("bayes_imu.inference.fit")  # the module (the package exports a function)
+    # the module (the package exports a function)
+    fit_module = importlib.import_module("bayes_imu.inference.fit")
     from bayes_imu.inference.selection import can_skip
 
     laplace, sampled = {}, {}
@@ -70,8 +76,10 @@ def main(argv=None):
         print(f"real data not found ({DATA}): synthetic logs only")
     rng = np.random.default_rng(20261123)
     skipped_worst, errors, n_all, n_skipped = -np.inf, [], 0, 0
-    print(f"{'log':24s} {'candidates':>10s} {'skipped':>7s}  {'best skipped (nats from best)':>29s}  "
-          "Laplace - importance within 50 nats of the best")
+    print(
+        f"{'log':24s} {'candidates':>10s} {'skipped':>7s}  {'best skipped (nats from best)':>29s}  "
+        "Laplace - importance within 50 nats of the best"
+    )
     for name, y, rate in sources:
         laplace.clear()
         sampled.clear()
@@ -90,12 +98,19 @@ def main(argv=None):
         errors += near
         top = max(skipped) if skipped else -np.inf
         skipped_worst = max(skipped_worst, top)
-        print(f"{name:24s} {len(laplace):10d} {len(skipped):7d}  {top:29.1f}  {min(near):+6.2f} to {max(near):+5.2f}")
+        print(
+            f"{name:24s} {len(laplace):10d} {len(skipped):7d}  {top:29.1f}  {min(near):+6.2f} to "
+            f"{max(near):+5.2f}"
+        )
     errors = np.array(errors)
-    print(f"\n{n_skipped} of {n_all} candidates of {len(sources)} logs skipped; the best of them is {skipped_worst:.1f} "
-          f"nats below the best evidence of its log")
-    print(f"Laplace - importance on the {errors.size} candidates within 50 nats of the best: {errors.min():+.2f} to "
-          f"{errors.max():+.2f} nats (median {np.median(errors):+.2f})")
+    print(
+        f"\n{n_skipped} of {n_all} candidates of {len(sources)} logs skipped; the best of them is "
+        f"{skipped_worst:.1f} nats below the best evidence of its log"
+    )
+    print(
+        f"Laplace - importance on the {errors.size} candidates within 50 nats of the best: "
+        f"{errors.min():+.2f} to {errors.max():+.2f} nats (median {np.median(errors):+.2f})"
+    )
     return 0
 
 

@@ -24,15 +24,23 @@ PICTURES = {"walk/gyro/allan_fit.png": "allan_fit.png", "walk/gyro/corner.png": 
 
 def main():
     text = (ROOT / "README.md").read_text()
-    commands = [line for block in re.findall(r"```sh\n(.*?)```", text, re.S) for line in block.splitlines()
-                if line.startswith("bayes-imu ")]
+    commands = [
+        line
+        for block in re.findall(r"```sh\n(.*?)```", text, re.S)
+        for line in block.splitlines()
+        if line.startswith("bayes-imu ")
+    ]
     shutil.rmtree(ROOT / "walk", ignore_errors=True)
     for line in commands:
         start = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "bayes_imu.cli", *shlex.split(line)[1:], "--quiet"]
-                       if not line.startswith("bayes-imu kalibr") and not line.startswith("bayes-imu report")
-                       else [sys.executable, "-m", "bayes_imu.cli", *shlex.split(line)[1:]],
-                       cwd=ROOT, check=True, capture_output=True)
+        subprocess.run(
+            [sys.executable, "-m", "bayes_imu.cli", *shlex.split(line)[1:], "--quiet"]
+            if not line.startswith("bayes-imu kalibr") and not line.startswith("bayes-imu report")
+            else [sys.executable, "-m", "bayes_imu.cli", *shlex.split(line)[1:]],
+            cwd=ROOT,
+            check=True,
+            capture_output=True,
+        )
         print(f"{time.perf_counter() - start:6.1f} s  {line}")
     out = ROOT / "docs" / "walkthrough"
     out.mkdir(parents=True, exist_ok=True)
@@ -46,19 +54,27 @@ def main():
     print("  model probabilities:", ", ".join(f"{'+'.join(c['model'])} {c['probability']:.2f}"
                                                for c in gyro["model_averaging"]))
     d = gyro["drift"]["attitude"]
-    print(f"  attitude drift at {d['t_s']:g} s: {d['q50']:.3g} [{d['q05']:.3g}, {d['q95']:.3g}] {d['unit']}")
+    print(
+        f"  attitude drift at {d['t_s']:g} s: {d['q50']:.3g} [{d['q05']:.3g}, {d['q95']:.3g}] "
+        f"{d['unit']}"
+    )
     pop = json.loads((ROOT / "walk/population/summary.json").read_text())
     print("population model:", " + ".join(pop["model"]))
     for name, p in pop["new_unit_datasheet"].items():
         print(f"  new unit {name}: {p['median']:.4g} [{p['q05']:.4g}, {p['q95']:.4g}] {p['unit']}")
     for u in pop["units"]:
         a = u["alone"]["noise_density"]
-        print(f"  {u['label']} alone: noise density {a['median']:.4g} [{a['q05']:.4g}, {a['q95']:.4g}]")
+        print(
+            f"  {u['label']} alone: noise density {a['median']:.4g} [{a['q05']:.4g}, "
+            f"{a['q95']:.4g}]"
+        )
     report = json.loads((ROOT / "walk/report/report.json").read_text())
     for s in report["sensors"]:
-        print(f"report {s['name']}: longest outage within {report['requirement']['given']}: "
-              f"{s['max_outage_s']:.4g} s; 95% bounds " + ", ".join(f"{b['outage_s']:g} s {b['bound']:.3g} rad"
-                                                                    for b in s["bounds"]))
+        print(
+            f"report {s['name']}: longest outage within {report['requirement']['given']}: "
+            f"{s['max_outage_s']:.4g} s; 95% bounds "
+            + ", ".join(f"{b['outage_s']:g} s {b['bound']:.3g} rad" for b in s["bounds"])
+        )
     print("ranking:", report["ranking"])
     nav = json.loads((ROOT / "walk/nav_report/report.json").read_text())
     for s in nav["sensors"]:

@@ -28,7 +28,8 @@ import numpy as np
 DT = 0.01          # s (100 Hz)
 Q_WHITE = 1e-4     # white-noise variance per sample (arbitrary units^2)
 TAU = 10.0         # Gauss-Markov time constant (s): 1000 samples
-Q_MARKOV = 3e-5    # driving-noise variance sigma_omega^2: bias drift overtakes white noise after a few s
+# driving-noise variance sigma_omega^2: bias drift overtakes white noise after a few s
+Q_MARKOV = 3e-5
 SIGMA2_FIG1, TAU_FIG1 = 4.0, 300.0
 
 
@@ -62,7 +63,8 @@ def monte_carlo(n_paths, n_steps, rng):
         b[:, k + 1] = A * b[:, k] + DT * u[:, k]
     out = {}
     for name, x in (("white", w), ("markov", b[:, :-1]), ("sensor", w + b[:, :-1])):
-        v = np.concatenate([np.zeros((n_paths, 1)), DT * np.cumsum(x, axis=1)], axis=1)   # v_k, k = 0..n
+        # v_k, k = 0..n
+        v = np.concatenate([np.zeros((n_paths, 1)), DT * np.cumsum(x, axis=1)], axis=1)
         p = np.concatenate([np.zeros((n_paths, 1)), DT * np.cumsum(v[:, :-1], axis=1)], axis=1)
         out[name + "1"], out[name + "2"] = v.var(axis=0, ddof=1), p.var(axis=0, ddof=1)
     return out
@@ -74,8 +76,14 @@ def formulas(k):
     out = {}
     for order in (1, 2):
         white = euler_variance("white", order, k, dt=DT, noise_variance=Q_WHITE)
-        markov = euler_variance("gauss_markov", order, k, dt=DT, noise_variance=Q_MARKOV, time_constant=TAU)
-        out[f"white{order}"], out[f"markov{order}"], out[f"sensor{order}"] = white, markov, white + markov
+        markov = euler_variance(
+            "gauss_markov", order, k, dt=DT, noise_variance=Q_MARKOV, time_constant=TAU
+        )
+        out[f"white{order}"], out[f"markov{order}"], out[f"sensor{order}"] = (
+            white,
+            markov,
+            white + markov,
+        )
     return out
 
 
@@ -98,14 +106,23 @@ def fig1(out, rng, quick):
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     ax.plot(res.lag_s, res.acf, lw=1, label="numerical autocorrelation (simulated data)")
-    ax.plot(res.lag_s, SIGMA2_FIG1 * np.exp(-res.lag_s / TAU_FIG1), "k--", label=r"eq 4, $\sigma^2=4$, $\tau=300$ s")
+    ax.plot(
+        res.lag_s,
+        SIGMA2_FIG1 * np.exp(-res.lag_s / TAU_FIG1),
+        "k--",
+        label=r"eq 4, $\sigma^2=4$, $\tau=300$ s",
+    )
     ax.plot(res.lag_s, res.bias_variance * np.exp(-res.lag_s / res.time_constant), "r:",
             label=f"fit: $\\sigma^2$={res.bias_variance:.2f}, $\\tau$={res.time_constant:.0f} s")
-    ax.set(xlabel="lag T (s)", ylabel="R(T)", title="Fig 1: autocorrelation of simulated Markov data")
+    ax.set(
+        xlabel="lag T (s)", ylabel="R(T)", title="Fig 1: autocorrelation of simulated Markov data"
+    )
     ax.legend()
     _save(fig, out / "fig01_autocorrelation.png")
-    print(f"Fig 1: fitted sigma^2 = {res.bias_variance:.3f} (true 4), tau = {res.time_constant:.1f} s (true 300), "
-          f"record = {res.record_over_tau:.0f} tau")
+    print(
+        f"Fig 1: fitted sigma^2 = {res.bias_variance:.3f} (true 4), tau = {res.time_constant:.1f} "
+        f"s (true 300), record = {res.record_over_tau:.0f} tau"
+    )
 
 
 def fig2_3(out, rng, quick):
@@ -123,23 +140,39 @@ def fig2_3(out, rng, quick):
         curves[name] = (res, model.avar(res.m, p))
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     res, model_avar = curves["low grade"]
-    ax.errorbar(res.tau, res.adev, yerr=[res.adev - res.adev_low, res.adev_high - res.adev], fmt="o", ms=3,
-                label="simulated low-grade gyro")
+    ax.errorbar(
+        res.tau,
+        res.adev,
+        yerr=[res.adev - res.adev_low, res.adev_high - res.adev],
+        fmt="o",
+        ms=3,
+        label="simulated low-grade gyro",
+    )
     ax.loglog(res.tau, np.sqrt(model_avar), "k-", label="analytical (white + Gauss-Markov)")
-    ax.set(xlabel="averaging time (s)", ylabel="Allan deviation (deg/s)", title="Fig 2: Allan deviation, sample gyro")
+    ax.set(
+        xlabel="averaging time (s)",
+        ylabel="Allan deviation (deg/s)",
+        title="Fig 2: Allan deviation, sample gyro",
+    )
     ax.legend()
     _save(fig, out / "fig02_allan_sample_gyro.png")
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     for name, (res, model_avar) in curves.items():
         ax.loglog(res.tau, res.adev, "o", ms=3, label=f"{name}: simulated")
         ax.loglog(res.tau, np.sqrt(model_avar), "-", lw=1, label=f"{name}: analytical")
-    ax.set(xlabel="averaging time (s)", ylabel="Allan deviation (deg/s)", title="Fig 3: gyro grade comparison")
+    ax.set(
+        xlabel="averaging time (s)",
+        ylabel="Allan deviation (deg/s)",
+        title="Fig 3: gyro grade comparison",
+    )
     ax.legend()
     _save(fig, out / "fig03_allan_grade_comparison.png")
     for name, (res, model_avar) in curves.items():
         inside = np.mean((res.avar_low <= model_avar) & (model_avar <= res.avar_high))
-        print(f"Fig {2 if name == 'low grade' else 3}: {name}: analytical AVAR inside the 68% interval at "
-              f"{inside:.0%} of {res.m.size} cluster sizes")
+        print(
+            f"Fig {2 if name == 'low grade' else 3}: {name}: analytical AVAR inside the 68% "
+            f"interval at {inside:.0%} of {res.m.size} cluster sizes"
+        )
 
 
 def monte_carlo_figures(out, rng, n_paths, n_steps):
@@ -155,25 +188,44 @@ def monte_carlo_figures(out, rng, n_paths, n_steps):
         (6, "markov1", "integrated Markov process", "eq 22"),
         (7, "sensor1", "integrated sensor measurement", "eq 23"),
         (9, "markov2", "double integrated Markov process", "eq 29 corrected"),
-        (10, "sensor2", "double integrated sensor measurement", "eq 30 (with eqs 11, 29 corrected)"),
+        (
+            10,
+            "sensor2",
+            "double integrated sensor measurement",
+            "eq 30 (with eqs 11, 29 corrected)",
+        ),
     ]
     plt = pyplot()
     worst = {}
     for number, key, title, eq in specs:
         fig, ax = plt.subplots(figsize=(6.4, 4.2))
-        ax.plot(t[1:], np.sqrt(sim[key][1:]), lw=2, alpha=0.6, label=f"Monte Carlo, {n_paths} paths")
+        ax.plot(
+            t[1:], np.sqrt(sim[key][1:]), lw=2, alpha=0.6, label=f"Monte Carlo, {n_paths} paths"
+        )
         ax.plot(t[1:], np.sqrt(exact[key][1:]), "k--", lw=1, label=eq)
         if key in printed:
             ax.plot(t[1:], np.sqrt(np.abs(printed[key][1:])), "r:", lw=1.5,
                     label=f"{'eq 11' if key == 'white2' else 'eq 29'} as printed (|value|)")
-        ax.set(xscale="log", yscale="log", xlabel="time (s)", ylabel="1-sigma", title=f"Fig {number}: {title}")
+        ax.set(
+            xscale="log",
+            yscale="log",
+            xlabel="time (s)",
+            ylabel="1-sigma",
+            title=f"Fig {number}: {title}",
+        )
         ax.legend()
         _save(fig, out / f"fig{number:02d}_{key}.png")
         worst[number] = worst_standard_errors(exact[key], sim[key], n_paths)
         extra = ""
         if key in printed:
-            extra = f"; printed form: {worst_standard_errors(printed[key], sim[key], n_paths):.3g} standard errors"
-        print(f"Fig {number}: {title}: worst deviation {worst[number]:.2f} standard errors ({eq}){extra}")
+            extra = (
+                f"; printed form: {worst_standard_errors(printed[key], sim[key], n_paths):.3g} "
+                "standard errors"
+            )
+        print(
+            f"Fig {number}: {title}: worst deviation {worst[number]:.2f} standard errors "
+            f"({eq}){extra}"
+        )
     # Figs 8 and 11 need no simulation: the exact formulas on a log grid out to 100 s
     k_long = np.unique(np.geomspace(1, 100.0 / DT, 400).astype(np.int64))
     t_long, long = k_long * DT, formulas(k_long)
@@ -185,7 +237,11 @@ def monte_carlo_figures(out, rng, n_paths, n_steps):
         ax.loglog(t_long, np.sqrt(white + markov), "k", label="total")
         cross = t_long[np.argmax(markov > white)]
         ax.axvline(cross, color="grey", ls=":", label=f"bias drift dominates after {cross:.2f} s")
-        ax.set(xlabel="time (s)", ylabel="1-sigma", title=f"Fig {number}: error source contribution ({quantity})")
+        ax.set(
+            xlabel="time (s)",
+            ylabel="1-sigma",
+            title=f"Fig {number}: error source contribution ({quantity})",
+        )
         ax.legend()
         _save(fig, out / f"fig{number:02d}_contributions.png")
         print(f"Fig {number}: bias drift dominates the {quantity} error after {cross:.2f} s")
@@ -211,12 +267,22 @@ def _save(fig, path):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs" / "paper_figures")
-    parser.add_argument("--paths", type=int, default=2000, help="Monte Carlo paths (the paper: 2000)")
-    parser.add_argument("--steps", type=int, default=3000, help="Euler steps per path (30 s at 100 Hz)")
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs" / "paper_figures"
+    )
+    parser.add_argument(
+        "--paths", type=int, default=2000, help="Monte Carlo paths (the paper: 2000)"
+    )
+    parser.add_argument(
+        "--steps", type=int, default=3000, help="Euler steps per path (30 s at 100 Hz)"
+    )
     parser.add_argument("--seed", type=int, default=2026)
-    parser.add_argument("--quick", action="store_true", help="smoke run: 200 paths, 300 steps, shorter logs")
+    parser.add_argument(
+        "--quick", action="store_true", help="smoke run: 200 paths, 300 steps, shorter logs"
+    )
     args = parser.parse_args(argv)
     if args.quick:
         args.paths, args.steps = 200, 300

@@ -18,7 +18,11 @@ DATA = Path(__file__).resolve().parents[2] / "shared" / "data_real" / "smac_imud
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs" / "adis16405_allan.png")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path(__file__).resolve().parents[1] / "docs" / "adis16405_allan.png",
+    )
     args = parser.parse_args(argv)
     if not DATA.exists():
         print(f"skipped: {DATA} not available")
@@ -33,7 +37,14 @@ def main(argv=None):
         for unit in range(1, 7):
             log = read_log(DATA / f"adis_16405_imu{unit}.csv.gz", column=f"gyro_{axis}_dps")
             r = allan_variance(log.values, rate_hz=100.0)
-            ax.errorbar(r.tau, r.adev, yerr=[r.adev - r.adev_low, r.adev_high - r.adev], lw=1, capsize=1.5, label=f"imu{unit}")
+            ax.errorbar(
+                r.tau,
+                r.adev,
+                yerr=[r.adev - r.adev_low, r.adev_high - r.adev],
+                lw=1,
+                capsize=1.5,
+                label=f"imu{unit}",
+            )
         tau = np.array([0.01, 10.0])
         ax.loglog(tau, 0.05 / np.sqrt(tau), "k--", lw=1, label="datasheet 0.05 deg/s/sqrt(Hz)")
         ax.axhline(0.007 * 0.664, color="k", ls=":", lw=1, label="0.664 x datasheet bias stability")

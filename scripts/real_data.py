@@ -53,10 +53,16 @@ def fit_channel(path, column, unit, n_max, seed):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs" / "real_data")
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs" / "real_data"
+    )
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--quick", action="store_true", help="imu1 gyro X and the MTi-G, 2**17 samples each")
+    parser.add_argument(
+        "--quick", action="store_true", help="imu1 gyro X and the MTi-G, 2**17 samples each"
+    )
     args = parser.parse_args(argv)
     if not SHARED.exists():
         print(f"shared data not found at {SHARED}; nothing to do")
@@ -64,33 +70,47 @@ def main(argv=None):
     n_max = 2**17 if args.quick else None
     channels = ADIS[:1] if args.quick else ADIS
     imus = [1] if args.quick else list(range(1, 7))
-    print(f"{'log':9s} {'channel':13s} {'model':58s} {'density q05':>11s} {'median':>9s} {'q95':>9s} "
-          f"{'white':>9s} {'IEEE 1 s':>9s} {'datasheet':>9s} {'unit':15s} conv")
+    print(
+        f"{'log':9s} {'channel':13s} {'model':58s} {'density q05':>11s} {'median':>9s} {'q95':>9s} "
+        f"{'white':>9s} {'IEEE 1 s':>9s} {'datasheet':>9s} {'unit':15s} conv"
+    )
     densities, readings = {}, {}
     for column, unit, sheet, sheet_unit, factor in channels:
         for imu in imus:
-            res = fit_channel(SHARED / f"adis_16405_imu{imu}.csv.gz", column, unit, n_max, args.seed)
+            res = fit_channel(
+                SHARED / f"adis_16405_imu{imu}.csv.gz", column, unit, n_max, args.seed
+            )
             q = np.quantile(res.repeatable_draws("noise_density"), [0.05, 0.5, 0.95]) * factor
             densities.setdefault(column, []).append(q)
             white, ieee = _readings(res, factor)
             readings.setdefault(column, []).append((white, ieee))
-            print(f"imu{imu:<6d} {column:13s} {'+'.join(res.model.terms):58s} {q[0]:11.5g} {q[1]:9.5g} {q[2]:9.5g} "
-                  f"{white:9.5g} {ieee:9.5g} {sheet:9.4g} {sheet_unit:15s} {res.diagnostics['converged']}")
+            print(
+                f"imu{imu:<6d} {column:13s} {'+'.join(res.model.terms):58s} {q[0]:11.5g} "
+                f"{q[1]:9.5g} {q[2]:9.5g} {white:9.5g} {ieee:9.5g} {sheet:9.4g} {sheet_unit:15s} "
+                f"{res.diagnostics['converged']}"
+            )
     column, unit, sheet, sheet_unit, factor = MTIG
     res = fit_channel(SHARED / "cont_imu1.csv.gz", column, unit, n_max, args.seed)
     q = np.quantile(res.repeatable_draws("noise_density"), [0.05, 0.5, 0.95]) * factor
     white, ieee = _readings(res, factor)
-    print(f"{'MTi-G':9s} {column:13s} {'+'.join(res.model.terms):58s} {q[0]:11.5g} {q[1]:9.5g} {q[2]:9.5g} "
-          f"{white:9.5g} {ieee:9.5g} {sheet:9.4g} {sheet_unit:15s} {res.diagnostics['converged']}")
-    print("\nADIS16405 datasheet: ARW 2 deg/sqrt(h) = 0.0333 deg/s/sqrt(Hz) (the ADI note also quotes 0.05), "
-          "VRW 0.2 m/s/sqrt(h) = 3.33e-3 m/s^2/sqrt(Hz); MTi-G: 0.05 deg/s/sqrt(Hz)")
+    print(
+        f"{'MTi-G':9s} {column:13s} {'+'.join(res.model.terms):58s} {q[0]:11.5g} {q[1]:9.5g} "
+        f"{q[2]:9.5g} {white:9.5g} {ieee:9.5g} {sheet:9.4g} {sheet_unit:15s} "
+        f"{res.diagnostics['converged']}"
+    )
+    print(
+        "\nADIS16405 datasheet: ARW 2 deg/sqrt(h) = 0.0333 deg/s/sqrt(Hz) (the ADI note also "
+        "quotes 0.05), VRW 0.2 m/s/sqrt(h) = 3.33e-3 m/s^2/sqrt(Hz); MTi-G: 0.05 deg/s/sqrt(Hz)"
+    )
     for column, qs in densities.items():
         qs = np.array(qs)
         lo, hi = qs[:, 0].max(), qs[:, 2].min()
         verdict = "share a common value" if lo <= hi else f"do not all overlap (gap {lo - hi:.3g})"
         spread = qs[:, 1].max() / qs[:, 1].min() - 1.0
-        print(f"{column}: the {len(qs)} replicates' 90% intervals {verdict}; medians {qs[:, 1].min():.4g} to "
-              f"{qs[:, 1].max():.4g} ({spread:.1%} apart)")
+        print(
+            f"{column}: the {len(qs)} replicates' 90% intervals {verdict}; medians "
+            f"{qs[:, 1].min():.4g} to {qs[:, 1].max():.4g} ({spread:.1%} apart)"
+        )
         white, ieee = np.array(readings[column]).T
         print(f"{column}: white alone {white.min():.4g} to {white.max():.4g}; IEEE reading at 1 s "
               f"{ieee.min():.4g} to {ieee.max():.4g}")
@@ -118,7 +138,9 @@ def plot(densities, path):
     for ax, (column, qs) in zip(axes[0], densities.items()):
         qs = np.array(qs)
         x = np.arange(1, len(qs) + 1)
-        ax.errorbar(x, qs[:, 1], yerr=[qs[:, 1] - qs[:, 0], qs[:, 2] - qs[:, 1]], fmt="o", capsize=3)
+        ax.errorbar(
+            x, qs[:, 1], yerr=[qs[:, 1] - qs[:, 0], qs[:, 2] - qs[:, 1]], fmt="o", capsize=3
+        )
         ax.set(title=column, xlabel="ADIS16405 recording", xticks=x)
         ax.ticklabel_format(axis="y", style="sci", scilimits=(-2, 2))
     axes[0][0].set_ylabel("noise density (90% interval)")

@@ -23,14 +23,20 @@ def main():
     from bayes_imu.inference.stationarity import STATIONARITY_ALPHA, segment_test
 
     flagged = []
-    print(f"{'channel':14s} {'p_value':>9s} {'worst_tau_s':>11s}  sizes that differ on their own (s)")
+    print(
+        f"{'channel':14s} {'p_value':>9s} {'worst_tau_s':>11s}  sizes that differ on their own (s)"
+    )
     for name, _, y in channels():
         half = allan_variance(y[: y.size // 2], rate_hz=RATE)
         seg = half.segments
-        check = segment_test(seg, greenhall_edf(half.alpha[: seg.m.size], seg.m, seg.n_samples + 1), RATE)
+        check = segment_test(
+            seg, greenhall_edf(half.alpha[: seg.m.size], seg.m, seg.n_samples + 1), RATE
+        )
         if not check.stationary:
             flagged.append(name)
-        alone = ", ".join(f"{t:g}" for t in check.tau_s[check.p_each * check.p_each.size < STATIONARITY_ALPHA])
+        alone = ", ".join(
+            f"{t:g}" for t in check.tau_s[check.p_each * check.p_each.size < STATIONARITY_ALPHA]
+        )
         print(f"{name:14s} {check.p_value:9.2g} {check.worst_tau_s:11g}  {alone}")
     print(f"\nflagged non-stationary with the model-free EDF: {len(flagged)} of 37")
     return 0

@@ -1,33 +1,39 @@
-"""Speed options of issue 17, adopted or not, each measured and printed as a table, so that the numbers the
-docs quote can be rerun:
+"""Speed options of issue 17, adopted or not, each measured and printed as a table, so that the
+numbers the docs quote can be rerun:
 
-1. ``--kernels``: the first drift grid in a fresh process, from the precompiled extension and from numba's
-   JIT build of the same source (loaded from numba's on-disk cache; a first compile costs more).
-2. ``--figures``: allan_fit.png as drawn (a fixed layout, plain-text log labels), with matplotlib's layout
-   pass added (``tight_layout``, as it was drawn before) and with mathtext labels, on a fit of the
-   bench log and two real ADIS16405 ones (5 and 7 parameters; ``../shared``, where present); then corner.png as drawn (its own grid of
-   :func:`corner.hist2d` panels, :func:`bayes_imu.report.plots._corner_grid`), the same grid with matplotlib's
-   mathtext tick labels instead of plain text (:func:`bayes_imu.report.plots.plain_log_formatter`), and as it
-   was drawn before (``corner.corner``, plain labels, a tight bounding box), on the same fits. Each way is
-   timed in turn in each of five rounds and its best round printed (:func:`_interleaved`): timed one way after
-   another, the order alone moved a corner plot's time (docs/speed_under_load.md#figures).
-3. ``--modes``: the mode searches of a fit (every posterior and its starts, as the model search passes them)
-   by the Newton search that replaced BFGS (:func:`bayes_imu.inference.selection.newton_mode`) and by BFGS
-   from the identity with central-difference gradients, as before: time, and how far the densest end points
-   differ in ``-log p`` (negative: the Newton search found a denser mode), on the bench log and, where
-   ``../shared`` has them, six real ADIS16405 channels. (A BFGS started from the inverse finite-difference
-   Hessian, measured by an earlier version of this script, was about as fast as the identity start and
-   found other local modes on three of five real channels; not adopted.)
+1. ``--kernels``: the first drift grid in a fresh process, from the precompiled extension and from
+   numba's JIT build of the same source (loaded from numba's on-disk cache; a first compile costs
+   more).
+2. ``--figures``: allan_fit.png as drawn (a fixed layout, plain-text log labels), with matplotlib's
+   layout pass added (``tight_layout``, as it was drawn before) and with mathtext labels, on a fit
+   of the bench log and two real ADIS16405 ones (5 and 7 parameters; ``../shared``, where present);
+   then corner.png as drawn (its own grid of
+   :func:`corner.hist2d` panels, :func:`bayes_imu.report.plots._corner_grid`), the same grid with
+   matplotlib's mathtext tick labels instead of plain text
+   (:func:`bayes_imu.report.plots.plain_log_formatter`), and as it was drawn before
+   (``corner.corner``, plain labels, a tight bounding box), on the same fits. Each way is timed in
+   turn in each of five rounds and its best round printed (:func:`_interleaved`): timed one way
+   after another, the order alone moved a corner plot's time (docs/speed_under_load.md#figures).
+3. ``--modes``: the mode searches of a fit (every posterior and its starts, as the model search
+   passes them) by the Newton search that replaced BFGS
+   (:func:`bayes_imu.inference.selection.newton_mode`) and by BFGS from the identity with
+   central-difference gradients, as before: time, and how far the densest end points differ in
+   ``-log p`` (negative: the Newton search found a denser mode), on the bench log and, where
+   ``../shared`` has them, six real ADIS16405 channels. (A BFGS started from the inverse
+   finite-difference Hessian, measured by an earlier version of this script, was about as fast as
+   the identity start and found other local modes on three of five real channels; not adopted.)
 
-4. ``--sampler``: the ensemble as the fit runs it (:func:`bayes_imu.inference.sampling.ensemble_sampler`: emcee's
-   sampler and moves with less Python per step) against emcee's own classes, on the posteriors of the bench fit
-   and two real ones: microseconds per step of 32 walkers, the likelihood's share, and whether the chains are the
+4. ``--sampler``: the ensemble as the fit runs it
+   (:func:`bayes_imu.inference.sampling.ensemble_sampler`: emcee's sampler and moves with less
+   Python per step) against emcee's own classes, on the posteriors of the bench fit and two real
+   ones: microseconds per step of 32 walkers, the likelihood's share, and whether the chains are the
    same bit for bit.
-5. ``--seeds``: imu4 gyro x (seven parameters, two Gauss-Markov biases) fitted with seeds 0-7, with and without
-   the relabel move, then with ``terms="auto"``: whether each sampler converged, its steps, R-hat, the share of
-   draws in the region reached only by relabelling, and seconds.
+5. ``--seeds``: imu4 gyro x (seven parameters, two Gauss-Markov biases) fitted with seeds 0-7, with
+   and without the relabel move, then with ``terms="auto"``: whether each sampler converged, its
+   steps, R-hat, the share of draws in the region reached only by relabelling, and seconds.
 
-    python scripts/study_speed_options.py [--kernels] [--figures] [--modes] [--sampler] [--seeds]   (all without options)
+    python scripts/study_speed_options.py [--kernels] [--figures] [--modes] [--sampler] [--seeds]
+    (all without options)
 """
 
 import argparse
@@ -35,12 +41,14 @@ import subprocess
 import sys
 import tempfile
 import time
-from unittest.mock import patch  # a callable run with an attribute replaced (the ways a figure was drawn)
+# a callable run with an attribute replaced (the ways a figure was drawn)
+from unittest.mock import patch
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))  # validate_real's DATA, bench_io's best_time
+# validate_real's DATA, bench_io's best_time
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_io import best_time  # noqa: E402  (best of n wall times)
 
@@ -62,8 +70,11 @@ print(time.perf_counter() - t, "numba" in sys.modules)
 
 def kernels():
     print(f"{'build':>12s} {'first drift grid in a process (s)':>34s} {'numba imported':>15s}")
-    for build in ("jit", "jit", "precompiled"):  # the first JIT run fills numba's cache if it is empty
-        out = subprocess.run([sys.executable, "-c", FIRST_GRID, build], capture_output=True, text=True, check=True)
+    # the first JIT run fills numba's cache if it is empty
+    for build in ("jit", "jit", "precompiled"):
+        out = subprocess.run(
+            [sys.executable, "-c", FIRST_GRID, build], capture_output=True, text=True, check=True
+        )
         seconds, numba_loaded = out.stdout.split()
         print(f"{build:>12s} {float(seconds):34.2f} {numba_loaded:>15s}")
 
@@ -75,7 +86,8 @@ def _bench_fit():
     from bayes_imu.noise.simulate import simulate_log
 
     truth = {"noise_variance": 0.25, "bias_variance": 1e-4, "time_constant": 100.0}
-    y = simulate_log(NoiseModel(("white", "gauss_markov"), 0.01), truth, 1_000_000, rng=1)  # bench_fit's log
+    # bench_fit's log
+    y = simulate_log(NoiseModel(("white", "gauss_markov"), 0.01), truth, 1_000_000, rng=1)
     return allan_variance(y, rate_hz=100.0), fit_allan
 
 
@@ -88,7 +100,9 @@ def figures():
     allan, fit_allan = _bench_fit()
     fit = fit_allan(allan, rng=0)
     plots.import_plotting()
-    fits = [("bench log (synthetic)", fit)] + _real_fits(fit_allan, ((1, "gyro_x_dps"), (4, "gyro_x_dps")))
+    fits = [("bench log (synthetic)", fit)] + _real_fits(
+        fit_allan, ((1, "gyro_x_dps"), (4, "gyro_x_dps"))
+    )
     figure = matplotlib.figure.Figure
     savefig = figure.savefig
 
@@ -103,14 +117,18 @@ def figures():
         return [draw, patch.object(figure, "savefig", laid_out)(lambda: _quietly(draw)),
                 patch.object(plots, "plain_log_formatter", LogFormatterSciNotation)(draw)]
 
-    _time_table(fits, ["allan_fit.png as drawn (s)", "with a tight_layout pass (s)", "mathtext labels (s)"],
-                allan_fit_ways)
+    _time_table(
+        fits,
+        ["allan_fit.png as drawn (s)", "with a tight_layout pass (s)", "mathtext labels (s)"],
+        allan_fit_ways,
+    )
     _corner_ways(plots, fits)
 
 
 def _interleaved(ways, rounds=5):
-    """Best wall time of each callable in ``ways`` over ``rounds`` rounds, each round calling every way once in
-    turn: no way gains from running after the others (caches, garbage) or loses to a busy moment."""
+    """Best wall time of each callable in ``ways`` over ``rounds`` rounds, each round calling every
+    way once in turn: no way gains from running after the others (caches, garbage) or loses to a
+    busy moment."""
     best = [np.inf] * len(ways)
     for _ in range(rounds):
         for i, way in enumerate(ways):
@@ -121,7 +139,8 @@ def _interleaved(ways, rounds=5):
 
 
 def _real_allans(cases):
-    """``(name, Allan variance)`` of real ADIS16405 channels ``(unit, column)`` (``../shared``), where present."""
+    """``(name, Allan variance)`` of real ADIS16405 channels ``(unit, column)`` (``../shared``),
+    where present."""
     from bayes_imu.allan.estimator import allan_variance
     from bayes_imu.io.readers import read_log
     from validate_real import DATA
@@ -130,7 +149,12 @@ def _real_allans(cases):
     for unit, column in cases:
         path = DATA / f"adis_16405_imu{unit}.csv.gz"
         if path.exists():
-            out.append((f"adis{unit} {column}", allan_variance(read_log(path, column=column).values, rate_hz=100.0)))
+            out.append(
+                (
+                    f"adis{unit} {column}",
+                    allan_variance(read_log(path, column=column).values, rate_hz=100.0),
+                )
+            )
     return out
 
 
@@ -158,12 +182,15 @@ def _corner_ways(plots, fits):
                 lambda: _quietly(lambda: _corner_before(plots, fit, path))]
 
     print()
-    _time_table(fits, ["corner.png as drawn (s)", "mathtext labels (s)", "corner.corner, before (s)"], ways)
+    _time_table(
+        fits, ["corner.png as drawn (s)", "mathtext labels (s)", "corner.corner, before (s)"], ways
+    )
 
 
 def _time_table(fits, columns, ways):
-    """One row per ``(name, fit)`` of ``fits``: its parameters and the times of the callables ``ways(fit,
-    path)`` (:func:`_interleaved`), one per column, each drawing a figure to ``path``."""
+    """One row per ``(name, fit)`` of ``fits``: its parameters and the times of the callables
+    ``ways(fit, path)`` (:func:`_interleaved`), one per column, each drawing a figure to
+    ``path``."""
     print(f"{'fit':>22s} {'parameters':>10s} " + " ".join(f"{c:>{len(c) + 1}s}" for c in columns))
     with tempfile.TemporaryDirectory() as folder:
         for name, fit in fits:
@@ -173,8 +200,9 @@ def _time_table(fits, columns, ways):
 
 
 def _quietly(draw):
-    """``draw()`` without the warnings the old ways print (tight_layout's with a legend outside the axes,
-    corner's "Too few points to create valid contours" through logging): the table stays readable."""
+    """``draw()`` without the warnings the old ways print (tight_layout's with a legend outside the
+    axes, corner's "Too few points to create valid contours" through logging): the table stays
+    readable."""
     import logging
     import warnings
 
@@ -188,20 +216,31 @@ def _quietly(draw):
 
 
 def _corner_before(plots, fit, path):
-    """corner.png as plot_corner drew it before its own grid: ``corner.corner`` on log axes, plain edge
-    labels, and a tight bounding box (corner places its axis labels outside the figure)."""
+    """corner.png as plot_corner drew it before its own grid: ``corner.corner`` on log axes, plain
+    edge labels, and a tight bounding box (corner places its axis labels outside the figure)."""
     plt = plots.pyplot()
     corner = plots.import_corner()
     data, k = fit.samples, fit.samples.shape[1]
-    fig = corner.corner(data, labels=list(fit.parameter_names), axes_scale="log", quantiles=[0.05, 0.5, 0.95],
-                        label_kwargs={"fontsize": 8}, labelpad=0.15, max_n_ticks=3)
+    fig = corner.corner(
+        data,
+        labels=list(fit.parameter_names),
+        axes_scale="log",
+        quantiles=[0.05, 0.5, 0.95],
+        label_kwargs={"fontsize": 8},
+        labelpad=0.15,
+        max_n_ticks=3,
+    )
     axes = np.array(fig.axes).reshape(k, k)
     for i in range(k):
         q = np.quantile(data[:, i], [0.05, 0.5, 0.95])
         axes[i, i].set_title(f"{q[1]:.4g}\n[{q[0]:.3g}, {q[2]:.3g}]", fontsize=7)
     for axis in [axes[-1, j].xaxis for j in range(k)] + [axes[i, 0].yaxis for i in range(1, k)]:
-        axis.set_major_formatter(plots.plain_log_formatter(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
-        axis.set_minor_formatter(plots.plain_log_formatter(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
+        axis.set_major_formatter(
+            plots.plain_log_formatter(labelOnlyBase=False, minor_thresholds=(2, 0.5))
+        )
+        axis.set_minor_formatter(
+            plots.plain_log_formatter(labelOnlyBase=False, minor_thresholds=(2, 0.5))
+        )
     for ax in fig.axes:
         ax.tick_params(which="both", labelsize=6)
     fig.subplots_adjust(left=0.13, bottom=0.13)
@@ -234,8 +273,8 @@ def _mode_searches(allan, fit_allan):
 
 
 def _mode_bfgs(post, starts):
-    """The mode search before the Newton search (issue 17): BFGS from each start (scipy's identity start,
-    central-difference gradient); returns ``-log p`` of the densest end point."""
+    """The mode search before the Newton search (issue 17): BFGS from each start (scipy's identity
+    start, central-difference gradient); returns ``-log p`` of the densest end point."""
     from scipy import optimize
 
     from bayes_imu.inference import selection as s
@@ -245,8 +284,14 @@ def _mode_bfgs(post, starts):
         u0 = s._to_u(np.asarray(phi0, float), post.bounds)
         if not np.isfinite(s._log_density_u(post, u0)[0]):
             continue
-        res = optimize.minimize(s._neg_log_density, u0, args=(post,), jac=s._neg_gradient, method="BFGS",
-                                options={"gtol": 1e-5, "maxiter": 2000})
+        res = optimize.minimize(
+            s._neg_log_density,
+            u0,
+            args=(post,),
+            jac=s._neg_gradient,
+            method="BFGS",
+            options={"gtol": 1e-5, "maxiter": 2000},
+        )
         best = min(best, float(res.fun))
     return best
 
@@ -256,9 +301,19 @@ def modes():
 
     bench, fit_allan = _bench_fit()
     cases = [("bench log (synthetic)", bench)] + _real_allans(
-        ((1, "gyro_x_dps"), (3, "gyro_y_dps"), (4, "gyro_x_dps"), (5, "accel_x_g"), (2, "accel_z_g"), (6, "gyro_z_dps")))
-    print(f"{'log':>22s} {'searches':>8s} {'starts':>6s} {'bfgs_s':>7s} {'newton_s':>8s} {'min d(-log p)':>13s} "
-          f"{'max d(-log p)':>13s} {'denser>0.01':>11s} {'less>0.01':>9s}")
+        (
+            (1, "gyro_x_dps"),
+            (3, "gyro_y_dps"),
+            (4, "gyro_x_dps"),
+            (5, "accel_x_g"),
+            (2, "accel_z_g"),
+            (6, "gyro_z_dps"),
+        )
+    )
+    print(
+        f"{'log':>22s} {'searches':>8s} {'starts':>6s} {'bfgs_s':>7s} {'newton_s':>8s} "
+        f"{'min d(-log p)':>13s} {'max d(-log p)':>13s} {'denser>0.01':>11s} {'less>0.01':>9s}"
+    )
     for name, allan in cases:
         calls = _mode_searches(allan, fit_allan)
         start = time.perf_counter()
@@ -268,34 +323,48 @@ def modes():
         end = time.perf_counter()
         d = np.array(new) - np.array(ref)
         n_starts = sum(len(np.atleast_2d(s)) for _, s in calls)
-        print(f"{name:>22s} {len(calls):8d} {n_starts:6d} {middle - start:7.2f} {end - middle:8.2f} {d.min():13.3g} "
-              f"{d.max():13.3g} {int(np.sum(d < -1e-2)):11d} {int(np.sum(d > 1e-2)):9d}")
-    print("d(-log p): the Newton search's end point minus BFGS's, per search (negative: Newton's is denser)")
+        print(
+            f"{name:>22s} {len(calls):8d} {n_starts:6d} {middle - start:7.2f} {end - middle:8.2f} "
+            f"{d.min():13.3g} {d.max():13.3g} {int(np.sum(d < -1e-2)):11d} "
+            f"{int(np.sum(d > 1e-2)):9d}"
+        )
+    print(
+        "d(-log p): the Newton search's end point minus BFGS's, per search (negative: Newton's is "
+        "denser)"
+    )
 
 
 def sampler():
-    """The ensemble as the fit runs it (:func:`bayes_imu.inference.sampling.ensemble_sampler`) against emcee's own
-    EnsembleSampler, DEMove and StretchMove: 2000 steps of 32 walkers on the posterior each fit sampled, from the
-    same walkers and seed; time per step, the likelihood's share, and whether the chains are the same."""
+    """The ensemble as the fit runs it (:func:`bayes_imu.inference.sampling.ensemble_sampler`)
+    against emcee's own EnsembleSampler, DEMove and StretchMove: 2000 steps of 32 walkers on the
+    posterior each fit sampled, from the same walkers and seed; time per step, the likelihood's
+    share, and whether the chains are the same."""
     import emcee
 
     from bayes_imu.inference.sampling import ensemble_sampler
 
     bench, fit_allan = _bench_fit()
-    fits = [("bench log (synthetic)", fit_allan(bench, rng=0))] + _real_fits(fit_allan, ((1, "gyro_x_dps"), (4, "gyro_x_dps")))
+    fits = [("bench log (synthetic)", fit_allan(bench, rng=0))] + _real_fits(
+        fit_allan, ((1, "gyro_x_dps"), (4, "gyro_x_dps"))
+    )
 
     def emcee_own(target, start, rng):
         moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.StretchMove(), 0.2)]
-        made = emcee.EnsembleSampler(start.shape[0], start.shape[1], target, vectorize=True, moves=moves)
+        made = emcee.EnsembleSampler(
+            start.shape[0], start.shape[1], target, vectorize=True, moves=moves
+        )
         made.random_state = np.random.RandomState(rng.integers(2**32)).get_state()
         return made
 
-    print(f"{'fit':>22s} {'parameters':>10s} {'as run (us/step)':>17s} {'emcee own (us/step)':>20s} "
-          f"{'likelihood (us/step)':>21s} {'same chains':>11s}")
+    print(
+        f"{'fit':>22s} {'parameters':>10s} {'as run (us/step)':>17s} {'emcee own (us/step)':>20s} "
+        f"{'likelihood (us/step)':>21s} {'same chains':>11s}"
+    )
     steps = 2000
     for name, fit in fits:
         post = fit.chains.posterior
-        start = fit.chains.chain[-1]  # the last kept walkers: inside the box, spread as the posterior
+        # the last kept walkers: inside the box, spread as the posterior
+        start = fit.chains.chain[-1]
         times, chains = [], []
         for make in (ensemble_sampler, emcee_own):
             best = np.inf
@@ -308,19 +377,22 @@ def sampler():
             chains.append(made.get_chain())
         half = start[: start.shape[0] // 2]
         likelihood = 2 * best_time(lambda: post(half), 200) * 1e6
-        print(f"{name:>22s} {start.shape[1]:10d} {times[0]:17.0f} {times[1]:20.0f} {likelihood:21.0f} "
-              f"{str(bool(np.array_equal(*chains))):>11s}")
+        print(
+            f"{name:>22s} {start.shape[1]:10d} {times[0]:17.0f} {times[1]:20.0f} "
+            f"{likelihood:21.0f} {str(bool(np.array_equal(*chains))):>11s}"
+        )
     print("likelihood: the two vectorised calls of a step (each half of the ensemble), best of 200")
 
 
 def seeds():
-    """imu4 gyro x (../shared; white + filtered white + two Gauss-Markov biases + random walk, seven parameters)
-    fitted with seeds 0-7, with and without the relabel move (:func:`bayes_imu.inference.sampling.relabel_move`),
-    then as a user would (``terms="auto"``, with the move): whether the sampler converged within 40 000 steps, its
-    steps, R-hat, the share of draws with the slower bias switched off (its variance under a tenth of its median;
-    the first bias then takes the slow time constant: the region the local moves reach only through a swap of
-    labels) and the fit's seconds; then that region's mass by importance sampling, a check of the chain's weight
-    there that does not rely on the chain mixing."""
+    """imu4 gyro x (../shared; white + filtered white + two Gauss-Markov biases + random walk, seven
+    parameters) fitted with seeds 0-7, with and without the relabel move
+    (:func:`bayes_imu.inference.sampling.relabel_move`), then as a user would (``terms="auto"``,
+    with the move): whether the sampler converged within 40 000 steps, its steps, R-hat, the share
+    of draws with the slower bias switched off (its variance under a tenth of its median; the first
+    bias then takes the slow time constant: the region the local moves reach only through a swap of
+    labels) and the fit's seconds; then that region's mass by importance sampling, a check of the
+    chain's weight there that does not rely on the chain mixing."""
     import contextlib
     import warnings
 
@@ -335,8 +407,10 @@ def seeds():
     two = ("white", "filtered_white", "gauss_markov", "gauss_markov_2", "random_walk")
     ways = (("no relabel", two, patch.object(module, "exchangeable_biases", lambda post: None)),
             ("relabel", two, contextlib.nullcontext()), ("auto", "auto", contextlib.nullcontext()))
-    print(f"{'log':>16s} {'way':>10s} {'seed':>4s} {'converged':>9s} {'steps':>6s} {'r_hat':>6s} {'switched':>9s} "
-          f"{'fit_s':>6s}  model")
+    print(
+        f"{'log':>16s} {'way':>10s} {'seed':>4s} {'converged':>9s} {'steps':>6s} {'r_hat':>6s} "
+        f"{'switched':>9s} {'fit_s':>6s}  model"
+    )
     check = None
     for way, terms, replaced in ways:
         with replaced:
@@ -349,24 +423,27 @@ def seeds():
                 d, names = fit.diagnostics, fit.model.parameter_names
                 share = (np.mean(_switched_off(fit.samples[:, names.index("bias_variance_2")]))
                          if "bias_variance_2" in names else np.nan)
-                print(f"{name:>16s} {way:>10s} {seed:4d} {str(d['converged']):>9s} {d['n_steps']:6d} "
-                      f"{d['rhat_max']:6.3f} {share:9.3f} {seconds:6.1f}  {' + '.join(fit.model.terms)}")
+                print(
+                    f"{name:>16s} {way:>10s} {seed:4d} {str(d['converged']):>9s} {d['n_steps']:6d} "
+                    f"{d['rhat_max']:6.3f} {share:9.3f} {seconds:6.1f}  "
+                    f"{' + '.join(fit.model.terms)}"
+                )
                 if way == "relabel" and seed == 0:
                     check = fit
     _region_mass_by_importance(check)
 
 
 def _switched_off(variance, reference=None):
-    """Where the slower bias is switched off: its variance under a tenth of the median of ``reference``
-    (its posterior draws; ``variance`` itself by default)."""
+    """Where the slower bias is switched off: its variance under a tenth of the median of
+    ``reference`` (its posterior draws; ``variance`` itself by default)."""
     return variance < 0.1 * np.median(variance if reference is None else reference)
 
 
 def _region_mass_by_importance(fit, n_draws=200_000, rounds=3):
-    """The mass of the switched-off region by importance sampling, independent of the chain's weights: the
-    proposal is an equal mixture of two Student t (4 dof, covariance inflated 1.5^2, in the fit's logit
-    coordinates) fitted to the chain's draws in and out of the region; the self-normalised estimate and its
-    standard error, from ``rounds`` independent sets of draws."""
+    """The mass of the switched-off region by importance sampling, independent of the chain's
+    weights: the proposal is an equal mixture of two Student t (4 dof, covariance inflated 1.5^2, in
+    the fit's logit coordinates) fitted to the chain's draws in and out of the region; the
+    self-normalised estimate and its standard error, from ``rounds`` independent sets of draws."""
     from bayes_imu.inference import selection
 
     post, names = fit.chains.posterior, fit.model.parameter_names
@@ -382,18 +459,22 @@ def _region_mass_by_importance(fit, n_draws=200_000, rounds=3):
     for _ in range(rounds):
         first = rng.random(n_draws) < 0.5
         draws = np.where(first[:, None], parts[0].rvs(n_draws, rng), parts[1].rvs(n_draws, rng))
-        log_w = selection._log_density_u(post, draws) - np.logaddexp(np.log(0.5) + parts[0].logpdf(draws),
-                                                                      np.log(0.5) + parts[1].logpdf(draws))
+        log_w = selection._log_density_u(post, draws) - np.logaddexp(
+            np.log(0.5) + parts[0].logpdf(draws), np.log(0.5) + parts[1].logpdf(draws)
+        )
         w = np.exp(log_w - log_w.max())
         w /= w.sum()
         inside = _switched_off(np.exp(selection.to_phi(draws, post.bounds)[:, column]), draws_v2)
         share = float(np.sum(w * inside))
-        error = np.sqrt(np.sum(w**2 * (inside - share) ** 2))  # self-normalised estimate's standard error
+        # self-normalised estimate's standard error
+        error = np.sqrt(np.sum(w**2 * (inside - share) ** 2))
         print(f"  {share:.3f} +- {error:.3f} (effective draws {1 / np.sum(w**2):.0f})")
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--kernels", action="store_true")
     parser.add_argument("--figures", action="store_true")
     parser.add_argument("--modes", action="store_true")

@@ -24,7 +24,9 @@ TIMES = np.array([1.0, 10.0, 100.0])
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--n-logs", type=int, default=40)
     parser.add_argument("--bias-variance", type=float, default=1e-5)
     parser.add_argument("--likelihood", default="correlated")
@@ -53,17 +55,34 @@ def main(argv=None):
             warnings.simplefilter("ignore", ConvergenceWarning)
             res = fit_allan(allan, terms=model.terms, rng=rng, likelihood=args.likelihood)
         total = drift_draws(res, TIMES, quantity="attitude", bias_start="zero")["total"]
-        true = drift_sigma(TIMES, quantity="attitude", dt=0.01, noise_variance=truth["noise_variance"],
-                           bias_variance=truth["bias_variance"], time_constant=truth["time_constant"]).total
+        true = drift_sigma(
+            TIMES,
+            quantity="attitude",
+            dt=0.01,
+            noise_variance=truth["noise_variance"],
+            bias_variance=truth["bias_variance"],
+            time_constant=truth["time_constant"],
+        ).total
         product = res.draws("bias_variance") * res.draws("time_constant")
-        ranks.append([np.mean(product < truth["bias_variance"] * truth["time_constant"]), *np.mean(total < true, axis=0)])
+        ranks.append(
+            [
+                np.mean(product < truth["bias_variance"] * truth["time_constant"]),
+                *np.mean(total < true, axis=0),
+            ]
+        )
     ranks = np.array(ranks)
     cover = np.mean((ranks > 0.05) & (ranks < 0.95), axis=0)
-    print(f"{args.n_logs} logs, sigma_b^2 = {args.bias_variance:g}, likelihood {args.likelihood}, "
-          f"prior decades below {likelihood.PRIOR_DECADES_BELOW:g}, tau max {gauss_markov.BIAS_T_MAX_RECORD:g} record")
+    print(
+        f"{args.n_logs} logs, sigma_b^2 = {args.bias_variance:g}, likelihood {args.likelihood}, "
+        f"prior decades below {likelihood.PRIOR_DECADES_BELOW:g}, tau max "
+        f"{gauss_markov.BIAS_T_MAX_RECORD:g} record"
+    )
     print(f"90% coverage: sigma_b^2 T {cover[0]:.3f}; attitude band at {TIMES.tolist()} s: "
           + " / ".join(f"{c:.3f}" for c in cover[1:]))
-    print("rank histogram of sigma_b^2 T (10 bins):", np.histogram(ranks[:, 0], bins=10, range=(0, 1))[0].tolist())
+    print(
+        "rank histogram of sigma_b^2 T (10 bins):",
+        np.histogram(ranks[:, 0], bins=10, range=(0, 1))[0].tolist(),
+    )
     return 0
 
 

@@ -30,8 +30,19 @@ from pathlib import Path
 import numpy as np
 
 HELD_OUT_START = 100000
-_FLOATS = ("t_s", "truth", "q05", "q95", "model_q05", "model_q95", "rate_hz", "calibration_s", "direct_q05",
-           "direct_q95", "p_value")
+_FLOATS = (
+    "t_s",
+    "truth",
+    "q05",
+    "q95",
+    "model_q05",
+    "model_q95",
+    "rate_hz",
+    "calibration_s",
+    "direct_q05",
+    "direct_q95",
+    "p_value",
+)
 
 
 def _scenegen(path):
@@ -62,8 +73,10 @@ def run_scene(sg, family, seed, max_log2n, terms="auto"):
     check = bands.check
     direct = {}
     if check is not None:
-        direct = {float(t): (lo, hi, p) for t, lo, hi, p in zip(check.t_s, check.direct_low, check.direct_high,
-                                                                 check.p_value)}
+        direct = {
+            float(t): (lo, hi, p)
+            for t, lo, hi, p in zip(check.t_s, check.direct_low, check.direct_high, check.p_value)
+        }
     rows = []
     for i, (ti, tr) in enumerate(zip(bands.t_s, truth)):
         lo, hi, p = direct.get(float(ti), (np.nan, np.nan, np.nan))
@@ -80,8 +93,11 @@ def run_scene(sg, family, seed, max_log2n, terms="auto"):
 def summarise(rows):
     """Table lines: per family coverage (honest, model), SE, check rejection rate, width ratio."""
     fams = list(dict.fromkeys(r["family"] for r in rows))
-    lines = ["| family | logs | points | coverage | SE | model band alone | SE | check rejects | width ratio |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| family | logs | points | coverage | SE | model band alone | SE | check rejects | width "
+        "ratio |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     everything = []
     for fam in fams + ["all"]:
         mine = [r for r in rows if fam == "all" or r["family"] == fam]
@@ -90,14 +106,20 @@ def summarise(rows):
             hit = r["q05"] <= r["truth"] <= r["q95"]
             hit_m = r["model_q05"] <= r["truth"] <= r["model_q95"]
             width = (r["q95"] - r["q05"]) / max(r["model_q95"] - r["model_q05"], 1e-300)
-            logs.setdefault((r["family"], r["seed"]), []).append((hit, hit_m, width, r["check_rejects"]))
-        per = np.array([[np.mean([h[0] for h in v]), np.mean([h[1] for h in v])] for v in logs.values()])
+            logs.setdefault((r["family"], r["seed"]), []).append(
+                (hit, hit_m, width, r["check_rejects"])
+            )
+        per = np.array(
+            [[np.mean([h[0] for h in v]), np.mean([h[1] for h in v])] for v in logs.values()]
+        )
         widths = [h[2] for v in logs.values() for h in v]
         rejects = [v[0][3] for v in logs.values() if v[0][3] is not None]
         se = per.std(axis=0, ddof=1) / np.sqrt(len(per)) if len(per) > 1 else np.full(2, np.nan)
-        lines.append(f"| {fam} | {len(logs)} | {len(mine)} | {per[:, 0].mean():.3f} | {se[0]:.3f} | "
-                     f"{per[:, 1].mean():.3f} | {se[1]:.3f} | "
-                     f"{np.mean(rejects) if rejects else float('nan'):.2f} | {np.median(widths):.2f} |")
+        lines.append(
+            f"| {fam} | {len(logs)} | {len(mine)} | {per[:, 0].mean():.3f} | {se[0]:.3f} | "
+            f"{per[:, 1].mean():.3f} | {se[1]:.3f} | "
+            f"{np.mean(rejects) if rejects else float('nan'):.2f} | {np.median(widths):.2f} |"
+        )
         everything.append(per)
     return lines
 
@@ -107,14 +129,21 @@ def main(argv=None):
     parser.add_argument("--logs", type=int, default=12, help="scenes per family")
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--held-out", action="store_true", help=f"seeds from {HELD_OUT_START}")
-    parser.add_argument("--max-log2n", type=float, default=20.0, help="records of 2^16 to 2^this samples")
+    parser.add_argument(
+        "--max-log2n", type=float, default=20.0, help="records of 2^16 to 2^this samples"
+    )
     parser.add_argument("--families", default=None, help="comma-separated subset")
     parser.add_argument("--scenegen", type=Path, default=Path(__file__).resolve().parent)
-    parser.add_argument("--csv", type=Path, default=None, help="per-horizon rows (appended, resumable)")
+    parser.add_argument(
+        "--csv", type=Path, default=None, help="per-horizon rows (appended, resumable)"
+    )
     parser.add_argument("--summary-only", action="store_true", help="print the table of --csv")
-    parser.add_argument("--terms", default="auto",
-                        help="fit these terms (comma-separated) instead of selecting: a wrong model on purpose, "
-                             "for the drift-space check's power")
+    parser.add_argument(
+        "--terms",
+        default="auto",
+        help="fit these terms (comma-separated) instead of selecting: a wrong model on purpose, "
+        "for the drift-space check's power",
+    )
     args = parser.parse_args(argv)
     terms = "auto" if args.terms == "auto" else tuple(args.terms.split(","))
     rows = []
@@ -124,7 +153,9 @@ def main(argv=None):
             for r in csv.DictReader(f):
                 r = {k: (float(v) if k in _FLOATS else v) for k, v in r.items()}
                 r["seed"] = int(r["seed"])
-                r["check_rejects"] = None if r["check_rejects"] in ("", "None") else r["check_rejects"] == "True"
+                r["check_rejects"] = (
+                    None if r["check_rejects"] in ("", "None") else r["check_rejects"] == "True"
+                )
                 rows.append(r)
                 done.add((r["family"], r["seed"]))
     if not args.summary_only:
@@ -139,12 +170,18 @@ def main(argv=None):
                 try:
                     new = run_scene(sg, fam, seed, args.max_log2n, terms)
                 except ValueError as exc:  # the generator's own draw failed (reported, not counted)
-                    print(f"{fam:13s} seed {seed:6d} skipped: the generator failed ({exc})", flush=True)
+                    print(
+                        f"{fam:13s} seed {seed:6d} skipped: the generator failed ({exc})",
+                        flush=True,
+                    )
                     continue
                 rows += new
                 hits = sum(r["q05"] <= r["truth"] <= r["q95"] for r in new)
-                print(f"{fam:13s} seed {seed:6d} n {new[0]['n']:8d} {new[0]['model']:40s} covered {hits}/{len(new)} "
-                      f"({time.perf_counter() - began:.1f} s)", flush=True)
+                print(
+                    f"{fam:13s} seed {seed:6d} n {new[0]['n']:8d} {new[0]['model']:40s} covered "
+                    f"{hits}/{len(new)} ({time.perf_counter() - began:.1f} s)",
+                    flush=True,
+                )
                 if args.csv is not None:
                     fresh = not args.csv.exists()
                     with args.csv.open("a", newline="") as f:

@@ -52,7 +52,9 @@ def _frame(unit):
 
     import pandas as pd
 
-    return pd.read_csv(Path(os.environ.get("BAYES_IMU_SMAC", DATA)) / f"adis_16405_imu{unit}.csv.gz")
+    return pd.read_csv(
+        Path(os.environ.get("BAYES_IMU_SMAC", DATA)) / f"adis_16405_imu{unit}.csv.gz"
+    )
 
 
 def values(unit, axis):
@@ -127,17 +129,26 @@ def drift_consistent(posterior, y, calibration, rng):
 
 
 def fold(task):
-    """Population of the other units -> held-out unit h: drift and ADEV checks, and the single-unit contrast."""
+    """Population of the other units -> held-out unit h: drift and ADEV checks, and the single-unit
+    contrast."""
     from bayes_imu.inference.population import fit_population
 
     cache, units, axis, held, structure, calibration = task
     others = [u for u in units if u != held]
     fits = [unit_fit((cache, u, axis, "auto")) for u in others]
-    fits = [f if f.model.terms == structure else unit_fit((cache, u, axis, structure)) for u, f in zip(others, fits)]
+    fits = [
+        f if f.model.terms == structure else unit_fit((cache, u, axis, structure))
+        for u, f in zip(others, fits)
+    ]
     rng = np.random.default_rng(7919 * held + AXES.index(axis))
     wall, cpu = time.perf_counter(), time.process_time()
-    pop = fit_population([allan(u, axis) for u in others], labels=[f"imu{u}" for u in others], terms=structure,
-                         unit_fits=fits, rng=rng)
+    pop = fit_population(
+        [allan(u, axis) for u in others],
+        labels=[f"imu{u}" for u in others],
+        terms=structure,
+        unit_fits=fits,
+        rng=rng,
+    )
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     y = values(held, axis)
     target = allan(held, axis)
@@ -145,15 +156,28 @@ def fold(task):
     lo, hi = np.quantile(np.sqrt(avar), [0.05, 0.95], axis=0)
     adev_ok = (target.adev >= lo) & (target.adev <= hi)
     drift = drift_consistent(pop.new_unit, y, calibration, rng)
-    single = [drift_consistent(unit_fit((cache, u, axis, "auto")), y, calibration, rng) for u in others]
+    single = [
+        drift_consistent(unit_fit((cache, u, axis, "auto")), y, calibration, rng) for u in others
+    ]
     spread = {n: float(np.median(pop.spread[:, i])) for i, n in enumerate(pop.parameter_names)}
-    return {"axis": axis, "held_out": held, "structure": "+".join(structure), "drift": drift,
-            "single_consistent": [float(np.mean([s[i][3] for s in single])) for i in range(len(HORIZONS))],
-            "adev_consistent": float(adev_ok.mean()), "adev_points": int(adev_ok.size), "spread": spread,
-            "converged": bool(pop.diagnostics["converged"]),
-            "rhat_max": pop.diagnostics["rhat_max"], "ess_min": pop.diagnostics["ess_hyper_min"],
-            "n_par": len(pop.parameter_names),
-            "population_s": wall, "population_cpu_s": cpu}
+    return {
+        "axis": axis,
+        "held_out": held,
+        "structure": "+".join(structure),
+        "drift": drift,
+        "single_consistent": [
+            float(np.mean([s[i][3] for s in single])) for i in range(len(HORIZONS))
+        ],
+        "adev_consistent": float(adev_ok.mean()),
+        "adev_points": int(adev_ok.size),
+        "spread": spread,
+        "converged": bool(pop.diagnostics["converged"]),
+        "rhat_max": pop.diagnostics["rhat_max"],
+        "ess_min": pop.diagnostics["ess_hyper_min"],
+        "n_par": len(pop.parameter_names),
+        "population_s": wall,
+        "population_cpu_s": cpu,
+    }
 
 
 def all_units(cache, units, axis, structure):
@@ -179,12 +203,18 @@ def all_units(cache, units, axis, structure):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--calibration", type=float, default=60.0, help="calibration window (s)")
-    parser.add_argument("--cache", type=Path, default=Path("validate_population_cache"), help="fit cache folder")
+    parser.add_argument(
+        "--cache", type=Path, default=Path("validate_population_cache"), help="fit cache folder"
+    )
     parser.add_argument("--workers", type=int, default=1, help="processes for the fits")
     parser.add_argument("--quick", action="store_true", help="gyro_x of units 1-3 only")
-    parser.add_argument("--axes", default=",".join(AXES), help="comma-separated axes, default all six")
+    parser.add_argument(
+        "--axes", default=",".join(AXES), help="comma-separated axes, default all six"
+    )
     parser.add_argument("--csv", type=Path, help="also write the rows here")
-    parser.add_argument("--data", type=Path, default=DATA, help=f"folder of the ADIS16405 logs (default {DATA})")
+    parser.add_argument(
+        "--data", type=Path, default=DATA, help=f"folder of the ADIS16405 logs (default {DATA})"
+    )
     args = parser.parse_args(argv)
     if not args.data.exists():
         print(f"skipped: {args.data} not found")
@@ -203,7 +233,9 @@ def main(argv=None):
     start = time.perf_counter()
     results, rows, whole_units = [], [], []
     for a in axes:  # one axis at a time: a partial run gives whole axes
-        print(f"[{a}] single-unit fits, evidences, common structures, {len(units)} folds", flush=True)
+        print(
+            f"[{a}] single-unit fits, evidences, common structures, {len(units)} folds", flush=True
+        )
         autos = dict(zip(units, run(unit_fit, [(cache, u, a, "auto") for u in units])))
         structures = []
         for u in units:
@@ -214,9 +246,16 @@ def main(argv=None):
         folds = []
         for h in units:
             others = [u for u in units if u != h]
-            summed = [CandidateScore(s, sum(evid[u][s][0] for u in others),
-                                     float(np.sqrt(sum(evid[u][s][1] ** 2 for u in others))), np.nan, np.empty(0))
-                      for s in structures]
+            summed = [
+                CandidateScore(
+                    s,
+                    sum(evid[u][s][0] for u in others),
+                    float(np.sqrt(sum(evid[u][s][1] ** 2 for u in others))),
+                    np.nan,
+                    np.empty(0),
+                )
+                for s in structures
+            ]
             folds.append((cache, units, a, h, structures[select(summed)], args.calibration))
         every = [CandidateScore(s, sum(evid[u][s][0] for u in units),
                                 float(np.sqrt(sum(evid[u][s][1] ** 2 for u in units))), np.nan,
@@ -229,18 +268,37 @@ def main(argv=None):
         whole_units.append(all_units(cache, units, a, whole))
         for r in run(fold, folds):
             results.append(r)
-            cells = [f"{o:9.3g} [{lo:8.3g},{hi:8.3g}]{'' if ok else '*'}" for o, lo, hi, ok in r["drift"]]
-            print(f"{r['axis']:8s} {r['held_out']:4d} {r['structure']:40s} " + " ".join(cells)
-                  + f"  adev {r['adev_consistent']:4.0%} of {r['adev_points']}  single-unit "
-                  + " ".join(f"{v:.0%}" for v in r["single_consistent"])
-                  + f"  population: {r['n_par']} parameters, {r['population_s']:.1f} s "
-                  f"(CPU {r['population_cpu_s']:.1f} s), R-hat {r['rhat_max']:.3f}, ESS {r['ess_min']:.0f}"
-                  + ("" if r["converged"] else " NOT CONVERGED"), flush=True)
+            cells = [
+                f"{o:9.3g} [{lo:8.3g},{hi:8.3g}]{'' if ok else '*'}" for o, lo, hi, ok in r["drift"]
+            ]
+            print(
+                f"{r['axis']:8s} {r['held_out']:4d} {r['structure']:40s} "
+                + " ".join(cells)
+                + f"  adev {r['adev_consistent']:4.0%} of {r['adev_points']}  single-unit "
+                + " ".join(f"{v:.0%}" for v in r["single_consistent"])
+                + f"  population: {r['n_par']} parameters, {r['population_s']:.1f} s "
+                f"(CPU {r['population_cpu_s']:.1f} s), R-hat {r['rhat_max']:.3f}, ESS "
+                f"{r['ess_min']:.0f}"
+                + ("" if r["converged"] else " NOT CONVERGED"),
+                flush=True,
+            )
             for (o, lo, hi, ok), h, single in zip(r["drift"], HORIZONS, r["single_consistent"]):
-                rows.append({"axis": r["axis"], "held_out": r["held_out"], "horizon_s": h, "observed_rms": o,
-                             "q05": lo, "q95": hi, "consistent": ok, "single_unit_consistent": single,
-                             "adev_consistent": r["adev_consistent"], "structure": r["structure"],
-                             "spread": json.dumps(r["spread"]), "converged": r["converged"]})
+                rows.append(
+                    {
+                        "axis": r["axis"],
+                        "held_out": r["held_out"],
+                        "horizon_s": h,
+                        "observed_rms": o,
+                        "q05": lo,
+                        "q95": hi,
+                        "consistent": ok,
+                        "single_unit_consistent": single,
+                        "adev_consistent": r["adev_consistent"],
+                        "structure": r["structure"],
+                        "spread": json.dumps(r["spread"]),
+                        "converged": r["converged"],
+                    }
+                )
     if pool:
         pool.shutdown()
     ok = np.array([r["consistent"] for r in rows])
@@ -250,13 +308,17 @@ def main(argv=None):
           f"(unit, axis, horizon) points = {ok.mean():.1%}")
     for h in HORIZONS:
         sel = np.array([r["horizon_s"] == h for r in rows])
-        print(f"  horizon {h:g} s: {ok[sel].mean():.1%} (single-unit bands: {single[sel].mean():.1%})")
+        print(
+            f"  horizon {h:g} s: {ok[sel].mean():.1%} (single-unit bands: {single[sel].mean():.1%})"
+        )
     for kind in ("gyro", "accel"):
         sel = np.array([r["axis"].startswith(kind) for r in rows])
         if sel.any():
             print(f"  {kind}: {ok[sel].mean():.1%} (single-unit bands: {single[sel].mean():.1%})")
     print(f"single-unit bands (each of the other units alone) consistent: {single.mean():.1%}")
-    print(f"held-out Allan deviation inside the new-unit 90% band: {adev.mean():.1%} of cluster sizes")
+    print(
+        f"held-out Allan deviation inside the new-unit 90% band: {adev.mean():.1%} of cluster sizes"
+    )
     for w in whole_units:
         print(f"population of every unit, {w['axis']}: {w['population_s']:.1f} s "
               f"(CPU {w['population_cpu_s']:.1f} s), "
@@ -265,14 +327,18 @@ def main(argv=None):
     converged = sum(r["converged"] for r in results)
     times = np.array([r["population_s"] for r in results])
     cpu = np.array([r["population_cpu_s"] for r in results])
-    print(f"population samplers converged (R-hat < 1.01, ESS > 400 per hyper-parameter): {converged} of "
-          f"{len(results)}; population fits {np.median(times):.1f} s median, {times.max():.1f} s at most "
-          f"(CPU {np.median(cpu):.1f} s median, {cpu.max():.1f} s at most)")
+    print(
+        f"population samplers converged (R-hat < 1.01, ESS > 400 per hyper-parameter): {converged} "
+        f"of {len(results)}; population fits {np.median(times):.1f} s median, {times.max():.1f} s "
+        f"at most (CPU {np.median(cpu):.1f} s median, {cpu.max():.1f} s at most)"
+    )
     print(f"wall time of this run: {time.perf_counter() - start:.0f} s")
     if args.csv:
         write_rows(args.csv, rows)
     if converged < len(results):
-        print(f"error: {len(results) - converged} population fit(s) did not converge", file=sys.stderr)
+        print(
+            f"error: {len(results) - converged} population fit(s) did not converge", file=sys.stderr
+        )
         return 1
     return 0
 

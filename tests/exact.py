@@ -68,10 +68,12 @@ def mpmath_variance(order, k, a, *, prec=400):
 
 
 def fraction_variance_dt(order, k, *, dt, tau, q=1):
-    """Gauss-Markov variance of state ``order`` after ``k`` steps with an explicit time step, exactly.
+    """Gauss-Markov variance of state ``order`` after ``k`` steps with an explicit time step,
+    exactly.
 
     The paper's recursion with dt written out (no scaling argument): ``b_k = (1 - dt/tau) b_{k-1}
-    + dt w_{k-1}`` with ``var(w) = q``, ``v_k = v_{k-1} + dt b_{k-1}``, ``p_k = p_{k-1} + dt v_{k-1}``;
+    + dt w_{k-1}`` with ``var(w) = q``, ``v_k = v_{k-1} + dt b_{k-1}``, ``p_k = p_{k-1} + dt
+      v_{k-1}``;
     ``dt``, ``tau`` and ``q`` are converted to fractions without rounding.
     """
     dt, q = Fraction(dt), Fraction(q)

@@ -1,5 +1,5 @@
-"""Model adequacy: the goodness-of-fit p-value is uniform when the model is right, tiny when it is not,
-and posteriors piled against a prior bound are flagged."""
+"""Model adequacy: the goodness-of-fit p-value is uniform when the model is right, tiny when it is
+not, and posteriors piled against a prior bound are flagged."""
 
 import dataclasses
 
@@ -41,7 +41,8 @@ def test_p_value_uniform_when_model_is_right(rng):
 
 
 def test_wrong_model_is_inadequate(rng):
-    """White noise alone fitted to a white + Gauss-Markov log: p below 1e-6, worst tau near the bias."""
+    """White noise alone fitted to a white + Gauss-Markov log: p below 1e-6, worst tau near the
+    bias."""
     model, allan, post, chol, mean = _likelihood(rng)
     white = NoiseModel(("white",), DT)
     wrong = LogPosterior.build(white, allan, reference=TRUTH | {"_model": model})
@@ -54,8 +55,17 @@ def test_prior_bound_flagged():
     """Draws piled in the outer 2% of a box edge are named; draws in the middle are not."""
     model = NoiseModel(("white", "gauss_markov"), DT)
     bounds = np.array([[-10.0, 0.0], [-20.0, -5.0], [np.log(3 * DT), np.log(100.0)]])
-    post = LogPosterior(model, bounds, np.array([1, 2, 4]), np.zeros(3), "independent", np.eye(3), np.zeros(3),
-                        np.ones(3), 0.0)
+    post = LogPosterior(
+        model,
+        bounds,
+        np.array([1, 2, 4]),
+        np.zeros(3),
+        "independent",
+        np.eye(3),
+        np.zeros(3),
+        np.ones(3),
+        0.0,
+    )
     inside = np.column_stack([np.full(100, -5.0), np.full(100, -12.0), np.full(100, 0.0)])
     assert at_prior_bound(post, inside) == ()
     piled = inside.copy()

@@ -66,8 +66,14 @@ def test_phase_dat_all_tau_sigmas_to_printed_precision():
 @pytest.mark.parametrize(
     "parts, phase",
     [
-        (("allantools", "phasedat", "phase_dat_oadev_octave.txt"), ("allantools", "phasedat", "PHASE.DAT")),
-        (("allantools", "keysight53230A_tic", "tic_oadev.txt"), ("allantools", "keysight53230A_tic", "tic_phase.txt")),
+        (
+            ("allantools", "phasedat", "phase_dat_oadev_octave.txt"),
+            ("allantools", "phasedat", "PHASE.DAT"),
+        ),
+        (
+            ("allantools", "keysight53230A_tic", "tic_oadev.txt"),
+            ("allantools", "keysight53230A_tic", "tic_phase.txt"),
+        ),
         (("allantools", "pink_frequency", "s32_oadev_octave.txt"), None),
     ],
 )
@@ -134,7 +140,9 @@ def test_large_offset_tiny_noise_is_exact(rng):
     """
     lsb = 2.0**-24
     n = 2_000_000
-    counts = np.round(9.81 / lsb) + np.round(rng.standard_normal(n) * 170 + np.cumsum(rng.standard_normal(n)) * 0.05)
+    counts = np.round(9.81 / lsb) + np.round(
+        rng.standard_normal(n) * 170 + np.cumsum(rng.standard_normal(n)) * 0.05
+    )
     counts = counts.astype(np.int64)
     y = counts * lsb
     result = allan_variance(y, rate_hz=100.0, m=[1, 16, 1024, 100_000], alpha=0)
@@ -161,7 +169,11 @@ def test_scaling_offset_and_sign_properties(scale, offset, seed):
     # the input scale*y + offset is itself rounded to spacing(offset), relative to the noise scale
     input_rounding = np.spacing(abs(offset) + scale * 5) / scale
     np.testing.assert_allclose(moved.avar, scale**2 * base.avar, rtol=1e-11 + 4 * input_rounding)
-    assert np.all(base.avar >= 0) and np.all(base.avar_low <= base.avar) and np.all(base.avar <= base.avar_high)
+    assert (
+        np.all(base.avar >= 0)
+        and np.all(base.avar_low <= base.avar)
+        and np.all(base.avar <= base.avar_high)
+    )
 
 
 def test_grids():
@@ -213,18 +225,21 @@ def test_interval_coverage_white_noise(rng):
 
 
 def test_thread_count_follows_the_record_and_changes_no_bit(rng, monkeypatch):
-    """One thread below SAMPLES_PER_THREAD samples, numba's pool for long records; the sums are per fixed
-    block and the blocks are added in a fixed order, so any thread count gives the same bits (the same
-    seed gives the same numbers on any machine)."""
+    """One thread below SAMPLES_PER_THREAD samples, numba's pool for long records; the sums are per
+    fixed block and the blocks are added in a fixed order, so any thread count gives the same bits
+    (the same seed gives the same numbers on any machine)."""
     import numba
 
     from bayes_imu.allan import kernels
 
-    assert kernels.threads_for(1000) == 1 and kernels.threads_for(kernels.SAMPLES_PER_THREAD - 1) == 1
+    assert (
+        kernels.threads_for(1000) == 1 and kernels.threads_for(kernels.SAMPLES_PER_THREAD - 1) == 1
+    )
     assert kernels.threads_for(10**12) == numba.config.NUMBA_NUM_THREADS
     # a record the JIT kernels sum (shorter ones go to the precompiled kernels, on one thread)
     x = kernels.phase_from_rate(rng.standard_normal(kernels.PRECOMPILED_BELOW + 1000), 0.0)
-    ms = np.array([1, 4, 16, 1000, 40_000, 65_536, 131_072, 196_608])  # whole blocks summed by residues
+    # whole blocks summed by residues
+    ms = np.array([1, 4, 16, 1000, 40_000, 65_536, 131_072, 196_608])
     one = kernels.second_difference_sums(x, ms)
     before = numba.get_num_threads()
     for n in range(2, numba.config.NUMBA_NUM_THREADS + 1):
@@ -243,7 +258,26 @@ def test_one_pass_sums_of_every_size_against_exact_sums(rng):
     from bayes_imu.allan import kernels
 
     x = kernels.phase_from_rate(rng.standard_normal(400_000) + 0.3, 0.3)
-    ms = np.array([1, 2, 4, 8, 3, 1000, 65_535, 65_536, 65_537, 131_072, 7, 99_999, 4096, 8192, 16_384, 32_768])
+    ms = np.array(
+        [
+            1,
+            2,
+            4,
+            8,
+            3,
+            1000,
+            65_535,
+            65_536,
+            65_537,
+            131_072,
+            7,
+            99_999,
+            4096,
+            8192,
+            16_384,
+            32_768,
+        ]
+    )
     got = kernels.second_difference_sums(x, ms)
     for m, value in zip(ms, got):
         d = x[2 * m:] - 2.0 * x[m:x.size - m] + x[:x.size - 2 * m]
@@ -251,11 +285,12 @@ def test_one_pass_sums_of_every_size_against_exact_sums(rng):
 
 
 def test_long_record_running_sum_is_near_exact_on_any_number_of_threads(rng, monkeypatch):
-    """The running sum of a record the JIT kernels sum (block sums about each block's first sample, their
-    compensated bases, the blocks filled on threads): the same bits on any number of threads, allan_sums'
-    own running sum bit for bit, within a few ulp of the exact prefix sums all along the record (a large
-    offset; data exact multiples of 2**-20, so the prefix sums are exact integers and one rational), and
-    within a few ulp of the sequential pass's (phase_chunk, which rounds the block totals differently)."""
+    """The running sum of a record the JIT kernels sum (block sums about each block's first sample,
+    their compensated bases, the blocks filled on threads): the same bits on any number of threads,
+    allan_sums' own running sum bit for bit, within a few ulp of the exact prefix sums all along the
+    record (a large offset; data exact multiples of 2**-20, so the prefix sums are exact integers
+    and one rational), and within a few ulp of the sequential pass's (phase_chunk, which rounds the
+    block totals differently)."""
     from fractions import Fraction
 
     import numba
@@ -276,16 +311,22 @@ def test_long_record_running_sum_is_near_exact_on_any_number_of_threads(rng, mon
     step = Fraction(5e6) - Fraction(offset)
     for i in list(range(0, n + 1, 9_973)) + [n]:
         exact = Fraction(int(prefix[i]), 2**20) + i * step
-        assert abs(Fraction(float(x[i])) - exact) <= 4 * abs(exact) * Fraction(2) ** -52 + Fraction(2) ** -40, i
+        assert (
+            abs(Fraction(float(x[i])) - exact)
+            <= 4 * abs(exact) * Fraction(2) ** -52 + Fraction(2) ** -40
+        ), i
     sequential = kernels.phase_chunk(y, offset, np.zeros(2))
-    np.testing.assert_allclose(x[1:], sequential, rtol=0, atol=8 * np.finfo(float).eps * np.max(np.abs(x)))
+    np.testing.assert_allclose(
+        x[1:], sequential, rtol=0, atol=8 * np.finfo(float).eps * np.max(np.abs(x))
+    )
 
 
 def test_fused_fill_and_sums_on_any_number_of_runs(rng):
-    """phase_and_sums (each thread fills a run of tiles and sums the sizes below a tile behind its fill) gives
-    phase_blocks' running sum and sums_all's sums of the same sizes bit for bit, on 1 to 7 runs, whichever
-    tiles are summed behind the fill and which after it (a run's first and last tiles), on a record that is
-    not a whole number of tiles; one to two tiles of lag (the largest size's reach)."""
+    """phase_and_sums (each thread fills a run of tiles and sums the sizes below a tile behind its
+    fill) gives phase_blocks' running sum and sums_all's sums of the same sizes bit for bit, on 1 to
+    7 runs, whichever tiles are summed behind the fill and which after it (a run's first and last
+    tiles), on a record that is not a whole number of tiles; one to two tiles of lag (the largest
+    size's reach)."""
     from bayes_imu.allan import kernels
 
     jit = kernels._compile()
@@ -310,10 +351,10 @@ def test_fused_fill_and_sums_on_any_number_of_runs(rng):
 
 @pytest.mark.parametrize("extra", [0, 1, 200, 65_535])
 def test_residue_sums_of_whole_block_sizes_are_exact_on_any_number_of_threads(rng, extra):
-    """residue_sums (the sizes that are whole blocks, from a buffer of residue rows) equal each size's sum of
-    squared second differences added exactly (math.fsum) to 1e-13, the largest size reaching the record's last
-    sample, records ending anywhere in a row (the last, partial row), octave runs and odd multiples; the same
-    bits on 1, 2 and 5 threads."""
+    """residue_sums (the sizes that are whole blocks, from a buffer of residue rows) equal each
+    size's sum of squared second differences added exactly (math.fsum) to 1e-13, the largest size
+    reaching the record's last sample, records ending anywhere in a row (the last, partial row),
+    octave runs and odd multiples; the same bits on 1, 2 and 5 threads."""
     import math
 
     from bayes_imu.allan import kernels
@@ -327,14 +368,17 @@ def test_residue_sums_of_whole_block_sizes_are_exact_on_any_number_of_threads(rn
         d = x[2 * m:] - 2.0 * x[m:x.size - m] + x[:x.size - 2 * m]
         assert value == pytest.approx(math.fsum(d * d), rel=1e-13)
     for threads in (1, 5):
-        np.testing.assert_array_equal(kernels._compile()["residue_sums"](x, ms, period, kernels._RESIDUES, threads), got)
+        np.testing.assert_array_equal(
+            kernels._compile()["residue_sums"](x, ms, period, kernels._RESIDUES, threads), got
+        )
 
 
 def test_allan_sums_is_the_running_sum_and_its_sums(rng):
-    """allan_sums is phase_from_rate(y, record_mean(y)) and second_difference_sums of it: bit for bit on a
-    record the precompiled kernels sum (the same three calls) and on a long one (one read for the mean and the
-    block sums, the small sizes fused with the fill, the whole-block sizes by residues), on an octave grid with
-    sizes on both sides of a block, and with progress reported for every size."""
+    """allan_sums is phase_from_rate(y, record_mean(y)) and second_difference_sums of it: bit for
+    bit on a record the precompiled kernels sum (the same three calls) and on a long one (one read
+    for the mean and the block sums, the small sizes fused with the fill, the whole-block sizes by
+    residues), on an octave grid with sizes on both sides of a block, and with progress reported for
+    every size."""
     from bayes_imu.allan import kernels
 
     for n in (300_000, kernels.PRECOMPILED_BELOW + 777):
@@ -351,9 +395,10 @@ def test_allan_sums_is_the_running_sum_and_its_sums(rng):
 
 @pytest.mark.parametrize("extra", [0, 12_345])
 def test_record_mean_is_the_exact_mean_on_any_number_of_threads(rng, monkeypatch, extra):
-    """record_mean of a record the JIT kernels sum (block sums about each block's first sample on threads,
-    added with those samples in a compensated sum) is within 4 ulp of the exact rational mean, on a large offset with noise, the same bits on 1 or more threads;
-    a short record's mean is numpy's."""
+    """record_mean of a record the JIT kernels sum (block sums about each block's first sample on
+    threads, added with those samples in a compensated sum) is within 4 ulp of the exact rational
+    mean, on a large offset with noise, the same bits on 1 or more threads; a short record's mean is
+    numpy's."""
     from fractions import Fraction
 
     import numba
@@ -385,8 +430,8 @@ def test_scaled_is_the_allan_variance_of_the_scaled_log(rng):
 
 
 def test_chi2_interval_is_scipy_stats_chi2():
-    """The interval's chi-squared quantiles (taken from scipy.special, so that the Allan variance does
-    not import scipy.stats) are scipy.stats.chi2's, from 0.5 to 1e7 degrees of freedom."""
+    """The interval's chi-squared quantiles (taken from scipy.special, so that the Allan variance
+    does not import scipy.stats) are scipy.stats.chi2's, from 0.5 to 1e7 degrees of freedom."""
     from scipy import stats
 
     from bayes_imu.allan.estimator import chi2_interval
@@ -401,17 +446,20 @@ def test_chi2_interval_is_scipy_stats_chi2():
 
 
 def test_precompiled_kernels_agree_with_the_jit_build(rng):
-    """The ahead-of-time build (``bayes_imu._compiled``, setup.py) of the same sources as numba's JIT build:
-    built wherever numba has its AOT compiler; the running sums, lag sums, Gauss-Markov AVAR rows and the
-    drift grid (both orders, bias and stationary parts) bit for bit (strict IEEE arithmetic in both), the
-    fast-math sums of squares to 1e-14 relative (the two builds vectorise them for different CPUs)."""
+    """The ahead-of-time build (``bayes_imu._compiled``, setup.py) of the same sources as numba's
+    JIT build: built wherever numba has its AOT compiler; the running sums, lag sums, Gauss-Markov
+    AVAR rows and the drift grid (both orders, bias and stationary parts) bit for bit (strict IEEE
+    arithmetic in both), the fast-math sums of squares to 1e-14 relative (the two builds vectorise
+    them for different CPUs)."""
     import importlib.util
 
     from bayes_imu.allan import _sources, kernels
     from bayes_imu.noise._sources import avar_rows
 
     if importlib.util.find_spec("numba.pycc") is not None:
-        assert kernels.precompiled() is not None, "numba has its AOT compiler but bayes_imu._compiled was not built"
+        assert kernels.precompiled() is not None, (
+            "numba has its AOT compiler but bayes_imu._compiled was not built"
+        )
     aot = kernels.precompiled()
     if aot is None:
         pytest.skip("this numba has no AOT compiler: every kernel is JIT-compiled")
@@ -424,11 +472,20 @@ def test_precompiled_kernels_agree_with_the_jit_build(rng):
     jit["phase_chunk"](y, 7.0, b, 256, np.zeros(2))
     np.testing.assert_array_equal(a, b)
     ms = np.array([1, 2, 4, 8, 16, 1024, 65_536, 70_001], dtype=np.int64)
-    np.testing.assert_allclose(aot.sums_all(a, ms, 1 << 16), jit["sums_all"](a, ms, 1 << 16), rtol=1e-14)
+    np.testing.assert_allclose(
+        aot.sums_all(a, ms, 1 << 16), jit["sums_all"](a, ms, 1 << 16), rtol=1e-14
+    )
     assert aot.sum3(a[:-20], a[10:-10], a[20:], 1 << 14) == pytest.approx(
         jit["sum3"](a[:-20], a[10:-10], a[20:], 1 << 14), rel=1e-14)
     table = np.cumsum(rng.random(4 * 64 + 1))
-    args = (table, np.array([1, 4, 16, 64], dtype=np.int64), 5000, 0.3, np.array([0.5, 2.0]), np.array([1e-3, 0.2]))
+    args = (
+        table,
+        np.array([1, 4, 16, 64], dtype=np.int64),
+        5000,
+        0.3,
+        np.array([0.5, 2.0]),
+        np.array([1e-3, 0.2]),
+    )
     np.testing.assert_array_equal(aot.pair_sums(*args), jit["pair_sums"](*args))
     mf = np.array([1.0, 2.0, 4.0, 64.0, 4096.0])
     x = np.array([1e-9, 1e-4, 0.3, 5.0])
@@ -439,9 +496,19 @@ def test_precompiled_kernels_agree_with_the_jit_build(rng):
     aot.avar_rows(*rows, out_aot)
     numba.njit(avar_rows)(*rows, out_jit)
     np.testing.assert_array_equal(out_aot, out_jit)
-    # the running sums are strict IEEE (fast-math would optimise their compensation away), the fused fill too
-    running = {"phase_chunk", "centred_sums", "centred_mean", "centred_bases", "fill_blocks", "phase_blocks"}
-    assert not running & set(_sources.FASTMATH) and not _sources.fill_blocks_compiled.targetoptions.get("fastmath")
+    # the running sums are strict IEEE (fast-math would optimise their compensation away), the fused
+    # fill too
+    running = {
+        "phase_chunk",
+        "centred_sums",
+        "centred_mean",
+        "centred_bases",
+        "fill_blocks",
+        "phase_blocks",
+    }
+    assert not running & set(
+        _sources.FASTMATH
+    ) and not _sources.fill_blocks_compiled.targetoptions.get("fastmath")
     from bayes_imu.noise import _sources as noise_sources
     from bayes_imu.noise.euler_sums import SWITCH, _random_walk, series_coefficients
 
@@ -450,21 +517,37 @@ def test_precompiled_kernels_agree_with_the_jit_build(rng):
     a = np.concatenate([10 ** rng.uniform(-12, -1e-3, 300), [0.5, 0.999999]])
     log_abs = np.log1p(-a)
     scales = [rng.random(a.size), rng.random(a.size) * (rng.random(a.size) < 0.5)]
-    extra = [rng.random((2, a.size)), rng.random((2, k.size)), rng.random((1, a.size)), rng.random((1, k.size))]
+    extra = [
+        rng.random((2, a.size)),
+        rng.random((2, k.size)),
+        rng.random((1, a.size)),
+        rng.random((1, k.size)),
+    ]
     for order in (1, 2):
         outputs = []
         for kernel in (aot.drift_rows, jit_drift):
             total, bias = np.empty((k.size, a.size)), np.empty((k.size, a.size))
-            kernel(order, k, a, log_abs, series_coefficients(order, k), _random_walk(order, k), float(SWITCH[order]),
-                   *scales, *extra, total, bias)
+            kernel(
+                order,
+                k,
+                a,
+                log_abs,
+                series_coefficients(order, k),
+                _random_walk(order, k),
+                float(SWITCH[order]),
+                *scales,
+                *extra,
+                total,
+                bias,
+            )
             outputs.append((total, bias))
         np.testing.assert_array_equal(outputs[0][0], outputs[1][0])
         np.testing.assert_array_equal(outputs[0][1], outputs[1][1])
 
 
 def test_compiled_kernel_takes_the_precompiled_build_or_compiles_what_it_lacks(monkeypatch):
-    """compiled_kernel: the extension's kernel where it has it; a kernel an older in-place build lacks is
-    JIT-compiled from its source module instead (the same values)."""
+    """compiled_kernel: the extension's kernel where it has it; a kernel an older in-place build
+    lacks is JIT-compiled from its source module instead (the same values)."""
     import types
 
     import numba
@@ -474,6 +557,7 @@ def test_compiled_kernel_takes_the_precompiled_build_or_compiles_what_it_lacks(m
     aot = kernels.precompiled()
     if aot is not None:
         assert kernels.compiled_kernel("avar_rows", "bayes_imu.noise._sources") is aot.avar_rows
-    monkeypatch.setattr(kernels, "precompiled", lambda: types.SimpleNamespace())  # built before drift_rows existed
+    # built before drift_rows existed
+    monkeypatch.setattr(kernels, "precompiled", lambda: types.SimpleNamespace())
     jit = kernels.compiled_kernel("drift_rows", "bayes_imu.noise._sources", parallel=True)
     assert isinstance(jit, numba.core.registry.CPUDispatcher)

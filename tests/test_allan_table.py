@@ -14,14 +14,16 @@ IMU_UTILS = Path(__file__).resolve().parents[2] / "shared" / "data_real" / "imu_
 
 
 def test_table_of_a_log_fits_like_the_log():
-    """White noise: the table (tau, adev, sample count) gives the same posterior as the log itself."""
+    """White noise: the table (tau, adev, sample count) gives the same posterior as the log
+    itself."""
     rng = np.random.default_rng(0)
     y = 0.01 * rng.standard_normal(2**16)
     log = allan_variance(y, rate_hz=100.0)
     table, assumption = allan_from_table(log.tau, log.adev, rate_hz=100.0, n_samples=y.size)
     assert "Greenhall" in assumption
     np.testing.assert_array_equal(table.m, log.m)
-    # the slope of a white-noise table reads alpha = 0 (white rate) wherever the log's own identification does
+    # the slope of a white-noise table reads alpha = 0 (white rate) wherever the log's own
+    # identification does
     same = log.alpha == table.alpha
     assert same.mean() > 0.7
     np.testing.assert_allclose(table.edf[same], log.edf[same], rtol=1e-12)
@@ -68,8 +70,25 @@ def test_fit_allan_table_command(tmp_path, capsys):
     path = tmp_path / "adev.csv"
     path.write_text("tau,adev\n" + "".join(f"{t:.9g},{a:.9g}\n" for t, a in zip(log.tau, log.adev)))
     out = tmp_path / "fit"
-    assert main(["fit", "--allan-table", str(path), "--rate", "100", "--units", "deg/s", "--terms", "white",
-                 "--out", str(out), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                "--allan-table",
+                str(path),
+                "--rate",
+                "100",
+                "--units",
+                "deg/s",
+                "--terms",
+                "white",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     import json
 
     summary = json.loads((out / "summary.json").read_text())
@@ -78,15 +97,29 @@ def test_fit_allan_table_command(tmp_path, capsys):
     assert density == pytest.approx(0.5 * np.pi / 180 * 0.1, rel=0.1)  # sigma * deg * sqrt(dt)
     assert main(["fit", "--allan-table", str(path), "--out", str(tmp_path / "x")]) == 2
     assert "--rate" in capsys.readouterr().err
-    assert main(["fit", str(path), "--allan-table", str(path), "--rate", "100", "--out", str(tmp_path / "y")]) == 2
+    assert (
+        main(
+            [
+                "fit",
+                str(path),
+                "--allan-table",
+                str(path),
+                "--rate",
+                "100",
+                "--out",
+                str(tmp_path / "y"),
+            ]
+        )
+        == 2
+    )
     assert "not both" in capsys.readouterr().err
 
 
 @pytest.mark.slow
 @pytest.mark.skipif(not IMU_UTILS.exists(), reason="../shared/data_real/imu_utils not present")
 def test_imu_utils_table_of_the_adis16448_matches_euroc(tmp_path):
-    """imu_utils' ADIS16448 gyro x table (deg/h, 200 Hz, 2 h): the noise density fitted from the table
-    agrees with the EuRoC / Kalibr value 1.6968e-4 rad/s/sqrt(Hz) to 10%."""
+    """imu_utils' ADIS16448 gyro x table (deg/h, 200 Hz, 2 h): the noise density fitted from the
+    table agrees with the EuRoC / Kalibr value 1.6968e-4 rad/s/sqrt(Hz) to 10%."""
     t = np.loadtxt(IMU_UTILS / "data_16448_gyr_t.txt")
     a = np.loadtxt(IMU_UTILS / "data_16448_gyr_x.txt") * np.pi / 180 / 3600
     table, _ = allan_from_table(t, a, rate_hz=200.0, n_samples=200 * 7200)
@@ -95,24 +128,94 @@ def test_imu_utils_table_of_the_adis16448_matches_euroc(tmp_path):
 
 
 def test_increments_equal_rates(tmp_path, capsys):
-    """Delta angles in deg per sample, --input increments --units deg: the same Allan deviation (rad/s)
-    as the rates in deg/s."""
+    """Delta angles in deg per sample, --input increments --units deg: the same Allan deviation
+    (rad/s) as the rates in deg/s."""
     rng = np.random.default_rng(3)
     rate = rng.standard_normal(4096) * 0.2 + 1.0
     dt = 0.005
     (tmp_path / "rate.csv").write_text("w\n" + "".join(f"{v:.12g}\n" for v in rate))
     (tmp_path / "inc.csv").write_text("d\n" + "".join(f"{v * dt:.12g}\n" for v in rate))
-    assert main(["allan", str(tmp_path / "rate.csv"), "--column", "w", "--rate", "200", "--units", "deg/s",
-                 "--out", str(tmp_path / "a"), "--quiet"]) == 0
-    assert main(["allan", str(tmp_path / "inc.csv"), "--column", "d", "--rate", "200", "--input", "increments",
-                 "--units", "deg", "--out", str(tmp_path / "b"), "--quiet"]) == 0
-    a = np.genfromtxt(tmp_path / "a" / "allan.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
-    b = np.genfromtxt(tmp_path / "b" / "allan.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    assert (
+        main(
+            [
+                "allan",
+                str(tmp_path / "rate.csv"),
+                "--column",
+                "w",
+                "--rate",
+                "200",
+                "--units",
+                "deg/s",
+                "--out",
+                str(tmp_path / "a"),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "allan",
+                str(tmp_path / "inc.csv"),
+                "--column",
+                "d",
+                "--rate",
+                "200",
+                "--input",
+                "increments",
+                "--units",
+                "deg",
+                "--out",
+                str(tmp_path / "b"),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    a = np.genfromtxt(
+        tmp_path / "a" / "allan.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
+    )
+    b = np.genfromtxt(
+        tmp_path / "b" / "allan.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
+    )
     np.testing.assert_allclose(b["adev"], a["adev"], rtol=1e-9)
     assert set(b["unit"]) == {"rad/s"}
-    assert main(["allan", str(tmp_path / "inc.csv"), "--column", "d", "--rate", "200", "--units", "deg",
-                 "--out", str(tmp_path / "c")]) == 2
+    assert (
+        main(
+            [
+                "allan",
+                str(tmp_path / "inc.csv"),
+                "--column",
+                "d",
+                "--rate",
+                "200",
+                "--units",
+                "deg",
+                "--out",
+                str(tmp_path / "c"),
+            ]
+        )
+        == 2
+    )
     assert "--input increments" in capsys.readouterr().err
-    assert main(["allan", str(tmp_path / "inc.csv"), "--column", "d", "--rate", "200", "--input", "increments",
-                 "--units", "deg/s", "--out", str(tmp_path / "d")]) == 2
+    assert (
+        main(
+            [
+                "allan",
+                str(tmp_path / "inc.csv"),
+                "--column",
+                "d",
+                "--rate",
+                "200",
+                "--input",
+                "increments",
+                "--units",
+                "deg/s",
+                "--out",
+                str(tmp_path / "d"),
+            ]
+        )
+        == 2
+    )
     assert "increments (--input increments) take" in capsys.readouterr().err

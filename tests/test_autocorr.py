@@ -1,4 +1,5 @@
-"""Autocorrelation identification (paper eq 4, Fig 1): simulated Markov data sigma^2 = 4, tau = 300 s."""
+"""Autocorrelation identification (paper eq 4, Fig 1): simulated Markov data sigma^2 = 4, tau = 300
+s."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,5 @@
-"""Covariance of overlapping AVAR estimates: against brute-force Isserlis sums and Greenhall's EDF."""
+"""Covariance of overlapping AVAR estimates: against brute-force Isserlis sums and Greenhall's
+EDF."""
 
 import numpy as np
 import pytest
@@ -20,7 +21,9 @@ def rate_covariance(term, p):
     if term == "white":
         return p["noise_variance"] * np.eye(N)
     if term == "gauss_markov":
-        return p["bias_variance"] * np.exp(-np.abs(i[:, None] - i[None, :]) * DT / p["time_constant"])
+        return p["bias_variance"] * np.exp(
+            -np.abs(i[:, None] - i[None, :]) * DT / p["time_constant"]
+        )
     if term == "random_walk":
         return p["rate_random_walk"] ** 2 * DT * (np.minimum(i[:, None], i[None, :]) + 1)
     if term == "quantization":
@@ -33,7 +36,8 @@ def rate_covariance(term, p):
 
 
 def brute_force(sigma):
-    """Cov(avar_a, avar_b) = 2 tr(A_a S A_b S), A_m the quadratic form of the estimator (Isserlis)."""
+    """Cov(avar_a, avar_b) = 2 tr(A_a S A_b S), A_m the quadratic form of the estimator
+    (Isserlis)."""
     forms = []
     for m in MS:
         rows = N - 2 * m + 1
@@ -47,10 +51,15 @@ def brute_force(sigma):
 
 @pytest.mark.parametrize(
     "terms, rtol",
-    [(("white",), 1e-12), (("gauss_markov",), 1e-12), (("random_walk",), 1e-12), (("quantization",), 1e-12),
-     (("white", "quantization", "gauss_markov", "random_walk"), 1e-12),
-     # flicker: exact inside the windows, asymptotic tail outside (documented <1%)
-     (("bias_instability",), 1e-2)],
+    [
+        (("white",), 1e-12),
+        (("gauss_markov",), 1e-12),
+        (("random_walk",), 1e-12),
+        (("quantization",), 1e-12),
+        (("white", "quantization", "gauss_markov", "random_walk"), 1e-12),
+        # flicker: exact inside the windows, asymptotic tail outside (documented <1%)
+        (("bias_instability",), 1e-2),
+    ],
 )
 def test_matches_brute_force_isserlis(terms, rtol):
     params = {k: v for t in terms for k, v in PARAMS[t].items()}
@@ -86,9 +95,18 @@ def test_gauss_markov_near_random_walk_limit_stays_accurate():
     np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
 
 
-@pytest.mark.parametrize("term, alpha, rtol", [("white", 0, 2e-3), ("random_walk", -2, 2e-3), ("bias_instability", -1, 5e-3), ("quantization", 2, 1e-9)])
+@pytest.mark.parametrize(
+    "term, alpha, rtol",
+    [
+        ("white", 0, 2e-3),
+        ("random_walk", -2, 2e-3),
+        ("bias_instability", -1, 5e-3),
+        ("quantization", 2, 1e-9),
+    ],
+)
 def test_diagonal_is_greenhall_edf_at_large_m(term, alpha, rtol):
-    """Greenhall & Riley's EDF is the large-m limit of the exact diagonal (white phase: exact for all m).
+    """Greenhall & Riley's EDF is the large-m limit of the exact diagonal (white phase: exact for
+    all m).
 
     For small m Greenhall's algorithm is an approximation: for white rate noise at m = 1 it
     is 17% above the exact EDF (Monte Carlo confirms the exact value, test below).
@@ -101,13 +119,16 @@ def test_diagonal_is_greenhall_edf_at_large_m(term, alpha, rtol):
 
 
 def test_small_m_edf_monte_carlo(rng):
-    """White rate noise, N = 4096, m = 1, 2, 4: exact EDF vs 2000 simulated records (5 sigma on Var)."""
+    """White rate noise, N = 4096, m = 1, 2, 4: exact EDF vs 2000 simulated records (5 sigma on
+    Var)."""
     from bayes_imu.allan.estimator import allan_variance
 
     m = np.array([1, 2, 4])
     model = NoiseModel(("white",), 1.0)
     cov = avar_covariance(model, {"noise_variance": 1.0}, m, 4096)
-    draws = np.array([allan_variance(rng.standard_normal(4096), rate_hz=1.0, m=m).avar for _ in range(2000)])
+    draws = np.array(
+        [allan_variance(rng.standard_normal(4096), rate_hz=1.0, m=m).avar for _ in range(2000)]
+    )
     var = draws.var(axis=0, ddof=1)
     assert np.all(np.abs(var / np.diag(cov) - 1) < 5 * np.sqrt(2 / 2000))
     # and Greenhall's approximation is outside that band at m = 1

@@ -12,7 +12,9 @@ import pytest
 from bayes_imu.cli.main import main
 from bayes_imu.errors import InputError
 
-rosbags = pytest.importorskip("rosbags", reason="the bags extra (pip install 'bayes_imu[bags]') is not installed")
+rosbags = pytest.importorskip(
+    "rosbags", reason="the bags extra (pip install 'bayes_imu[bags]') is not installed"
+)
 
 RATE = 200.0
 
@@ -26,8 +28,14 @@ def _imu_messages(typestore, gyro, accel, stamps):
     zeros = np.zeros(9)
     has_seq = "seq" in Header.__dataclass_fields__  # ROS1 headers carry a sequence number
     for k, (g, a, t) in enumerate(zip(gyro, accel, stamps)):
-        header = Header(stamp=Time(int(t // 10**9), int(t % 10**9)), frame_id="imu", **({"seq": k} if has_seq else {}))
-        yield Imu(header, Quaternion(0.0, 0.0, 0.0, 1.0), zeros, Vector3(*g), zeros, Vector3(*a), zeros)
+        header = Header(
+            stamp=Time(int(t // 10**9), int(t % 10**9)),
+            frame_id="imu",
+            **({"seq": k} if has_seq else {}),
+        )
+        yield Imu(
+            header, Quaternion(0.0, 0.0, 0.0, 1.0), zeros, Vector3(*g), zeros, Vector3(*a), zeros
+        )
 
 
 def write_bag(path, version, gyro, accel, stamps, topic="/imu0"):
@@ -60,7 +68,8 @@ def samples(rng):
     n = 4096
     gyro = 1e-3 * rng.standard_normal((n, 3))
     accel = np.array([0.0, 0.0, 9.81]) + 1e-2 * rng.standard_normal((n, 3))
-    stamps = 1_700_000_000 * 10**9 + np.arange(n, dtype=np.int64) * int(1e9 / RATE)  # integer ns, epoch time
+    # integer ns, epoch time
+    stamps = 1_700_000_000 * 10**9 + np.arange(n, dtype=np.int64) * int(1e9 / RATE)
     return gyro, accel, stamps
 
 
@@ -81,18 +90,57 @@ def test_fit_from_bag_equals_fit_from_csv(tmp_path, samples):
     """Rate from the header stamps; same samples, same seed: the same posterior as from a CSV."""
     gyro, accel, stamps = samples
     write_bag(tmp_path / "imu.bag", 1, gyro, accel, stamps)
-    (tmp_path / "imu.csv").write_text("t,gx\n" + "\n".join(f"{(t - stamps[0]) * 1e-9:.3f},{float(g)!r}" for t, g in zip(stamps, gyro[:, 0])))
+    (tmp_path / "imu.csv").write_text(
+        "t,gx\n"
+        + "\n".join(
+            f"{(t - stamps[0]) * 1e-9:.3f},{float(g)!r}" for t, g in zip(stamps, gyro[:, 0])
+        )
+    )
     common = ["--terms", "white", "--seed", "4", "--quiet"]
-    assert main(["fit", str(tmp_path / "imu.bag"), "--topic", "/imu0", "--column", "gyro_x", "--out",
-                 str(tmp_path / "a"), *common]) == 0
-    assert main(["fit", str(tmp_path / "imu.csv"), "--column", "gx", "--rate", "200", "--units", "rad/s",
-                 "--out", str(tmp_path / "b"), *common]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                str(tmp_path / "imu.bag"),
+                "--topic",
+                "/imu0",
+                "--column",
+                "gyro_x",
+                "--out",
+                str(tmp_path / "a"),
+                *common,
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "fit",
+                str(tmp_path / "imu.csv"),
+                "--column",
+                "gx",
+                "--rate",
+                "200",
+                "--units",
+                "rad/s",
+                "--out",
+                str(tmp_path / "b"),
+                *common,
+            ]
+        )
+        == 0
+    )
     a = json.loads((tmp_path / "a" / "summary.json").read_text())
     b = json.loads((tmp_path / "b" / "summary.json").read_text())
-    assert a["input"]["rate_source"] == "time column" and abs(a["input"]["rate_hz"] / 200.0 - 1) < 1e-9
+    assert (
+        a["input"]["rate_source"] == "time column" and abs(a["input"]["rate_hz"] / 200.0 - 1) < 1e-9
+    )
     assert a["unit"] == "rad/s" and a["input"]["input_units"] == "rad/s"
     for name in ("noise_variance", "noise_density"):
-        assert a["parameters"][name]["median"] == pytest.approx(b["parameters"][name]["median"], rel=1e-8)
+        assert a["parameters"][name]["median"] == pytest.approx(
+            b["parameters"][name]["median"], rel=1e-8
+        )
 
 
 def test_bag_errors_are_one_line(tmp_path, samples, capsys):
@@ -103,12 +151,44 @@ def test_bag_errors_are_one_line(tmp_path, samples, capsys):
     gappy[1000:] += 500_000_000  # 0.5 s
     write_bag(tmp_path / "gap.bag", 1, gyro, accel, gappy)
     out = tmp_path / "o"
-    assert main(["allan", str(tmp_path / "gap.bag"), "--topic", "/imu0", "--column", "gyro_x", "--out", str(out)]) == 2
+    assert (
+        main(
+            [
+                "allan",
+                str(tmp_path / "gap.bag"),
+                "--topic",
+                "/imu0",
+                "--column",
+                "gyro_x",
+                "--out",
+                str(out),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert "message 1001: gap from" in err and err.count("\n") == 1 and not out.exists()
-    assert main(["allan", str(tmp_path / "gap.bag"), "--topic", "/imu0", "--column", "gyro_x", "--gaps", "longest",
-                 "--out", str(out), "--quiet"]) == 0
-    with pytest.raises(InputError, match=r"no topic '/imu'; sensor_msgs/Imu topics in the bag: /imu0"):
+    assert (
+        main(
+            [
+                "allan",
+                str(tmp_path / "gap.bag"),
+                "--topic",
+                "/imu0",
+                "--column",
+                "gyro_x",
+                "--gaps",
+                "longest",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    with pytest.raises(
+        InputError, match=r"no topic '/imu'; sensor_msgs/Imu topics in the bag: /imu0"
+    ):
         read_imu_bag(tmp_path / "gap.bag", topic="/imu", columns=["gyro_x"])
     with pytest.raises(InputError, match="carries std_msgs/msg/String; expected sensor_msgs/Imu"):
         read_imu_bag(tmp_path / "gap.bag", topic="/status", columns=["gyro_x"])

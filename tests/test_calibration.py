@@ -70,12 +70,19 @@ def test_coverage_white_gauss_markov(fits):
 
 @pytest.mark.slow
 def test_drift_bands_contain_true_drift(detected_fits):
-    """The 90% attitude band contains the exact 1-sigma drift of the true sensor (bayes_imu.drift.closed_forms)."""
+    """The 90% attitude band contains the exact 1-sigma drift of the true sensor
+    (bayes_imu.drift.closed_forms)."""
     hits = []
     for truth, result in detected_fits:
         bands = drift_bands(result, BAND_TIMES, quantity="attitude", bias_start="zero")
-        true = drift_sigma(BAND_TIMES, quantity="attitude", dt=0.01, noise_variance=truth["noise_variance"],
-                           bias_variance=truth["bias_variance"], time_constant=truth["time_constant"]).total
+        true = drift_sigma(
+            BAND_TIMES,
+            quantity="attitude",
+            dt=0.01,
+            noise_variance=truth["noise_variance"],
+            bias_variance=truth["bias_variance"],
+            time_constant=truth["time_constant"],
+        ).total
         hits.append((bands.quantile(0.05) <= true) & (true <= bands.quantile(0.95)))
     coverage = np.mean(hits, axis=0)
     assert np.all(coverage >= MIN_COVERAGE), dict(zip(BAND_TIMES, coverage))
@@ -95,14 +102,22 @@ def test_fast_subset_white_noise_coverage():
     hits = np.zeros(3, dtype=int)
     for _ in range(FAST_LOGS):
         q = 1e-2 * 10 ** rng.uniform(-0.5, 0.5)
-        fit = fit_allan(allan_variance(simulate_log(model, {"noise_variance": q}, 2**13, rng=rng), rate_hz=100.0),
-                        terms=("white",), rng=rng)
+        fit = fit_allan(
+            allan_variance(
+                simulate_log(model, {"noise_variance": q}, 2**13, rng=rng), rate_hz=100.0
+            ),
+            terms=("white",),
+            rng=rng,
+        )
         lo, hi = np.quantile(fit.draws("noise_variance"), [0.05, 0.95])
         hits[0] += lo <= q <= hi
         true = np.sqrt(q) * 0.01 * np.sqrt(1000.0)  # a sum of 1000 samples: q dt^2 k
         band = drift_bands(fit, [10.0], quantity="attitude", bias_start="zero", rng=rng)
         hits[1] += band.quantile(0.05)[0] <= true <= band.quantile(0.95)[0]
-        true_cal = 0.01 * np.sqrt(q * (1000.0 + 1000.0**2 / 6000.0))  # plus k times the error of a 60 s mean
-        band = drift_bands(fit, [10.0], quantity="attitude", bias_start="calibrated", calibration_s=60.0, rng=rng)
+        # plus k times the error of a 60 s mean
+        true_cal = 0.01 * np.sqrt(q * (1000.0 + 1000.0**2 / 6000.0))
+        band = drift_bands(
+            fit, [10.0], quantity="attitude", bias_start="calibrated", calibration_s=60.0, rng=rng
+        )
         hits[2] += band.quantile(0.05)[0] <= true_cal <= band.quantile(0.95)[0]
     assert np.all(hits >= FAST_MIN_HITS), hits

@@ -11,14 +11,27 @@ from bayes_imu.cli.main import main
 
 
 def test_drift_command_writes_csv_matching_api(tmp_path, capsys):
-    sensor = {"kind": "accel", "rate_hz": 200, "noise_density": 2e-3, "bias_variance": 1e-6, "time_constant": 300}
+    sensor = {
+        "kind": "accel",
+        "rate_hz": 200,
+        "noise_density": 2e-3,
+        "bias_variance": 1e-6,
+        "time_constant": 300,
+    }
     path = tmp_path / "s.json"
     path.write_text(json.dumps(sensor))
     assert main(["drift", str(path), "--out", str(tmp_path / "o"), "--horizon", "60"]) == 0
     rows = (tmp_path / "o" / "drift.csv").read_text().splitlines()
     assert rows[0] == "t_s,quantity,white,bias,random_walk,total,unit"
     last_position = [r.split(",") for r in rows[1:] if r.split(",")[1] == "position"][-1]
-    expected = drift_sigma(60.0, quantity="position", dt=1 / 200, noise_density=2e-3, bias_variance=1e-6, time_constant=300)
+    expected = drift_sigma(
+        60.0,
+        quantity="position",
+        dt=1 / 200,
+        noise_density=2e-3,
+        bias_variance=1e-6,
+        time_constant=300,
+    )
     assert float(last_position[0]) == 60.0
     np.testing.assert_allclose(float(last_position[5]), expected.total, rtol=1e-8)
 
@@ -40,8 +53,15 @@ def test_drift_command_user_errors_exit_2_with_one_line(tmp_path, capsys):
 def test_allan_command_writes_csv_and_png(tmp_path, rng):
     log = tmp_path / "log.csv"
     y = rng.standard_normal(4096) * 0.01
-    log.write_text("time,gyro_x\n" + "\n".join(f"{i / 100:.2f},{v:.9f}" for i, v in enumerate(y)) + "\n")
-    assert main(["allan", str(log), "--column", "gyro_x", "--rate", "100", "--out", str(tmp_path / "o")]) == 0
+    log.write_text(
+        "time,gyro_x\n" + "\n".join(f"{i / 100:.2f},{v:.9f}" for i, v in enumerate(y)) + "\n"
+    )
+    assert (
+        main(
+            ["allan", str(log), "--column", "gyro_x", "--rate", "100", "--out", str(tmp_path / "o")]
+        )
+        == 0
+    )
     rows = (tmp_path / "o" / "allan.csv").read_text().splitlines()
     assert rows[0] == "tau,m,adev,adev_low,adev_high,edf,unit"
     first = [float(v) for v in rows[1].split(",")[:6]]
@@ -52,12 +72,16 @@ def test_allan_command_writes_csv_and_png(tmp_path, rng):
 def test_allan_command_missing_column(tmp_path, capsys):
     log = tmp_path / "log.csv"
     log.write_text("a,b\n1,2\n3,4\n")
-    assert main(["allan", str(log), "--column", "gyro", "--rate", "100", "--out", str(tmp_path / "o")]) == 2
+    assert (
+        main(["allan", str(log), "--column", "gyro", "--rate", "100", "--out", str(tmp_path / "o")])
+        == 2
+    )
     assert "no column 'gyro'" in capsys.readouterr().err
 
 
 def test_fit_command_writes_all_outputs(tmp_path, capsys):
-    """bayes-imu fit on a shipped log: summary.json keys, posterior.nc readable, figures, same seed same numbers."""
+    """bayes-imu fit on a shipped log: summary.json keys, posterior.nc readable, figures, same seed
+    same numbers."""
     import json
 
     from bayes_imu.cli.main import main
@@ -68,16 +92,28 @@ def test_fit_command_writes_all_outputs(tmp_path, capsys):
     summary = json.loads((tmp_path / "a" / "summary.json").read_text())
     assert summary["model"] == ["white"]
     assert set(summary["parameters"]) == {"noise_variance", "noise_density"}
-    assert summary["parameters"]["noise_density"]["unit"] == "rad/s/sqrt(Hz)"  # --unit deg/s converts to SI
+    # --unit deg/s converts to SI
+    assert summary["parameters"]["noise_density"]["unit"] == "rad/s/sqrt(Hz)"
     assert summary["input"]["input_units"] == "deg/s" and summary["unit"] == "rad/s"
     assert set(summary["diagnostics"]) >= {"rhat_max", "ess_bulk_min", "converged"}
     assert summary["seed"] == 3 and summary["bayes_imu_version"]
-    assert set(summary["adequacy"]) >= {"adequate", "p_value", "worst_tau_s", "at_prior_bound", "widened"}
-    assert isinstance(summary["diagnostics"]["n_steps"], int) and isinstance(summary["diagnostics"]["n_walkers"], int)
+    assert set(summary["adequacy"]) >= {
+        "adequate",
+        "p_value",
+        "worst_tau_s",
+        "at_prior_bound",
+        "widened",
+    }
+    assert isinstance(summary["diagnostics"]["n_steps"], int) and isinstance(
+        summary["diagnostics"]["n_walkers"], int
+    )
     assert abs(sum(c["probability"] for c in summary["candidates"]) - 1.0) < 1e-9
-    # each term's probability: the summed share of the averaged models that have it (white: all of them)
+    # each term's probability: the summed share of the averaged models that have it (white: all of
+    # them)
     for term, p in summary["term_probability"].items():
-        assert p == pytest.approx(sum(c["probability"] for c in summary["model_averaging"] if term in c["model"]))
+        assert p == pytest.approx(
+            sum(c["probability"] for c in summary["model_averaging"] if term in c["model"])
+        )
     assert summary["term_probability"]["white"] == pytest.approx(1.0)
     for name in ("posterior.nc", "allan_fit.png", "corner.png"):
         assert (tmp_path / "a" / name).stat().st_size > 0
@@ -87,7 +123,9 @@ def test_fit_command_writes_all_outputs(tmp_path, capsys):
     assert {"posterior", "sample_stats", "observed_data", "log_likelihood"} <= set(idata.groups())
     assert main(["fit", *args, "--out", str(tmp_path / "b")]) == 0
     # determinism: the same input and seed give a byte-identical summary.json
-    assert (tmp_path / "b" / "summary.json").read_bytes() == (tmp_path / "a" / "summary.json").read_bytes()
+    assert (tmp_path / "b" / "summary.json").read_bytes() == (
+        tmp_path / "a" / "summary.json"
+    ).read_bytes()
 
 
 def test_drift_rows_at_exactly_the_requested_times(tmp_path, capsys, rng):
@@ -101,55 +139,129 @@ def test_drift_rows_at_exactly_the_requested_times(tmp_path, capsys, rng):
     log = tmp_path / "g.csv"
     log.write_text("g\n" + "\n".join(f"{v:.9f}" for v in y) + "\n")
     out = tmp_path / "o"
-    assert main(["fit", str(log), "--column", "g", "--rate", "100", "--terms", "white", "--sensor", "gyro",
-                 "--times", "0.1,1,10", "--calibration", "5", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                str(log),
+                "--column",
+                "g",
+                "--rate",
+                "100",
+                "--terms",
+                "white",
+                "--sensor",
+                "gyro",
+                "--times",
+                "0.1,1,10",
+                "--calibration",
+                "5",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     assert "attitude: 1-sigma drift after 10 s" in capsys.readouterr().out
     rows = (out / "drift.csv").read_text().splitlines()[1:]
     t = np.array([float(r.split(",")[0]) for r in rows])
     np.testing.assert_array_equal(t, [0.1, 1.0, 10.0])
     q = json.loads((out / "summary.json").read_text())["parameters"]["noise_variance"]["median"]
     k, n = t / 0.01, 5 / 0.01
-    np.testing.assert_allclose([float(r.split(",")[3]) for r in rows], np.sqrt(q * 0.01**2 * (k + k * k / n)), rtol=2e-3)
+    np.testing.assert_allclose(
+        [float(r.split(",")[3]) for r in rows], np.sqrt(q * 0.01**2 * (k + k * k / n)), rtol=2e-3
+    )
 
 
 def test_fit_command_bad_terms_exit_2(tmp_path, capsys):
     from bayes_imu.cli.main import main
 
     data = Path(__file__).resolve().parents[1] / "data_synthetic" / "gyro_highgrade.csv.gz"
-    code = main(["fit", str(data), "--column", "gyro_x_dps", "--rate", "100", "--terms", "white,pink", "--out", str(tmp_path)])
+    code = main(
+        [
+            "fit",
+            str(data),
+            "--column",
+            "gyro_x_dps",
+            "--rate",
+            "100",
+            "--terms",
+            "white,pink",
+            "--out",
+            str(tmp_path),
+        ]
+    )
     assert code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "pink" in err[0]
 
 
 def test_several_columns_one_summary_per_axis_and_worst_axis(tmp_path, rng):
-    """Three white-noise axes with known variances: each axis fitted, the worst axis is the noisiest."""
+    """Three white-noise axes with known variances: each axis fitted, the worst axis is the
+    noisiest."""
     from bayes_imu.noise.avar_forms import NoiseModel
     from bayes_imu.noise.simulate import simulate_log
 
     variances = {"gx": 1e-2, "gy": 9e-2, "gz": 4e-2}
     model = NoiseModel(("white",), 0.01)
-    cols = {c: simulate_log(model, {"noise_variance": v}, 2**14, rng=rng) for c, v in variances.items()}
+    cols = {
+        c: simulate_log(model, {"noise_variance": v}, 2**14, rng=rng) for c, v in variances.items()
+    }
     log = tmp_path / "imu.tsv"
-    log.write_text("gx\tgy\tgz\n" + "\n".join("\t".join(f"{cols[c][i]:.8f}" for c in cols) for i in range(2**14)))
+    log.write_text(
+        "gx\tgy\tgz\n"
+        + "\n".join("\t".join(f"{cols[c][i]:.8f}" for c in cols) for i in range(2**14))
+    )
     out = tmp_path / "out"
-    assert main(["fit", str(log), "--column", "gx,gy,gz", "--rate", "100", "--terms", "white", "--units", "deg/s",
-                 "--sensor", "gyro", "--horizon", "60", "--out", str(out), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                str(log),
+                "--column",
+                "gx,gy,gz",
+                "--rate",
+                "100",
+                "--terms",
+                "white",
+                "--units",
+                "deg/s",
+                "--sensor",
+                "gyro",
+                "--horizon",
+                "60",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     top = json.loads((out / "summary.json").read_text())
     assert list(top["axes"]) == ["gx", "gy", "gz"]
     for c, v in variances.items():
         axis = json.loads((out / c / "summary.json").read_text())
-        assert axis["column"] == c and (out / c / "drift.csv").exists() and (out / c / "posterior.nc").exists()
+        assert (
+            axis["column"] == c
+            and (out / c / "drift.csv").exists()
+            and (out / c / "posterior.nc").exists()
+        )
         p = axis["parameters"]["noise_variance"]
-        assert p["q05"] < v * (np.pi / 180) ** 2 < p["q95"] or abs(np.log(p["median"] / (v * (np.pi / 180) ** 2))) < 0.1
+        assert (
+            p["q05"] < v * (np.pi / 180) ** 2 < p["q95"]
+            or abs(np.log(p["median"] / (v * (np.pi / 180) ** 2))) < 0.1
+        )
     worst = top["worst_axis"]
     assert worst["noise_density"]["axis"] == "gy" and worst["drift_attitude"]["axis"] == "gy"
-    assert worst["noise_variance"]["q95"] == max(top["axes"][c]["parameters"]["noise_variance"]["q95"] for c in variances)
+    assert worst["noise_variance"]["q95"] == max(
+        top["axes"][c]["parameters"]["noise_variance"]["q95"] for c in variances
+    )
     assert worst["drift_attitude"]["unit"] == "rad" and "time_constant" not in worst
 
 
 def test_progress_bars_change_no_number(rng, capsys):
-    """progress=True draws bars on stderr and returns bit-identical results; commands show them only on a tty."""
+    """progress=True draws bars on stderr and returns bit-identical results; commands show them only
+    on a tty."""
     import io
 
     from bayes_imu._progress import show_progress
@@ -164,7 +276,11 @@ def test_progress_bars_change_no_number(rng, capsys):
         def isatty(self):
             return True
 
-    assert show_progress(False, Tty()) and not show_progress(True, Tty()) and not show_progress(False, io.StringIO())
+    assert (
+        show_progress(False, Tty())
+        and not show_progress(True, Tty())
+        and not show_progress(False, io.StringIO())
+    )
 
 
 def test_drift_beyond_the_log_is_flagged_as_extrapolation(tmp_path, rng, capsys):
@@ -172,8 +288,28 @@ def test_drift_beyond_the_log_is_flagged_as_extrapolation(tmp_path, rng, capsys)
     log = tmp_path / "short.csv"
     log.write_text("g\n" + "\n".join(f"{v:.6f}" for v in rng.standard_normal(2**12)))
     out = tmp_path / "out"
-    assert main(["fit", str(log), "--column", "g", "--rate", "100", "--terms", "white", "--sensor", "gyro",
-                 "--horizon", "100", "--out", str(out), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                str(log),
+                "--column",
+                "g",
+                "--rate",
+                "100",
+                "--terms",
+                "white",
+                "--sensor",
+                "gyro",
+                "--horizon",
+                "100",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
     assert "bayes-imu: warning: the drift horizon (100 s) is longer than the log (40.96 s)" in err
     rows = [r.split(",") for r in (out / "drift.csv").read_text().splitlines()]
@@ -184,17 +320,39 @@ def test_drift_beyond_the_log_is_flagged_as_extrapolation(tmp_path, rng, capsys)
 
 
 def test_drift_of_a_non_stationary_log_is_the_same_with_the_same_seed(tmp_path):
-    """A log flagged non-stationary gets drift bands widened by random draws of the spread between its parts:
-    they come from --seed, so two runs with the same seed write the same drift.csv and summary drift (they
-    differed from run to run before), and another seed gives other draws."""
+    """A log flagged non-stationary gets drift bands widened by random draws of the spread between
+    its parts: they come from --seed, so two runs with the same seed write the same drift.csv and
+    summary drift (they differed from run to run before), and another seed gives other draws."""
     y = np.random.default_rng(11).standard_normal(40_000)
     y[20_000:] *= 2.0
     log = tmp_path / "log.csv"
     log.write_text("g\n" + "\n".join(f"{v:.9g}" for v in y) + "\n")
     outs = []
     for name, seed in (("a", "3"), ("b", "3"), ("c", "4")):
-        assert main(["fit", str(log), "--column", "g", "--rate", "100", "--units", "rad/s", "--sensor", "gyro",
-                     "--terms", "white", "--seed", seed, "--out", str(tmp_path / name), "--quiet"]) == 0
+        assert (
+            main(
+                [
+                    "fit",
+                    str(log),
+                    "--column",
+                    "g",
+                    "--rate",
+                    "100",
+                    "--units",
+                    "rad/s",
+                    "--sensor",
+                    "gyro",
+                    "--terms",
+                    "white",
+                    "--seed",
+                    seed,
+                    "--out",
+                    str(tmp_path / name),
+                    "--quiet",
+                ]
+            )
+            == 0
+        )
         summary = json.loads((tmp_path / name / "summary.json").read_text())
         assert summary["adequacy"]["stationarity"]["stationary"] is False
         outs.append(((tmp_path / name / "drift.csv").read_text(), summary["drift"]))

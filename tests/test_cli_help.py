@@ -1,4 +1,5 @@
-"""What the command line tells a user: help texts, display units, units in sensor files and requirements."""
+"""What the command line tells a user: help texts, display units, units in sensor files and
+requirements."""
 
 import json
 import math
@@ -21,8 +22,19 @@ def _help(capsys, *args):
 
 def test_fit_help_names_outputs_terms_and_examples(capsys):
     text = _help(capsys, "fit")
-    for word in ("drift.csv", "summary.json", "--sensor", "examples:", "--allan-table", "--input", "increments",
-                 "correlated", "copula", "independent", "--display-units"):
+    for word in (
+        "drift.csv",
+        "summary.json",
+        "--sensor",
+        "examples:",
+        "--allan-table",
+        "--input",
+        "increments",
+        "correlated",
+        "copula",
+        "independent",
+        "--display-units",
+    ):
         assert word in text, word
     for term in TERMS:
         assert term in text, term
@@ -30,7 +42,16 @@ def test_fit_help_names_outputs_terms_and_examples(capsys):
 
 def test_report_help_explains_the_scene(capsys):
     text = _help(capsys, "report")
-    for word in ("[scene]", "outages_s", "[requirement]", "max_error", "[[sensor]]", "logs =", "fit =", "column"):
+    for word in (
+        "[scene]",
+        "outages_s",
+        "[requirement]",
+        "max_error",
+        "[[sensor]]",
+        "logs =",
+        "fit =",
+        "column",
+    ):
         assert word in text, word
     assert "README" not in text
 
@@ -46,14 +67,35 @@ def test_drift_command_reads_units_and_shows_degrees(tmp_path, capsys):
     deg = {"kind": "gyro", "rate_hz": 100, "noise_density": 0.01, "units": "deg/s"}
     (tmp_path / "si.json").write_text(json.dumps(si))
     (tmp_path / "deg.json").write_text(json.dumps(deg))
-    assert main(["drift", str(tmp_path / "si.json"), "--out", str(tmp_path / "a"), "--horizon", "100"]) == 0
-    assert main(["drift", str(tmp_path / "deg.json"), "--out", str(tmp_path / "b"), "--horizon", "100",
-                 "--display-units", "deg"]) == 0
+    assert (
+        main(["drift", str(tmp_path / "si.json"), "--out", str(tmp_path / "a"), "--horizon", "100"])
+        == 0
+    )
+    assert (
+        main(
+            [
+                "drift",
+                str(tmp_path / "deg.json"),
+                "--out",
+                str(tmp_path / "b"),
+                "--horizon",
+                "100",
+                "--display-units",
+                "deg",
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert "deg (order 1)" in out
-    a = np.genfromtxt(tmp_path / "a" / "drift.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
-    b = np.genfromtxt(tmp_path / "b" / "drift.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
-    np.testing.assert_allclose(b["total"], a["total"] * 180 / math.pi, rtol=1e-8)  # 9 printed digits
+    a = np.genfromtxt(
+        tmp_path / "a" / "drift.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
+    )
+    b = np.genfromtxt(
+        tmp_path / "b" / "drift.csv", delimiter=",", names=True, dtype=None, encoding="utf-8"
+    )
+    # 9 printed digits
+    np.testing.assert_allclose(b["total"], a["total"] * 180 / math.pi, rtol=1e-8)
     # white noise, zero bias: sigma(t) = N sqrt(t) exactly, here 0.01 deg/sqrt(s) * 10 at 100 s
     assert b["total"][-1] == pytest.approx(0.1, rel=1e-9) and set(b["unit"]) == {"deg"}
     (tmp_path / "bad.json").write_text(json.dumps({**deg, "units": "g"}))
@@ -63,9 +105,26 @@ def test_drift_command_reads_units_and_shows_degrees(tmp_path, capsys):
 
 def test_fit_drift_in_degrees(tmp_path):
     rng = np.random.default_rng(4)
-    (tmp_path / "g.csv").write_text("g\n" + "".join(f"{v:.8f}\n" for v in 0.05 * rng.standard_normal(4096)))
-    common = ["fit", str(tmp_path / "g.csv"), "--column", "g", "--rate", "100", "--units", "deg/s", "--terms",
-              "white", "--sensor", "gyro", "--times", "1,10", "--quiet"]
+    (tmp_path / "g.csv").write_text(
+        "g\n" + "".join(f"{v:.8f}\n" for v in 0.05 * rng.standard_normal(4096))
+    )
+    common = [
+        "fit",
+        str(tmp_path / "g.csv"),
+        "--column",
+        "g",
+        "--rate",
+        "100",
+        "--units",
+        "deg/s",
+        "--terms",
+        "white",
+        "--sensor",
+        "gyro",
+        "--times",
+        "1,10",
+        "--quiet",
+    ]
     assert main(common + ["--out", str(tmp_path / "rad")]) == 0
     assert main(common + ["--out", str(tmp_path / "deg"), "--display-units", "deg"]) == 0
     rad = (tmp_path / "rad" / "drift.csv").read_text().splitlines()[1:]
@@ -88,10 +147,19 @@ def test_fit_drift_in_degrees(tmp_path):
                                              rel=1e-12)
 
 
-@pytest.mark.parametrize("given, quantity, si", [
-    ("0.5 deg", "attitude", 0.5 * math.pi / 180), ("2 mrad", "attitude", 2e-3), (0.01, "attitude", 0.01),
-    ("30 arcmin", "attitude", 0.5 * math.pi / 180), ("1.5 km", "position", 1500.0), ("10cm", "position", 0.1),
-    ("36 km/h", "velocity", 10.0), ("3 ft", "position", 0.9144)])
+@pytest.mark.parametrize(
+    "given, quantity, si",
+    [
+        ("0.5 deg", "attitude", 0.5 * math.pi / 180),
+        ("2 mrad", "attitude", 2e-3),
+        (0.01, "attitude", 0.01),
+        ("30 arcmin", "attitude", 0.5 * math.pi / 180),
+        ("1.5 km", "position", 1500.0),
+        ("10cm", "position", 0.1),
+        ("36 km/h", "velocity", 10.0),
+        ("3 ft", "position", 0.9144),
+    ],
+)
 def test_requirement_units(given, quantity, si):
     assert parse_amount(given, quantity, "req") == pytest.approx(si, rel=1e-12)
 

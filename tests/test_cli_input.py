@@ -17,7 +17,11 @@ import pytest
 
 from bayes_imu.cli.main import main
 
-GOOD = "time,gx,gy\n" + "\n".join(f"{i / 100:.2f},{np.sin(i * 1.3):.6f},{np.cos(i * 0.7):.6f}" for i in range(400)) + "\n"
+GOOD = (
+    "time,gx,gy\n"
+    + "\n".join(f"{i / 100:.2f},{np.sin(i * 1.3):.6f},{np.cos(i * 0.7):.6f}" for i in range(400))
+    + "\n"
+)
 
 
 def _time_rows(mutate):
@@ -33,77 +37,238 @@ def _set(index, text):
 
 
 CASES = [  # (id, file bytes or None, extra arguments, message fragment)
-    ("missing_file", None, ["fit", "{dir}/nope.csv", "--column", "gx", "--rate", "100"], "nope.csv: no such file"),
+    (
+        "missing_file",
+        None,
+        ["fit", "{dir}/nope.csv", "--column", "gx", "--rate", "100"],
+        "nope.csv: no such file",
+    ),
     ("directory", None, ["fit", "{dir}", "--column", "gx", "--rate", "100"], "is a directory"),
     ("empty", b"", ["fit", "{log}", "--column", "gx", "--rate", "100"], "empty file"),
-    ("header_only", b"time,gx\n", ["fit", "{log}", "--column", "gx", "--rate", "100"], "header row but no samples"),
-    ("too_few_for_fit", GOOD[:200].rsplit("\n", 1)[0].encode(), ["fit", "{log}", "--column", "gx", "--rate", "100"],
-     "expected at least 32 for fit"),
-    ("too_few_for_allan", b"gx\n1\n2\n3\n", ["allan", "{log}", "--column", "gx", "--rate", "100"],
-     "3 samples; expected at least 4 for allan"),
-    ("nan", _time_rows(_set(10, "0.10,nan,1")), ["fit", "{log}", "--column", "gx", "--rate", "100"],
-     "line 12, column 'gx': got 'nan'"),
-    ("inf", _time_rows(_set(10, "0.10,inf,1")), ["allan", "{log}", "--column", "gx", "--rate", "100"], "got 'inf'"),
-    ("non_numeric", _time_rows(_set(20, "0.20,1.2.3,1")), ["fit", "{log}", "--column", "gx", "--rate", "100"],
-     "line 22, column 'gx': got '1.2.3'; expected a finite number"),
-    ("missing_column", GOOD.encode(), ["fit", "{log}", "--column", "gz", "--rate", "100"], "no column 'gz'"),
-    ("ragged", _time_rows(_set(5, "0.05,1,2,3")), ["fit", "{log}", "--column", "gx", "--rate", "100"],
-     "line 7: 4 fields; expected 3"),
-    ("constant", ("gx\n" + "0.5\n" * 100).encode(), ["fit", "{log}", "--column", "gx", "--rate", "100"],
-     "constant signal"),
-    ("binary", bytes(np.random.default_rng(0).integers(0, 256, 4096, dtype=np.uint8)),
-     ["fit", "{log}", "--column", "gx", "--rate", "100"], "binary data"),
-    ("corrupt_gzip", gzip.compress(GOOD.encode())[:40], ["fit", "{log}", "--column", "gx", "--rate", "100"],
-     "cannot read"),
-    ("zero_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "0"], "--rate: expected a sample rate from 0.01 Hz"),
-    ("negative_rate", GOOD.encode(), ["allan", "{log}", "--column", "gx", "--rate", "-100"], "--rate: expected a sample rate from 0.01 Hz to 1e+06 Hz, got '-100'"),
-    ("text_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "fast"], "--rate: expected a sample rate from 0.01 Hz to 1e+06 Hz, got 'fast'"),
-    ("nan_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "nan"], "--rate: expected a sample rate from 0.01 Hz to 1e+06 Hz, got 'nan'"),
-    ("no_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx"], "give --rate HZ or a --time-column"),
-    ("overflow", _time_rows(_set(3, "0.03,1e200,1")), ["fit", "{log}", "--column", "gx", "--rate", "100"],
-     "expected |value| <= 1e+100"),
-    ("time_backwards", _time_rows(_set(100, "0.5,0.1,0.2")), ["fit", "{log}", "--column", "gx", "--time-column", "time"],
-     "line 102: time goes backwards from 0.99 s to 0.5 s"),
-    ("time_repeats", _time_rows(_set(100, "0.99,0.1,0.2")), ["fit", "{log}", "--column", "gx", "--time-column", "time"],
-     "line 102: time stamp 0.99 s repeats"),
-    ("time_gap", _time_rows(_set(100, "1.50,0.1,0.2")), ["fit", "{log}", "--column", "gx", "--time-column", "time"],
-     "line 102: gap from 0.99 s to 1.5 s"),
-    ("rate_disagrees", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--time-column", "time", "--rate", "200"],
-     "but --rate is 200 Hz"),
-    ("unknown_units", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "100", "--units", "rpm"],
-     "invalid choice: 'rpm'"),
-    ("units_sensor_mismatch", GOOD.encode(),
-     ["fit", "{log}", "--column", "gx", "--rate", "100", "--units", "g", "--sensor", "gyro"],
-     "--units g is a accel unit but --sensor is gyro"),
-    ("bad_column_list", GOOD.encode(), ["fit", "{log}", "--column", "gx,,gy", "--rate", "100"],
-     "expected column names or indices separated by commas"),
-    ("allan_two_columns", GOOD.encode(), ["allan", "{log}", "--column", "gx,gy", "--rate", "100"],
-     "allan takes one column"),
+    (
+        "header_only",
+        b"time,gx\n",
+        ["fit", "{log}", "--column", "gx", "--rate", "100"],
+        "header row but no samples",
+    ),
+    (
+        "too_few_for_fit",
+        GOOD[:200].rsplit("\n", 1)[0].encode(),
+        ["fit", "{log}", "--column", "gx", "--rate", "100"],
+        "expected at least 32 for fit",
+    ),
+    (
+        "too_few_for_allan",
+        b"gx\n1\n2\n3\n",
+        ["allan", "{log}", "--column", "gx", "--rate", "100"],
+        "3 samples; expected at least 4 for allan",
+    ),
+    (
+        "nan",
+        _time_rows(_set(10, "0.10,nan,1")),
+        ["fit", "{log}", "--column", "gx", "--rate", "100"],
+        "line 12, column 'gx': got 'nan'",
+    ),
+    (
+        "inf",
+        _time_rows(_set(10, "0.10,inf,1")),
+        ["allan", "{log}", "--column", "gx", "--rate", "100"],
+        "got 'inf'",
+    ),
+    (
+        "non_numeric",
+        _time_rows(_set(20, "0.20,1.2.3,1")),
+        ["fit", "{log}", "--column", "gx", "--rate", "100"],
+        "line 22, column 'gx': got '1.2.3'; expected a finite number",
+    ),
+    (
+        "missing_column",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gz", "--rate", "100"],
+        "no column 'gz'",
+    ),
+    (
+        "ragged",
+        _time_rows(_set(5, "0.05,1,2,3")),
+        ["fit", "{log}", "--column", "gx", "--rate", "100"],
+        "line 7: 4 fields; expected 3",
+    ),
+    (
+        "constant",
+        ("gx\n" + "0.5\n" * 100).encode(),
+        ["fit", "{log}", "--column", "gx", "--rate", "100"],
+        "constant signal",
+    ),
+    (
+        "binary",
+        bytes(np.random.default_rng(0).integers(0, 256, 4096, dtype=np.uint8)),
+        ["fit", "{log}", "--column", "gx", "--rate", "100"],
+        "binary data",
+    ),
+    (
+        "corrupt_gzip",
+        gzip.compress(GOOD.encode())[:40],
+        ["fit", "{log}", "--column", "gx", "--rate", "100"],
+        "cannot read",
+    ),
+    (
+        "zero_rate",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gx", "--rate", "0"],
+        "--rate: expected a sample rate from 0.01 Hz",
+    ),
+    (
+        "negative_rate",
+        GOOD.encode(),
+        ["allan", "{log}", "--column", "gx", "--rate", "-100"],
+        "--rate: expected a sample rate from 0.01 Hz to 1e+06 Hz, got '-100'",
+    ),
+    (
+        "text_rate",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gx", "--rate", "fast"],
+        "--rate: expected a sample rate from 0.01 Hz to 1e+06 Hz, got 'fast'",
+    ),
+    (
+        "nan_rate",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gx", "--rate", "nan"],
+        "--rate: expected a sample rate from 0.01 Hz to 1e+06 Hz, got 'nan'",
+    ),
+    (
+        "no_rate",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gx"],
+        "give --rate HZ or a --time-column",
+    ),
+    (
+        "overflow",
+        _time_rows(_set(3, "0.03,1e200,1")),
+        ["fit", "{log}", "--column", "gx", "--rate", "100"],
+        "expected |value| <= 1e+100",
+    ),
+    (
+        "time_backwards",
+        _time_rows(_set(100, "0.5,0.1,0.2")),
+        ["fit", "{log}", "--column", "gx", "--time-column", "time"],
+        "line 102: time goes backwards from 0.99 s to 0.5 s",
+    ),
+    (
+        "time_repeats",
+        _time_rows(_set(100, "0.99,0.1,0.2")),
+        ["fit", "{log}", "--column", "gx", "--time-column", "time"],
+        "line 102: time stamp 0.99 s repeats",
+    ),
+    (
+        "time_gap",
+        _time_rows(_set(100, "1.50,0.1,0.2")),
+        ["fit", "{log}", "--column", "gx", "--time-column", "time"],
+        "line 102: gap from 0.99 s to 1.5 s",
+    ),
+    (
+        "rate_disagrees",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gx", "--time-column", "time", "--rate", "200"],
+        "but --rate is 200 Hz",
+    ),
+    (
+        "unknown_units",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gx", "--rate", "100", "--units", "rpm"],
+        "invalid choice: 'rpm'",
+    ),
+    (
+        "units_sensor_mismatch",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gx", "--rate", "100", "--units", "g", "--sensor", "gyro"],
+        "--units g is a accel unit but --sensor is gyro",
+    ),
+    (
+        "bad_column_list",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gx,,gy", "--rate", "100"],
+        "expected column names or indices separated by commas",
+    ),
+    (
+        "allan_two_columns",
+        GOOD.encode(),
+        ["allan", "{log}", "--column", "gx,gy", "--rate", "100"],
+        "allan takes one column",
+    ),
     ("unknown_command", None, ["fitt", "{log}"], "invalid choice: 'fitt'"),
-    ("no_column_lists_them", GOOD.encode(), ["fit", "{log}", "--rate", "100"],
-     "needs --column (a header name or 0-based index); its columns: 'time', 'gx', 'gy'"),
-    ("bad_terms", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "100", "--terms", "white,pink"], "pink"),
-    # issue 13: inputs that used to turn into plausible nonsense with exit 0, and option values checked first
-    ("header_shorter_than_rows", ("gx,gy\n" + "".join(f"{i},{np.sin(i):.5f},{np.cos(i):.5f}\n" for i in range(99))).encode(),
-     ["fit", "{log}", "--column", "gy", "--rate", "100"], "the header has 2 fields but line 2 has 3"),
-    ("decimal_commas", "".join(f"{np.sin(i):.5f};{np.cos(i):.5f}\n".replace(".", ",") for i in range(99)).encode(),
-     ["allan", "{log}", "--column", "0", "--rate", "100"], "uses decimal commas"),
-    ("nanosecond_stamps", ("t,gx\n" + "".join(f"{1403636579758555392 + i * 10_000_000},{np.sin(i):.5f}\n"
-                                               for i in range(99))).encode(),
-     ["fit", "{log}", "--column", "gx", "--time-column", "t"], "the likely unit is ns: give "
-                                                               "--time-unit ns"),
-    ("implausible_rate", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "1e-300"],
-     "--rate: expected a sample rate from 0.01 Hz"),
-    ("negative_seed", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "100", "--seed", "-1"],
-     "--seed: expected a whole number from 0 to 2**32 - 1"),
-    ("zero_workers", GOOD.encode(), ["fit-batch", "{log}", "--column", "gx", "--rate", "100", "--workers", "0"],
-     "--workers: expected at least 1 worker process"),
-    ("negative_horizon", GOOD.encode(), ["fit", "{log}", "--column", "gx", "--rate", "100", "--horizon", "-5"],
-     "--horizon: expected a number from 1e-06 to 1e+09 s"),
-    ("json_boolean_rate", b'{"kind": "gyro", "rate_hz": true, "noise_density": 1e-3}', ["drift", "{log}"],
-     "rate_hz=True: expected a number"),
-    ("json_unknown_key", b'{"kind": "gyro", "rate_hz": 100, "noise_density": 1e-3, "bias_strat": 1}', ["drift", "{log}"],
-     "unknown key 'bias_strat'"),
+    (
+        "no_column_lists_them",
+        GOOD.encode(),
+        ["fit", "{log}", "--rate", "100"],
+        "needs --column (a header name or 0-based index); its columns: 'time', 'gx', 'gy'",
+    ),
+    (
+        "bad_terms",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gx", "--rate", "100", "--terms", "white,pink"],
+        "pink",
+    ),
+    # issue 13: inputs that used to turn into plausible nonsense with exit 0, and option values
+    # checked first
+    (
+        "header_shorter_than_rows",
+        ("gx,gy\n" + "".join(f"{i},{np.sin(i):.5f},{np.cos(i):.5f}\n" for i in range(99))).encode(),
+        ["fit", "{log}", "--column", "gy", "--rate", "100"],
+        "the header has 2 fields but line 2 has 3",
+    ),
+    (
+        "decimal_commas",
+        "".join(f"{np.sin(i):.5f};{np.cos(i):.5f}\n".replace(".", ",") for i in range(99)).encode(),
+        ["allan", "{log}", "--column", "0", "--rate", "100"],
+        "uses decimal commas",
+    ),
+    (
+        "nanosecond_stamps",
+        (
+            "t,gx\n"
+            + "".join(
+                f"{1403636579758555392 + i * 10_000_000},{np.sin(i):.5f}\n" for i in range(99)
+            )
+        ).encode(),
+        ["fit", "{log}", "--column", "gx", "--time-column", "t"],
+        "the likely unit is ns: give --time-unit ns",
+    ),
+    (
+        "implausible_rate",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gx", "--rate", "1e-300"],
+        "--rate: expected a sample rate from 0.01 Hz",
+    ),
+    (
+        "negative_seed",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gx", "--rate", "100", "--seed", "-1"],
+        "--seed: expected a whole number from 0 to 2**32 - 1",
+    ),
+    (
+        "zero_workers",
+        GOOD.encode(),
+        ["fit-batch", "{log}", "--column", "gx", "--rate", "100", "--workers", "0"],
+        "--workers: expected at least 1 worker process",
+    ),
+    (
+        "negative_horizon",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gx", "--rate", "100", "--horizon", "-5"],
+        "--horizon: expected a number from 1e-06 to 1e+09 s",
+    ),
+    (
+        "json_boolean_rate",
+        b'{"kind": "gyro", "rate_hz": true, "noise_density": 1e-3}',
+        ["drift", "{log}"],
+        "rate_hz=True: expected a number",
+    ),
+    (
+        "json_unknown_key",
+        b'{"kind": "gyro", "rate_hz": 100, "noise_density": 1e-3, "bias_strat": 1}',
+        ["drift", "{log}"],
+        "unknown key 'bias_strat'",
+    ),
 ]
 
 
@@ -126,8 +291,12 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, capsys, ca
 
 def _snapshot(folder):
     """Every file and folder below ``folder`` with a hash of its content."""
-    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "dir"
-            for p in sorted(folder.rglob("*"))}
+    return {
+        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+        if p.is_file()
+        else "dir"
+        for p in sorted(folder.rglob("*"))
+    }
 
 
 @pytest.fixture
@@ -149,7 +318,10 @@ def test_existing_output_refused_and_force_replaces_only_a_previous_result(tmp_p
     assert "folder exists and is not empty ('old.txt')" in capsys.readouterr().err
     assert main(args + ["--force"]) == 2
     assert "--force replaces only a previous bayes_imu result" in capsys.readouterr().err
-    assert sorted(p.name for p in out.iterdir()) == ["old.txt"] and (out / "old.txt").read_text() == "keep me"
+    assert (
+        sorted(p.name for p in out.iterdir()) == ["old.txt"]
+        and (out / "old.txt").read_text() == "keep me"
+    )
     result = tmp_path / "result"
     args = ["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(result), "--quiet"]
     assert main(args) == 0
@@ -157,11 +329,13 @@ def test_existing_output_refused_and_force_replaces_only_a_previous_result(tmp_p
     assert main(args) == 2 and _snapshot(result) == first
     assert main(args + ["--force"]) == 0
     assert sorted(p.name for p in result.iterdir()) == [".bayes_imu.json", "allan.csv", "allan.png"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["in", "out", "result"]  # no partial or old folder left
+    # no partial or old folder left
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in", "out", "result"]
 
 
 def test_force_leaves_files_the_run_did_not_create(tmp_path, log, capsys):
-    """A user's notes saved into a result folder: --force refuses and names them (nothing deleted)."""
+    """A user's notes saved into a result folder: --force refuses and names them (nothing
+    deleted)."""
     out = tmp_path / "out"
     args = ["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(out), "--quiet"]
     assert main(args) == 0
@@ -176,7 +350,10 @@ def test_output_claimed_by_another_run_is_refused_at_once(tmp_path, log, capsys)
     out = tmp_path / "out"
     out.mkdir()
     (out / ".bayes_imu.claim").write_text("")
-    assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(out), "--quiet"]) == 2
+    assert (
+        main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(out), "--quiet"])
+        == 2
+    )
     assert "another bayes-imu run is writing there" in capsys.readouterr().err
     assert sorted(p.name for p in out.iterdir()) == [".bayes_imu.claim"]
 
@@ -197,7 +374,12 @@ def test_files_saved_into_out_during_the_run_are_kept(tmp_path, log, monkeypatch
     monkeypatch.setattr(bayes_imu.report.plots, "plot_allan", user_saves_notes)
     args = ["allan", str(log), "--column", "gx", "--rate", "100", "--quiet"]
     assert main(args + ["--out", str(out)]) == 0
-    assert sorted(p.name for p in out.iterdir()) == [".bayes_imu.json", "allan.csv", "allan.png", "notes.txt"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        ".bayes_imu.json",
+        "allan.csv",
+        "allan.png",
+        "notes.txt",
+    ]
 
     def fails_after_notes(*args, **kwargs):
         (tmp_path / "out2" / "notes.txt").write_text("mine")
@@ -218,8 +400,26 @@ def test_kalibr_never_overwrites_its_input(tmp_path, capsys):
     log = tmp_path / "imu.csv"
     log.write_text("g,a\n" + "".join(f"{g:.6f},{a:.6f}\n" for g, a in rows))
     for column, units in (("g", "deg/s"), ("a", "g")):
-        assert main(["fit", str(log), "--column", column, "--rate", "100", "--units", units, "--terms", "white",
-                     "--out", str(tmp_path / column), "--quiet"]) == 0
+        assert (
+            main(
+                [
+                    "fit",
+                    str(log),
+                    "--column",
+                    column,
+                    "--rate",
+                    "100",
+                    "--units",
+                    units,
+                    "--terms",
+                    "white",
+                    "--out",
+                    str(tmp_path / column),
+                    "--quiet",
+                ]
+            )
+            == 0
+        )
     before = _snapshot(tmp_path / "g")
     assert main(["kalibr", "--gyro", str(tmp_path / "g"), "--accel", str(tmp_path / "a"),
                  "--out", str(tmp_path / "g" / "summary.json"), "--force"]) == 2
@@ -233,12 +433,30 @@ def test_output_is_a_file_or_holds_the_input(tmp_path, log, capsys):
     assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(target)]) == 2
     assert "exists and is not a folder" in capsys.readouterr().err
     # --force on the folder holding the log would delete the log: always refused
-    assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(log.parent), "--force"]) == 2
+    assert (
+        main(
+            [
+                "allan",
+                str(log),
+                "--column",
+                "gx",
+                "--rate",
+                "100",
+                "--out",
+                str(log.parent),
+                "--force",
+            ]
+        )
+        == 2
+    )
     assert "is or contains the input" in capsys.readouterr().err and log.read_text() == GOOD
 
 
-def test_failure_while_writing_leaves_nothing_and_keeps_old_output(tmp_path, log, capsys, monkeypatch):
-    """An error after some outputs were written: no partial folder, and --force keeps the old results."""
+def test_failure_while_writing_leaves_nothing_and_keeps_old_output(
+    tmp_path, log, capsys, monkeypatch
+):
+    """An error after some outputs were written: no partial folder, and --force keeps the old
+    results."""
 
     def broken(*args, **kwargs):
         raise OSError("disk full")
@@ -267,7 +485,10 @@ def test_interrupt_leaves_nothing(tmp_path, log, monkeypatch):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(bayes_imu.report.plots, "plot_allan", interrupted)
-    assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "out")]) == 130
+    assert (
+        main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "out")])
+        == 130
+    )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in"]
 
 
@@ -285,8 +506,15 @@ def test_pipe_without_writer_is_refused_not_waited_on(tmp_path, capsys):
 
     fifo = tmp_path / "pipe.csv"
     os.mkfifo(fifo)
-    assert main(["allan", str(fifo), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "out")]) == 2
-    assert "a named pipe with no writer" in capsys.readouterr().err and not (tmp_path / "out").exists()
+    assert (
+        main(
+            ["allan", str(fifo), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "out")]
+        )
+        == 2
+    )
+    assert (
+        "a named pipe with no writer" in capsys.readouterr().err and not (tmp_path / "out").exists()
+    )
 
 
 def test_stdin_and_pipes_are_read_as_streams(tmp_path, monkeypatch):
@@ -306,8 +534,8 @@ def test_stdin_and_pipes_are_read_as_streams(tmp_path, monkeypatch):
     assert main([args[0], "-", *args[1:], str(tmp_path / "stdin")]) == 0
     fifo = tmp_path / "pipe.csv"
     os.mkfifo(fifo)
-    # the writer must hold the pipe open before the command looks (a pipe with no writer is refused at
-    # once): a placeholder reader lets its open return, and the command starts once it has
+    # the writer must hold the pipe open before the command looks (a pipe with no writer is refused
+    # at once): a placeholder reader lets its open return, and the command starts once it has
     placeholder = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
     opened = threading.Event()
 
@@ -349,17 +577,21 @@ def test_long_preamble_and_long_lines_are_read(tmp_path, kind):
 
 
 def test_headerless_quoted_numbers_keep_every_sample(tmp_path):
-    """'"1.5","2.5"' rows: quoted numbers are numbers, not a header (the first sample used to be lost)."""
+    """'"1.5","2.5"' rows: quoted numbers are numbers, not a header (the first sample used to be
+    lost)."""
     from bayes_imu.io.readers import read_columns
 
     path = tmp_path / "q.csv"
     rows = [(np.sin(i), np.cos(i)) for i in range(50)]
     path.write_text("".join(f'"{a:.6f}","{b:.6f}"\n' for a, b in rows))
-    np.testing.assert_allclose(read_columns(path, columns=["1"]).values[:, 0], [round(b, 6) for _, b in rows])
+    np.testing.assert_allclose(
+        read_columns(path, columns=["1"]).values[:, 0], [round(b, 6) for _, b in rows]
+    )
 
 
 def test_sigterm_is_handled_like_ctrl_c(tmp_path, log, capsys, monkeypatch):
-    """SIGTERM during the work: one line, exit 143, the claimed folder and created parents removed."""
+    """SIGTERM during the work: one line, exit 143, the claimed folder and created parents
+    removed."""
     import os
     import signal
 
@@ -374,7 +606,9 @@ def test_sigterm_is_handled_like_ctrl_c(tmp_path, log, capsys, monkeypatch):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "terminated (SIGTERM)" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in"]
-    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL or callable(signal.getsignal(signal.SIGTERM))
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL or callable(
+        signal.getsignal(signal.SIGTERM)
+    )
 
 
 def test_disk_full_while_writing_keeps_the_previous_result(tmp_path, log, capsys, monkeypatch):
@@ -405,7 +639,10 @@ def test_low_disk_space_refused_before_any_work(tmp_path, log, capsys, monkeypat
 
     usage = shutil.disk_usage(tmp_path)
     monkeypatch.setattr(shutil, "disk_usage", lambda path: usage._replace(free=10 * 2**20))
-    assert main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "out")]) == 2
+    assert (
+        main(["allan", str(log), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "out")])
+        == 2
+    )
     assert "MiB free" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in"]
 
@@ -418,10 +655,26 @@ def test_time_column_rate_and_units_in_outputs(tmp_path, log):
     assert rows[0] == ["tau", "m", "adev", "adev_low", "adev_high", "edf", "unit"]
     assert float(rows[1][0]) == pytest.approx(0.01, rel=1e-9) and rows[1][6] == "rad/s"
     # the same column read in deg/s without conversion: ADEV scales by exactly pi/180
-    assert main(["allan", str(log), "--column", "gy", "--rate", "100", "--out", str(tmp_path / "raw"), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "allan",
+                str(log),
+                "--column",
+                "gy",
+                "--rate",
+                "100",
+                "--out",
+                str(tmp_path / "raw"),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     raw = [r.split(",") for r in (tmp_path / "raw" / "allan.csv").read_text().splitlines()]
-    np.testing.assert_allclose([float(r[2]) for r in rows[1:]], [float(r[2]) * np.pi / 180 for r in raw[1:]],
-                               rtol=1e-8)
+    np.testing.assert_allclose(
+        [float(r[2]) for r in rows[1:]], [float(r[2]) * np.pi / 180 for r in raw[1:]], rtol=1e-8
+    )
     assert raw[1][6] == "u"
 
 
@@ -430,12 +683,36 @@ def test_gaps_longest_fits_segment_and_says_so(tmp_path):
     t = np.arange(3000) / 100.0
     t[1000:] += 2.0
     path = tmp_path / "gappy.csv"
-    path.write_text("t;g\n" + "\n".join(f"{a:.2f};{b:.6f}" for a, b in zip(t, rng.standard_normal(3000))) + "\n")
+    path.write_text(
+        "t;g\n" + "\n".join(f"{a:.2f};{b:.6f}" for a, b in zip(t, rng.standard_normal(3000))) + "\n"
+    )
     out = tmp_path / "out"
-    assert main(["fit", str(path), "--column", "g", "--time-column", "t", "--gaps", "longest", "--terms", "white",
-                 "--out", str(out), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                str(path),
+                "--column",
+                "g",
+                "--time-column",
+                "t",
+                "--gaps",
+                "longest",
+                "--terms",
+                "white",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     info = json.loads((out / "summary.json").read_text())["input"]
-    assert info["samples_used"] == 2000 and info["dropped_samples"] == 1000 and info["irregular_steps"] == 1
+    assert (
+        info["samples_used"] == 2000
+        and info["dropped_samples"] == 1000
+        and info["irregular_steps"] == 1
+    )
     assert info["first_line"] == 1002 and info["rate_source"] == "time column"
     assert "longest regular segment" in info["action"]
     assert json.loads((out / "summary.json").read_text())["n_samples"] == 2000
@@ -445,5 +722,9 @@ def test_kalibr_output_is_staged(tmp_path, capsys):
     target = tmp_path / "imu.yaml"
     target.write_text("old")
     missing = tmp_path / "nofit"
-    assert main(["kalibr", "--gyro", str(missing), "--accel", str(missing), "--out", str(target)]) == 2
-    assert target.read_text() == "old" and sorted(p.name for p in tmp_path.iterdir()) == ["imu.yaml"]
+    assert (
+        main(["kalibr", "--gyro", str(missing), "--accel", str(missing), "--out", str(target)]) == 2
+    )
+    assert target.read_text() == "old" and sorted(p.name for p in tmp_path.iterdir()) == [
+        "imu.yaml"
+    ]

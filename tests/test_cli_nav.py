@@ -51,7 +51,10 @@ def test_nav_writes_the_three_files_matching_the_api(folders, tmp_path, capsys):
     )
     assert code == 0
     # one channel is said to be one (not the horizontal radius, which three-axis folders give)
-    assert "position error along the accelerometer's axis (one horizontal channel) <=" in capsys.readouterr().out
+    assert (
+        "position error along the accelerometer's axis (one horizontal channel) <="
+        in capsys.readouterr().out
+    )
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
         "nav.csv",
         "nav.png",

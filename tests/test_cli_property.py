@@ -22,7 +22,9 @@ CLEAN = ("time,gx,gy\n" + "\n".join(ROWS) + "\n").encode()
 def _neutral(kind, data):
     text = data.decode()
     if kind == "comments":
-        return ("# exported by a logger\n# units: deg/s\n" + text.replace("\n", "  # ok\n", 5)).encode()
+        return (
+            "# exported by a logger\n# units: deg/s\n" + text.replace("\n", "  # ok\n", 5)
+        ).encode()
     if kind == "blank_lines":
         return text.replace("\n", "\n\n", 7).encode()
     if kind == "crlf":
@@ -31,15 +33,24 @@ def _neutral(kind, data):
         return b"\xef\xbb\xbf" + data
     if kind == "quotes":
         lines = text.splitlines()
-        return ("\n".join([lines[0]] + [",".join(f'"{f}"' for f in line.split(",")) for line in lines[1:]]) + "\n").encode()
+        return (
+            "\n".join(
+                [lines[0]] + [",".join(f'"{f}"' for f in line.split(",")) for line in lines[1:]]
+            )
+            + "\n"
+        ).encode()
     if kind == "padding":
         return text.replace(",", " , ").encode()
     return gzip.compress(data, mtime=0)
 
 
 def _snapshot(folder):
-    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "dir"
-            for p in sorted(folder.rglob("*"))}
+    return {
+        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+        if p.is_file()
+        else "dir"
+        for p in sorted(folder.rglob("*"))
+    }
 
 
 def _run(folder, data, extra, capsys):
@@ -57,12 +68,17 @@ def _run(folder, data, extra, capsys):
         assert _snapshot(folder) == before
     else:
         after = _snapshot(folder)
-        assert {k: v for k, v in after.items() if not k.startswith("out")} == before  # input untouched
+        # input untouched
+        assert {k: v for k, v in after.items() if not k.startswith("out")} == before
     return status, (out / "allan.csv").read_text() if status == 0 else None
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(kind=st.sampled_from(["comments", "blank_lines", "crlf", "bom", "quotes", "padding", "gzip"]))
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    kind=st.sampled_from(["comments", "blank_lines", "crlf", "bom", "quotes", "padding", "gzip"])
+)
 def test_neutral_mutations_give_the_clean_result(tmp_path_factory, capsys, kind):
     args = ["--column", "gx", "--rate", "100"]
     _, clean = _run(tmp_path_factory.mktemp("clean"), CLEAN, args, capsys)
@@ -70,16 +86,45 @@ def test_neutral_mutations_give_the_clean_result(tmp_path_factory, capsys, kind)
     assert status == 0 and mutated == clean
 
 
-ARGS = st.lists(st.sampled_from([
-    ["--column", "gx"], ["--column", "gy"], ["--column", "2"], ["--column", "nope"], ["--column", "gx,gy"],
-    ["--rate", "100"], ["--rate", "0"], ["--rate", "-3"], ["--rate", "1e300"], ["--rate", "x"],
-    ["--time-column", "time"], ["--time-column", "gx"], ["--gaps", "longest"], ["--units", "deg/s"],
-    ["--units", "furlong"], ["--grid", "decade"], ["--grid", "all"], ["--force"], ["--stream"],
-]), max_size=4).map(lambda parts: [a for p in parts for a in p])
+ARGS = st.lists(
+    st.sampled_from(
+        [
+            ["--column", "gx"],
+            ["--column", "gy"],
+            ["--column", "2"],
+            ["--column", "nope"],
+            ["--column", "gx,gy"],
+            ["--rate", "100"],
+            ["--rate", "0"],
+            ["--rate", "-3"],
+            ["--rate", "1e300"],
+            ["--rate", "x"],
+            ["--time-column", "time"],
+            ["--time-column", "gx"],
+            ["--gaps", "longest"],
+            ["--units", "deg/s"],
+            ["--units", "furlong"],
+            ["--grid", "decade"],
+            ["--grid", "all"],
+            ["--force"],
+            ["--stream"],
+        ]
+    ),
+    max_size=4,
+).map(lambda parts: [a for p in parts for a in p])
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(position=st.integers(0, len(CLEAN) - 1), insert=st.binary(max_size=6), cut=st.integers(0, 6), extra=ARGS)
-def test_mutated_logs_and_arguments_never_crash(tmp_path_factory, capsys, position, insert, cut, extra):
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    position=st.integers(0, len(CLEAN) - 1),
+    insert=st.binary(max_size=6),
+    cut=st.integers(0, 6),
+    extra=ARGS,
+)
+def test_mutated_logs_and_arguments_never_crash(
+    tmp_path_factory, capsys, position, insert, cut, extra
+):
     data = CLEAN[:position] + insert + CLEAN[position + cut:]
     _run(tmp_path_factory.mktemp("case"), data, extra, capsys)

@@ -19,8 +19,8 @@ from bayes_imu.noise.simulate import simulate_log
 
 
 def _brute_force(y, k, n_cal, dt, stride=1):
-    """Mean square of ``dt (sum_{i<k} y_{j+i} - k mean(y_{j-N..j-1}))`` over starts j = N, N + stride, ...
-    by loops."""
+    """Mean square of ``dt (sum_{i<k} y_{j+i} - k mean(y_{j-N..j-1}))`` over starts j = N, N +
+    stride, ... by loops."""
     total, count = 0.0, 0
     for j in range(n_cal, y.size - k + 1, stride):
         bias = sum(y[j - n_cal:j]) / n_cal
@@ -56,8 +56,8 @@ def test_strided_estimator_equals_explicit_loops(rng):
 
 def test_allan_variance_carries_the_contrasts(rng):
     """At k = N the contrast is the Allan variance's second difference: V = 2 tau^2 AVAR(tau)
-    (the same overlapping starts where the span is below 32 samples), and unit conversions scale it by
-    the factor squared."""
+    (the same overlapping starts where the span is below 32 samples), and unit conversions scale it
+    by the factor squared."""
     y = rng.standard_normal(4096)
     a = allan_variance(y, rate_hz=10.0, m=np.array([15]), contrast_span_s=1.5)
     v = phase_contrasts(y, rate_hz=10.0, calibration_s=1.5, k=[15]).mean_square[0]
@@ -65,7 +65,9 @@ def test_allan_variance_carries_the_contrasts(rng):
     a = allan_variance(y, rate_hz=10.0, m=np.array([64]), contrast_span_s=6.4)
     grid = a.contrasts
     assert grid.n_cal == 64 and grid.k[0] == 1 and grid.k[-1] + 64 <= 2048
-    np.testing.assert_allclose(a.scaled(3.0).contrasts.mean_square, 9.0 * grid.mean_square, rtol=1e-15)
+    np.testing.assert_allclose(
+        a.scaled(3.0).contrasts.mean_square, 9.0 * grid.mean_square, rtol=1e-15
+    )
     assert allan_variance(y, rate_hz=10.0, contrast_span_s=None).contrasts is None
     assert contrast_grid(100, 60).size == 0
 
@@ -87,29 +89,48 @@ def test_white_noise_mean_is_unbiased(rng):
     """E V_hat = q dt^2 (k + k^2 / N) for white noise, over 400 records (4 sigma of the mean)."""
     dt, q, n_cal = 0.1, 2.0, 20
     ks = np.array([5, 20, 80])
-    v = np.array([phase_contrasts(np.sqrt(q) * rng.standard_normal(600), rate_hz=10.0, calibration_s=2.0,
-                                  k=ks).mean_square for _ in range(400)])
+    v = np.array(
+        [
+            phase_contrasts(
+                np.sqrt(q) * rng.standard_normal(600), rate_hz=10.0, calibration_s=2.0, k=ks
+            ).mean_square
+            for _ in range(400)
+        ]
+    )
     exact = q * dt * dt * (ks + ks**2 / n_cal)
     assert np.all(np.abs(v.mean(0) / exact - 1) < 4 * v.std(0) / np.sqrt(400) / exact)
 
 
-@pytest.mark.parametrize("terms,params", [
-    (("white",), {"noise_variance": 1.0}),
-    (("white", "gauss_markov"), {"noise_variance": 1.0, "bias_variance": 1e-2, "time_constant": 20.0}),
-    (("white", "random_walk"), {"noise_variance": 1.0, "rate_random_walk": 3e-3}),
-    (("white", "bias_instability"), {"noise_variance": 1.0, "bias_instability": 0.05}),
-])
+@pytest.mark.parametrize(
+    "terms,params",
+    [
+        (("white",), {"noise_variance": 1.0}),
+        (
+            ("white", "gauss_markov"),
+            {"noise_variance": 1.0, "bias_variance": 1e-2, "time_constant": 20.0},
+        ),
+        (("white", "random_walk"), {"noise_variance": 1.0, "rate_random_walk": 3e-3}),
+        (("white", "bias_instability"), {"noise_variance": 1.0, "bias_instability": 0.05}),
+    ],
+)
 def test_edf_against_monte_carlo(rng, terms, params):
     """The EDF 2 E^2 / Var of V_hat under the model against 400 simulated records: the Monte Carlo
-    variance's relative standard error is about sqrt(2 / 400) (1 + excess kurtosis) ~ 0.1; bound 30%."""
+    variance's relative standard error is about sqrt(2 / 400) (1 + excess kurtosis) ~ 0.1; bound
+    30%."""
     dt, n, n_cal = 0.1, 2**12, 60
     model = NoiseModel(terms, dt)
     ks = np.array([10, 60, 300, 1000])
     from bayes_imu.allan.contrast import contrast_stride
 
     edf = contrast_edf(model, params, ks, n_cal, n, contrast_stride(ks, n_cal))
-    v = np.array([phase_contrasts(simulate_log(model, params, n, rng=rng), rate_hz=10.0, calibration_s=6.0,
-                                  k=ks).mean_square for _ in range(400)])
+    v = np.array(
+        [
+            phase_contrasts(
+                simulate_log(model, params, n, rng=rng), rate_hz=10.0, calibration_s=6.0, k=ks
+            ).mean_square
+            for _ in range(400)
+        ]
+    )
     mc = 2 * v.mean(0) ** 2 / v.var(0, ddof=1)
     np.testing.assert_allclose(edf / mc, 1.0, atol=0.3)
     # the model-free cap of the honest interval's EDF lies below the true one (by 1.5-3x for these
@@ -127,15 +148,16 @@ def test_record_edf_floor_counts_disjoint_contrasts():
 
 
 def test_edf_of_white_noise_at_short_outages():
-    """White noise, k << N: e_j is nearly a k-sample sum, M / k-ish independent pieces; the exact EDF of
-    a mean of squared moving sums of white noise is 2 M^2 k^2 / (2 sum_d (M - |d|) (k - |d|)^2) with
-    the calibration term's small share (k^2 / N) neglected: compare at k = 1, where e_j are independent
-    up to the calibration mean (EDF within 1% of M)."""
+    """White noise, k << N: e_j is nearly a k-sample sum, M / k-ish independent pieces; the exact
+    EDF of a mean of squared moving sums of white noise is 2 M^2 k^2 / (2 sum_d (M - |d|) (k -
+    |d|)^2) with the calibration term's small share (k^2 / N) neglected: compare at k = 1, where e_j
+    are independent up to the calibration mean (EDF within 1% of M)."""
     model = NoiseModel(("white",), 1.0)
     edf = contrast_edf(model, {"noise_variance": 1.0}, [1], 10000, 200000)
     assert abs(edf[0] / (200000 - 10000) - 1) < 0.01
     strided = contrast_edf(model, {"noise_variance": 1.0}, [1], 10000, 200000, stride=312)
-    assert abs(strided[0] / ((200000 - 10001) // 312 + 1) - 1) < 0.01  # starts 312 apart: still independent
+    # starts 312 apart: still independent
+    assert abs(strided[0] / ((200000 - 10001) // 312 + 1) - 1) < 0.01
 
 
 def test_honest_quantiles_contain_the_direct_interval():
@@ -174,9 +196,15 @@ def test_honest_bands_cover_a_truth_the_model_cannot_express():
     model = NoiseModel(("white", "gauss_markov"), dt)
     honest, alone, checked = [], [], []
     for _ in range(30):
-        y = simulate_log(model, {"noise_variance": q, "bias_variance": s2, "time_constant": tc}, 2**14, rng=rng)
-        fit = fit_allan(allan_variance(y, rate_hz=10.0, contrast_span_s=n_cal * dt), terms=("white",), rng=rng,
-                        discrepancy="never")
+        y = simulate_log(
+            model, {"noise_variance": q, "bias_variance": s2, "time_constant": tc}, 2**14, rng=rng
+        )
+        fit = fit_allan(
+            allan_variance(y, rate_hz=10.0, contrast_span_s=n_cal * dt),
+            terms=("white",),
+            rng=rng,
+            discrepancy="never",
+        )
         b = drift_bands(fit, ks * dt, quantity="attitude", calibration_s=n_cal * dt, rng=rng)
         honest.append((b.total[0] <= truth) & (truth <= b.total[-1]))
         alone.append((b.model_total[0] <= truth) & (truth <= b.model_total[-1]))
@@ -187,29 +215,42 @@ def test_honest_bands_cover_a_truth_the_model_cannot_express():
 
 
 def test_edf_sum_against_every_lag():
-    """The lag sum's geometric midpoint rule beyond 256 lags against the sum over every lag (a Gauss-Markov
-    bias and flicker, whose covariance reaches beyond the span): within 0.5%."""
+    """The lag sum's geometric midpoint rule beyond 256 lags against the sum over every lag (a
+    Gauss-Markov bias and flicker, whose covariance reaches beyond the span): within 0.5%."""
     from bayes_imu.noise import contrast_covariance as cc
 
     model = NoiseModel(("white", "gauss_markov", "bias_instability"), 0.1)
-    params = {"noise_variance": 1.0, "bias_variance": 0.05, "time_constant": 30.0, "bias_instability": 0.05}
+    params = {
+        "noise_variance": 1.0,
+        "bias_variance": 0.05,
+        "time_constant": 30.0,
+        "bias_instability": 0.05,
+    }
     n, n_cal = 20000, 60
     for k in (5, 60, 700):
         r = k / n_cal
         lags = np.array([0.0, n_cal, -n_cal, k, -k, k + n_cal, -(k + n_cal)])
-        weights = np.array([1 + (1 + r) ** 2 + r * r, -r * (1 + r), -r * (1 + r), -(1 + r), -(1 + r), r, r])
+        weights = np.array(
+            [1 + (1 + r) ** 2 + r * r, -r * (1 + r), -r * (1 + r), -(1 + r), -(1 + r), r, r]
+        )
         m = n - n_cal - k + 1
         d = np.arange(m, dtype=float)
-        c = -0.5 * model.structure_function(np.abs(d[:, None] + lags).ravel(), params).reshape(m, 7) @ weights
+        c = (
+            -0.5
+            * model.structure_function(np.abs(d[:, None] + lags).ravel(), params).reshape(m, 7)
+            @ weights
+        )
         var = 2.0 / m**2 * (m * c[0] ** 2 + 2.0 * np.dot(m - d[1:], c[1:] ** 2))
         exact = 2.0 * c[0] ** 2 / var
-        np.testing.assert_allclose(cc.contrast_edf(model, params, [k], n_cal, n)[0], exact, rtol=5e-3)
+        np.testing.assert_allclose(
+            cc.contrast_edf(model, params, [k], n_cal, n)[0], exact, rtol=5e-3
+        )
 
 
 def test_record_drift_check_in_summary_and_reasons(rng):
-    """A white-noise fit: the check covers the horizons the record measures, agrees with the model (p > 0.05
-    for this seed is not asserted: the p-value's calibration is measured in scripts/validate_honesty.py),
-    and says why where nothing is measured."""
+    """A white-noise fit: the check covers the horizons the record measures, agrees with the model
+    (p > 0.05 for this seed is not asserted: the p-value's calibration is measured in
+    scripts/validate_honesty.py), and says why where nothing is measured."""
     from bayes_imu.drift.bands import drift_bands
     from bayes_imu.drift.direct import record_drift_check, unmeasured_reason
     from bayes_imu.inference.fit import fit_allan
@@ -235,7 +276,9 @@ def test_record_drift_check_in_summary_and_reasons(rng):
     position = drift_bands(fit, [0.5, 5.0, 50.0], quantity="position", calibration_s=30.0, rng=2)
     # order 2: never measured
     assert np.isnan(position.measured_s) and not position.extrapolated.any()
-    fit_table = fit_allan(allan_variance(y, rate_hz=100.0, contrast_span_s=None), terms=("white",), rng=1)
+    fit_table = fit_allan(
+        allan_variance(y, rate_hz=100.0, contrast_span_s=None), terms=("white",), rng=1
+    )
     assert "not kept" in unmeasured_reason(fit_table, "calibrated", 60.0)
 
 

@@ -20,8 +20,16 @@ def _chains(rng, m, n, phi, shift=0.0, repeats=True):
     return x
 
 
-@pytest.mark.parametrize("m, n, phi, shift", [(32, 40, 0.5, 0.0), (8, 301, 0.9, 0.0), (8, 300, 0.9, 3.0),
-                                              (4, 1000, 0.99, 0.0), (32, 7, 0.0, 0.0)])
+@pytest.mark.parametrize(
+    "m, n, phi, shift",
+    [
+        (32, 40, 0.5, 0.0),
+        (8, 301, 0.9, 0.0),
+        (8, 300, 0.9, 3.0),
+        (4, 1000, 0.99, 0.0),
+        (32, 7, 0.0, 0.0),
+    ],
+)
 def test_matches_arviz(rng, m, n, phi, shift):
     az = import_arviz()
     x = _chains(rng, m, n, phi, shift, repeats=n > 25)

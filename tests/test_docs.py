@@ -24,7 +24,8 @@ def test_api_examples_run(tmp_path):
 
 @pytest.mark.slow
 def test_readme_walkthrough_runs_as_written(tmp_path):
-    """Every `bayes-imu` line of the README's walkthrough block, in order, from a copy of the project's data."""
+    """Every `bayes-imu` line of the README's walkthrough block, in order, from a copy of the
+    project's data."""
     import shutil
 
     commands = [line for block in _blocks("README.md", "sh") for line in block.splitlines()
@@ -33,8 +34,13 @@ def test_readme_walkthrough_runs_as_written(tmp_path):
     shutil.copytree(ROOT / "data_synthetic", tmp_path / "data_synthetic")
     for line in commands:
         args = shlex.split(line)
-        done = subprocess.run([sys.executable, "-m", "bayes_imu.cli.main", *args[1:]], cwd=tmp_path, capture_output=True,
-                              text=True, timeout=900)
+        done = subprocess.run(
+            [sys.executable, "-m", "bayes_imu.cli.main", *args[1:]],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=900,
+        )
         assert done.returncode == 0, (line, done.stderr)
     for path in ("walk/gyro/summary.json", "walk/gyro/drift.png", "walk/population/population.png",
                  "walk/report/report.html", "walk/imu.yaml"):

@@ -10,7 +10,13 @@ import numpy as np
 import pytest
 from exact import fraction_variance, mpmath_variance
 
-from bayes_imu import InputError, ModelError, drift_sigma, euler_variance, gauss_markov_driving_variance
+from bayes_imu import (
+    InputError,
+    ModelError,
+    drift_sigma,
+    euler_variance,
+    gauss_markov_driving_variance,
+)
 from bayes_imu import noise_density_to_variance, noise_variance_to_density
 from bayes_imu.noise.euler_sums import SERIES_TERMS, SWITCH, gm_coefficient, gm_sum
 
@@ -41,7 +47,9 @@ def test_white_scales_with_dt_and_variance():
 @pytest.mark.parametrize("a", A_VALUES)
 def test_gauss_markov_small_k_matches_fractions(order, a):
     ks = [0, 1, 2, 3, 10, 11, 12, 40, 100]
-    got = euler_variance("gauss_markov", order, ks, dt=1.0, noise_variance=1.0, time_constant=1.0 / a)
+    got = euler_variance(
+        "gauss_markov", order, ks, dt=1.0, noise_variance=1.0, time_constant=1.0 / a
+    )
     for k, value in zip(ks, got):
         assert _rel(value, fraction_variance("gauss_markov", order, k, a)) < REL, (k, a)
 
@@ -67,9 +75,15 @@ def test_switch_over_between_series_and_closed_form(order, k, side):
 @pytest.mark.parametrize("order", [0, 1, 2])
 def test_random_walk_limit_tau_infinite(order):
     ks = [0, 1, 5, 64, 65, 1000, 10**7]
-    got = euler_variance("gauss_markov", order, ks, dt=1.0, noise_variance=1.0, time_constant=np.inf)
+    got = euler_variance(
+        "gauss_markov", order, ks, dt=1.0, noise_variance=1.0, time_constant=np.inf
+    )
     for k, value in zip(ks, got):
-        ref = fraction_variance("gauss_markov", order, k, 0) if k <= 1000 else mpmath_variance(order, k, 0)
+        ref = (
+            fraction_variance("gauss_markov", order, k, 0)
+            if k <= 1000
+            else mpmath_variance(order, k, 0)
+        )
         assert _rel(value, ref) < REL
 
 
@@ -96,7 +110,9 @@ def test_batch_equals_loop(rng):
     assert batch.shape == (30, 50)
     for i in range(30):
         for j in range(0, 50, 7):
-            single = euler_variance("gauss_markov", 2, ks[j], dt=dt, noise_variance=1.0, time_constant=taus[i, 0])
+            single = euler_variance(
+                "gauss_markov", 2, ks[j], dt=dt, noise_variance=1.0, time_constant=taus[i, 0]
+            )
             assert single == batch[i, j]
 
 
@@ -112,7 +128,9 @@ def test_batch_equals_loop(rng):
 )
 def test_bad_arguments(kwargs, match):
     with pytest.raises((InputError, ModelError), match=match):
-        euler_variance(kwargs.pop("source"), kwargs.pop("order"), kwargs.pop("k"), dt=1.0, noise_variance=1.0)
+        euler_variance(
+            kwargs.pop("source"), kwargs.pop("order"), kwargs.pop("k"), dt=1.0, noise_variance=1.0
+        )
 
 
 def test_negative_time_constant_is_refused():
@@ -137,7 +155,9 @@ def _simulate(a, ks, n_paths, rng, source):
     return out
 
 
-@pytest.mark.parametrize("source, a", [("white", None), ("gauss_markov", 0.05), ("gauss_markov", 1.6)])
+@pytest.mark.parametrize(
+    "source, a", [("white", None), ("gauss_markov", 0.05), ("gauss_markov", 1.6)]
+)
 def test_monte_carlo_confirms_variances_and_index_convention(source, a, rng):
     """4000 simulated paths; each sample variance within 5 standard errors of the formula.
 
@@ -169,7 +189,14 @@ def test_monte_carlo_confirms_variances_and_index_convention(source, a, rng):
 def test_driving_variance_gives_stationary_bias_variance(discretization):
     dt, tau, sigma_b2 = 0.01, 0.7, 4.0
     q = gauss_markov_driving_variance(sigma_b2, tau, dt, discretization=discretization)
-    stationary = euler_variance("gauss_markov", 0, 10**7, dt=dt, noise_variance=q, time_constant=_tau_eff(dt, tau, discretization))
+    stationary = euler_variance(
+        "gauss_markov",
+        0,
+        10**7,
+        dt=dt,
+        noise_variance=q,
+        time_constant=_tau_eff(dt, tau, discretization),
+    )
     assert _rel(stationary, sigma_b2) < 1e-13
 
 
@@ -218,7 +245,14 @@ def test_continuous_time_limit(quantity, bias_start, t_over_tau):
     reference = _continuous_bias_variance(order, t, sigma_b2, tau, bias_start == "stationary")
     errors = []
     for dt in (t / 1e3, t / 1e5):
-        r = drift_sigma(t, quantity=quantity, dt=dt, bias_variance=sigma_b2, time_constant=tau, bias_start=bias_start)
+        r = drift_sigma(
+            t,
+            quantity=quantity,
+            dt=dt,
+            bias_variance=sigma_b2,
+            time_constant=tau,
+            bias_start=bias_start,
+        )
         errors.append(abs(float(r.bias) ** 2 / reference - 1))
     assert errors[1] < 5e-5  # O(dt / min(t, tau)) with dt = t / 1e5
     assert errors[1] < errors[0] / 50  # first-order convergence (factor 100 in dt)
@@ -249,10 +283,17 @@ def test_stationary_start_adds_initial_bias_term():
     dt, tau, sigma_b2 = 0.1, 5.0, 2.0
     t = np.array([0.0, 0.1, 1.0, 30.0, 400.0])
     zero = drift_sigma(t, quantity="position", dt=dt, bias_variance=sigma_b2, time_constant=tau)
-    stat = drift_sigma(t, quantity="position", dt=dt, bias_variance=sigma_b2, time_constant=tau, bias_start="stationary")
+    stat = drift_sigma(
+        t,
+        quantity="position",
+        dt=dt,
+        bias_variance=sigma_b2,
+        time_constant=tau,
+        bias_start="stationary",
+    )
     assert np.all(stat.bias >= zero.bias)
-    # the initial bias b_0 ~ N(0, sigma_b^2) carried by the exact AR(1) recursion with dt written out:
-    # p_k = p_{k-1} + dt v_{k-1}, v_k = v_{k-1} + dt b_{k-1}, b_k = A b_{k-1}
+    # the initial bias b_0 ~ N(0, sigma_b^2) carried by the exact AR(1) recursion with dt written
+    # out: p_k = p_{k-1} + dt v_{k-1}, v_k = v_{k-1} + dt b_{k-1}, b_k = A b_{k-1}
     A = np.exp(-dt / tau)
     extra = []
     for k in np.round(t / dt).astype(int):
@@ -274,9 +315,23 @@ def test_random_walk_drift():
 def test_drift_broadcasts_over_draws_and_times(rng):
     draws = rng.uniform(0.5, 2.0, size=(40, 1))
     t = np.geomspace(0.01, 3600, 25)
-    r = drift_sigma(t, quantity="position", dt=0.01, noise_variance=draws * 1e-4, bias_variance=draws * 1e-6, time_constant=draws * 100)
+    r = drift_sigma(
+        t,
+        quantity="position",
+        dt=0.01,
+        noise_variance=draws * 1e-4,
+        bias_variance=draws * 1e-6,
+        time_constant=draws * 100,
+    )
     assert r.total.shape == (40, 25)
-    one = drift_sigma(t, quantity="position", dt=0.01, noise_variance=draws[3, 0] * 1e-4, bias_variance=draws[3, 0] * 1e-6, time_constant=draws[3, 0] * 100)
+    one = drift_sigma(
+        t,
+        quantity="position",
+        dt=0.01,
+        noise_variance=draws[3, 0] * 1e-4,
+        bias_variance=draws[3, 0] * 1e-6,
+        time_constant=draws[3, 0] * 100,
+    )
     np.testing.assert_array_equal(one.total, r.total[3])
 
 
@@ -301,20 +356,34 @@ def test_negative_time_is_refused():
 
 
 def test_compiled_grid_kernels_equal_numpy_reference():
-    """gm_sum_grid / drift_grid (compiled, used for posterior bands) equal gm_sum / gm_coefficient to 1e-13,
-    over both branches, the switch-overs, A = 0 (a = 1), A < 0 (a > 1) and k from 0 to 2**53."""
+    """gm_sum_grid / drift_grid (compiled, used for posterior bands) equal gm_sum / gm_coefficient
+    to 1e-13, over both branches, the switch-overs, A = 0 (a = 1), A < 0 (a > 1) and k from 0 to
+    2**53."""
     from bayes_imu.noise.euler_sums import drift_grid, gm_coefficient, gm_sum, gm_sum_grid
 
     rng = np.random.default_rng(5)
-    k = np.concatenate([[0, 1, 2, 3], np.unique(np.round(np.geomspace(1, 3.6e5, 300))), [2.0**40, 2.0**53]])
+    k = np.concatenate(
+        [[0, 1, 2, 3], np.unique(np.round(np.geomspace(1, 3.6e5, 300))), [2.0**40, 2.0**53]]
+    )
     a = np.concatenate([10 ** rng.uniform(-16, 0.3, 300), [0.0, 1e-20, 0.5 / 7, 1.0, 1.5, 1.999]])
     for order in (1, 2):
         ref = gm_sum(order, k[None, :], a[:, None])
         np.testing.assert_allclose(gm_sum_grid(order, k, a), ref, rtol=1e-13, atol=0)
         coef = gm_coefficient(order, k[None, :], a[:, None])
         ones = np.ones_like(a)
-        total, bias = drift_grid(order, k, a, ones, ones, [np.zeros_like(a)], [np.zeros_like(k)], [np.zeros_like(a)], [np.zeros_like(k)])
-        np.testing.assert_allclose(bias**2, ref + coef**2, rtol=1e-12, atol=1e-20)  # c_2(1) = 0: exact here, 1e-33 in numpy
+        total, bias = drift_grid(
+            order,
+            k,
+            a,
+            ones,
+            ones,
+            [np.zeros_like(a)],
+            [np.zeros_like(k)],
+            [np.zeros_like(a)],
+            [np.zeros_like(k)],
+        )
+        # c_2(1) = 0: exact here, 1e-33 in numpy
+        np.testing.assert_allclose(bias**2, ref + coef**2, rtol=1e-12, atol=1e-20)
         if order == 2:  # c_2(k) = 0 exactly for k < 2
             assert np.all(bias[:, k < 2] == 0.0)
         np.testing.assert_array_equal(total, bias)

@@ -94,7 +94,9 @@ def test_eq28_time_step_power_is_six():
     from exact import fraction_variance_dt
 
     for dt in (0.5, 0.125):
-        got = euler_variance("gauss_markov", 2, 9, dt=dt, noise_variance=1.0, time_constant=4.0 * dt)
+        got = euler_variance(
+            "gauss_markov", 2, 9, dt=dt, noise_variance=1.0, time_constant=4.0 * dt
+        )
         exact = fraction_variance_dt(2, 9, dt=dt, tau=4.0 * dt)
         assert got == pytest.approx(float(exact), rel=1e-14)
         unit = float(fraction_variance_dt(2, 9, dt=1.0, tau=4.0))  # the same sum at dt = 1

@@ -1,4 +1,5 @@
-"""Fit: evidence against quadrature, model selection on the shipped logs, determinism, diagnostics."""
+"""Fit: evidence against quadrature, model selection on the shipped logs, determinism,
+diagnostics."""
 
 import json
 import warnings
@@ -76,10 +77,19 @@ def test_summary_and_predictive(lowgrade_fit):
     assert summary["model"] == ["white", "gauss_markov"]
     for name in ("noise_variance", "noise_density", "bias_variance", "time_constant"):
         entry = summary["parameters"][name]
-        assert entry["q05"] <= entry["median"] <= entry["q95"] and set(entry) == {"median", "mean", "q05", "q95", "unit"}
+        assert entry["q05"] <= entry["median"] <= entry["q95"] and set(entry) == {
+            "median",
+            "mean",
+            "q05",
+            "q95",
+            "unit",
+        }
     assert summary["parameters"]["time_constant"]["unit"] == "s"
-    np.testing.assert_allclose(summary["parameters"]["noise_density"]["median"] ** 2,
-                               summary["parameters"]["noise_variance"]["median"] * result.model.dt, rtol=1e-9)
+    np.testing.assert_allclose(
+        summary["parameters"]["noise_density"]["median"] ** 2,
+        summary["parameters"]["noise_variance"]["median"] * result.model.dt,
+        rtol=1e-9,
+    )
     pred = result.predictive_avar(n_draws=50, rng=0)
     assert pred.shape == (50, result.allan.m.size)
     json.dumps(summary)
@@ -87,14 +97,20 @@ def test_summary_and_predictive(lowgrade_fit):
 
 def test_same_seed_same_numbers(rng):
     model = NoiseModel(("white", "gauss_markov"), 0.01)
-    y = simulate_log(model, {"noise_variance": 1e-2, "bias_variance": 1e-5, "time_constant": 20.0}, 2**15, rng=rng)
+    y = simulate_log(
+        model,
+        {"noise_variance": 1e-2, "bias_variance": 1e-5, "time_constant": 20.0},
+        2**15,
+        rng=rng,
+    )
     a = fit(y, rate_hz=100.0, terms=("white", "gauss_markov"), rng=5)
     b = fit(y, rate_hz=100.0, terms=("white", "gauss_markov"), rng=5)
     np.testing.assert_array_equal(a.samples, b.samples)
 
 
 def test_evidence_matches_quadrature(rng):
-    """One-parameter model: importance-sampling log Z equals adaptive quadrature within 3 SE + 0.01."""
+    """One-parameter model: importance-sampling log Z equals adaptive quadrature within 3 SE +
+    0.01."""
     model = NoiseModel(("white",), 0.01)
     y = simulate_log(model, {"noise_variance": 1e-2}, 2**16, rng=rng)
     allan = allan_variance(y, rate_hz=100.0)
@@ -106,7 +122,9 @@ def test_evidence_matches_quadrature(rng):
     lo, hi = post.bounds[0]
     peak = post.log_likelihood(phi[None])[0]
     f = lambda p: np.exp(post.log_likelihood(np.array([[p]]))[0] - peak) / (hi - lo)  # noqa: E731
-    value, _ = integrate.quad(f, lo, hi, points=[phi[0] - 0.05, phi[0], phi[0] + 0.05], limit=200, epsabs=0, epsrel=1e-10)
+    value, _ = integrate.quad(
+        f, lo, hi, points=[phi[0] - 0.05, phi[0], phi[0] + 0.05], limit=200, epsabs=0, epsrel=1e-10
+    )
     assert abs(log_z - (np.log(value) + peak)) < 3 * se + 0.01
 
 
@@ -125,14 +143,18 @@ def test_evidence_from_a_point_far_from_the_mode(rng, kind):
     reference = log_evidence(post, u_mode, rng=1)
     for offset in (1.0, 2.0):
         far = log_evidence(post, u_mode + offset, rng=2)
-        assert np.isfinite(far.log_z) and abs(far.log_z - reference.log_z) < 3 * np.hypot(far.se, reference.se), (offset, far.log_z)
+        assert np.isfinite(far.log_z) and abs(far.log_z - reference.log_z) < 3 * np.hypot(
+            far.se, reference.se
+        ), (offset, far.log_z)
 
 
 def test_log_posterior_vectorised_and_bounded(rng):
     model = NoiseModel(("white", "random_walk"), 0.01)
     y = simulate_log(model, {"noise_variance": 1e-2, "rate_random_walk": 1e-4}, 2**14, rng=rng)
     allan = allan_variance(y, rate_hz=100.0)
-    post = LogPosterior.build(model, allan, reference={"noise_variance": 1e-2, "rate_random_walk": 1e-4})
+    post = LogPosterior.build(
+        model, allan, reference={"noise_variance": 1e-2, "rate_random_walk": 1e-4}
+    )
     b = default_bounds(model, allan)
     theta = b[:, 0] + (b[:, 1] - b[:, 0]) * rng.uniform(size=(7, 2))
     np.testing.assert_allclose(post(theta), [post(t[None])[0] for t in theta], rtol=1e-12)
@@ -141,7 +163,12 @@ def test_log_posterior_vectorised_and_bounded(rng):
 
 def test_non_convergence_warns(rng):
     model = NoiseModel(("white", "gauss_markov"), 0.01)
-    y = simulate_log(model, {"noise_variance": 1e-2, "bias_variance": 1e-5, "time_constant": 20.0}, 2**15, rng=rng)
+    y = simulate_log(
+        model,
+        {"noise_variance": 1e-2, "bias_variance": 1e-5, "time_constant": 20.0},
+        2**15,
+        rng=rng,
+    )
     with pytest.warns(ConvergenceWarning, match="not converged"):
         result = fit(y, rate_hz=100.0, terms=("white", "gauss_markov"), rng=1, max_steps=200)
     assert result.summary()["diagnostics"]["converged"] is False
@@ -156,12 +183,15 @@ def test_bad_inputs():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
         with pytest.raises(InputError, match="terms"):
-            fit(np.random.default_rng(0).standard_normal(4096), rate_hz=1.0, terms=("white", "pink"))
+            fit(
+                np.random.default_rng(0).standard_normal(4096), rate_hz=1.0, terms=("white", "pink")
+            )
 
 
 def test_exchangeable_biases_are_the_gauss_markov_pair_with_one_prior(rng):
-    """The relabel move's columns: both Gauss-Markov biases' (variance, time constant) columns and their common
-    time-constant bounds; none for a model with one bias; the discrepancy column changes nothing."""
+    """The relabel move's columns: both Gauss-Markov biases' (variance, time constant) columns and
+    their common time-constant bounds; none for a model with one bias; the discrepancy column
+    changes nothing."""
     from bayes_imu.inference.fit import exchangeable_biases
 
     allan = allan_variance(rng.standard_normal(2**14), rate_hz=100.0)
@@ -180,28 +210,33 @@ def test_exchangeable_biases_are_the_gauss_markov_pair_with_one_prior(rng):
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 4])
 def test_two_bias_real_posterior_converges_with_the_relabel_move(seed):
-    """ADIS16405 imu4 gyro x (white + filtered white + two Gauss-Markov biases + random walk). Without the relabel
-    move, seed 4 stopped unconverged at 40 000 steps (R-hat 1.053) and seed 0 "converged" in 6000 steps with no
-    draw where the second bias is switched off (its variance under a tenth of its median) and the first takes
-    the slow time constant, a region the local moves reach only through a swap of labels (``scripts/study_speed_options.py
-    --seeds``). With it, the fit must converge well before the cap and that region hold 1-10% of the draws."""
+    """ADIS16405 imu4 gyro x (white + filtered white + two Gauss-Markov biases + random walk).
+    Without the relabel move, seed 4 stopped unconverged at 40 000 steps (R-hat 1.053) and seed 0
+    "converged" in 6000 steps with no draw where the second bias is switched off (its variance under
+    a tenth of its median) and the first takes the slow time constant, a region the local moves
+    reach only through a swap of labels (``scripts/study_speed_options.py --seeds``). With it, the
+    fit must converge well before the cap and that region hold 1-10% of the draws."""
     path = shared_file("smac_imudata", "adis_16405_imu4.csv.gz")
     allan = allan_variance(read_log(path, column="gyro_x_dps").values, rate_hz=100.0)
-    result = fit_allan(allan, terms=("white", "filtered_white", "gauss_markov", "gauss_markov_2", "random_walk"),
-                       rng=seed)
+    result = fit_allan(
+        allan,
+        terms=("white", "filtered_white", "gauss_markov", "gauss_markov_2", "random_walk"),
+        rng=seed,
+    )
     assert result.diagnostics["converged"] and result.diagnostics["n_steps"] < 30_000
     names = result.model.parameter_names
     slow = result.samples[:, names.index("bias_variance_2")]
-    switched_off = slow < 0.1 * np.median(slow)  # the slower bias's variance a tenth of its median or less
+    # the slower bias's variance a tenth of its median or less
+    switched_off = slow < 0.1 * np.median(slow)
     assert 0.01 < switched_off.mean() < 0.10
 
 
 def test_a_pool_seeks_the_widened_modes_ahead_and_changes_no_number():
-    """fit_allan's pool: on a log that no candidate describes (white noise plus a 3 s sine: every candidate is
-    scored again with the discrepancy term), each candidate's widened mode is sent to the pool as it is scored
-    (a thread pool, and the command's output process), and the fit is the same, bit for bit, as
-    without one. A square wave of 3 s: one vibration line does not describe it either (its odd
-    harmonics remain)."""
+    """fit_allan's pool: on a log that no candidate describes (white noise plus a 3 s sine: every
+    candidate is scored again with the discrepancy term), each candidate's widened mode is sent to
+    the pool as it is scored (a thread pool, and the command's output process), and the fit is the
+    same, bit for bit, as without one. A square wave of 3 s: one vibration line does not describe it
+    either (its odd harmonics remain)."""
     from concurrent.futures import ThreadPoolExecutor
 
     from bayes_imu.inference.fit import fit, warm_up

@@ -1,4 +1,5 @@
-"""Fleets: fit-batch on a small Dask LocalCluster equals serial runs byte for byte; failures isolated."""
+"""Fleets: fit-batch on a small Dask LocalCluster equals serial runs byte for byte; failures
+isolated."""
 
 import json
 from pathlib import Path
@@ -7,7 +8,9 @@ import pytest
 
 from bayes_imu.cli.main import main
 
-pytest.importorskip("distributed", reason="the fleet extra (pip install 'bayes_imu[fleet]') is not installed")
+pytest.importorskip(
+    "distributed", reason="the fleet extra (pip install 'bayes_imu[fleet]') is not installed"
+)
 
 
 @pytest.fixture
@@ -17,7 +20,9 @@ def logs(tmp_path, rng):
     paths = []
     for k, sigma in enumerate((0.01, 0.02, 0.05)):
         path = folder / f"unit{k:03d}.csv"
-        path.write_text("gx\n" + "\n".join(f"{v:.8f}" for v in sigma * rng.standard_normal(2**13)) + "\n")
+        path.write_text(
+            "gx\n" + "\n".join(f"{v:.8f}" for v in sigma * rng.standard_normal(2**13)) + "\n"
+        )
         paths.append(path)
     bad = folder / "unit_bad.csv"
     bad.write_text("gx\n0.1\n0.2\nnan\n0.3\n")
@@ -39,10 +44,25 @@ def _serial_summaries(tmp_path, paths):
 def test_local_cluster_matches_serial_and_isolates_failures(tmp_path, logs, capsys):
     paths, bad = logs
     out = tmp_path / "batch"
-    status = main(["fit-batch", *map(str, paths), str(bad), *OPTIONS, "--workers", "2", "--out", str(out), "--quiet"])
+    status = main(
+        [
+            "fit-batch",
+            *map(str, paths),
+            str(bad),
+            *OPTIONS,
+            "--workers",
+            "2",
+            "--out",
+            str(out),
+            "--quiet",
+        ]
+    )
     assert status == 2  # one log failed
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == [f"bayes-imu: error: unit_bad: {bad}: line 4, column 'gx': got 'nan'; expected a finite number"]
+    assert err == [
+        f"bayes-imu: error: unit_bad: {bad}: line 4, column 'gx': got 'nan'; expected a finite "
+        "number"
+    ]
     batch = json.loads((out / "batch.json").read_text())
     assert [r["status"] for r in batch["logs"]] == [0, 0, 0, 2] and batch["n_failed"] == 1
     assert batch["scheduler"] == "LocalCluster" and batch["logs_per_minute"] > 0
@@ -53,14 +73,16 @@ def test_local_cluster_matches_serial_and_isolates_failures(tmp_path, logs, caps
     assert not (out / "unit_bad").exists()
     serial = _serial_summaries(tmp_path, paths)
     for path in paths:  # the same seed gives the same bytes, whichever process ran it
-        assert (out / path.stem / "summary.json").read_bytes().replace(str(out / path.stem).encode(), b"") == \
-            serial[path.stem].replace(str(tmp_path / "serial" / path.stem).encode(), b"")
+        assert (out / path.stem / "summary.json").read_bytes().replace(
+            str(out / path.stem).encode(), b""
+        ) == serial[path.stem].replace(str(tmp_path / "serial" / path.stem).encode(), b"")
 
 
 def test_existing_scheduler_and_serial_mode(tmp_path, logs, monkeypatch):
-    """Run as a user runs it (no output-process setting): a Dask worker is a daemonic process, which may
-    not start the fit's output process (it failed every log before); a serial batch writes in-process
-    too (a new output process per log would import ArviZ and matplotlib again each time)."""
+    """Run as a user runs it (no output-process setting): a Dask worker is a daemonic process, which
+    may not start the fit's output process (it failed every log before); a serial batch writes
+    in-process too (a new output process per log would import ArviZ and matplotlib again each
+    time)."""
     from dask.distributed import LocalCluster
 
     import bayes_imu.report.runs as runs
@@ -76,11 +98,38 @@ def test_existing_scheduler_and_serial_mode(tmp_path, logs, monkeypatch):
 
     monkeypatch.setattr(runs, "OutputWriter", Recording)  # the fit's run (report.runs)
     paths, _ = logs
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        assert main(["fit-batch", *map(str, paths[:2]), *OPTIONS, "--scheduler", cluster.scheduler_address,
-                     "--out", str(tmp_path / "remote"), "--quiet"]) == 0
-    assert main(["fit-batch", *map(str, paths[:2]), *OPTIONS, "--serial", "--out", str(tmp_path / "local"),
-                 "--quiet"]) == 0
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        assert (
+            main(
+                [
+                    "fit-batch",
+                    *map(str, paths[:2]),
+                    *OPTIONS,
+                    "--scheduler",
+                    cluster.scheduler_address,
+                    "--out",
+                    str(tmp_path / "remote"),
+                    "--quiet",
+                ]
+            )
+            == 0
+        )
+    assert (
+        main(
+            [
+                "fit-batch",
+                *map(str, paths[:2]),
+                *OPTIONS,
+                "--serial",
+                "--out",
+                str(tmp_path / "local"),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     for path in paths[:2]:
         remote = json.loads((tmp_path / "remote" / path.stem / "summary.json").read_text())
         local = json.loads((tmp_path / "local" / path.stem / "summary.json").read_text())
@@ -92,14 +141,17 @@ def test_existing_scheduler_and_serial_mode(tmp_path, logs, monkeypatch):
 def test_batch_refuses_busy_output_and_bad_scheduler(tmp_path, logs, capsys, monkeypatch):
     import bayes_imu.report.fleet
 
-    monkeypatch.setattr(bayes_imu.report.fleet, "CONNECT_TIMEOUT", "1s")  # the refusal, without 10 s of retries
+    # the refusal, without 10 s of retries
+    monkeypatch.setattr(bayes_imu.report.fleet, "CONNECT_TIMEOUT", "1s")
     paths, _ = logs
     busy = tmp_path / "busy"
     busy.mkdir()
     (busy / "x").write_text("x")
     assert main(["fit-batch", str(paths[0]), *OPTIONS, "--serial", "--out", str(busy)]) == 2
     assert "folder exists and is not empty ('x')" in capsys.readouterr().err
-    assert main(["fit-batch", str(paths[0]), *OPTIONS, "--serial", "--out", str(busy), "--force"]) == 2
+    assert (
+        main(["fit-batch", str(paths[0]), *OPTIONS, "--serial", "--out", str(busy), "--force"]) == 2
+    )
     assert "--force replaces only a previous bayes_imu result" in capsys.readouterr().err
     assert sorted(p.name for p in busy.iterdir()) == ["x"]
     assert main(["fit-batch", str(paths[0]), *OPTIONS, "--scheduler", "tcp://127.0.0.1:1",
@@ -119,7 +171,8 @@ def _task(job):
 
 
 def test_run_batch_maps_failures_to_statuses():
-    """The library runs any task (it never calls the command line): 0 success, 2 user error, 1 internal."""
+    """The library runs any task (it never calls the command line): 0 success, 2 user error, 1
+    internal."""
     from bayes_imu.report.fleet import BatchJob, run_batch
 
     jobs = [BatchJob("ok", ("ok",)), BatchJob("user", ("user",)), BatchJob("bug", ("bug",))]

@@ -3,7 +3,18 @@
 import subprocess
 import sys
 
-HEAVY = ("scipy", "arviz", "matplotlib", "corner", "emcee", "numba", "pandas", "xarray", "dask", "rosbags")
+HEAVY = (
+    "scipy",
+    "arviz",
+    "matplotlib",
+    "corner",
+    "emcee",
+    "numba",
+    "pandas",
+    "xarray",
+    "dask",
+    "rosbags",
+)
 
 
 def test_import_loads_no_heavy_library():
@@ -13,8 +24,9 @@ def test_import_loads_no_heavy_library():
 
 
 def test_second_process_compiles_nothing():
-    """numba kernels come from the on-disk cache: a second process saves no new compiled code (the JIT
-    kernels of a record of 2**21 samples or more among them: its fused fill and sums, its residue sums)."""
+    """numba kernels come from the on-disk cache: a second process saves no new compiled code (the
+    JIT kernels of a record of 2**21 samples or more among them: its fused fill and sums, its
+    residue sums)."""
     code = """
 import numpy as np
 import bayes_imu as bi
@@ -34,7 +46,9 @@ from bayes_imu.allan.outofcore import allan_variance_file
 
     env = {**os.environ, "NUMBA_DEBUG_CACHE": "1"}
     for attempt in range(2):
-        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
+        done = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env
+        )
     saved = [line for line in (done.stdout + done.stderr).splitlines() if "saved" in line]
     assert not saved, "compiled again in a second process:\n" + "\n".join(saved)
 
@@ -50,7 +64,8 @@ from bayes_imu.cli.main import main
 rng = np.random.default_rng(1)
 y = rng.standard_normal(20000) + 0.01 * np.cumsum(rng.standard_normal(20000))
 np.savetxt(sys.argv[1] + "/g.csv", y, header="g", comments="")
-assert main(["fit", sys.argv[1] + "/g.csv", "--column", "g", "--rate", "100", "--out", sys.argv[1] + "/o", "--quiet"]) == 0
+assert main(["fit", sys.argv[1] + "/g.csv", "--column", "g", "--rate", "100", "--out", sys.argv[1] \
++ "/o", "--quiet"]) == 0
 loaded = "scipy.stats" in sys.modules
 import emcee
 s = emcee.EnsembleSampler(8, 1, lambda x: -0.5 * float(x[0]) ** 2, moves=emcee.moves.KDEMove())
@@ -63,30 +78,39 @@ print(json.dumps([loaded, "scipy.stats" in sys.modules]))
 
     with tempfile.TemporaryDirectory() as folder:
         env = {**os.environ, "BAYES_IMU_OUTPUT_PROCESS": "1"}
-        done = subprocess.run([sys.executable, "-c", code, folder], capture_output=True, text=True, env=env,
-                              timeout=300)
+        done = subprocess.run(
+            [sys.executable, "-c", code, folder],
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=300,
+        )
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout.splitlines()[-1]) == [False, True]
 
 
 def test_a_fit_writes_every_output_without_numba_arviz_or_pandas():
-    """A fit command with drift bands, writing its outputs in its own process (as Python callers do), loads
-    neither numba (the precompiled kernels sum a log this short and draw the drift grid; numba and its
-    compiled-code machinery: docs/speed_under_load.md#imports;
-    where numba has no AOT compiler the package is built without them, and numba is then expected) nor
-    ArviZ or xarray (posterior.nc through h5netcdf, corner without ArviZ) nor pandas (a plain table
-    of numbers, here four columns of which one is fitted, is read by numpy's reader), and writes every file."""
+    """A fit command with drift bands, writing its outputs in its own process (as Python callers
+    do), loads neither numba (the precompiled kernels sum a log this short and draw the drift grid;
+    numba and its compiled-code machinery: docs/speed_under_load.md#imports;
+    where numba has no AOT compiler the package is built without them, and numba is then expected)
+    nor ArviZ or xarray (posterior.nc through h5netcdf, corner without ArviZ) nor pandas (a plain
+    table of numbers, here four columns of which one is fitted, is read by numpy's reader), and
+    writes every file."""
     code = """
 import sys, json, os
 import numpy as np
 from bayes_imu.cli.main import main
 rng = np.random.default_rng(2)
 y = rng.standard_normal(20000) + 0.01 * np.cumsum(rng.standard_normal(20000))
-np.savetxt(sys.argv[1] + "/g.csv", np.column_stack([np.arange(y.size) / 100.0, y, -y, 2.0 * y]), header="t,g,h,k",
+np.savetxt(sys.argv[1] + "/g.csv", np.column_stack([np.arange(y.size) / 100.0, y, -y, 2.0 * y]), \
+header="t,g,h,k",
            delimiter=",", comments="")
-assert main(["fit", sys.argv[1] + "/g.csv", "--column", "g", "--rate", "100", "--units", "rad/s", "--sensor", "gyro",
+assert main(["fit", sys.argv[1] + "/g.csv", "--column", "g", "--rate", "100", "--units", "rad/s", \
+"--sensor", "gyro",
              "--out", sys.argv[1] + "/o", "--quiet"]) == 0
-print(json.dumps([[m for m in ("numba", "arviz", "xarray", "scipy.stats", "pandas") if m in sys.modules],
+print(json.dumps([[m for m in ("numba", "arviz", "xarray", "scipy.stats", "pandas") if m in \
+sys.modules],
                   sorted(os.listdir(sys.argv[1] + "/o"))]))
 """
     import json
@@ -97,9 +121,21 @@ print(json.dumps([[m for m in ("numba", "arviz", "xarray", "scipy.stats", "panda
 
     with tempfile.TemporaryDirectory() as folder:
         env = {**os.environ, "BAYES_IMU_OUTPUT_PROCESS": "0"}
-        done = subprocess.run([sys.executable, "-c", code, folder], capture_output=True, text=True, env=env,
-                              timeout=300)
+        done = subprocess.run(
+            [sys.executable, "-c", code, folder],
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=300,
+        )
     assert done.returncode == 0, done.stderr
     loaded, files = json.loads(done.stdout.splitlines()[-1])
     assert loaded == ([] if precompiled() is not None else ["numba"])
-    assert {"summary.json", "fit.npz", "posterior.nc", "allan_fit.png", "corner.png", "drift.png"} <= set(files)
+    assert {
+        "summary.json",
+        "fit.npz",
+        "posterior.nc",
+        "allan_fit.png",
+        "corner.png",
+        "drift.png",
+    } <= set(files)

@@ -30,18 +30,32 @@ def _plain(tmp_path, values):
 
 
 VALID = {
-    "bom_crlf_spaces_blank_tail": lambda v: ("\ufeff gx , gy \r\n" + "\r\n".join(" " + r.replace(",", " , ") + " "
-                                             for r in _rows(v)) + "\r\n\r\n\r\n").encode("utf-8"),
+    "bom_crlf_spaces_blank_tail": lambda v: (
+        "\ufeff gx , gy \r\n"
+        + "\r\n".join(" " + r.replace(",", " , ") + " " for r in _rows(v))
+        + "\r\n\r\n\r\n"
+    ).encode("utf-8"),
     "semicolon": lambda v: ("gx;gy\n" + "\n".join(_rows(v, ";")) + "\n").encode(),
     "tab": lambda v: ("gx\tgy\n" + "\n".join(_rows(v, "\t")) + "\n").encode(),
     "whitespace_runs": lambda v: ("gx   gy\n" + "\n".join(_rows(v, "   ")) + "\n").encode(),
-    "comments_everywhere": lambda v: ("# logger 1.2\n# rate 100 Hz\ngx,gy\n" + "\n".join(
-        r + ("  # note" if i % 7 == 0 else "") + ("\n# pause" if i == 50 else "") for i, r in enumerate(_rows(v)))
-        + "\n").encode(),
-    "gzip_without_gz_suffix": lambda v: gzip.compress(("gx,gy\n" + "\n".join(_rows(v)) + "\n").encode()),
+    "comments_everywhere": lambda v: (
+        "# logger 1.2\n# rate 100 Hz\ngx,gy\n"
+        + "\n".join(
+            r + ("  # note" if i % 7 == 0 else "") + ("\n# pause" if i == 50 else "")
+            for i, r in enumerate(_rows(v))
+        )
+        + "\n"
+    ).encode(),
+    "gzip_without_gz_suffix": lambda v: gzip.compress(
+        ("gx,gy\n" + "\n".join(_rows(v)) + "\n").encode()
+    ),
     "no_trailing_newline": lambda v: ("gx,gy\n" + "\n".join(_rows(v))).encode(),
-    "text_column_elsewhere": lambda v: ("status,gx,gy\n" + "\n".join("ok," + r for r in _rows(v)) + "\n").encode(),
-    "trailing_delimiter": lambda v: ("gx,gy,\n" + "\n".join(r + "," for r in _rows(v)) + "\n").encode(),
+    "text_column_elsewhere": lambda v: (
+        "status,gx,gy\n" + "\n".join("ok," + r for r in _rows(v)) + "\n"
+    ).encode(),
+    "trailing_delimiter": lambda v: (
+        "gx,gy,\n" + "\n".join(r + "," for r in _rows(v)) + "\n"
+    ).encode(),
 }
 
 
@@ -53,29 +67,48 @@ def test_unusual_but_valid_files_read_identically(tmp_path, samples, form):
     np.testing.assert_array_equal(got, _plain(tmp_path, samples))
 
 
-WIDE_VALID = {  # the same forms with a third column: numpy's wide path (the wanted columns and the last one)
-    "bom_crlf_spaces_blank_tail": lambda v: ("\ufeff gx , gy , gz \r\n" + "\r\n".join(
-        " " + r.replace(",", " , ") + " , 0.5 " for r in _rows(v)) + "\r\n\r\n\r\n").encode("utf-8"),
-    "semicolon": lambda v: ("gx;gy;gz\n" + "\n".join(r + ";7" for r in _rows(v, ";")) + "\n").encode(),
-    "tab": lambda v: ("gx\tgy\tgz\n" + "\n".join(r + "\t-1e3" for r in _rows(v, "\t")) + "\n").encode(),
-    "comments_everywhere": lambda v: ("# logger 1.2\n# rate 100 Hz\ngx,gy,gz\n" + "\n".join(
-        r + ",0" + ("  # note" if i % 7 == 0 else "") + ("\n# pause" if i == 50 else "") for i, r in enumerate(_rows(v)))
-        + "\n").encode(),
-    "gzip_without_gz_suffix": lambda v: gzip.compress(("gx,gy,gz\n" + "\n".join(r + ",1" for r in _rows(v)) + "\n").encode()),
-    "no_trailing_newline": lambda v: ("gx,gy,gz\n" + "\n".join(r + ",2" for r in _rows(v))).encode(),
+# the same forms with a third column: numpy's wide path (the wanted columns and the last one)
+WIDE_VALID = {
+    "bom_crlf_spaces_blank_tail": lambda v: (
+        "\ufeff gx , gy , gz \r\n"
+        + "\r\n".join(" " + r.replace(",", " , ") + " , 0.5 " for r in _rows(v))
+        + "\r\n\r\n\r\n"
+    ).encode("utf-8"),
+    "semicolon": lambda v: (
+        "gx;gy;gz\n" + "\n".join(r + ";7" for r in _rows(v, ";")) + "\n"
+    ).encode(),
+    "tab": lambda v: (
+        "gx\tgy\tgz\n" + "\n".join(r + "\t-1e3" for r in _rows(v, "\t")) + "\n"
+    ).encode(),
+    "comments_everywhere": lambda v: (
+        "# logger 1.2\n# rate 100 Hz\ngx,gy,gz\n"
+        + "\n".join(
+            r + ",0" + ("  # note" if i % 7 == 0 else "") + ("\n# pause" if i == 50 else "")
+            for i, r in enumerate(_rows(v))
+        )
+        + "\n"
+    ).encode(),
+    "gzip_without_gz_suffix": lambda v: gzip.compress(
+        ("gx,gy,gz\n" + "\n".join(r + ",1" for r in _rows(v)) + "\n").encode()
+    ),
+    "no_trailing_newline": lambda v: (
+        "gx,gy,gz\n" + "\n".join(r + ",2" for r in _rows(v))
+    ).encode(),
 }
 
 
 @pytest.mark.parametrize("form", sorted(WIDE_VALID))
 def test_unusual_but_valid_wide_files_read_identically_by_numpy(tmp_path, samples, form):
-    """The valid forms above with a third column: read by numpy's wide path (except where a comment line comes
-    before the header: pandas' path), with the plain file's values."""
+    """The valid forms above with a third column: read by numpy's wide path (except where a comment
+    line comes before the header: pandas' path), with the plain file's values."""
     from bayes_imu._progress import progress_bar
     from bayes_imu.io.readers import _parse_plain, sniff_file
 
     path = tmp_path / "log.dat"
     path.write_bytes(WIDE_VALID[form](samples))
-    np.testing.assert_array_equal(read_columns(path, columns=["gx", "gy"]).values, _plain(tmp_path, samples))
+    np.testing.assert_array_equal(
+        read_columns(path, columns=["gx", "gy"]).values, _plain(tmp_path, samples)
+    )
     with progress_bar(total=1, enabled=False) as bar:
         taken = _parse_plain(path, sniff_file(path), [0, 1], bar)
     assert (taken is None) == (form == "comments_everywhere")
@@ -91,7 +124,11 @@ def test_no_header_columns_by_index(tmp_path, samples):
 
 def test_header_column_by_index_and_time_lines(tmp_path, samples):
     path = tmp_path / "t.csv"
-    text = "# c\ntime,gx,gy\n" + "\n".join(f"{i / 100:.2f}," + r for i, r in enumerate(_rows(samples))) + "\n"
+    text = (
+        "# c\ntime,gx,gy\n"
+        + "\n".join(f"{i / 100:.2f}," + r for i, r in enumerate(_rows(samples)))
+        + "\n"
+    )
     path.write_text(text)
     data = read_log(path, column=2, time_column="time")
     assert data.column == "gy"
@@ -107,7 +144,9 @@ def test_real_adis_log_reads_every_channel():
     data = read_columns(path, columns=["gyro_x_dps", "accel_z_g"])
     assert data.values.shape == (1_000_000, 2)
     # SOURCE.md: gyro values are multiples of the 0.05 deg/s LSB; accel z reads about -1.017 g
-    np.testing.assert_allclose(data.values[:, 0] / 0.05, np.round(data.values[:, 0] / 0.05), atol=1e-6)
+    np.testing.assert_allclose(
+        data.values[:, 0] / 0.05, np.round(data.values[:, 0] / 0.05), atol=1e-6
+    )
     assert -1.03 < np.mean(data.values[:, 1]) < -1.0
 
 
@@ -115,20 +154,50 @@ MALFORMED = [  # (name, bytes, column, message fragment)
     ("empty", b"", "b", "empty file"),
     ("header_only", b"a,b\n", "b", "a header row but no samples"),
     ("only_comments", b"# nothing\n\n# here\n", "b", "no data rows"),
-    ("nan", b"a,b\n1,2\n3,nan\n4,5\n", "b", "line 3, column 'b': got 'nan'; expected a finite number"),
+    (
+        "nan",
+        b"a,b\n1,2\n3,nan\n4,5\n",
+        "b",
+        "line 3, column 'b': got 'nan'; expected a finite number",
+    ),
     ("inf", b"a,b\n1,2\n3,-inf\n4,5\n", "b", "line 3, column 'b': got '-inf'"),
     ("overflowing_literal", b"a,b\n1,2\n3,1e400\n4,5\n", "b", "got '1e400'"),
     ("text", b"a,b\n1,2\n# c\n3,abc\n4,5\n", "b", "line 4, column 'b': got 'abc'"),
     ("empty_field", b"a,b\n1,2\n3,\n4,5\n", "b", "line 3, column 'b': got an empty field"),
-    ("missing_column", b"a,b\n1,2\n3,4\n", "zz", "no column 'zz'; expected one of the header names ('a', 'b')"),
-    ("index_out_of_range", b"a,b\n1,2\n3,4\n", "9", "column index 9 out of range; the file has 2 columns"),
-    ("ragged_long", b"a,b\n1,2\n3,4\n5,6,7\n8,9\n", "a", "line 4: 3 fields; expected 2 (as in the header)"),
+    (
+        "missing_column",
+        b"a,b\n1,2\n3,4\n",
+        "zz",
+        "no column 'zz'; expected one of the header names ('a', 'b')",
+    ),
+    (
+        "index_out_of_range",
+        b"a,b\n1,2\n3,4\n",
+        "9",
+        "column index 9 out of range; the file has 2 columns",
+    ),
+    (
+        "ragged_long",
+        b"a,b\n1,2\n3,4\n5,6,7\n8,9\n",
+        "a",
+        "line 4: 3 fields; expected 2 (as in the header)",
+    ),
     ("ragged_short", b"a,b\n1,2\n3\n8,9\n", "b", "line 3: 1 field; expected 2"),
     ("constant", b"a,b\n1,2\n3,2\n4,2\n", "b", "constant signal (all 3 samples are 2.0)"),
-    ("absurd_magnitude", b"a,b\n1,2\n3,1e150\n4,5\n", "b", f"expected |value| <= {MAX_MAGNITUDE:g}"),
+    (
+        "absurd_magnitude",
+        b"a,b\n1,2\n3,1e150\n4,5\n",
+        "b",
+        f"expected |value| <= {MAX_MAGNITUDE:g}",
+    ),
     ("underflowing_spread", b"a,b\n1,1e-300\n3,2e-300\n4,0\n", "b", "underflow"),
     ("binary", bytes(range(256)) * 8, "b", "binary data (NUL byte at offset 0)"),
-    ("not_utf8", "a,b\u00b0\n1,2\n".encode("latin-1"), "b", "not UTF-8 text (byte 0xb0 at offset 3)"),
+    (
+        "not_utf8",
+        "a,b\u00b0\n1,2\n".encode("latin-1"),
+        "b",
+        "not UTF-8 text (byte 0xb0 at offset 3)",
+    ),
     ("duplicate_header", b"a,b,b\n1,2,3\n4,5,6\n", "b", "column name 'b' appears more than once"),
 ]
 
@@ -182,7 +251,22 @@ def test_unusual_but_valid_files_through_the_command(tmp_path, samples, form, ca
     path = tmp_path / "log.dat"
     path.write_bytes(VALID[form](samples))
     for log, out in ((plain, "a"), (path, "b")):
-        assert main(["allan", str(log), "--column", "gy", "--rate", "100", "--out", str(tmp_path / out), "--quiet"]) == 0
+        assert (
+            main(
+                [
+                    "allan",
+                    str(log),
+                    "--column",
+                    "gy",
+                    "--rate",
+                    "100",
+                    "--out",
+                    str(tmp_path / out),
+                    "--quiet",
+                ]
+            )
+            == 0
+        )
     assert capsys.readouterr().err == ""
     assert (tmp_path / "a" / "allan.csv").read_text() == (tmp_path / "b" / "allan.csv").read_text()
 
@@ -200,9 +284,9 @@ def _both_parsers(path):
 
 
 def test_fast_path_reads_the_shipped_and_real_logs_as_pandas_does():
-    """numpy's reader (the fast path, no pandas import) against pandas' C reader on every shipped log and on
-    two real logs where ../shared has them: it takes every one of these plain tables, and gives the same
-    float64 values, bit for bit."""
+    """numpy's reader (the fast path, no pandas import) against pandas' C reader on every shipped
+    log and on two real logs where ../shared has them: it takes every one of these plain tables, and
+    gives the same float64 values, bit for bit."""
     from pathlib import Path
 
     from conftest import SHARED_DATA
@@ -211,13 +295,19 @@ def test_fast_path_reads_the_shipped_and_real_logs_as_pandas_does():
     from bayes_imu.io import readers
 
     logs = sorted((Path(__file__).resolve().parents[1] / "data_synthetic").glob("*.csv.gz"))
-    logs += [p for p in (SHARED_DATA / "smac_imudata" / f"adis_16405_imu{i}.csv.gz" for i in (1, 4)) if p.exists()]
+    logs += [
+        p
+        for p in (SHARED_DATA / "smac_imudata" / f"adis_16405_imu{i}.csv.gz" for i in (1, 4))
+        if p.exists()
+    ]
     assert len(logs) >= 7
     for path in logs:
-        plain, pandas = _both_parsers(path)  # the real logs' six columns: the wide path, every column asked for
+        # the real logs' six columns: the wide path, every column asked for
+        plain, pandas = _both_parsers(path)
         assert plain is not None, path
         np.testing.assert_array_equal(plain.view(np.int64), pandas.view(np.int64))
-        if path.parent.name == "smac_imudata":  # one column of six: the wanted one and the last converted
+        # one column of six: the wanted one and the last converted
+        if path.parent.name == "smac_imudata":
             fmt = readers.sniff_file(path)
             with progress_bar(total=1, enabled=False) as bar:
                 one = readers._parse_plain(path, fmt, [2], bar)
@@ -260,20 +350,24 @@ def test_fast_path_agrees_with_pandas_or_leaves_the_file_to_it(tmp_path, field):
 
 
 def test_fast_path_leaves_ragged_and_commented_preambles_to_pandas(tmp_path):
-    """A row with an extra field or a comment line before the header: not the fast path's; it returns None and
-    the file is read (or refused) by pandas' path as before."""
+    """A row with an extra field or a comment line before the header: not the fast path's; it
+    returns None and the file is read (or refused) by pandas' path as before."""
     from bayes_imu._progress import progress_bar
     from bayes_imu.io.readers import _parse_plain, sniff_file
 
-    cases = {"ragged.csv": "a,b\n1,2\n3,4,5\n6,7\n", "preamble.csv": "# logged today\na,b\n1,2\n3,4\n"}
+    cases = {
+        "ragged.csv": "a,b\n1,2\n3,4,5\n6,7\n",
+        "preamble.csv": "# logged today\na,b\n1,2\n3,4\n",
+    }
     for name, text in cases.items():
         path = tmp_path / name
         path.write_text(text)
         fmt = sniff_file(path)
         with progress_bar(total=1, enabled=False) as bar:
             assert _parse_plain(path, fmt, [0, 1], bar) is None, name
-    np.testing.assert_array_equal(read_columns(tmp_path / "preamble.csv", columns=["a", "b"]).values,
-                                  [[1.0, 2.0], [3.0, 4.0]])
+    np.testing.assert_array_equal(
+        read_columns(tmp_path / "preamble.csv", columns=["a", "b"]).values, [[1.0, 2.0], [3.0, 4.0]]
+    )
 
 
 _TAIL = "".join(f"{i},{i + 1},{i + 2}\n" for i in range(30))  # rows past the sniffer's first twenty
@@ -304,8 +398,8 @@ WIDE_LEFT = {
 
 @pytest.mark.parametrize("name", sorted(WIDE_READ))
 def test_fast_path_reads_wide_logs_as_pandas_does(tmp_path, name):
-    """A log wider than PLAIN_COLUMNS: numpy converts the wanted columns and the last one and counts the
-    delimiters; it reads these files, with pandas' values, in the order asked for."""
+    """A log wider than PLAIN_COLUMNS: numpy converts the wanted columns and the last one and counts
+    the delimiters; it reads these files, with pandas' values, in the order asked for."""
     from bayes_imu._progress import progress_bar
     from bayes_imu.io.readers import _parse_pandas, _parse_plain, sniff_file
 
@@ -321,9 +415,10 @@ def test_fast_path_reads_wide_logs_as_pandas_does(tmp_path, name):
 
 @pytest.mark.parametrize("name", sorted(WIDE_LEFT))
 def test_fast_path_leaves_ragged_quoted_or_textual_wide_logs_to_pandas(tmp_path, name):
-    """A wide row longer or shorter than the header (alone or two that make up each other's count), a delimiter
-    inside quotes or a comment, text or nothing in the last column, runs of blanks as the delimiter: None, and
-    the reader gives what pandas' path gives (the values or its one-line error)."""
+    """A wide row longer or shorter than the header (alone or two that make up each other's count),
+    a delimiter inside quotes or a comment, text or nothing in the last column, runs of blanks as
+    the delimiter: None, and the reader gives what pandas' path gives (the values or its one-line
+    error)."""
     from bayes_imu._progress import progress_bar
     from bayes_imu.io.readers import _parse_pandas, _parse_plain, sniff_file
 
@@ -342,7 +437,8 @@ def test_fast_path_leaves_ragged_quoted_or_textual_wide_logs_to_pandas(tmp_path,
 
 
 def test_numpy_is_tried_first_unless_pandas_is_loaded_and_reads_three_columns_or_more(monkeypatch):
-    """The reader's choice of path (a matter of speed only: both give the same values, tested above)."""
+    """The reader's choice of path (a matter of speed only: both give the same values, tested
+    above)."""
     import sys
 
     from bayes_imu.io.readers import _numpy_first
@@ -356,9 +452,9 @@ def test_numpy_is_tried_first_unless_pandas_is_loaded_and_reads_three_columns_or
 
 
 def test_fast_path_on_random_wide_logs_agrees_with_pandas(tmp_path, rng):
-    """Random small wide logs (rows of 2-5 fields under a 4-field header; numbers, text, empty, quoted fields):
-    wherever the fast path reads one, pandas' path reads it too, to the same values; where pandas refuses it
-    (a row too long), the fast path never reads it."""
+    """Random small wide logs (rows of 2-5 fields under a 4-field header; numbers, text, empty,
+    quoted fields): wherever the fast path reads one, pandas' path reads it too, to the same values;
+    where pandas refuses it (a row too long), the fast path never reads it."""
     from bayes_imu._progress import progress_bar
     from bayes_imu.io.readers import _parse_pandas, _parse_plain, sniff_file
 
@@ -366,10 +462,16 @@ def test_fast_path_on_random_wide_logs_agrees_with_pandas(tmp_path, rng):
     weights = np.array([6, 6, 6, 1, 1, 1, 1]) / 22.0
     read = 0
     for k in range(300):
-        rows = ["a,b,c,d"] + ["1,2,3,4"] * 3  # numeric first rows: the sniffer sees four clean columns
+        # numeric first rows: the sniffer sees four clean columns
+        rows = ["a,b,c,d"] + ["1,2,3,4"] * 3
         for _ in range(int(rng.integers(1, 4))):
             n = int(rng.choice([3, 4, 4, 4, 4, 4, 5]))
-            rows.append(",".join(str(rng.choice(pieces, p=weights)) if j else str(rng.integers(9)) for j in range(n)))
+            rows.append(
+                ",".join(
+                    str(rng.choice(pieces, p=weights)) if j else str(rng.integers(9))
+                    for j in range(n)
+                )
+            )
         path = tmp_path / f"log{k}.csv"
         path.write_text("\n".join(rows) + "\n")
         fmt = sniff_file(path)

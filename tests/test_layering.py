@@ -1,5 +1,5 @@
-"""Imports go one way (io -> allan -> noise -> inference -> drift -> report -> cli), the library never
-imports the command line, no module reaches for a private name or module of another stage, and
+"""Imports go one way (io -> allan -> noise -> inference -> drift -> report -> cli), the library
+never imports the command line, no module reaches for a private name or module of another stage, and
 each stage is a subpackage whose docstring says what it owns."""
 
 import ast
@@ -11,7 +11,8 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "bayes_imu"
 #: the stages in data-flow order; the shared infrastructure (rank 0) is imported by all
 STAGES = ("io", "allan", "noise", "inference", "drift", "report", "cli")
-#: ``_compiled`` is the extension module of precompiled kernels (``setup.py``) that allan and noise both load
+#: ``_compiled`` is the extension module of precompiled kernels (``setup.py``) that allan and noise
+#: both load
 INFRASTRUCTURE = {"errors", "_version", "_progress", "_lazy", "_compiled"}
 STAGE = {name: rank + 1 for rank, name in enumerate(STAGES)}
 STAGE.update({name: 0 for name in INFRASTRUCTURE})
@@ -114,7 +115,10 @@ def private_imports(sources):
 
 def test_every_module_belongs_to_a_stage():
     missing = {top for _, top, _ in _modules()} - set(STAGE)
-    assert not missing, f"put {sorted(missing)} in a stage subpackage (tests/test_layering.py, docs/architecture.md)"
+    assert not missing, (
+        f"put {sorted(missing)} in a stage subpackage (tests/test_layering.py, "
+        "docs/architecture.md)"
+    )
 
 
 @pytest.mark.parametrize("stage", STAGES)
@@ -197,8 +201,9 @@ def _error_texts(path):
 
 
 def test_library_errors_name_parameters_not_flags():
-    """Outside the cli stage an error names the API's parameters (``out=``, ``force=True``); the command
-    line maps them to its flags (``cli.main.as_flags``). Allowed: advice to rerun the command itself."""
+    """Outside the cli stage an error names the API's parameters (``out=``, ``force=True``); the
+    command line maps them to its flags (``cli.main.as_flags``). Allowed: advice to rerun the
+    command itself."""
     import re
 
     flag = re.compile(r"(?<![\w-])--[a-z][a-z-]+")
@@ -215,8 +220,13 @@ def test_library_errors_name_parameters_not_flags():
 def test_the_command_maps_parameters_to_flags():
     from bayes_imu.cli.main import as_flags
 
-    assert as_flags("out=/tmp/a b: folder exists; or force=True to replace") == "--out /tmp/a b: folder exists; or --force to replace"
-    assert as_flags("scheduler=tcp://h:1: cannot connect") == "--scheduler tcp://h:1: cannot connect"
+    assert (
+        as_flags("out=/tmp/a b: folder exists; or force=True to replace")
+        == "--out /tmp/a b: folder exists; or --force to replace"
+    )
+    assert (
+        as_flags("scheduler=tcp://h:1: cannot connect") == "--scheduler tcp://h:1: cannot connect"
+    )
     assert as_flags("(or scheduler='serial')") == "(or --serial)"
     assert as_flags("(is rate_hz right?)") == "(is --rate right?)"
     assert as_flags("/data/out=1/log.csv: no such file") == "/data/out=1/log.csv: no such file"

@@ -1,4 +1,5 @@
-"""Noise models: exact discrete Allan variances against mpmath and against their own structure functions."""
+"""Noise models: exact discrete Allan variances against mpmath and against their own structure
+functions."""
 
 import mpmath as mp
 import numpy as np
@@ -7,7 +8,13 @@ from test_term_contract import params_of
 
 from bayes_imu.errors import InputError
 from bayes_imu.noise import REGISTRY
-from bayes_imu.noise.avar_forms import TERMS, NoiseModel, gauss_markov_avar, random_walk_avar, structure_function
+from bayes_imu.noise.avar_forms import (
+    TERMS,
+    NoiseModel,
+    gauss_markov_avar,
+    random_walk_avar,
+    structure_function,
+)
 
 PARAMS = {
     "white": {"noise_variance": 2.0},
@@ -21,8 +28,8 @@ PARAMS = {
 
 
 def gm_avar_mpmath(m, x):
-    """Reference: the AR(1) AVAR from its definition, Var and Cov of adjacent m-averages (100 digits:
-    x = 1e-15 cancels ~45 digits)."""
+    """Reference: the AR(1) AVAR from its definition, Var and Cov of adjacent m-averages (100
+    digits: x = 1e-15 cancels ~45 digits)."""
     with mp.workdps(100):
         phi = mp.e ** (-mp.mpf(x))
         m = mp.mpf(m)
@@ -33,7 +40,8 @@ def gm_avar_mpmath(m, x):
 
 @pytest.mark.parametrize("x", [1e-15, 1e-9, 1e-6, 1e-3, 0.049, 0.05, 0.051, 0.3, 1.0, 5.0, 60.0])
 def test_gauss_markov_avar_matches_mpmath_across_switch(x):
-    """Relative error <= 1e-13 from dt/T = 1e-15 to 60, on both sides of the series switch (m x = 0.1)."""
+    """Relative error <= 1e-13 from dt/T = 1e-15 to 60, on both sides of the series switch (m x =
+    0.1)."""
     m = np.array([1, 2, 3, 7, 64, 1000, 2**18])
     got = gauss_markov_avar(m, 1.0, 1.0 / x, dt=1.0)
     ref = np.array([float(gm_avar_mpmath(int(mi), x)) for mi in m])
@@ -56,7 +64,8 @@ def test_gauss_markov_avar_broadcasts_rows_against_mpmath():
 
 
 def test_gauss_markov_tends_to_random_walk():
-    """T -> infinity with sigma_b^2 dt/T fixed: AVAR -> rate random walk with K^2 dt = 2 sigma_b^2 dt / T."""
+    """T -> infinity with sigma_b^2 dt/T fixed: AVAR -> rate random walk with K^2 dt = 2 sigma_b^2
+    dt / T."""
     m = np.array([1, 4, 100])
     x = 1e-12
     gm = gauss_markov_avar(m, 1.0 / x, 1.0 / x, dt=1.0)  # sigma_b^2 x = 1
@@ -82,10 +91,15 @@ def test_avar_equals_structure_function_form(term):
 def test_gauss_markov_structure_function_mpmath():
     for x in (1e-12, 1e-6, 1e-3, 0.3, 2.0):
         k = np.array([1, 2, 5, 100, 10**4, 10**6])
-        got = structure_function(k, "gauss_markov", {"bias_variance": 1.0, "time_constant": 1.0 / x}, dt=1.0)
+        got = structure_function(
+            k, "gauss_markov", {"bias_variance": 1.0, "time_constant": 1.0 / x}, dt=1.0
+        )
         with mp.workdps(60):
             phi = mp.e ** (-mp.mpf(x))
-            ref = [float((int(kk) * (1 - phi**2) - 2 * phi * (1 - phi ** int(kk))) / (1 - phi) ** 2) for kk in k]
+            ref = [
+                float((int(kk) * (1 - phi**2) - 2 * phi * (1 - phi ** int(kk))) / (1 - phi) ** 2)
+                for kk in k
+            ]
         np.testing.assert_allclose(got, ref, rtol=1e-13)
 
 
@@ -106,14 +120,29 @@ def test_two_gauss_markov_terms_add_and_are_ordered():
     gauss_markov, and the model lists the time constants fastest first for the ordering prior."""
     dt = 0.01
     model = NoiseModel(("white", "hf_correlated", "gauss_markov", "gauss_markov_2"), dt)
-    p = {"noise_variance": 1.0, "correlated_variance": 0.5, "correlated_time_constant": 0.02,
-         "bias_variance": 0.1, "time_constant": 5.0, "bias_variance_2": 0.01, "time_constant_2": 300.0}
+    p = {
+        "noise_variance": 1.0,
+        "correlated_variance": 0.5,
+        "correlated_time_constant": 0.02,
+        "bias_variance": 0.1,
+        "time_constant": 5.0,
+        "bias_variance_2": 0.01,
+        "time_constant_2": 300.0,
+    }
     m = np.array([1, 10, 1000, 10**5])
-    ref = (p["noise_variance"] / m + gauss_markov_avar(m, 0.5, 0.02, dt=dt) + gauss_markov_avar(m, 0.1, 5.0, dt=dt)
-           + gauss_markov_avar(m, 0.01, 300.0, dt=dt))
+    ref = (
+        p["noise_variance"] / m
+        + gauss_markov_avar(m, 0.5, 0.02, dt=dt)
+        + gauss_markov_avar(m, 0.1, 5.0, dt=dt)
+        + gauss_markov_avar(m, 0.01, 300.0, dt=dt)
+    )
     np.testing.assert_allclose(model.avar(m, p), ref, rtol=1e-14)
     names = model.parameter_names
-    assert [names[i] for i in model.ordered] == ["correlated_time_constant", "time_constant", "time_constant_2"]
+    assert [names[i] for i in model.ordered] == [
+        "correlated_time_constant",
+        "time_constant",
+        "time_constant_2",
+    ]
     with pytest.raises(InputError, match="gauss_markov_2"):
         NoiseModel(("white", "gauss_markov_2"), dt)
 
@@ -141,7 +170,8 @@ def test_model_validation():
 
 
 def _avar_brute(cov, m):
-    """AVAR(m) from its definition: half the variance of the difference of adjacent m-sample means, a' S a / 2."""
+    """AVAR(m) from its definition: half the variance of the difference of adjacent m-sample means,
+    a' S a / 2."""
     a = np.concatenate([-np.ones(m), np.ones(m)]) / m
     return 0.5 * a @ cov @ a
 
@@ -154,19 +184,27 @@ def test_per_term_avar_functions_against_definitions(m):
 
     dt, n = 0.25, 2 * m
     # white: y_k iid, variance q
-    assert white_avar(np.array([m]), 2.0)[0] == pytest.approx(_avar_brute(2.0 * np.eye(n), m), rel=1e-12)
+    assert white_avar(np.array([m]), 2.0)[0] == pytest.approx(
+        _avar_brute(2.0 * np.eye(n), m), rel=1e-12
+    )
     # quantization: phase noise e_k iid (variance Q^2), y_k = (e_{k+1} - e_k) / dt
     d = (np.eye(n + 1)[1:] - np.eye(n + 1)[:-1]) / dt
     cov = 0.3**2 * d @ d.T
-    assert quantization_avar(np.array([m]), 0.3, dt=dt)[0] == pytest.approx(_avar_brute(cov, m), rel=1e-12)
-    # rate random walk: y_k = sum_{i<=k} w_i, var(w) = K^2 dt (constant offsets cancel in the contrast)
+    assert quantization_avar(np.array([m]), 0.3, dt=dt)[0] == pytest.approx(
+        _avar_brute(cov, m), rel=1e-12
+    )
+    # rate random walk: y_k = sum_{i<=k} w_i, var(w) = K^2 dt (constant offsets cancel in the
+    # contrast)
     i = np.arange(1, n + 1)
     cov = 0.1**2 * dt * np.minimum.outer(i, i)
-    assert random_walk_avar(np.array([m]), 0.1, dt=dt)[0] == pytest.approx(_avar_brute(cov, m), rel=1e-12)
+    assert random_walk_avar(np.array([m]), 0.1, dt=dt)[0] == pytest.approx(
+        _avar_brute(cov, m), rel=1e-12
+    )
     # ramp: y_k = R k dt, deterministic: AVAR = (difference of the means)^2 / 2
     y = 0.7 * np.arange(n) * dt
-    assert ramp_avar(np.array([m]), 0.7, dt=dt)[0] == pytest.approx(0.5 * (y[m:].mean() - y[:m].mean()) ** 2,
-                                                                    rel=1e-12)
+    assert ramp_avar(np.array([m]), 0.7, dt=dt)[0] == pytest.approx(
+        0.5 * (y[m:].mean() - y[:m].mean()) ** 2, rel=1e-12
+    )
 
 
 def test_bias_instability_avar_is_flat_at_its_definition():
@@ -174,7 +212,9 @@ def test_bias_instability_avar_is_flat_at_its_definition():
     from bayes_imu.noise.avar_forms import bias_instability_avar
 
     m = np.array([1, 2, 10, 1000])
-    np.testing.assert_allclose(bias_instability_avar(m, 0.5), 2 * np.log(2) * 0.25 / np.pi, rtol=1e-12)
+    np.testing.assert_allclose(
+        bias_instability_avar(m, 0.5), 2 * np.log(2) * 0.25 / np.pi, rtol=1e-12
+    )
 
 
 def test_quantities_are_one_table_and_unsupported_orders_raise():

@@ -377,7 +377,8 @@ def test_grade_table_matches_van_loan():
 
 
 def test_flicker_increment_acov_against_mpmath():
-    """``gamma(l) = (h/2) delta^4 (l^2 ln l)`` at 50 digits, both sides of the series switch (lag 16)."""
+    """``gamma(l) = (h/2) delta^4 (l^2 ln l)`` at 50 digits, both sides of the series switch (lag
+    16)."""
     from bayes_imu.noise.bias_instability import flicker_increment_acov
 
     mp.mp.dps = 50

@@ -1,4 +1,5 @@
-"""Exact drift of every noise term, each bias semantics, against brute-force quadratic forms and Monte Carlo.
+"""Exact drift of every noise term, each bias semantics, against brute-force quadratic forms and
+Monte Carlo.
 
 References: the covariance matrix of the rate samples ``y_{-N} .. y_{k-1}`` is built for each
 term from its definition (independent of the package's structure functions), and the error
@@ -26,18 +27,24 @@ PARAMS = {
 
 
 def rate_covariance(term, p, n):
-    """Covariance of n consecutive rate samples from the term's definition (index 0 = first sample)."""
+    """Covariance of n consecutive rate samples from the term's definition (index 0 = first
+    sample)."""
     i = np.arange(n)
     lag = np.abs(i[:, None] - i[None, :])
     if term == "white":
         return p["noise_variance"] * np.eye(n)
     if term == "quantization":
-        return (p["quantization"] / DT) ** 2 * np.where(lag == 0, 2.0, np.where(lag == 1, -1.0, 0.0))
+        return (p["quantization"] / DT) ** 2 * np.where(
+            lag == 0, 2.0, np.where(lag == 1, -1.0, 0.0)
+        )
     if term == "filtered_white":
         return p["filtered_variance"] * np.where(lag == 0, 2.0, np.where(lag == 1, 1.0, 0.0))
     if term in ("hf_correlated", "gauss_markov"):
-        s2, t = (p["correlated_variance"], p["correlated_time_constant"]) if term == "hf_correlated" else (
-            p["bias_variance"], p["time_constant"])
+        s2, t = (
+            (p["correlated_variance"], p["correlated_time_constant"])
+            if term == "hf_correlated"
+            else (p["bias_variance"], p["time_constant"])
+        )
         return s2 * np.exp(-lag * DT / t)
     if term == "random_walk":  # y_j = sum of j+1 increments of variance K^2 dt
         return p["rate_random_walk"] ** 2 * DT * (np.minimum(i[:, None], i[None, :]) + 1)
@@ -47,7 +54,8 @@ def rate_covariance(term, p, n):
 
 
 def error_weights(order, k, n_cal, calibrated=True):
-    """w with e = w' y over y_{-N..k-1}: v_k = dt sum_{i<k} e_i, p_k = dt sum_{j<k} v_j, e_i = y_i - b_hat."""
+    """w with e = w' y over y_{-N..k-1}: v_k = dt sum_{i<k} e_i, p_k = dt sum_{j<k} v_j, e_i = y_i -
+    b_hat."""
     outage = DT * np.ones(k) if order == 1 else DT**2 * (k - 1 - np.arange(k, dtype=float))
     weight = outage.sum()
     cal = -weight / n_cal * np.ones(n_cal) if calibrated else np.zeros(n_cal)
@@ -63,9 +71,20 @@ def test_calibrated_drift_equals_brute_force_quadratic_form(term, order):
     for k, n_cal in ((1, 1), (2, 5), (7, 3), (40, 40), (65, 17)):
         w = error_weights(order, k, n_cal)
         ref = w @ rate_covariance(term, p, n_cal + k) @ w
-        got = REGISTRY[term].drift_variance(order, np.array([float(k)]), {n: np.array(v) for n, v in p.items()}, DT,
-                                            bias_start="calibrated", n_cal=float(n_cal))
-        np.testing.assert_allclose(got[0], ref, rtol=1e-9, atol=1e-12 * abs(w) @ np.abs(rate_covariance(term, p, n_cal + k)) @ abs(w))
+        got = REGISTRY[term].drift_variance(
+            order,
+            np.array([float(k)]),
+            {n: np.array(v) for n, v in p.items()},
+            DT,
+            bias_start="calibrated",
+            n_cal=float(n_cal),
+        )
+        np.testing.assert_allclose(
+            got[0],
+            ref,
+            rtol=1e-9,
+            atol=1e-12 * abs(w) @ np.abs(rate_covariance(term, p, n_cal + k)) @ abs(w),
+        )
 
 
 @pytest.mark.parametrize("term", ["white", "filtered_white", "hf_correlated", "gauss_markov"])
@@ -76,8 +95,13 @@ def test_stationary_start_equals_brute_force(term, order):
     for k in (1, 2, 9, 50):
         w = error_weights(order, k, 1, calibrated=False)[1:]
         ref = w @ rate_covariance(term, p, k) @ w
-        got = REGISTRY[term].drift_variance(order, np.array([float(k)]), {n: np.array(v) for n, v in p.items()}, DT,
-                                            bias_start="stationary")
+        got = REGISTRY[term].drift_variance(
+            order,
+            np.array([float(k)]),
+            {n: np.array(v) for n, v in p.items()},
+            DT,
+            bias_start="stationary",
+        )
         np.testing.assert_allclose(got[0], ref, rtol=1e-11, atol=1e-300)
 
 
@@ -89,8 +113,11 @@ def test_flicker_without_calibration_is_sqrt2_allan_deviation():
     t = np.array([1.0, 10.0, 100.0])
     k = t / DT
     adev = b * np.sqrt(2 * np.log(2) / np.pi)
-    got = np.sqrt(REGISTRY["bias_instability"].drift_variance(1, k, {"bias_instability": np.array(b)}, DT,
-                                                              bias_start="zero"))
+    got = np.sqrt(
+        REGISTRY["bias_instability"].drift_variance(
+            1, k, {"bias_instability": np.array(b)}, DT, bias_start="zero"
+        )
+    )
     np.testing.assert_allclose(got, np.sqrt(2) * adev * t, rtol=1e-9)
 
 
@@ -99,7 +126,9 @@ def test_quantization_position_is_k_minus_one_k():
     Q^2 dt^2 ((k-1) + (k-1)^2) = Q^2 dt^2 (k-1) k (the old code had k (k+1))."""
     q = 0.3
     k = np.array([1.0, 2.0, 10.0, 1000.0])
-    got = REGISTRY["quantization"].drift_variance(2, k, {"quantization": np.array(q)}, DT, bias_start="zero")
+    got = REGISTRY["quantization"].drift_variance(
+        2, k, {"quantization": np.array(q)}, DT, bias_start="zero"
+    )
     np.testing.assert_allclose(got, q * q * DT**2 * (k - 1) * k, rtol=1e-14)
 
 
@@ -112,8 +141,14 @@ def test_ramp_drift_is_the_deterministic_error():
         v = DT * np.cumsum(np.concatenate([[0.0], e]))  # v_0 = 0, v_k = dt sum_{i<k} e_i
         pos = DT * np.sum(v[:k])
         for order, ref in ((1, v[k]), (2, pos)):
-            got = REGISTRY["ramp"].drift_variance(order, np.array([float(k)]), {"rate_ramp": np.array(r)}, DT,
-                                                  bias_start=start, n_cal=float(n_cal))
+            got = REGISTRY["ramp"].drift_variance(
+                order,
+                np.array([float(k)]),
+                {"rate_ramp": np.array(r)},
+                DT,
+                bias_start=start,
+                n_cal=float(n_cal),
+            )
             np.testing.assert_allclose(got[0], ref**2, rtol=1e-12)
 
 
@@ -127,8 +162,17 @@ def test_calibrated_drift_monte_carlo(rng):
     logs = np.array([simulate_log(model, p, n_cal + k, rng=rng) for _ in range(n_paths)])
     for order in (1, 2):
         errors = logs @ error_weights(order, k, n_cal)
-        expected = sum(t.drift_variance(order, np.array([float(k)]), {n: np.array(v) for n, v in p.items()}, DT,
-                                        bias_start="calibrated", n_cal=float(n_cal))[0] for t in model.components)
+        expected = sum(
+            t.drift_variance(
+                order,
+                np.array([float(k)]),
+                {n: np.array(v) for n, v in p.items()},
+                DT,
+                bias_start="calibrated",
+                n_cal=float(n_cal),
+            )[0]
+            for t in model.components
+        )
         assert abs(errors.var() / expected - 1) < 5 * np.sqrt(2 / n_paths)
 
 
@@ -138,8 +182,15 @@ def test_calibrated_gauss_markov_slow_bias_is_removed():
     of the same increments (T -> inf with s^2 / T fixed), to the cancellation the prior allows."""
     k, n = np.array([100.0]), 100.0
     big_t = 1e4
-    gm = REGISTRY["gauss_markov"].drift_variance(1, k, {"bias_variance": np.array(big_t), "time_constant": np.array(big_t)},
-                                                 DT, bias_start="calibrated", n_cal=n)
-    rw = REGISTRY["random_walk"].drift_variance(1, k, {"rate_random_walk": np.array(np.sqrt(2.0))}, DT,
-                                                bias_start="calibrated", n_cal=n)
+    gm = REGISTRY["gauss_markov"].drift_variance(
+        1,
+        k,
+        {"bias_variance": np.array(big_t), "time_constant": np.array(big_t)},
+        DT,
+        bias_start="calibrated",
+        n_cal=n,
+    )
+    rw = REGISTRY["random_walk"].drift_variance(
+        1, k, {"rate_random_walk": np.array(np.sqrt(2.0))}, DT, bias_start="calibrated", n_cal=n
+    )
     np.testing.assert_allclose(gm, rw, rtol=1e-3)

@@ -179,6 +179,7 @@ def test_pair_bounds_the_published_band_where_the_record_measures_the_drift(rng)
     bound = overbound(result, kind="gyro", t_max=150.0, max_draws=None)  # calibrated over 60 s
     t = np.geomspace(dt, 150.0, 400)
     band = drift_bands(result, t, quantity="attitude", bias_start="calibrated", quantiles=(0.95,))
-    assert band.measured_s is not None and band.measured_s >= 100.0  # the record measures this range
+    # the record measures this range
+    assert band.measured_s is not None and band.measured_s >= 100.0
     pair = filter_drift(bound.noise_density, bound.random_walk, t, dt=dt, quantity="attitude")
     assert np.all(pair >= band.total[0]), np.min(pair / band.total[0])

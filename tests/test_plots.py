@@ -1,4 +1,5 @@
-"""Every figure: it decodes as a PNG of the expected size, and carries its labels, units and legend entries."""
+"""Every figure: it decodes as a PNG of the expected size, and carries its labels, units and legend
+entries."""
 
 import numpy as np
 import pytest
@@ -32,7 +33,9 @@ def figures(monkeypatch):
 @pytest.fixture(scope="module")
 def fit():
     model = NoiseModel(("white", "gauss_markov"), 0.01)
-    y = simulate_log(model, {"noise_variance": 1e-4, "bias_variance": 1e-7, "time_constant": 20.0}, 60_000, rng=3)
+    y = simulate_log(
+        model, {"noise_variance": 1e-4, "bias_variance": 1e-7, "time_constant": 20.0}, 60_000, rng=3
+    )
     return fit_allan(allan_variance(y, rate_hz=100.0), terms=("white", "gauss_markov"), rng=0)
 
 
@@ -61,21 +64,32 @@ def test_allan_plot_labels_its_unit(tmp_path, figures, fit):
     plots.plot_allan(fit.allan, tmp_path / "a.png", label="log: gx", unit="rad/s")
     _png(tmp_path / "a.png")
     text = _texts(figures[-1])
-    assert "Allan deviation (rad/s)" in text and "averaging time tau (s)" in text and "log: gx" in text
+    assert (
+        "Allan deviation (rad/s)" in text and "averaging time tau (s)" in text and "log: gx" in text
+    )
 
 
 def test_allan_fit_has_band_terms_and_residuals(tmp_path, figures, fit):
     plots.plot_allan_fit(fit, tmp_path / "f.png", unit="rad/s", rng=0)
     _png(tmp_path / "f.png")
     text = _texts(figures[-1])
-    for word in ("posterior 90% band", "white noise", "Gauss-Markov bias", "whitened", "goodness of fit", "(rad/s)"):
+    for word in (
+        "posterior 90% band",
+        "white noise",
+        "Gauss-Markov bias",
+        "whitened",
+        "goodness of fit",
+        "(rad/s)",
+    ):
         assert word in text, word
 
 
-def test_allan_fit_keeps_every_label_inside_the_figure_and_its_legend_off_the_data(tmp_path, figures, fit):
-    """The fixed layout (no tight_layout pass): every visible text (title, axis and tick labels, legend entries,
-    a long log name wrapped) lies inside the saved figure, and the legend stands beside the data panel, not on
-    it (inside, its entries hid observed points on real logs)."""
+def test_allan_fit_keeps_every_label_inside_the_figure_and_its_legend_off_the_data(
+    tmp_path, figures, fit
+):
+    """The fixed layout (no tight_layout pass): every visible text (title, axis and tick labels,
+    legend entries, a long log name wrapped) lies inside the saved figure, and the legend stands
+    beside the data panel, not on it (inside, its entries hid observed points on real logs)."""
     name = "a_long_name_of_a_real_recording_from_the_test_bench_2026-11-24.csv.gz: gyro_x_dps"
     plots.plot_allan_fit(fit, tmp_path / "f.png", label=name, unit="rad/s", rng=0)
     fig = figures[-1]
@@ -94,8 +108,12 @@ def test_allan_fit_keeps_every_label_inside_the_figure_and_its_legend_off_the_da
         if not text.get_text():
             continue
         box = text.get_window_extent(renderer)
-        assert page.x0 - 1 <= box.x0 and box.x1 <= page.x1 + 1 and page.y0 - 1 <= box.y0 and box.y1 <= page.y1 + 1, \
-            text.get_text()
+        assert (
+            page.x0 - 1 <= box.x0
+            and box.x1 <= page.x1 + 1
+            and page.y0 - 1 <= box.y0
+            and box.y1 <= page.y1 + 1
+        ), text.get_text()
     assert not legend.get_window_extent(renderer).overlaps(ax.get_window_extent(renderer))
     assert any(name.split(":")[0][:20] in t.get_text() for t in legend.get_texts())
     assert max(len(line) for t in legend.get_texts() for line in t.get_text().split("\n")) <= 34
@@ -114,15 +132,18 @@ def test_corner_has_units_and_no_offset_ticks(tmp_path, figures, fit):
 
 
 def test_corner_tick_labels_are_plain_text_giving_each_tick_value(tmp_path, figures, fit):
-    """The corner plot's edge tick labels are plain text (no mathtext to parse), and each non-empty one reads
-    back, Unicode superscripts included, as its tick's value to the precision the label shows (what
-    matplotlib's mathtext label gives); some minor ticks are labelled (minor_thresholds)."""
+    """The corner plot's edge tick labels are plain text (no mathtext to parse), and each non-empty
+    one reads back, Unicode superscripts included, as its tick's value to the precision the label
+    shows (what matplotlib's mathtext label gives); some minor ticks are labelled
+    (minor_thresholds)."""
     import re
 
     plots.plot_corner(fit, tmp_path / "c.png", unit="rad/s")
     fig = figures[-1]
     fig.canvas.draw()
-    digits = str.maketrans("\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079", "-0123456789")
+    digits = str.maketrans(
+        "\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079", "-0123456789"
+    )
     labelled = 0
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
@@ -131,13 +152,21 @@ def test_corner_tick_labels_are_plain_text_giving_each_tick_value(tmp_path, figu
                 if not text:
                     continue
                 assert "$" not in text
-                match = re.fullmatch(r"(?:([0-9.]+)\u00d7)?10([\u207b\u2070-\u2079\u00b9\u00b2\u00b3]+)", text)
+                match = re.fullmatch(
+                    r"(?:([0-9.]+)\u00d7)?10([\u207b\u2070-\u2079\u00b9\u00b2\u00b3]+)", text
+                )
                 assert match, text
                 coefficient = float(match.group(1) or 1.0)
                 value = coefficient * 10.0 ** int(match.group(2).translate(digits))
-                decimals = len(match.group(1).split(".")[1]) if match.group(1) and "." in match.group(1) else 0
+                decimals = (
+                    len(match.group(1).split(".")[1])
+                    if match.group(1) and "." in match.group(1)
+                    else 0
+                )
                 exponent = np.floor(np.log10(tick.get_loc()))
-                assert value == pytest.approx(tick.get_loc(), abs=0.51 * 10.0 ** (exponent - decimals)), text
+                assert value == pytest.approx(
+                    tick.get_loc(), abs=0.51 * 10.0 ** (exponent - decimals)
+                ), text
                 labelled += 1
     assert labelled >= 2 * len(fit.parameter_names)
 
@@ -160,12 +189,15 @@ def test_population_plot(tmp_path, figures):
 
     rng = np.random.default_rng(5)
     model = NoiseModel(("white",), 0.01)
-    allans = [allan_variance(simulate_log(model, {"noise_variance": v}, 5000, rng=rng), rate_hz=100.0)
-              for v in (1e-4, 1.2e-4, 0.9e-4)]
+    allans = [
+        allan_variance(simulate_log(model, {"noise_variance": v}, 5000, rng=rng), rate_hz=100.0)
+        for v in (1e-4, 1.2e-4, 0.9e-4)
+    ]
     pop = fit_population(allans, labels=["a", "b", "c"], terms=("white",), rng=0)
     bands = drift_bands(pop.new_unit, quantity="attitude", bias_start="zero", horizon_s=10.0)
-    plots.plot_population(pop, tmp_path / "p.png", unit="rad/s", bands=bands, unit_bands=[bands] * 3,
-                          drift_unit="rad")
+    plots.plot_population(
+        pop, tmp_path / "p.png", unit="rad/s", bands=bands, unit_bands=[bands] * 3, drift_unit="rad"
+    )
     _png(tmp_path / "p.png")
     text = _texts(figures[-1])
     for word in ("new unit, 90% predictive band", "a", "b", "c", "Allan deviation (rad/s)",
@@ -183,9 +215,9 @@ def test_population_plot(tmp_path, figures):
 
 def test_corner_without_arviz_draws_the_same_figure_and_keeps_its_arviz_entry_point(tmp_path, fit):
     """The plotting warm-up imports corner without ArviZ (a slow import) in a process that has not
-    loaded it: the corner plot is the same PNG, byte for byte, as the one drawn once ArviZ is loaded, and
-    corner's ArviZ entry point still works (a dict of draws, which only that path accepts, imports ArviZ
-    when it is first needed)."""
+    loaded it: the corner plot is the same PNG, byte for byte, as the one drawn once ArviZ is
+    loaded, and corner's ArviZ entry point still works (a dict of draws, which only that path
+    accepts, imports ArviZ when it is first needed)."""
     import json
     import subprocess
     import sys
@@ -208,8 +240,12 @@ after = "arviz" in sys.modules
 plot_corner(fit, sys.argv[2] + "/with.png")
 print(json.dumps([before, after, len(fig.axes)]))
 """
-    done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "fit.npz"), str(tmp_path)], capture_output=True,
-                          text=True, timeout=300)
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(tmp_path / "fit.npz"), str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stderr
     before, after, n_axes = json.loads(done.stdout.strip().splitlines()[-1])
     assert before == [] and after and n_axes == 1
@@ -217,15 +253,17 @@ print(json.dumps([before, after, len(fig.axes)]))
 
 
 def test_corner_notices_stay_out_of_the_output(tmp_path, fit, caplog, monkeypatch):
-    """Draws too concentrated for contours make corner log "Too few points to create valid contours" on the
-    root logger (a command printed it as WARNING:root: lines); plot_corner leaves those notices out and still
-    draws the figure. Without the filter the same call logs them (the test can fail)."""
+    """Draws too concentrated for contours make corner log "Too few points to create valid contours"
+    on the root logger (a command printed it as WARNING:root: lines); plot_corner leaves those
+    notices out and still draws the figure. Without the filter the same call logs them (the test can
+    fail)."""
     import contextlib
     import dataclasses
     import logging
 
     samples = fit.samples.copy()
-    samples[:, 2] = samples[0, 2]  # one value, and a few draws far from it: the mass sits in one histogram bin
+    # one value, and a few draws far from it: the mass sits in one histogram bin
+    samples[:, 2] = samples[0, 2]
     samples[:5, 2] *= 1e3
     pinned = dataclasses.replace(fit, samples=samples)
     with caplog.at_level(logging.WARNING):
@@ -238,16 +276,34 @@ def test_corner_notices_stay_out_of_the_output(tmp_path, fit, caplog, monkeypatc
     assert [r for r in caplog.records if "contours" in r.getMessage()]
 
 
-@pytest.mark.parametrize("low, high", [(0.0748, 0.0762), (0.0795, 0.09), (3e-5, 2.4e-4), (20.0, 310.0),
-                                       (1e-6, 3e-4), (4e-6, 7e-4), (0.1, 5e3), (1e-12, 1e3), (0.999, 1.001),
-                                       (7.5e-5, 4.2e-4), (60.0, 450.0), (1.1e-3, 2.8e-2), (0.9, 1.2)])
-def test_corner_ticks_lie_inside_with_few_labels_apart_and_decades_labelled_when_there_are_two(low, high):
-    """Each axis's ticks (plots._log_ticks): inside its range, sorted and distinct, labelled and unlabelled
-    apart; 1 to 4 labelled, and those two or more powers of ten wherever two or more lie inside; over two or
-    more decades the unlabelled ones only 1, 2 or 5 times a power of ten; where two or more of those that may
-    be labelled lie farther than 10% of the axis from its ends, no label within 10% of them (else 5%, where
-    two lie farther than that); labels at least 15% of the axis apart (45-degree labels of 7 points on a
-    1.9-inch panel; the rule before put 9e-5 and 1e-4 6% apart on (7.5e-5, 4.2e-4), a real fit's axis)."""
+@pytest.mark.parametrize(
+    "low, high",
+    [
+        (0.0748, 0.0762),
+        (0.0795, 0.09),
+        (3e-5, 2.4e-4),
+        (20.0, 310.0),
+        (1e-6, 3e-4),
+        (4e-6, 7e-4),
+        (0.1, 5e3),
+        (1e-12, 1e3),
+        (0.999, 1.001),
+        (7.5e-5, 4.2e-4),
+        (60.0, 450.0),
+        (1.1e-3, 2.8e-2),
+        (0.9, 1.2),
+    ],
+)
+def test_corner_ticks_lie_inside_with_few_labels_apart_and_decades_labelled_when_there_are_two(
+    low, high
+):
+    """Each axis's ticks (plots._log_ticks): inside its range, sorted and distinct, labelled and
+    unlabelled apart; 1 to 4 labelled, and those two or more powers of ten wherever two or more lie
+    inside; over two or more decades the unlabelled ones only 1, 2 or 5 times a power of ten; where
+    two or more of those that may be labelled lie farther than 10% of the axis from its ends, no
+    label within 10% of them (else 5%, where two lie farther than that); labels at least 15% of the
+    axis apart (45-degree labels of 7 points on a 1.9-inch panel; the rule before put 9e-5 and 1e-4
+    6% apart on (7.5e-5, 4.2e-4), a real fit's axis)."""
     labelled, other = plots._log_ticks(low, high)
     ticks = np.concatenate([labelled, other])
     assert np.all((ticks >= low * (1 - 1e-9)) & (ticks <= high * (1 + 1e-9)))
@@ -256,7 +312,10 @@ def test_corner_ticks_lie_inside_with_few_labels_apart_and_decades_labelled_when
     powers = [10.0**e for e in range(int(np.floor(np.log10(low))), int(np.ceil(np.log10(high))) + 1)
               if low <= 10.0**e <= high]
     if len(powers) >= 2:
-        assert set(np.log10(labelled).round(9)) <= set(np.log10(powers).round(9)) and len(labelled) >= 2
+        assert (
+            set(np.log10(labelled).round(9)) <= set(np.log10(powers).round(9))
+            and len(labelled) >= 2
+        )
         coefficient = other / 10.0 ** np.floor(np.log10(other) + 1e-9)
         assert np.all(np.isin(np.round(coefficient, 6), (1.0, 2.0, 5.0)))
     else:
@@ -272,8 +331,9 @@ def test_corner_ticks_lie_inside_with_few_labels_apart_and_decades_labelled_when
 
 
 def test_corner_grid_is_the_lower_triangle_with_labels_on_its_edges_only(tmp_path, figures):
-    """k (k + 1) / 2 panels in a k x k grid; every visible tick label on the bottom row (x) or the left column
-    (y, below the first row), with each edge's axis label; a parameter pinned to one value still draws."""
+    """k (k + 1) / 2 panels in a k x k grid; every visible tick label on the bottom row (x) or the
+    left column (y, below the first row), with each edge's axis label; a parameter pinned to one
+    value still draws."""
     import dataclasses
 
     model = NoiseModel(("white", "gauss_markov", "random_walk"), 0.01)
@@ -288,18 +348,24 @@ def test_corner_grid_is_the_lower_triangle_with_labels_on_its_edges_only(tmp_pat
     fig = figures[-1]
     fig.canvas.draw()
     assert len(fig.axes) == k * (k + 1) // 2
-    grid = {(ax.get_subplotspec().rowspan.start, ax.get_subplotspec().colspan.start): ax for ax in fig.axes}
+    grid = {
+        (ax.get_subplotspec().rowspan.start, ax.get_subplotspec().colspan.start): ax
+        for ax in fig.axes
+    }
     assert set(grid) == {(i, j) for i in range(k) for j in range(i + 1)}
     for (i, j), ax in grid.items():
         shown_x = [t for t in ax.get_xticklabels() if t.get_visible() and t.get_text()]
         shown_y = [t for t in ax.get_yticklabels() if t.get_visible() and t.get_text()]
         assert bool(shown_x) == (i == k - 1) and bool(ax.get_xlabel()) == (i == k - 1), (i, j)
-        assert bool(shown_y) == (j == 0 and i > 0) and bool(ax.get_ylabel()) == (j == 0 and i > 0), (i, j)
+        assert bool(shown_y) == (j == 0 and i > 0) and bool(ax.get_ylabel()) == (
+            j == 0 and i > 0
+        ), (i, j)
 
 
 def test_an_accelerometers_rate_terms_are_named_for_acceleration():
     """The figures of an accelerometer say "acceleration random walk" / "acceleration ramp" (a new
-    user read "rate random walk" on an accelerometer's allan_fit.png and drift.png); a gyro's stay."""
+    user read "rate random walk" on an accelerometer's allan_fit.png and drift.png); a gyro's
+    stay."""
     from bayes_imu.report.plots import _term_label
 
     assert _term_label("random_walk", True) == "acceleration random walk"

@@ -40,7 +40,8 @@ def test_log_box_mass_matches_mpmath_in_both_tails():
 
 
 def test_unit_likelihood_is_the_gaussian_convolution():
-    """Draws from N(m, s^2), population N(mu, sigma^2) on a huge box: mean density -> N(m; mu, s^2 + sigma^2)."""
+    """Draws from N(m, s^2), population N(mu, sigma^2) on a huge box: mean density -> N(m; mu, s^2 +
+    sigma^2)."""
     rng = np.random.default_rng(0)
     m, s = 0.3, 0.05
     phi = m + s * rng.standard_normal((200_000, 1))
@@ -53,7 +54,8 @@ def test_unit_likelihood_is_the_gaussian_convolution():
 
 
 def test_hyper_posterior_matches_exact_normal_normal_reference():
-    """Gaussian unit posteriors: the marginal posterior of the spread is known on a grid (mu integrated out)."""
+    """Gaussian unit posteriors: the marginal posterior of the spread is known on a grid (mu
+    integrated out)."""
     rng = np.random.default_rng(1)
     m = np.array([0.10, -0.15, 0.32, 0.05, -0.02])
     s = 0.02
@@ -73,14 +75,19 @@ def test_hyper_posterior_matches_exact_normal_normal_reference():
     for q in (0.05, 0.5, 0.95):
         exact = np.interp(q, cdf, grid)
         sampled = np.quantile(spread[:, 0], q)
-        assert sampled == pytest.approx(exact, rel=0.08), q  # Monte Carlo error of ~1000 effective draws
+        # Monte Carlo error of ~1000 effective draws
+        assert sampled == pytest.approx(exact, rel=0.08), q
 
 
 def _units(n_units, spread, rng, n_samples=20_000):
     model = NoiseModel(("white",), 0.01)
     truth = np.exp(np.log(1e-4) + spread * rng.standard_normal(n_units))
-    allans = [allan_variance(simulate_log(model, {"noise_variance": t}, n_samples, rng=rng), rate_hz=100.0)
-              for t in truth]
+    allans = [
+        allan_variance(
+            simulate_log(model, {"noise_variance": t}, n_samples, rng=rng), rate_hz=100.0
+        )
+        for t in truth
+    ]
     return model, truth, allans
 
 
@@ -95,7 +102,8 @@ def test_population_of_white_units(white_population):
     truth, allans, pop = white_population
     assert pop.model.terms == ("white",)
     assert pop.diagnostics["converged"]
-    # each unit alone is measured to ~1%: its pooled posterior stays at its own value (within 3.5 sd)
+    # each unit alone is measured to ~1%: its pooled posterior stays at its own value (within 3.5
+    # sd)
     for t, u in zip(truth, pop.units):
         ln = np.log(u.draws("noise_variance"))
         assert abs(np.log(t) - ln.mean()) < 3.5 * ln.std()
@@ -106,8 +114,13 @@ def test_population_of_white_units(white_population):
     new = pop.new_unit.draws("noise_variance")
     q05, q95 = np.quantile(new, [0.05, 0.95])
     assert q05 < truth.min() and truth.max() < q95
-    assert np.log(q95 / q05) > 5 * max(np.log(np.quantile(u.draws("noise_variance"), 0.95)
-                                              / np.quantile(u.draws("noise_variance"), 0.05)) for u in pop.units)
+    assert np.log(q95 / q05) > 5 * max(
+        np.log(
+            np.quantile(u.draws("noise_variance"), 0.95)
+            / np.quantile(u.draws("noise_variance"), 0.05)
+        )
+        for u in pop.units
+    )
     summary = pop.summary(unit="rad/s")
     json.dumps(summary, allow_nan=False)
     assert summary["model"] == ["white"] and len(summary["units"]) == 4
@@ -122,26 +135,36 @@ def test_new_unit_drift_bands_and_avar(white_population):
     expected = np.quantile(np.sqrt(np.outer(q * 0.01, [1.0, 10.0])), [0.05, 0.5, 0.95], axis=0)
     np.testing.assert_allclose(bands.total, expected, rtol=1e-12)
     avar = pop.new_unit.predictive_avar(np.array([1, 100]), n_draws=20000, rng=0)
-    np.testing.assert_allclose(np.median(avar, axis=0), np.median(q) / np.array([1, 100]), rtol=0.05)
-    noisy = pop.new_unit.predictive_avar(np.array([1, 100]), edf=np.array([3.0, 3.0]), n_draws=20000, rng=0)
-    assert np.quantile(noisy[:, 1], 0.95) / np.quantile(noisy[:, 1], 0.05) > 2 * np.quantile(avar[:, 1], 0.95) \
-        / np.quantile(avar[:, 1], 0.05)
+    np.testing.assert_allclose(
+        np.median(avar, axis=0), np.median(q) / np.array([1, 100]), rtol=0.05
+    )
+    noisy = pop.new_unit.predictive_avar(
+        np.array([1, 100]), edf=np.array([3.0, 3.0]), n_draws=20000, rng=0
+    )
+    assert np.quantile(noisy[:, 1], 0.95) / np.quantile(noisy[:, 1], 0.05) > 2 * np.quantile(
+        avar[:, 1], 0.95
+    ) / np.quantile(avar[:, 1], 0.05)
 
 
 @pytest.mark.slow
 def test_structure_chosen_by_summed_evidence():
-    """A Gauss-Markov bias that short logs confuse with white noise or a random walk unit by unit: the
-    units' summed evidence picks the true structure (found by a seed scan: units alone select
+    """A Gauss-Markov bias that short logs confuse with white noise or a random walk unit by unit:
+    the units' summed evidence picks the true structure (found by a seed scan: units alone select
     white, white + random walk, ...)."""
     rng = np.random.default_rng(4)
     model = NoiseModel(("white", "gauss_markov"), 0.01)
     params = {"noise_variance": 1e-4, "bias_variance": 1.5e-7, "time_constant": 20.0}
-    allans = [allan_variance(simulate_log(model, params, 60_000, rng=rng), rate_hz=100.0) for _ in range(5)]
+    allans = [
+        allan_variance(simulate_log(model, params, 60_000, rng=rng), rate_hz=100.0)
+        for _ in range(5)
+    ]
     fits = [fit_allan(a, rng=i) for i, a in enumerate(allans)]
     pop = fit_population(allans, unit_fits=fits, rng=5)
     chosen = pop.structures[pop.selected]
     assert pop.per_unit_evidence.shape == (len(pop.structures), 5)
-    np.testing.assert_allclose([s.log_evidence for s in pop.structures], pop.per_unit_evidence.sum(axis=1))
+    np.testing.assert_allclose(
+        [s.log_evidence for s in pop.structures], pop.per_unit_evidence.sum(axis=1)
+    )
     assert chosen.terms == ("white", "gauss_markov")
     assert sum("gauss_markov" in f.model.terms for f in fits) < 5
 
@@ -161,7 +184,12 @@ def test_population_input_errors():
 def test_archive_round_trip(tmp_path):
     rng = np.random.default_rng(7)
     model = NoiseModel(("white", "gauss_markov"), 0.01)
-    y = simulate_log(model, {"noise_variance": 1e-4, "bias_variance": 1e-6, "time_constant": 10.0}, 40_000, rng=rng)
+    y = simulate_log(
+        model,
+        {"noise_variance": 1e-4, "bias_variance": 1e-6, "time_constant": 10.0},
+        40_000,
+        rng=rng,
+    )
     fit = fit_allan(allan_variance(y, rate_hz=100.0), rng=0)
     save_fit(fit, tmp_path / "fit.npz")
     back = load_fit(tmp_path)
@@ -180,9 +208,10 @@ def test_archive_round_trip(tmp_path):
 
 
 def test_posterior_nc_is_the_file_arviz_writes(tmp_path):
-    """write_netcdf (h5netcdf, no ArviZ) against ArviZ's own ``inference_data.to_netcdf``, both read back by
-    ArviZ: the same groups, variables, dimensions, coordinates, dtypes and values (a widened fit: the
-    discrepancy parameter too), the fit's attributes on the file, and every group readable by xarray."""
+    """write_netcdf (h5netcdf, no ArviZ) against ArviZ's own ``inference_data.to_netcdf``, both read
+    back by ArviZ: the same groups, variables, dimensions, coordinates, dtypes and values (a widened
+    fit: the discrepancy parameter too), the fit's attributes on the file, and every group readable
+    by xarray."""
     import xarray
 
     from bayes_imu._version import __version__
@@ -190,13 +219,27 @@ def test_posterior_nc_is_the_file_arviz_writes(tmp_path):
     from bayes_imu.inference.fit import import_arviz
 
     model = NoiseModel(("white", "gauss_markov"), 0.01)
-    y = simulate_log(model, {"noise_variance": 1e-4, "bias_variance": 1e-6, "time_constant": 10.0}, 20_000, rng=5)
-    fit = fit_allan(allan_variance(y, rate_hz=100.0), terms=("white", "gauss_markov"), discrepancy="always", rng=0)
+    y = simulate_log(
+        model, {"noise_variance": 1e-4, "bias_variance": 1e-6, "time_constant": 10.0}, 20_000, rng=5
+    )
+    fit = fit_allan(
+        allan_variance(y, rate_hz=100.0),
+        terms=("white", "gauss_markov"),
+        discrepancy="always",
+        rng=0,
+    )
     write_netcdf(fit, tmp_path / "ours.nc")
     fit.inference_data.to_netcdf(str(tmp_path / "arviz.nc"))
     az = import_arviz()
-    ours, theirs = az.from_netcdf(str(tmp_path / "ours.nc")), az.from_netcdf(str(tmp_path / "arviz.nc"))
-    assert ours.groups() == theirs.groups() == ["posterior", "log_likelihood", "sample_stats", "observed_data"]
+    ours, theirs = (
+        az.from_netcdf(str(tmp_path / "ours.nc")),
+        az.from_netcdf(str(tmp_path / "arviz.nc")),
+    )
+    assert (
+        ours.groups()
+        == theirs.groups()
+        == ["posterior", "log_likelihood", "sample_stats", "observed_data"]
+    )
     assert "log_model_discrepancy" in ours.posterior
     for group in theirs.groups():
         a, b = ours[group], theirs[group]
@@ -217,7 +260,9 @@ def _write_units(folder, n, rng):
     model = NoiseModel(("white",), 0.01)
     paths = []
     for i in range(n):
-        y = simulate_log(model, {"noise_variance": 1e-4 * np.exp(0.2 * rng.standard_normal())}, 20_000, rng=rng)
+        y = simulate_log(
+            model, {"noise_variance": 1e-4 * np.exp(0.2 * rng.standard_normal())}, 20_000, rng=rng
+        )
         paths.append(folder / f"unit{i}.csv")
         np.savetxt(paths[-1], y[:, None], header="gx", comments="", fmt="%.8g")
     return paths
@@ -226,13 +271,30 @@ def _write_units(folder, n, rng):
 def test_fit_population_command(tmp_path, capsys):
     paths = _write_units(tmp_path, 3, np.random.default_rng(8))
     out = tmp_path / "pop"
-    args = [str(p) for p in paths] + ["--column", "gx", "--rate", "100", "--units", "rad/s", "--out", str(out),
-                                      "--times", "1,10", "--quiet", "--display-units", "deg"]
+    args = [str(p) for p in paths] + [
+        "--column",
+        "gx",
+        "--rate",
+        "100",
+        "--units",
+        "rad/s",
+        "--out",
+        str(out),
+        "--times",
+        "1,10",
+        "--quiet",
+        "--display-units",
+        "deg",
+    ]
     assert main(["fit-population", *args]) == 0
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
         "drift.csv", "drift.png", "population.npz", "population.png", "summary.json", "units"]
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["unit"] == "rad/s" and [u["label"] for u in summary["units"]] == ["unit0", "unit1", "unit2"]
+    assert summary["unit"] == "rad/s" and [u["label"] for u in summary["units"]] == [
+        "unit0",
+        "unit1",
+        "unit2",
+    ]
     assert set(summary["drift"]) == {"attitude"}
     # --display-units deg (issue 38): the new unit beside SI, a variance by (180/pi)^2
     for name, power in (("noise_variance", 2), ("noise_density", 1)):
@@ -296,10 +358,44 @@ def test_report_population_and_fit_folders(tmp_path):
 
     rng = np.random.default_rng(9)
     paths = _write_units(tmp_path, 3, rng)
-    assert main(["fit", str(paths[0]), "--column", "gx", "--rate", "100", "--units", "rad/s", "--out",
-                 str(tmp_path / "fit0"), "--terms", "white", "--quiet"]) == 0
-    assert main(["fit", str(paths[1]), "--column", "gx", "--rate", "100", "--out", str(tmp_path / "fit_u"),
-                 "--terms", "white", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                str(paths[0]),
+                "--column",
+                "gx",
+                "--rate",
+                "100",
+                "--units",
+                "rad/s",
+                "--out",
+                str(tmp_path / "fit0"),
+                "--terms",
+                "white",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "fit",
+                str(paths[1]),
+                "--column",
+                "gx",
+                "--rate",
+                "100",
+                "--out",
+                str(tmp_path / "fit_u"),
+                "--terms",
+                "white",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     scene = tmp_path / "scene.toml"
     scene.write_text("""[scene]
 outages_s = [1, 10]
@@ -324,14 +420,33 @@ fit = "fit0"
     # the folder's bounds come from the saved draws, not a refit
     saved = load_fit(tmp_path / "fit0")
     np.testing.assert_array_equal(folder.fit.samples, saved.samples)
-    # unit-to-unit spread included: the new unit's bound sits further above its median than any unit's own
+    # unit-to-unit spread included: the new unit's bound sits further above its median than any
+    # unit's own
     ratio = pop.bounds[1]["bound"] / pop.bounds[1]["median"]
     for f in pop.axes[0].population.unit_fits:
         own = np.sqrt(f.draws("noise_variance") * 0.01 * 10.0)
         assert ratio > np.quantile(own, 0.9) / np.median(own)
     # fit folders of several units: a population without refitting any unit
-    assert main(["fit", str(paths[2]), "--column", "gx", "--rate", "100", "--units", "rad/s", "--out",
-                 str(tmp_path / "fit2"), "--terms", "white", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                str(paths[2]),
+                "--column",
+                "gx",
+                "--rate",
+                "100",
+                "--units",
+                "rad/s",
+                "--out",
+                str(tmp_path / "fit2"),
+                "--terms",
+                "white",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     folders = tmp_path / "folders.toml"
     folders.write_text(scene.read_text().replace('fit = "fit0"', 'fits = ["fit0", "fit2"]'))
     both_units = build_report(read_scene(folders), rng=0).sensors[1]
@@ -364,10 +479,28 @@ def test_fixed_terms_write_valid_json_and_a_failing_unit_is_named(tmp_path, monk
     logs = []
     for i in range(3):
         logs.append(tmp_path / f"unit{i}.csv")
-        logs[-1].write_text("gx\n" + "".join(f"{v:.8f}\n" for v in 0.01 * rng.standard_normal(20000)))
+        logs[-1].write_text(
+            "gx\n" + "".join(f"{v:.8f}\n" for v in 0.01 * rng.standard_normal(20000))
+        )
     out = tmp_path / "pop"
-    assert main(["fit-population", *map(str, logs), "--column", "gx", "--rate", "100", "--terms", "white",
-                 "--out", str(out), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "fit-population",
+                *map(str, logs),
+                "--column",
+                "gx",
+                "--rate",
+                "100",
+                "--terms",
+                "white",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     structures = json.loads((out / "summary.json").read_text())["structures"]
     assert structures[0]["log_evidence"] is None and structures[0]["per_unit"] == [None] * 3
 
@@ -385,13 +518,17 @@ def test_fixed_terms_write_valid_json_and_a_failing_unit_is_named(tmp_path, monk
     fails_on_the_second.calls = 0
     monkeypatch.setattr(population, "fit_allan", fails_on_the_second)
     with pytest.raises(ModelError, match=r"^unit 'unit 2': no model converged$"):
-        population.fit_population([allan_variance(np.loadtxt(p, skiprows=1), rate_hz=100.0) for p in logs],
-                                  terms=("white",), rng=0)
+        population.fit_population(
+            [allan_variance(np.loadtxt(p, skiprows=1), rate_hz=100.0) for p in logs],
+            terms=("white",),
+            rng=0,
+        )
 
 
 def test_unconverged_population_is_a_loud_failure(tmp_path, monkeypatch, capsys):
-    """A population sampler that does not converge: a ConvergenceWarning, ``converged: false`` with its
-    R-hat and effective draws in summary.json, and exit status 4 after the numbers are written."""
+    """A population sampler that does not converge: a ConvergenceWarning, ``converged: false`` with
+    its R-hat and effective draws in summary.json, and exit status 4 after the numbers are
+    written."""
     import bayes_imu.inference.population as population
     from bayes_imu.cli.main import NOT_CONVERGED_STATUS
     from bayes_imu.errors import ConvergenceWarning
@@ -400,18 +537,39 @@ def test_unconverged_population_is_a_loud_failure(tmp_path, monkeypatch, capsys)
     logs = []
     for i in range(2):
         logs.append(tmp_path / f"unit{i}.csv")
-        logs[-1].write_text("gx\n" + "".join(f"{v:.8f}\n" for v in 0.01 * rng.standard_normal(5000)))
+        logs[-1].write_text(
+            "gx\n" + "".join(f"{v:.8f}\n" for v in 0.01 * rng.standard_normal(5000))
+        )
     # an effective-draw goal no chain of 100 iterations reaches
     real = population.sample_hmc
-    monkeypatch.setattr(population, "sample_hmc",
-                        lambda *args, **options: real(*args, **{**options, "max_steps": 100, "ess_min": 1e9}))
+    monkeypatch.setattr(
+        population,
+        "sample_hmc",
+        lambda *args, **options: real(*args, **{**options, "max_steps": 100, "ess_min": 1e9}),
+    )
     with pytest.warns(ConvergenceWarning, match="population sampler not converged"):
-        pop = population.fit_population([allan_variance(np.loadtxt(p, skiprows=1), rate_hz=100.0) for p in logs],
-                                        terms=("white",), rng=0)
+        pop = population.fit_population(
+            [allan_variance(np.loadtxt(p, skiprows=1), rate_hz=100.0) for p in logs],
+            terms=("white",),
+            rng=0,
+        )
     assert pop.diagnostics["converged"] is False and pop.diagnostics["n_steps"] == 100
     out = tmp_path / "pop"
-    status = main(["fit-population", *map(str, logs), "--column", "gx", "--rate", "100", "--terms", "white",
-                   "--out", str(out), "--quiet"])
+    status = main(
+        [
+            "fit-population",
+            *map(str, logs),
+            "--column",
+            "gx",
+            "--rate",
+            "100",
+            "--terms",
+            "white",
+            "--out",
+            str(out),
+            "--quiet",
+        ]
+    )
     assert status == NOT_CONVERGED_STATUS == 4
     diagnostics = json.loads((out / "summary.json").read_text())["diagnostics"]
     assert diagnostics["converged"] is False and diagnostics["ess_hyper_min"] < 1e9

@@ -60,7 +60,8 @@ def test_better_sensor_ranks_first_and_bounds_are_quantiles(report):
     assert budget["model"] == ["white", "gauss_markov"]
     assert [b["outage_s"] for b in budget["bounds"]] == [10, 60, 300]
     for b in budget["bounds"]:
-        assert b["unit"] == "rad" and b["median"] < b["bound"] and b["extrapolated"] is False  # 1 h logs
+        # 1 h logs
+        assert b["unit"] == "rad" and b["median"] < b["bound"] and b["extrapolated"] is False
     # the bound is the 95% posterior quantile of sigma(t), recomputed independently from the draws
     fit = rep.sensors[0].fit
     from bayes_imu.drift.closed_forms import drift_sigma
@@ -73,11 +74,22 @@ def test_better_sensor_ranks_first_and_bounds_are_quantiles(report):
                                         "quantization", "filtered_white", "hf_correlated",
                                         "gauss_markov_2", "ramp", "vibration"}, component.terms
         p = NoiseModel(component.terms, 0.01).unpack(component.samples)
-        var = drift_sigma(300.0, quantity="attitude", dt=0.01, noise_variance=p["noise_variance"],
-                          bias_variance=p.get("bias_variance", 0.0), time_constant=p.get("time_constant", np.inf),
-                          random_walk=p.get("rate_random_walk", 0.0)).total ** 2
+        var = (
+            drift_sigma(
+                300.0,
+                quantity="attitude",
+                dt=0.01,
+                noise_variance=p["noise_variance"],
+                bias_variance=p.get("bias_variance", 0.0),
+                time_constant=p.get("time_constant", np.inf),
+                random_walk=p.get("rate_random_walk", 0.0),
+            ).total
+            ** 2
+        )
         # flicker, no calibration: two adjacent 300 s means differ by sqrt(2) ADEV (AVAR definition)
-        var = var + 2.0 * (2.0 * np.log(2.0) / np.pi) * p.get("bias_instability", 0.0) ** 2 * 300.0**2
+        var = (
+            var + 2.0 * (2.0 * np.log(2.0) / np.pi) * p.get("bias_instability", 0.0) ** 2 * 300.0**2
+        )
         var = var + 2.0 * p.get("quantization", 0.0) ** 2  # white angle noise: e_k - e_0
         # a line of random phase: dt sum_{t<k} A sin(2 x t + phi) has variance (A^2/2) dt^2 D_k^2,
         # D_k = sin(k x) / sin(x) the Dirichlet kernel, x = pi f dt, k = 300 s / dt
@@ -85,20 +97,40 @@ def test_better_sensor_ranks_first_and_bounds_are_quantiles(report):
         dirichlet = np.sin(3e4 * x) / np.sin(x)
         var = var + 0.5 * p.get("vibration_amplitude", 0.0) ** 2 * (0.01 * dirichlet) ** 2
         k = 300.0 / 0.01
-        var = var + p.get("filtered_variance", 0.0) * 0.01**2 * (4.0 * k - 2.0)  # Var(sum of k MA(1) samples)
+        # Var(sum of k MA(1) samples)
+        var = var + p.get("filtered_variance", 0.0) * 0.01**2 * (4.0 * k - 2.0)
         if "bias_variance_2" in p:
-            var = var + drift_sigma(300.0, quantity="attitude", dt=0.01, bias_variance=p["bias_variance_2"],
-                                    time_constant=p["time_constant_2"]).total ** 2
-        var = var + (p.get("rate_ramp", 0.0) * 0.01**2 * k * (k - 1) / 2) ** 2  # deterministic ramp from zero
+            var = (
+                var
+                + drift_sigma(
+                    300.0,
+                    quantity="attitude",
+                    dt=0.01,
+                    bias_variance=p["bias_variance_2"],
+                    time_constant=p["time_constant_2"],
+                ).total
+                ** 2
+            )
+        # deterministic ramp from zero
+        var = var + (p.get("rate_ramp", 0.0) * 0.01**2 * k * (k - 1) / 2) ** 2
         if "correlated_variance" in p:  # Var(sum of k stationary AR(1) samples)
             phi = np.exp(-0.01 / p["correlated_time_constant"])
-            var = var + p["correlated_variance"] * 0.01**2 * (k * (1 - phi**2) - 2 * phi * (1 - phi**k)) / (1 - phi) ** 2
+            var = (
+                var
+                + p["correlated_variance"]
+                * 0.01**2
+                * (k * (1 - phi**2) - 2 * phi * (1 - phi**k))
+                / (1 - phi) ** 2
+            )
         sig.append(np.sqrt(var))
-    assert budget["bounds"][2]["bound"] == pytest.approx(np.quantile(np.concatenate(sig), 0.95), rel=1e-10)
+    assert budget["bounds"][2]["bound"] == pytest.approx(
+        np.quantile(np.concatenate(sig), 0.95), rel=1e-10
+    )
 
 
 def test_scene_defaults_to_the_calibrated_bias(tmp_path):
-    """A scene without bias_start gets the conservative, actionable semantics: calibrated over 60 s."""
+    """A scene without bias_start gets the conservative, actionable semantics: calibrated over 60
+    s."""
     path = tmp_path / "scene.toml"
     path.write_text(SCENE.format(data=DATA).replace('bias_start = "zero"\n', ""))
     scene = read_scene(path)
@@ -140,7 +172,14 @@ def test_html_is_self_contained_with_all_sections(report):
     for src in parser.images:
         assert src.startswith("data:image/png;base64,")
         assert base64.b64decode(src.split(",", 1)[1])[:8] == b"\x89PNG\r\n\x1a\n"
-    for text in ("temperature", "scale-factor", "bias start", "tactical", "budget", "white + gauss_markov"):
+    for text in (
+        "temperature",
+        "scale-factor",
+        "bias start",
+        "tactical",
+        "budget",
+        "white + gauss_markov",
+    ):
         assert text in page
 
 
@@ -163,7 +202,9 @@ def test_html_renders_in_headless_chromium(report):
         browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
         page = browser.new_page()
         page.goto((out / "report.html").as_uri())
-        decoded = page.evaluate("Array.from(document.images).map(i => i.complete && i.naturalWidth > 0)")
+        decoded = page.evaluate(
+            "Array.from(document.images).map(i => i.complete && i.naturalWidth > 0)"
+        )
         assert decoded and all(decoded)
         assert page.locator("#ranking li").count() == 2
         assert page.locator("h1").inner_text().startswith("IMU selection report")
@@ -200,23 +241,101 @@ def test_report_cli_missing_scene_exit_2(tmp_path, capsys):
 def test_kalibr_export_from_fit_folders(tmp_path, capsys):
     """Nominal values equal the posterior medians converted to SI; conservative ones are larger."""
     gyro, accel = tmp_path / "g", tmp_path / "a"
-    assert main(["fit", str(DATA / "gyro_lowgrade.csv.gz"), "--column", "gyro_x_dps", "--rate", "100",
-                 "--unit", "deg/s", "--out", str(gyro)]) == 0
-    assert main(["fit", str(DATA / "accel_gravity.csv.gz"), "--column", "accel_z_mps2", "--rate", "100",
-                 "--unit", "m/s^2", "--out", str(accel)]) == 0
-    assert main(["kalibr", "--gyro", str(gyro), "--accel", str(accel), "--out", str(tmp_path / "imu.yaml")]) == 0
-    nominal = dict(line.split(": ") for line in (tmp_path / "imu.yaml").read_text().splitlines() if not line.startswith("#"))
+    assert (
+        main(
+            [
+                "fit",
+                str(DATA / "gyro_lowgrade.csv.gz"),
+                "--column",
+                "gyro_x_dps",
+                "--rate",
+                "100",
+                "--unit",
+                "deg/s",
+                "--out",
+                str(gyro),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "fit",
+                str(DATA / "accel_gravity.csv.gz"),
+                "--column",
+                "accel_z_mps2",
+                "--rate",
+                "100",
+                "--unit",
+                "m/s^2",
+                "--out",
+                str(accel),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "kalibr",
+                "--gyro",
+                str(gyro),
+                "--accel",
+                str(accel),
+                "--out",
+                str(tmp_path / "imu.yaml"),
+            ]
+        )
+        == 0
+    )
+    nominal = dict(
+        line.split(": ")
+        for line in (tmp_path / "imu.yaml").read_text().splitlines()
+        if not line.startswith("#")
+    )
     summary = json.loads((gyro / "summary.json").read_text())
     assert summary["unit"] == "rad/s"  # --unit deg/s: the fit ran on SI values
     density = summary["parameters"]["noise_density"]["median"]
     assert float(nominal["gyroscope_noise_density"]) == pytest.approx(density, rel=1e-3)
     assert float(nominal["update_rate"]) == 100
-    assert main(["kalibr", "--gyro", str(gyro), "--accel", str(accel), "--out", str(tmp_path / "c.yaml"),
-                 "--credibility", "0.95"]) == 0
-    cons = dict(line.split(": ") for line in (tmp_path / "c.yaml").read_text().splitlines() if not line.startswith("#"))
+    assert (
+        main(
+            [
+                "kalibr",
+                "--gyro",
+                str(gyro),
+                "--accel",
+                str(accel),
+                "--out",
+                str(tmp_path / "c.yaml"),
+                "--credibility",
+                "0.95",
+            ]
+        )
+        == 0
+    )
+    cons = dict(
+        line.split(": ")
+        for line in (tmp_path / "c.yaml").read_text().splitlines()
+        if not line.startswith("#")
+    )
     for key in ("gyroscope_noise_density", "gyroscope_random_walk", "accelerometer_noise_density"):
         assert float(cons[key]) > float(nominal[key])
-    assert main(["kalibr", "--gyro", str(accel), "--accel", str(accel), "--out", str(tmp_path / "x.yaml")]) == 2
+    assert (
+        main(
+            [
+                "kalibr",
+                "--gyro",
+                str(accel),
+                "--accel",
+                str(accel),
+                "--out",
+                str(tmp_path / "x.yaml"),
+            ]
+        )
+        == 2
+    )
 
 
 def test_outage_longer_than_the_log_is_marked_extrapolated(report):
@@ -241,9 +360,10 @@ def _flagged_fit():
 
 
 def test_bounds_of_a_non_stationary_log_are_reproducible():
-    """The conservative bound and the longest acceptable outage of a log flagged non-stationary come from the
-    given rng (the part-to-part spread is drawn from it): the same rng gives the same numbers, and the
-    bisection searches one deterministic bound (its draws shared by every time it tries)."""
+    """The conservative bound and the longest acceptable outage of a log flagged non-stationary come
+    from the given rng (the part-to-part spread is drawn from it): the same rng gives the same
+    numbers, and the bisection searches one deterministic bound (its draws shared by every time it
+    tries)."""
     from bayes_imu.report.scene import _bound, max_outage
 
     fit = _flagged_fit()
@@ -258,9 +378,10 @@ def test_bounds_of_a_non_stationary_log_are_reproducible():
 
 
 def test_a_sensors_numbers_do_not_depend_on_the_sensors_beside_it(tmp_path, report):
-    """Each sensor draws from its own stream spawned from the report's seed: with another log in place of the
-    first sensor, the second sensor's bounds and longest outage are the same as in the original scene (with one
-    stream through all sensors they moved with whatever the first sensor's fits had drawn)."""
+    """Each sensor draws from its own stream spawned from the report's seed: with another log in
+    place of the first sensor, the second sensor's bounds and longest outage are the same as in the
+    original scene (with one stream through all sensors they moved with whatever the first sensor's
+    fits had drawn)."""
     rep, _ = report
     other = SCENE.replace('name = "budget"\nlog = "{data}/gyro_lowgrade.csv.gz"',
                           'name = "budget"\nlog = "{data}/gyro_rrw.csv.gz"')

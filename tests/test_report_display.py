@@ -1,5 +1,6 @@
 """``bayes-imu report --display-units deg`` (issue 38): report.html, report.json and comparison.png
-in degrees beside SI, against the exact factors 180/pi and sqrt(3600 s/h), the SI values unchanged."""
+in degrees beside SI, against the exact factors 180/pi and sqrt(3600 s/h), the SI values
+unchanged."""
 
 import dataclasses
 import json
@@ -147,7 +148,9 @@ def test_comparison_chart_in_degrees(written, monkeypatch):
         if b.get_transform() == ax_deg.get_xaxis_transform():  # an outage's line (axes fraction)
             assert list(b.get_ydata()) == list(a.get_ydata())
             continue
-        assert np.asarray(b.get_ydata()) == pytest.approx(np.asarray(a.get_ydata()) * DEG, rel=1e-14)
+        assert np.asarray(b.get_ydata()) == pytest.approx(
+            np.asarray(a.get_ydata()) * DEG, rel=1e-14
+        )
         scaled += 1
     assert scaled == 4  # bound, median, requirement, longest acceptable outage
     requirement = [line for line in ax_deg.lines if "requirement" in str(line.get_label())]

@@ -4,7 +4,12 @@
 import numpy as np
 import pytest
 
-from bayes_imu.inference.sampling import AUTOCORR_MULTIPLE, burn_and_thin, ensemble_sampler, long_enough
+from bayes_imu.inference.sampling import (
+    AUTOCORR_MULTIPLE,
+    burn_and_thin,
+    ensemble_sampler,
+    long_enough,
+)
 
 
 def _normal(theta):
@@ -30,7 +35,9 @@ def _emcee_own(target, start, rng):
     import emcee
 
     moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.StretchMove(), 0.2)]
-    sampler = emcee.EnsembleSampler(start.shape[0], start.shape[1], target, vectorize=True, moves=moves)
+    sampler = emcee.EnsembleSampler(
+        start.shape[0], start.shape[1], target, vectorize=True, moves=moves
+    )
     sampler.random_state = np.random.RandomState(rng.integers(2**32)).get_state()
     return sampler
 
@@ -44,10 +51,11 @@ def _banana(theta):
 
 
 def test_lean_sampler_gives_emcees_own_chains_bit_for_bit_across_chunks():
-    """ensemble_sampler's classes (no random-state copies, whole-half acceptance, vectorised log densities)
-    against emcee's EnsembleSampler, DEMove and StretchMove on the same seed: the same chain, log densities
-    and acceptances, bit for bit, also when the run is resumed from its last state in chunks (as the fit
-    does: emcee would set its generator back to the state saved in that last state)."""
+    """ensemble_sampler's classes (no random-state copies, whole-half acceptance, vectorised log
+    densities) against emcee's EnsembleSampler, DEMove and StretchMove on the same seed: the same
+    chain, log densities and acceptances, bit for bit, also when the run is resumed from its last
+    state in chunks (as the fit does: emcee would set its generator back to the state saved in that
+    last state)."""
     chains = []
     for make in (ensemble_sampler, _emcee_own):
         rng = np.random.default_rng(11)
@@ -56,7 +64,9 @@ def test_lean_sampler_gives_emcees_own_chains_bit_for_bit_across_chunks():
         state = start
         for chunk in (150, 100, 250):
             state = sampler.run_mcmc(state, chunk, progress=False)
-        chains.append((sampler.get_chain(), sampler.get_log_prob(), sampler.backend.accepted.copy()))
+        chains.append(
+            (sampler.get_chain(), sampler.get_log_prob(), sampler.backend.accepted.copy())
+        )
     lean, own = chains
     for a, b in zip(lean, own):
         np.testing.assert_array_equal(a, b)
@@ -68,7 +78,9 @@ def test_lean_sampler_keeps_emcees_errors():
 
     rng = np.random.default_rng(0)
     start = rng.standard_normal((8, 2))
-    sampler = ensemble_sampler(lambda theta: np.full(np.atleast_2d(theta).shape[0], np.nan), start, rng)
+    sampler = ensemble_sampler(
+        lambda theta: np.full(np.atleast_2d(theta).shape[0], np.nan), start, rng
+    )
     with pytest.raises(ValueError, match="NaN"):
         sampler.run_mcmc(start, 2, progress=False)
     start[0, 0] = np.inf
@@ -78,15 +90,21 @@ def test_lean_sampler_keeps_emcees_errors():
 
 def test_stopping_rule_and_thinning():
     assert AUTOCORR_MULTIPLE == 50
-    assert long_enough(500, 10.0, 10.4) and not long_enough(499, 10.0, 10.4)  # 50 autocorrelation times
+    # 50 autocorrelation times
+    assert long_enough(500, 10.0, 10.4) and not long_enough(499, 10.0, 10.4)
     assert not long_enough(1000, 10.0, 11.0)  # the estimate moved by 10%: not settled
-    assert burn_and_thin(10.0) == (30, 5) and burn_and_thin(10.2) == (31, 5) and burn_and_thin(1.5) == (5, 1)
+    assert (
+        burn_and_thin(10.0) == (30, 5)
+        and burn_and_thin(10.2) == (31, 5)
+        and burn_and_thin(1.5) == (5, 1)
+    )
 
 
 def test_autocorr_time_is_emcees_and_that_of_an_ar1_chain():
-    """Per parameter, emcee's integrated_time (tol=0) to 1e-13 (real instead of complex FFTs), on chains
-    of lengths that are and are not powers of two; and for AR(1) walkers, phi = 0.8, the exact integrated
-    time (1 + phi) / (1 - phi) = 9 within 10% (32 walkers x 20000 steps: the estimate's spread is ~2%)."""
+    """Per parameter, emcee's integrated_time (tol=0) to 1e-13 (real instead of complex FFTs), on
+    chains of lengths that are and are not powers of two; and for AR(1) walkers, phi = 0.8, the
+    exact integrated time (1 + phi) / (1 - phi) = 9 within 10% (32 walkers x 20000 steps: the
+    estimate's spread is ~2%)."""
     from emcee.autocorr import integrated_time
     from scipy.signal import lfilter
 
@@ -104,15 +122,17 @@ def test_autocorr_time_is_emcees_and_that_of_an_ar1_chain():
 
 
 def test_autocorr_time_transforms_walkers_together_with_the_same_bits(rng):
-    """The walkers of a parameter are transformed together as contiguous rows: the same numbers, bit for bit,
-    as transforming each walker's series alone (emcee's layout, written out here with real transforms), on
-    chains of several lengths (a power of two and not)."""
+    """The walkers of a parameter are transformed together as contiguous rows: the same numbers, bit
+    for bit, as transforming each walker's series alone (emcee's layout, written out here with real
+    transforms), on chains of several lengths (a power of two and not)."""
     from emcee.autocorr import auto_window
 
     from bayes_imu.inference.sampling import autocorr_time
 
     for n_t in (250, 1000, 3001):
-        chain = np.cumsum(rng.standard_normal((n_t, 16, 3)), axis=0) * 0.05 + rng.standard_normal((n_t, 16, 3))
+        chain = np.cumsum(rng.standard_normal((n_t, 16, 3)), axis=0) * 0.05 + rng.standard_normal(
+            (n_t, 16, 3)
+        )
         size = 2
         while size < 2 * n_t:
             size <<= 1
@@ -130,13 +150,16 @@ def test_autocorr_time_transforms_walkers_together_with_the_same_bits(rng):
 
 
 def test_long_chains_are_checked_at_a_tenth_of_their_length():
-    """Every 250 steps below GEOMETRIC_FROM (the schedule of every shorter chain, unchanged), a tenth of the
-    chain (a multiple of 250) beyond it: a 40 000-step run is checked 54 times instead of 160, and a chain that
-    settles runs at most 10% (plus one chunk) longer."""
+    """Every 250 steps below GEOMETRIC_FROM (the schedule of every shorter chain, unchanged), a
+    tenth of the chain (a multiple of 250) beyond it: a 40 000-step run is checked 54 times instead
+    of 160, and a chain that settles runs at most 10% (plus one chunk) longer."""
     from bayes_imu.inference.sampling import GEOMETRIC_FROM, steps_to_next_check
 
     assert [steps_to_next_check(n, 250) for n in (0, 250, GEOMETRIC_FROM - 250)] == [250, 250, 250]
-    assert steps_to_next_check(GEOMETRIC_FROM, 250) == 1000 and steps_to_next_check(12_345, 250) == 1250
+    assert (
+        steps_to_next_check(GEOMETRIC_FROM, 250) == 1000
+        and steps_to_next_check(12_345, 250) == 1250
+    )
     iteration, checks = 0, 0
     while iteration < 40_000:
         step = min(steps_to_next_check(iteration, 250), 40_000 - iteration)
@@ -147,8 +170,8 @@ def test_long_chains_are_checked_at_a_tenth_of_their_length():
 
 
 def _two_biases(theta):
-    """Ordered target of two exchangeable biases: columns (other, v1, t1, v2, t2), each bias with density
-    N(v; 0, 1) exp(-t) on 0 <= t <= 3, the time constants increasing (t1 < t2)."""
+    """Ordered target of two exchangeable biases: columns (other, v1, t1, v2, t2), each bias with
+    density N(v; 0, 1) exp(-t) on 0 <= t <= 3, the time constants increasing (t1 < t2)."""
     theta = np.atleast_2d(theta)
     v, t = theta[:, [1, 3]], theta[:, [2, 4]]
     out = -0.5 * theta[:, 0] ** 2 - 0.5 * np.sum(v * v, axis=1) - np.sum(t, axis=1)
@@ -157,11 +180,12 @@ def _two_biases(theta):
 
 
 def test_relabel_move_leaves_the_ordered_posterior_of_exchangeable_biases_invariant():
-    """The relabel move alone (no other move: the variances and the stronger bias's time constant never
-    change) must give the weaker bias's time constant its exact marginal, the truncated exponential on
-    [0, 3] (Kolmogorov-Smirnov against the exact CDF, and the mean within 5 standard errors), whichever
-    side of the stronger one it lands; the weaker bias must be the faster one (first column) with the exact
-    probability H(t_strong) on average (5 standard errors), and the ordering must always hold."""
+    """The relabel move alone (no other move: the variances and the stronger bias's time constant
+    never change) must give the weaker bias's time constant its exact marginal, the truncated
+    exponential on [0, 3] (Kolmogorov-Smirnov against the exact CDF, and the mean within 5 standard
+    errors), whichever side of the stronger one it lands; the weaker bias must be the faster one
+    (first column) with the exact probability H(t_strong) on average (5 standard errors), and the
+    ordering must always hold."""
     from scipy import stats
 
     from bayes_imu.inference.sampling import import_emcee, relabel_move
@@ -169,8 +193,15 @@ def test_relabel_move_leaves_the_ordered_posterior_of_exchangeable_biases_invari
     emcee = import_emcee()
     rng = np.random.default_rng(3)
     n = 4000
-    start = np.column_stack([rng.standard_normal(n), rng.standard_normal(n), rng.uniform(0.0, 1.0, n),
-                             rng.standard_normal(n), rng.uniform(2.0, 3.0, n)])
+    start = np.column_stack(
+        [
+            rng.standard_normal(n),
+            rng.standard_normal(n),
+            rng.uniform(0.0, 1.0, n),
+            rng.standard_normal(n),
+            rng.uniform(2.0, 3.0, n),
+        ]
+    )
     sampler = emcee.EnsembleSampler(n, 5, _two_biases, vectorize=True,
                                     moves=[relabel_move([1, 3], [2, 4], (0.0, 3.0))])
     sampler.random_state = np.random.RandomState(4).get_state()
@@ -181,7 +212,9 @@ def test_relabel_move_leaves_the_ordered_posterior_of_exchangeable_biases_invari
     weak_first = end[:, 1] < end[:, 3]
     t_weak = np.where(weak_first, end[:, 2], end[:, 4])
     t_strong = np.where(weak_first, end[:, 4], end[:, 2])
-    np.testing.assert_array_equal(np.minimum(end[:, 1], end[:, 3]), np.minimum(start[:, 1], start[:, 3]))
+    np.testing.assert_array_equal(
+        np.minimum(end[:, 1], end[:, 3]), np.minimum(start[:, 1], start[:, 3])
+    )
 
     def cdf(t):
         return -np.expm1(-np.clip(t, 0.0, 3.0)) / -np.expm1(-3.0)
@@ -193,18 +226,29 @@ def test_relabel_move_leaves_the_ordered_posterior_of_exchangeable_biases_invari
 
 
 def test_ensemble_sampler_adds_the_relabel_move_only_for_exchangeable_biases():
-    """With two exchangeable biases the ensemble runs differential evolution, stretch and relabel moves
-    (shares 0.72, 0.18, 0.10) and samples the ordered target (every draw ordered, the weaker bias's mean time
-    constant within 0.1 of the exact 0.843); without, the moves and chain are as before."""
+    """With two exchangeable biases the ensemble runs differential evolution, stretch and relabel
+    moves (shares 0.72, 0.18, 0.10) and samples the ordered target (every draw ordered, the weaker
+    bias's mean time constant within 0.1 of the exact 0.843); without, the moves and chain are as
+    before."""
     from bayes_imu.inference.sampling import RELABEL_SHARE
 
     rng = np.random.default_rng(6)
-    start = np.column_stack([rng.standard_normal((32, 2)), rng.uniform(0.0, 1.0, 32), rng.standard_normal(32),
-                             rng.uniform(2.0, 3.0, 32)])
+    start = np.column_stack(
+        [
+            rng.standard_normal((32, 2)),
+            rng.uniform(0.0, 1.0, 32),
+            rng.standard_normal(32),
+            rng.uniform(2.0, 3.0, 32),
+        ]
+    )
     plain = ensemble_sampler(_two_biases, start, np.random.default_rng(1))
     assert len(plain._moves) == 2
-    sampler = ensemble_sampler(_two_biases, start, np.random.default_rng(1), ([1, 3], [2, 4], (0.0, 3.0)))
-    np.testing.assert_allclose(sampler._weights, [0.8 * (1 - RELABEL_SHARE), 0.2 * (1 - RELABEL_SHARE), RELABEL_SHARE])
+    sampler = ensemble_sampler(
+        _two_biases, start, np.random.default_rng(1), ([1, 3], [2, 4], (0.0, 3.0))
+    )
+    np.testing.assert_allclose(
+        sampler._weights, [0.8 * (1 - RELABEL_SHARE), 0.2 * (1 - RELABEL_SHARE), RELABEL_SHARE]
+    )
     sampler.run_mcmc(start, 3000, progress=False)
     chain = sampler.get_chain(discard=500).reshape(-1, 5)
     assert np.all(chain[:, 2] < chain[:, 4])
@@ -212,12 +256,19 @@ def test_ensemble_sampler_adds_the_relabel_move_only_for_exchangeable_biases():
     assert abs(t_weak.mean() - (1.0 - 3.0 * np.exp(-3.0) / -np.expm1(-3.0))) < 0.1
 
 
-@pytest.mark.parametrize("coords, density, message", [
-    ([[0.0, np.inf], [0.0, 1.0]], None, "infinite"), ([[0.0, -np.inf], [np.nan, 1.0]], None, "infinite"),
-    ([[0.0, np.nan], [0.0, 1.0]], None, "NaN"), ([[0.0, 1.0], [0.0, 1.0]], np.nan, "returned NaN")])
+@pytest.mark.parametrize(
+    "coords, density, message",
+    [
+        ([[0.0, np.inf], [0.0, 1.0]], None, "infinite"),
+        ([[0.0, -np.inf], [np.nan, 1.0]], None, "infinite"),
+        ([[0.0, np.nan], [0.0, 1.0]], None, "NaN"),
+        ([[0.0, 1.0], [0.0, 1.0]], np.nan, "returned NaN"),
+    ],
+)
 def test_lean_sampler_refuses_what_emcee_refuses_with_its_message(coords, density, message):
-    """The lean sampler's vectorised log-probability check raises emcee's own ValueError, with its message, for
-    infinite and NaN coordinates (infinite first, as emcee checks) and a NaN density."""
+    """The lean sampler's vectorised log-probability check raises emcee's own ValueError, with its
+    message, for infinite and NaN coordinates (infinite first, as emcee checks) and a NaN
+    density."""
     from bayes_imu.inference.sampling import _lean_classes, import_emcee
 
     emcee = import_emcee()

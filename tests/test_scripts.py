@@ -13,28 +13,43 @@ SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 
 
 def _run(script, *args):
-    proc = subprocess.run([sys.executable, str(SCRIPTS / script), *args], capture_output=True, text=True, timeout=600)
+    proc = subprocess.run(
+        [sys.executable, str(SCRIPTS / script), *args], capture_output=True, text=True, timeout=600
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
     return proc.stdout
 
 
 def test_paper_figures_quick(tmp_path):
-    """200 Monte Carlo paths: the corrected formulas within 5 standard errors, the printed eqs 11 and 29 far off."""
+    """200 Monte Carlo paths: the corrected formulas within 5 standard errors, the printed eqs 11
+    and 29 far off."""
     out = _run("paper_figures.py", "--quick", "--out", str(tmp_path))
     assert len(list(tmp_path.glob("fig*.png"))) == 11
-    worst = {int(n): float(v) for n, v in re.findall(r"Fig (\d+): .*?worst deviation ([\d.]+) standard errors", out)}
+    worst = {
+        int(n): float(v)
+        for n, v in re.findall(r"Fig (\d+): .*?worst deviation ([\d.]+) standard errors", out)
+    }
     assert set(worst) == {4, 5, 6, 7, 9, 10} and max(worst.values()) < 5.0, worst
     printed = [float(v) for v in re.findall(r"printed form: ([\d.e+]+) standard errors", out)]
     assert len(printed) == 2 and min(printed) > 20.0, printed
 
 
-@pytest.mark.slow  # ~20 s: the benchmark's quick run (the default run keeps the cheap paper-figures one)
+# ~20 s: the benchmark's quick run (the default run keeps the cheap paper-figures one)
+@pytest.mark.slow
 def test_speed_vs_error_quick(tmp_path):
     out = _run("bench_speed_vs_error.py", "--quick", "--processes", "1", "--out", str(tmp_path))
     with open(tmp_path / "speed_vs_error.csv") as handle:
         rows = list(csv.DictReader(handle))
     methods = {r["method"] for r in rows}
-    assert methods == {"slope", "ls_log_adev", "gmwm_wls", "map_laplace", "mcmc_500", "mcmc_2000", "mcmc"}
+    assert methods == {
+        "slope",
+        "ls_log_adev",
+        "gmwm_wls",
+        "map_laplace",
+        "mcmc_500",
+        "mcmc_2000",
+        "mcmc",
+    }
     assert len(rows) == 7 * 3 * 2 and (tmp_path / "pareto.png").stat().st_size > 10_000
     assert all(float(r["median_seconds"]) >= 0 for r in rows) and "mcmc" in out
 
@@ -46,7 +61,8 @@ def test_real_data_quick(tmp_path):
     shared_file("smac_imudata", "adis_16405_imu1.csv.gz")
     out = _run("real_data.py", "--quick", "--out", str(tmp_path))
     density = float(re.search(r"imu1\s+gyro_x_dps\s+\S+\s+\S+\s+(\S+)", out).group(1))
-    # REFERENCE_VALUES.md: OADEV(1 s) of the six recordings 0.038-0.046 deg/s, datasheet ARW 0.0333 deg/s/sqrt(Hz)
+    # REFERENCE_VALUES.md: OADEV(1 s) of the six recordings 0.038-0.046 deg/s, datasheet ARW 0.0333
+    # deg/s/sqrt(Hz)
     assert 0.025 < density < 0.046
     assert (tmp_path / "real_data_posteriors.png").exists()
 
@@ -59,8 +75,12 @@ def test_scripts_offer_a_quick_run(script):
     import subprocess
     import sys
 
-    done = subprocess.run([sys.executable, str(SCRIPTS / script), "--help"], capture_output=True, text=True,
-                          timeout=120)
+    done = subprocess.run(
+        [sys.executable, str(SCRIPTS / script), "--help"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr
     assert "--quick" in done.stdout
 
@@ -69,8 +89,12 @@ def test_scripts_offer_a_quick_run(script):
 def test_bench_population_quick(tmp_path):
     """Two cells, one replicate each: the table has a row per cell with coverages in [0, 1]."""
     out = _run("bench_population.py", "--quick", "--csv", str(tmp_path / "p.csv"))
-    rows = re.findall(r"^\s+(0\.\d)\s+(\d)\s+(\d+)\s+([\d.]+) \+-[\d.]+\s+([\d.]+) \+-[\d.]+\s+([\d.]+)\s+([\d.]+)$",
-                      out, re.M)
+    rows = re.findall(
+        r"^\s+(0\.\d)\s+(\d)\s+(\d+)\s+([\d.]+) \+-[\d.]+\s+([\d.]+) "
+        r"\+-[\d.]+\s+([\d.]+)\s+([\d.]+)$",
+        out,
+        re.M,
+    )
     assert [(r[0], r[1]) for r in rows] == [("0.1", "3"), ("0.3", "3")]
     for r in rows:
         assert all(0.0 <= float(v) <= 1.0 for v in r[3:6]) and float(r[6]) > 0
@@ -81,18 +105,22 @@ def test_bench_population_quick(tmp_path):
 @pytest.mark.slow
 def test_validate_population_quick(tmp_path):
     """gyro_x of three ADIS16405 units, each held out once (skips without ../shared)."""
-    out = _run("validate_population.py", "--quick", "--cache", str(tmp_path / "cache"), "--workers", "2")
+    out = _run(
+        "validate_population.py", "--quick", "--cache", str(tmp_path / "cache"), "--workers", "2"
+    )
     if out.startswith("skipped"):
         pytest.skip(out.strip())
-    share = float(re.search(r"drift: \d+ of \d+ \(unit, axis, horizon\) points = ([\d.]+)%", out).group(1))
+    share = float(
+        re.search(r"drift: \d+ of \d+ \(unit, axis, horizon\) points = ([\d.]+)%", out).group(1)
+    )
     assert share >= 75.0  # 12 points; the full run's table is in docs/validation/population.md
 
 
 def test_bench_allan_stage_times_follow_the_kernels_path(rng):
-    """bench_allan --stages times each stage alone (mean, running sum, sums of the sizes below and from 65536
-    up), with no large-size column without a size from 65536 up; every stage run is timed (no relation between
-    the times is asserted: they are milliseconds on a shared machine), on a short record and on one the JIT
-    kernels sum."""
+    """bench_allan --stages times each stage alone (mean, running sum, sums of the sizes below and
+    from 65536 up), with no large-size column without a size from 65536 up; every stage run is timed
+    (no relation between the times is asserted: they are milliseconds on a shared machine), on a
+    short record and on one the JIT kernels sum."""
     import importlib.util
 
     import numpy as np

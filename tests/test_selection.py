@@ -1,4 +1,5 @@
-"""Model selection: the candidate set, the selection rule, probabilities, stepwise moves; max_outage."""
+"""Model selection: the candidate set, the selection rule, probabilities, stepwise moves;
+max_outage."""
 
 import numpy as np
 import pytest
@@ -6,7 +7,14 @@ import pytest
 from bayes_imu import NoiseModel
 from bayes_imu.inference.population import UnitPosterior
 from bayes_imu.report.scene import max_outage
-from bayes_imu.inference.selection import CandidateScore, candidate_terms, extensions, model_probabilities, reductions, select
+from bayes_imu.inference.selection import (
+    CandidateScore,
+    candidate_terms,
+    extensions,
+    model_probabilities,
+    reductions,
+    select,
+)
 
 
 def _score(terms, log_z, se=0.0):
@@ -24,7 +32,8 @@ def test_candidate_terms_are_white_plus_every_subset():
 def test_select_takes_the_simplest_within_threshold():
     scores = [_score(["white"], 8.0), _score(["white", "gauss_markov"], 9.5),
               _score(["white", "gauss_markov", "random_walk"], 10.0)]
-    assert select(scores) == 1  # 0.5 nat below the best, fewer terms; the one-term model is 2 nats below
+    # 0.5 nat below the best, fewer terms; the one-term model is 2 nats below
+    assert select(scores) == 1
     assert select(scores, threshold=0.1) == 2
     assert select(scores, threshold=2.5) == 0
     # the Monte Carlo error widens the margin: 1 + 2 * hypot(0.6, 0) = 2.2 nats
@@ -53,13 +62,18 @@ def test_stepwise_moves():
     red = reductions(("white", "gauss_markov", "gauss_markov_2", "ramp"))
     assert ("gauss_markov", "gauss_markov_2", "ramp") not in red  # white stays
     assert ("white", "gauss_markov_2", "ramp") not in red  # gauss_markov goes only with its second
-    assert ("white", "gauss_markov", "ramp") in red and ("white", "gauss_markov", "gauss_markov_2") in red
+    assert ("white", "gauss_markov", "ramp") in red and (
+        "white",
+        "gauss_markov",
+        "gauss_markov_2",
+    ) in red
 
 
 @pytest.mark.parametrize("bias_start", ["zero", "calibrated"])
 def test_max_outage_white_noise(bias_start):
-    """White noise q per sample, zero bias start: sigma(t)^2 = q dt t exactly, so the longest outage within E
-    is E^2 / (q dt) (to one sample); a calibrated start only adds error, so it is shorter."""
+    """White noise q per sample, zero bias start: sigma(t)^2 = q dt t exactly, so the longest outage
+    within E is E^2 / (q dt) (to one sample); a calibrated start only adds error, so it is
+    shorter."""
     dt, q, limit = 0.01, 4e-4, 0.01
     post = UnitPosterior(NoiseModel(("white",), dt), np.array([[q]]), 1e4)
     t = max_outage(post, "attitude", limit, 0.95, bias_start=bias_start, calibration_s=10.0)
@@ -86,15 +100,22 @@ def test_laplace_evidence_against_quadrature_for_one_parameter(rng):
     log_z, cov = laplace_log_evidence(post, mode.u)
     peak = float(_log_density_u(post, mode.u)[0])
     width = 12.0 * np.sqrt(cov[0, 0])
-    mass, _ = integrate.quad(lambda u: np.exp(_log_density_u(post, np.array([u]))[0] - peak), mode.u[0] - width,
-                             mode.u[0] + width, epsabs=0, epsrel=1e-10, limit=200)
+    mass, _ = integrate.quad(
+        lambda u: np.exp(_log_density_u(post, np.array([u]))[0] - peak),
+        mode.u[0] - width,
+        mode.u[0] + width,
+        epsabs=0,
+        epsrel=1e-10,
+        limit=200,
+    )
     assert log_z == pytest.approx(peak + np.log(mass), abs=0.05)
 
 
 def test_screened_candidates_are_those_importance_sampling_puts_far_below(rng):
-    """A fit's candidates left with their Laplace estimate (method 'laplace') are more than LAPLACE_SCREEN
-    nats below the best importance-sampled evidence, and their own importance-sampled evidence
-    (score_models, which screens nothing) is more than 8 nats below it: they could not matter."""
+    """A fit's candidates left with their Laplace estimate (method 'laplace') are more than
+    LAPLACE_SCREEN nats below the best importance-sampled evidence, and their own importance-sampled
+    evidence (score_models, which screens nothing) is more than 8 nats below it: they could not
+    matter."""
     from bayes_imu import allan_variance
     from bayes_imu.inference.fit import fit_allan, score_models
     from bayes_imu.inference.selection import LAPLACE_SCREEN
@@ -108,7 +129,10 @@ def test_screened_candidates_are_those_importance_sampling_puts_far_below(rng):
     sampled = [c for c in fit.candidates if c.method == "importance"]
     assert screened and sampled  # white alone and white + random walk are far below on this log
     best = max(c.log_evidence for c in sampled)
-    assert all(c.log_evidence < best - LAPLACE_SCREEN and c.log_evidence_se == 0 and c.ess == 0 for c in screened)
+    assert all(
+        c.log_evidence < best - LAPLACE_SCREEN and c.log_evidence_se == 0 and c.ess == 0
+        for c in screened
+    )
     assert all(p < 1e-3 for c, p in zip(fit.candidates, fit.probabilities) if c.method == "laplace")
     again = score_models(a, [c.terms for c in screened], rng=2)
     assert all(c.method == "importance" for c in again)
@@ -116,24 +140,36 @@ def test_screened_candidates_are_those_importance_sampling_puts_far_below(rng):
 
 
 def test_can_skip_refuses_a_mode_the_optimiser_stopped_short_of(rng):
-    """A Laplace estimate taken at a point that is not the mode can be far too low: the screen's pilot
-    draws find a denser point and the candidate is importance-sampled after all; at the true mode, with
-    the same (low) best, it is skipped, and never when the Laplace estimate is within the screen."""
+    """A Laplace estimate taken at a point that is not the mode can be far too low: the screen's
+    pilot draws find a denser point and the candidate is importance-sampled after all; at the true
+    mode, with the same (low) best, it is skipped, and never when the Laplace estimate is within the
+    screen."""
     from bayes_imu import allan_variance
     from bayes_imu.inference.likelihood import LogPosterior
-    from bayes_imu.inference.selection import LAPLACE_SCREEN, can_skip, laplace_log_evidence, posterior_mode
+    from bayes_imu.inference.selection import (
+        LAPLACE_SCREEN,
+        can_skip,
+        laplace_log_evidence,
+        posterior_mode,
+    )
 
     a = allan_variance(0.3 * rng.standard_normal(2**16), rate_hz=100.0)
-    post = LogPosterior.build(NoiseModel(("white",), 0.01), a, kind="correlated", reference={"noise_variance": 0.09})
+    post = LogPosterior.build(
+        NoiseModel(("white",), 0.01), a, kind="correlated", reference={"noise_variance": 0.09}
+    )
     mode = posterior_mode(post, [[np.log(0.09)]])
     log_z, cov = laplace_log_evidence(post, mode.u)
     far_above = log_z + LAPLACE_SCREEN + 50.0  # a best evidence this candidate cannot approach
     assert can_skip(post, mode.u, log_z, cov, far_above, np.random.default_rng(1))
-    assert not can_skip(post, mode.u, log_z, cov, log_z + 0.5 * LAPLACE_SCREEN, np.random.default_rng(1))
+    assert not can_skip(
+        post, mode.u, log_z, cov, log_z + 0.5 * LAPLACE_SCREEN, np.random.default_rng(1)
+    )
     short = mode.u + 6.0 * np.sqrt(np.diag(cov))  # six standard deviations off: "stopped short"
     low_z, low_cov = laplace_log_evidence(post, short)
     assert low_z < log_z - 10.0  # the Laplace estimate there is far too low
-    assert not can_skip(post, short, low_z, low_cov, low_z + LAPLACE_SCREEN + 1.0, np.random.default_rng(1))
+    assert not can_skip(
+        post, short, low_z, low_cov, low_z + LAPLACE_SCREEN + 1.0, np.random.default_rng(1)
+    )
 
 
 def test_importance_proposal_is_scipy_multivariate_t_and_logistic():
@@ -148,20 +184,27 @@ def test_importance_proposal_is_scipy_multivariate_t_and_logistic():
     loc = np.array([0.5, -1.0, 3.0])
     ours = _StudentT(loc, a, 4.0)
     draws = ours.rvs(500, np.random.default_rng(7))
-    ref = stats.multivariate_t(loc=loc, shape=a, df=4.0, seed=np.random.default_rng(7)).rvs(size=500)
+    ref = stats.multivariate_t(loc=loc, shape=a, df=4.0, seed=np.random.default_rng(7)).rvs(
+        size=500
+    )
     np.testing.assert_allclose(draws, ref, rtol=1e-13, atol=0)
     u = np.vstack([draws, loc + 50.0])
-    np.testing.assert_allclose(ours.logpdf(u), stats.multivariate_t(loc=loc, shape=a, df=4.0).logpdf(u), rtol=1e-13)
+    np.testing.assert_allclose(
+        ours.logpdf(u), stats.multivariate_t(loc=loc, shape=a, df=4.0).logpdf(u), rtol=1e-13
+    )
     x = np.concatenate([np.linspace(-800.0, 800.0, 4001), [0.0]])
     np.testing.assert_allclose(_logistic_logpdf(x), stats.logistic.logpdf(x), rtol=1e-14)
     assert np.isfinite(_logistic_logpdf(x)).all()
-    np.testing.assert_array_equal(np.random.default_rng(3).logistic(size=(5, 2)),
-                                  stats.logistic.rvs(size=(5, 2), random_state=np.random.default_rng(3)))
+    np.testing.assert_array_equal(
+        np.random.default_rng(3).logistic(size=(5, 2)),
+        stats.logistic.rvs(size=(5, 2), random_state=np.random.default_rng(3)),
+    )
 
 
 def test_mode_search_stencil_gives_the_analytic_gradient_and_hessian(rng):
-    """The mode search's central differences against the analytic derivatives of a smooth non-quadratic
-    function in five dimensions (a quadratic form plus an exponential): gradient and Hessian to 1e-6."""
+    """The mode search's central differences against the analytic derivatives of a smooth
+    non-quadratic function in five dimensions (a quadratic form plus an exponential): gradient and
+    Hessian to 1e-6."""
     from bayes_imu.inference.selection import _stencil
 
     n = 5
@@ -181,28 +224,46 @@ def test_mode_search_stencil_gives_the_analytic_gradient_and_hessian(rng):
 
 
 def test_newton_mode_finds_the_mode_bfgs_finds_at_high_precision(rng):
-    """From the usual starts and from far ones (indefinite Hessian there), the Newton search ends at the
-    mode that scipy's BFGS reaches with a gradient tolerance 1000x tighter: the same point to 1e-4 in u
-    and the same density to 1e-6 nat, with every gradient component below MODE_GTOL; the density it reports
-    is the one at its end point, to 4 ulp (it comes from the stencil's batched likelihood call, and the BLAS
-    product rounds a row of a batch differently from a lone row: 2 ulp on this log since the Allan sums'
-    last bits moved; bit for bit before, by chance)."""
+    """From the usual starts and from far ones (indefinite Hessian there), the Newton search ends at
+    the mode that scipy's BFGS reaches with a gradient tolerance 1000x tighter: the same point to
+    1e-4 in u and the same density to 1e-6 nat, with every gradient component below MODE_GTOL; the
+    density it reports is the one at its end point, to 4 ulp (it comes from the stencil's batched
+    likelihood call, and the BLAS product rounds a row of a batch differently from a lone row: 2 ulp
+    on this log since the Allan sums' last bits moved; bit for bit before, by chance)."""
     from scipy import optimize
 
     from bayes_imu import allan_variance
     from bayes_imu.inference.likelihood import LogPosterior
-    from bayes_imu.inference.selection import (MODE_GTOL, _log_density_u, _neg_gradient, _neg_log_density, _to_u,
-                                               newton_mode, posterior_mode)
+    from bayes_imu.inference.selection import (
+        MODE_GTOL,
+        _log_density_u,
+        _neg_gradient,
+        _neg_log_density,
+        _to_u,
+        newton_mode,
+        posterior_mode,
+    )
     from bayes_imu.noise.simulate import simulate_log
 
     model = NoiseModel(("white", "gauss_markov", "random_walk"), 0.01)
-    truth = {"noise_variance": 0.01, "bias_variance": 1e-4, "time_constant": 50.0, "rate_random_walk": 1e-5}
+    truth = {
+        "noise_variance": 0.01,
+        "bias_variance": 1e-4,
+        "time_constant": 50.0,
+        "rate_random_walk": 1e-5,
+    }
     a = allan_variance(simulate_log(model, truth, 2**17, rng=rng), rate_hz=100.0)
     post = LogPosterior.build(model, a, reference=truth)
     phi_true = np.log([truth[k] for k in model.parameter_names])
     u_true = _to_u(phi_true, post.bounds)
-    ref = optimize.minimize(_neg_log_density, u_true, args=(post,), jac=_neg_gradient, method="BFGS",
-                            options={"gtol": 1e-8, "maxiter": 5000})
+    ref = optimize.minimize(
+        _neg_log_density,
+        u_true,
+        args=(post,),
+        jac=_neg_gradient,
+        method="BFGS",
+        options={"gtol": 1e-8, "maxiter": 5000},
+    )
     width = post.bounds[:, 1] - post.bounds[:, 0]
     starts = [phi_true, post.bounds[:, 0] + 0.1 * width, post.bounds[:, 0] + 0.9 * width]
     for phi0 in starts:
@@ -216,11 +277,12 @@ def test_newton_mode_finds_the_mode_bfgs_finds_at_high_precision(rng):
 
 
 def test_stepwise_search_goes_backward_while_removals_stay_within_the_margin(monkeypatch):
-    """A scripted evidence landscape (standard errors 0.1: margin 1.28 nats): the best base candidate is white +
-    GM + RW; the forward steps add filtered_white, then gauss_markov_2, each gaining 1.5 nats. Removing the
-    random walk, then the second bias, stays within the margin of the best: the backward steps reach white +
-    filtered_white + GM, which the selection rule then picks (one removal alone, as before, stopped at four
-    terms). A removal beyond the margin (to white + GM) is not moved to."""
+    """A scripted evidence landscape (standard errors 0.1: margin 1.28 nats): the best base
+    candidate is white + GM + RW; the forward steps add filtered_white, then gauss_markov_2, each
+    gaining 1.5 nats. Removing the random walk, then the second bias, stays within the margin of the
+    best: the backward steps reach white + filtered_white + GM, which the selection rule then picks
+    (one removal alone, as before, stopped at four terms). A removal beyond the margin (to white +
+    GM) is not moved to."""
     import importlib
     from types import SimpleNamespace
 
@@ -230,8 +292,14 @@ def test_stepwise_search_goes_backward_while_removals_stay_within_the_margin(mon
                 (w, fw, gm, gm2): 14.5, (w, fw, gm): 14.2}
 
     def scripted(jobs, allan, reference, n_evidence, rng, best):
-        out = [fit_module._Scored(CandidateScore(m.terms, evidence.get(m.terms, -100.0), 0.1, 1000.0, np.zeros(1)),
-                                  None, None) for m, _, _ in jobs]
+        out = [
+            fit_module._Scored(
+                CandidateScore(m.terms, evidence.get(m.terms, -100.0), 0.1, 1000.0, np.zeros(1)),
+                None,
+                None,
+            )
+            for m, _, _ in jobs
+        ]
         return out, max([best] + [s.score.log_evidence for s in out])
 
     monkeypatch.setattr(fit_module, "_score_batch", scripted)
@@ -240,8 +308,17 @@ def test_stepwise_search_goes_backward_while_removals_stay_within_the_margin(mon
         def update(self, n):
             pass
 
-    scored = fit_module._search(lambda model: None, SimpleNamespace(rate_hz=100.0), None, candidate_terms(), True,
-                                1.0, 100, None, Bar())
+    scored = fit_module._search(
+        lambda model: None,
+        SimpleNamespace(rate_hz=100.0),
+        None,
+        candidate_terms(),
+        True,
+        1.0,
+        100,
+        None,
+        Bar(),
+    )
     terms = [c.score.terms for c in scored]
     assert (w, fw, gm, gm2, rw) in terms and (w, fw, gm) in terms
     chosen = scored[select([c.score for c in scored], threshold=1.0)].score.terms
@@ -249,9 +326,10 @@ def test_stepwise_search_goes_backward_while_removals_stay_within_the_margin(mon
 
 
 def test_density_in_u_adds_the_exact_log_jacobian_of_the_logistic_map():
-    """``_log_density_u`` = the log likelihood at ``to_phi(u)`` + ``log sigma(u) (1 - sigma(u))`` summed over the
-    coordinates; that Jacobian against mpmath (50 digits) from 0 to |u| = 700 (where sigma(-u) underflows to
-    1e-304), to 4e-16 relative, through a stand-in likelihood that returns 0."""
+    """``_log_density_u`` = the log likelihood at ``to_phi(u)`` + ``log sigma(u) (1 - sigma(u))``
+    summed over the coordinates; that Jacobian against mpmath (50 digits) from 0 to |u| = 700 (where
+    sigma(-u) underflows to 1e-304), to 4e-16 relative, through a stand-in likelihood that returns
+    0."""
     import mpmath
 
     from bayes_imu.inference.selection import _log_density_u

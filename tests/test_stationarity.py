@@ -15,7 +15,12 @@ from bayes_imu.inference.archive import load_fit, save_fit
 from bayes_imu.drift.bands import drift_draws
 from bayes_imu.noise import NoiseModel
 from bayes_imu.noise.simulate import simulate_log
-from bayes_imu.inference.stationarity import STATIONARITY_ALPHA, Stationarity, segment_test, stationarity_check
+from bayes_imu.inference.stationarity import (
+    STATIONARITY_ALPHA,
+    Stationarity,
+    segment_test,
+    stationarity_check,
+)
 
 DT = 0.01
 
@@ -39,24 +44,43 @@ def test_segment_allan_is_each_part_s_allan_variance(rng):
     assert segment_allan(y[:12], np.array([1, 2]), 4) is None  # segments of 3 samples: no size fits
 
 
-@pytest.mark.parametrize("terms, params", [
-    pytest.param(("white", "random_walk"), {"noise_variance": 1e-4, "rate_random_walk": 3e-4}, marks=pytest.mark.slow),
-    (("white", "gauss_markov"), {"noise_variance": 1e-4, "bias_variance": 1e-6, "time_constant": 2.0}),
-])
+@pytest.mark.parametrize(
+    "terms, params",
+    [
+        pytest.param(
+            ("white", "random_walk"),
+            {"noise_variance": 1e-4, "rate_random_walk": 3e-4},
+            marks=pytest.mark.slow,
+        ),
+        (
+            ("white", "gauss_markov"),
+            {"noise_variance": 1e-4, "bias_variance": 1e-6, "time_constant": 2.0},
+        ),
+    ],
+)
 def test_false_alarm_rate_on_stationary_logs(rng, terms, params):
     """150 logs drawn from the model: the share flagged at alpha = 0.01 stays below 1% + 3 binomial
     standard errors (Bonferroni makes it conservative), and at a nominal 10% below 10% + 3 se."""
     model = NoiseModel(terms, DT)
     n_logs = 150
-    p = np.array([stationarity_check(allan_variance(simulate_log(model, params, 2**15, rng=rng), rate_hz=1 / DT),
-                                     model, params).p_value for _ in range(n_logs)])
+    p = np.array(
+        [
+            stationarity_check(
+                allan_variance(simulate_log(model, params, 2**15, rng=rng), rate_hz=1 / DT),
+                model,
+                params,
+            ).p_value
+            for _ in range(n_logs)
+        ]
+    )
     for level in (STATIONARITY_ALPHA, 0.1):
         assert np.mean(p < level) <= level + 3 * np.sqrt(level * (1 - level) / n_logs)
 
 
 def test_a_noise_step_is_flagged_with_its_exact_spread(rng):
     """White noise whose variance is 4x larger in the second half: the four segments' ln AVAR are
-    (0, 0, ln 4, ln 4) + sampling error, whose sample standard deviation is ln(4) / sqrt(3) = 0.800."""
+    (0, 0, ln 4, ln 4) + sampling error, whose sample standard deviation is ln(4) / sqrt(3) =
+    0.800."""
     model = NoiseModel(("white",), DT)
     y = np.concatenate([rng.standard_normal(2**16), 2.0 * rng.standard_normal(2**16)])
     check = stationarity_check(allan_variance(y, rate_hz=1 / DT), model, {"noise_variance": 2.5})
@@ -65,12 +89,17 @@ def test_a_noise_step_is_flagged_with_its_exact_spread(rng):
     assert np.all(np.diff(check.spread) >= 0)
     assert check.largest_ratio() == pytest.approx(2.0, rel=0.05)
     assert check.drift_log_sd(0.01) == pytest.approx(check.spread[0] / 2)
-    assert check.drift_log_sd(1e6) == pytest.approx(check.spread[-1] / 2)  # held beyond the sizes checked
+    # held beyond the sizes checked
+    assert check.drift_log_sd(1e6) == pytest.approx(check.spread[-1] / 2)
     # the same test with the white-noise power-law EDF instead of the model's gives the same spread
     seg = allan_variance(y, rate_hz=1 / DT).segments
-    free = segment_test(seg, greenhall_edf(np.zeros(seg.m.size, dtype=int), seg.m, seg.n_samples + 1), 1 / DT)
+    free = segment_test(
+        seg, greenhall_edf(np.zeros(seg.m.size, dtype=int), seg.m, seg.n_samples + 1), 1 / DT
+    )
     assert not free.stationary and free.spread[0] == pytest.approx(np.log(4) / np.sqrt(3), abs=0.03)
-    assert free.p_each.shape == free.tau_s.shape and free.p_value == pytest.approx(min(1, free.p_each.min() * free.p_each.size))
+    assert free.p_each.shape == free.tau_s.shape and free.p_value == pytest.approx(
+        min(1, free.p_each.min() * free.p_each.size)
+    )
 
 
 def test_flagged_fit_widens_drift_bands_by_the_spread(rng, tmp_path):
@@ -82,16 +111,34 @@ def test_flagged_fit_widens_drift_bands_by_the_spread(rng, tmp_path):
     assert fit.stationarity is not None and fit.stationarity.stationary
     t = np.array([1.0, 100.0])
     plain = drift_draws(fit, t, quantity="attitude", bias_start="zero", rng=2)["total"]
-    np.testing.assert_array_equal(drift_draws(fit, t, quantity="attitude", bias_start="zero", rng=3)["total"], plain)
+    np.testing.assert_array_equal(
+        drift_draws(fit, t, quantity="attitude", bias_start="zero", rng=3)["total"], plain
+    )
     st = fit.stationarity
-    flagged = dataclasses.replace(fit, stationarity=Stationarity(False, 1e-5, st.tau_s[-1], st.tau_s, st.segment_adev,
-                                                                 np.linspace(0.2, 0.6, st.tau_s.size)))
-    ratio = np.log(drift_draws(flagged, t, quantity="attitude", bias_start="zero", rng=2)["total"] / plain)
+    flagged = dataclasses.replace(
+        fit,
+        stationarity=Stationarity(
+            False,
+            1e-5,
+            st.tau_s[-1],
+            st.tau_s,
+            st.segment_adev,
+            np.linspace(0.2, 0.6, st.tau_s.size),
+        ),
+    )
+    ratio = np.log(
+        drift_draws(flagged, t, quantity="attitude", bias_start="zero", rng=2)["total"] / plain
+    )
     n = ratio.shape[0]
     for i, s in enumerate(flagged.stationarity.drift_log_sd(t)):
         assert abs(ratio[:, i].mean()) < 4 * s / np.sqrt(n)
         assert ratio[:, i].std() == pytest.approx(s, rel=4 / np.sqrt(2 * n))
-    assert np.allclose(drift_draws(flagged, t, quantity="attitude", bias_start="zero", rng=2, segment_spread=False)["total"], plain)
+    assert np.allclose(
+        drift_draws(
+            flagged, t, quantity="attitude", bias_start="zero", rng=2, segment_spread=False
+        )["total"],
+        plain,
+    )
     save_fit(flagged, tmp_path / "fit.npz")
     back = load_fit(tmp_path / "fit.npz")
     assert not back.stationarity.stationary and back.stationarity.p_value == 1e-5
@@ -105,18 +152,39 @@ def test_fit_command_warns_when_the_noise_changes(tmp_path, capsys, rng):
     y = np.concatenate([rng.standard_normal(2**15), 2.0 * rng.standard_normal(2**15)]) * 1e-2
     log = tmp_path / "log.csv"
     np.savetxt(log, y, header="gyro", comments="")
-    assert main(["fit", str(log), "--column", "gyro", "--rate", "100", "--terms", "white", "--sensor", "gyro",
-                 "--out", str(tmp_path / "o")]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                str(log),
+                "--column",
+                "gyro",
+                "--rate",
+                "100",
+                "--terms",
+                "white",
+                "--sensor",
+                "gyro",
+                "--out",
+                str(tmp_path / "o"),
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
     assert "the noise changes during the log" in err and "drift bands include that spread" in err
-    assert re.search(r"parts differ by (1\.9|2|2\.1)x in Allan deviation", err)  # noise doubled half-way
+    # noise doubled half-way
+    assert re.search(r"parts differ by (1\.9|2|2\.1)x in Allan deviation", err)
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert summary["adequacy"]["stationarity"]["stationary"] is False
-    assert summary["adequacy"]["stationarity"]["adev_ratio_at_worst_tau"] == pytest.approx(2.0, rel=0.05)
+    assert summary["adequacy"]["stationarity"]["adev_ratio_at_worst_tau"] == pytest.approx(
+        2.0, rel=0.05
+    )
 
 
 def test_small_changes_are_given_in_percent():
-    """A long log resolves a change of a few percent: "differ by 1x" hid it; below 1.1x it reads in percent."""
+    """A long log resolves a change of a few percent: "differ by 1x" hid it; below 1.1x it reads in
+    percent."""
     from bayes_imu.cli.main import _ratio_text
 
     assert _ratio_text(1.013) == "1.3%" and _ratio_text(1.0) == "0%"

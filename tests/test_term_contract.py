@@ -33,15 +33,31 @@ import numpy as np
 import pytest
 
 from bayes_imu.errors import InputError, ModelError
-from bayes_imu.noise import BIAS_STARTS, KALIBR_ROLES, REGISTRY, ROLES, SELECTION_ROLES, TAIL_KINDS, NoiseModel, Term
+from bayes_imu.noise import (
+    BIAS_STARTS,
+    KALIBR_ROLES,
+    REGISTRY,
+    ROLES,
+    SELECTION_ROLES,
+    TAIL_KINDS,
+    NoiseModel,
+    Term,
+)
 from bayes_imu.noise._base import PriorScale
 from bayes_imu.noise.avar_covariance import avar_covariance, exact_pair_sums, model_tails
 from bayes_imu.noise.model import check_declarations
 
 DT = 0.1
 #: a curve with AVAR between 1e-2 and 1 over 0.1-10 s of a 200 s record
-SCALE = PriorScale(log_lo=np.log(1e-2), log_hi=np.log(1.0), dt=DT, tau_min=DT, tau_max=10.0, m_min=1.0,
-                   record_s=200.0)
+SCALE = PriorScale(
+    log_lo=np.log(1e-2),
+    log_hi=np.log(1.0),
+    dt=DT,
+    tau_min=DT,
+    tau_max=10.0,
+    m_min=1.0,
+    record_s=200.0,
+)
 N_MC = 3000
 #: how closely the covariance code's tail of each kind follows the exact sum over every lag on
 #: 400 samples: exact, the Gauss-Markov midpoint rule (~1e-4), the flicker asymptote
@@ -71,8 +87,8 @@ def second_difference_weights(m):
 
 
 def drift_weights(order, k, n_cal, calibrated=True):
-    """``e = w' y`` over ``y_{-N} .. y_{k-1}``: ``v_k = dt sum_{i<k} e_i``, ``p_k = dt sum_{j<k} v_j``,
-    ``e_i = y_i - mean(y_{-N..-1})`` (or ``- 0`` uncalibrated)."""
+    """``e = w' y`` over ``y_{-N} .. y_{k-1}``: ``v_k = dt sum_{i<k} e_i``, ``p_k = dt sum_{j<k}
+    v_j``, ``e_i = y_i - mean(y_{-N..-1})`` (or ``- 0`` uncalibrated)."""
     outage = DT * np.ones(k) if order == 1 else DT**2 * (k - 1 - np.arange(k, dtype=float))
     cal = -outage.sum() / n_cal * np.ones(n_cal) if calibrated else np.zeros(n_cal)
     return np.concatenate([cal, outage])
@@ -82,13 +98,19 @@ def simulate_many(term, p, n, rng, count=N_MC):
     return np.array([term.simulate(p, n, DT, rng) for _ in range(count)])
 
 
-# --- the contract: each check raises (AssertionError, NotImplementedError, ModelError) on a bad term
+# --- the contract: each check raises (AssertionError, NotImplementedError, ModelError) on a bad
+# term
 
 
 def check_declarations_(term):
-    """Roles, selection, Kalibr role and tail kind from their allowed sets; units of every parameter."""
+    """Roles, selection, Kalibr role and tail kind from their allowed sets; units of every
+    parameter."""
     check_declarations(term, known=tuple(REGISTRY))
-    assert term.role in ROLES and set(term.selection) <= set(SELECTION_ROLES) and term.kalibr in KALIBR_ROLES
+    assert (
+        term.role in ROLES
+        and set(term.selection) <= set(SELECTION_ROLES)
+        and term.kalibr in KALIBR_ROLES
+    )
     assert term.tail_kind in TAIL_KINDS
 
 
@@ -101,7 +123,8 @@ def check_avar(term):
     for mi in m.astype(int):
         w = second_difference_weights(mi)
         ref.append(w @ rate_autocovariance(term, p, 2 * mi) @ w / (2.0 * mi * mi))
-    if np.all(np.asarray(term.structure(np.arange(50.0), p, DT)) == 0):  # deterministic: no structure
+    # deterministic: no structure
+    if np.all(np.asarray(term.structure(np.arange(50.0), p, DT)) == 0):
         assert np.all(got > 0)
     else:
         np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-14 * np.max(np.abs(got)))
@@ -117,7 +140,9 @@ def check_structure_vs_simulation(term, rng):
     y = simulate_many(term, p, 2 * int(m.max()), rng)
     assert y.shape == (N_MC, 2 * m.max()) and np.all(np.isfinite(y))
     x = np.concatenate([np.zeros((N_MC, 1)), np.cumsum(y, axis=1)], axis=1)
-    expected = 2.0 * m * m * term.avar(m.astype(float), {k: np.asarray(v) for k, v in p.items()}, DT)
+    expected = (
+        2.0 * m * m * term.avar(m.astype(float), {k: np.asarray(v) for k, v in p.items()}, DT)
+    )
     for mi, e in zip(m, expected):
         d = x[:, 2 * mi] - 2.0 * x[:, mi] + x[:, 0]
         assert abs(np.mean(d * d) / e - 1.0) < SIGMAS * np.sqrt(2.0 / N_MC), (term.name, mi)
@@ -134,9 +159,17 @@ def check_drift_brute_force(term):
             w = drift_weights(order, k, n_cal)
             g = rate_autocovariance(term, p, n_cal + k)
             ref = w @ g @ w
-            got = term.drift_variance(order, np.array([float(k)]), {n: np.asarray(v) for n, v in p.items()}, DT,
-                                      bias_start="calibrated", n_cal=float(n_cal))
-            np.testing.assert_allclose(got[0], ref, rtol=1e-8, atol=1e-12 * (np.abs(w) @ np.abs(g) @ np.abs(w)))
+            got = term.drift_variance(
+                order,
+                np.array([float(k)]),
+                {n: np.asarray(v) for n, v in p.items()},
+                DT,
+                bias_start="calibrated",
+                n_cal=float(n_cal),
+            )
+            np.testing.assert_allclose(
+                got[0], ref, rtol=1e-8, atol=1e-12 * (np.abs(w) @ np.abs(g) @ np.abs(w))
+            )
 
 
 def check_drift_monte_carlo(term, rng):
@@ -148,11 +181,20 @@ def check_drift_monte_carlo(term, rng):
     cases = [(order, "calibrated", y @ drift_weights(order, k, n_cal)) for order in (1, 2)]
     start = getattr(term, "simulated_start", None)
     assert start is None or start in BIAS_STARTS
-    if start is not None and start != "calibrated":  # the outage starts at the record's first sample
-        cases += [(order, start, y[:, :k] @ drift_weights(order, k, 1, False)[1:]) for order in (1, 2)]
+    # the outage starts at the record's first sample
+    if start is not None and start != "calibrated":
+        cases += [
+            (order, start, y[:, :k] @ drift_weights(order, k, 1, False)[1:]) for order in (1, 2)
+        ]
     for order, bias_start, e in cases:
-        got = term.drift_variance(order, np.array([float(k)]), pp, DT, bias_start=bias_start, n_cal=float(n_cal))[0]
-        assert abs(np.mean(e * e) / got - 1.0) < SIGMAS * np.sqrt(2.0 / N_MC), (term.name, order, bias_start)
+        got = term.drift_variance(
+            order, np.array([float(k)]), pp, DT, bias_start=bias_start, n_cal=float(n_cal)
+        )[0]
+        assert abs(np.mean(e * e) / got - 1.0) < SIGMAS * np.sqrt(2.0 / N_MC), (
+            term.name,
+            order,
+            bias_start,
+        )
 
 
 def check_drift_orders_and_starts(term):
@@ -163,7 +205,10 @@ def check_drift_orders_and_starts(term):
     for order in (1, 2):
         for start in BIAS_STARTS:
             v = term.drift_variance(order, k, pp, DT, bias_start=start, n_cal=50.0)
-            assert v.shape == (3, k.size) and np.all(np.isfinite(v)) and np.all(v >= 0), (order, start)
+            assert v.shape == (3, k.size) and np.all(np.isfinite(v)) and np.all(v >= 0), (
+                order,
+                start,
+            )
             assert np.all(v[:, 0] == 0)
     for order in (0, 3, 1.5, True, -1):
         with pytest.raises(ModelError, match="integration order"):
@@ -275,9 +320,20 @@ def check_exchangeable(term):
         np.testing.assert_allclose(other.avar(m, mapped, DT), term.avar(m, p, DT), rtol=1e-14)
 
 
-CHECKS = (check_declarations_, check_avar, check_structure_vs_simulation, check_drift_brute_force,
-          check_drift_monte_carlo, check_drift_orders_and_starts, check_covariance_tail, check_selection_and_start,
-          check_datasheet_and_kalibr, check_start_variants, check_worst_axis, check_exchangeable)
+CHECKS = (
+    check_declarations_,
+    check_avar,
+    check_structure_vs_simulation,
+    check_drift_brute_force,
+    check_drift_monte_carlo,
+    check_drift_orders_and_starts,
+    check_covariance_tail,
+    check_selection_and_start,
+    check_datasheet_and_kalibr,
+    check_start_variants,
+    check_worst_axis,
+    check_exchangeable,
+)
 _NEEDS_RNG = {check_structure_vs_simulation, check_drift_monte_carlo}
 
 
@@ -336,32 +392,71 @@ class _BadStarts(_WrongAvar):
 
 _UNITS = {"noise_variance": "({u})^2"}
 PLANTED = {
-    "bad_starts": _BadStarts("bad_starts", ("noise_variance",), _UNITS, "bad starts", "short_term",
-                             selection=("extension",), kalibr="none"),
+    "bad_starts": _BadStarts(
+        "bad_starts",
+        ("noise_variance",),
+        _UNITS,
+        "bad starts",
+        "short_term",
+        selection=("extension",),
+        kalibr="none",
+    ),
     # a Gauss-Markov bias that calls its time constant an amplitude (no worse direction)
-    "worst_time": dataclasses.replace(REGISTRY["gauss_markov"], name="worst_time",
-                                      worst_axis=("time_constant",), exchangeable=""),
+    "worst_time": dataclasses.replace(
+        REGISTRY["gauss_markov"], name="worst_time", worst_axis=("time_constant",), exchangeable=""
+    ),
     # the fast correlated term declared exchangeable with the Gauss-Markov biases (another box)
-    "fast_exchangeable": dataclasses.replace(REGISTRY["hf_correlated"], name="fast_exchangeable",
-                                             exchangeable="gauss_markov"),
-    "worst_unknown": dataclasses.replace(REGISTRY["white"], name="worst_unknown",
-                                         worst_axis=("noise_level",)),
-    "half": _HalfWhite("half", ("noise_variance",), _UNITS, "half white", "short_term", selection=("extension",),
-                       kalibr="noise_density"),
-    "periodic": _PeriodicTail("periodic", ("noise_variance",), _UNITS, "periodic", "short_term",
-                              selection=("extension",), kalibr="none"),
-    "wrong_avar": _WrongAvar("wrong_avar", ("noise_variance",), _UNITS, "wrong", "short_term",
-                             selection=("extension",), kalibr="none"),
+    "fast_exchangeable": dataclasses.replace(
+        REGISTRY["hf_correlated"], name="fast_exchangeable", exchangeable="gauss_markov"
+    ),
+    "worst_unknown": dataclasses.replace(
+        REGISTRY["white"], name="worst_unknown", worst_axis=("noise_level",)
+    ),
+    "half": _HalfWhite(
+        "half",
+        ("noise_variance",),
+        _UNITS,
+        "half white",
+        "short_term",
+        selection=("extension",),
+        kalibr="noise_density",
+    ),
+    "periodic": _PeriodicTail(
+        "periodic",
+        ("noise_variance",),
+        _UNITS,
+        "periodic",
+        "short_term",
+        selection=("extension",),
+        kalibr="none",
+    ),
+    "wrong_avar": _WrongAvar(
+        "wrong_avar",
+        ("noise_variance",),
+        _UNITS,
+        "wrong",
+        "short_term",
+        selection=("extension",),
+        kalibr="none",
+    ),
     "no_role": _WrongAvar("no_role", ("noise_variance",), _UNITS, "no role", "short_term"),
 }
 #: (planted term, the checks it must fail)
 FAILURES = [
-    ("half", check_avar), ("half", check_drift_brute_force), ("half", check_selection_and_start),
-    ("half", check_datasheet_and_kalibr), ("half", check_drift_orders_and_starts),
-    ("periodic", check_declarations_), ("wrong_avar", check_avar), ("wrong_avar", check_structure_vs_simulation),
-    ("no_role", check_declarations_), ("no_role", check_selection_and_start),
-    ("bad_starts", check_start_variants), ("worst_time", check_worst_axis),
-    ("fast_exchangeable", check_exchangeable), ("worst_unknown", check_declarations_),
+    ("half", check_avar),
+    ("half", check_drift_brute_force),
+    ("half", check_selection_and_start),
+    ("half", check_datasheet_and_kalibr),
+    ("half", check_drift_orders_and_starts),
+    ("periodic", check_declarations_),
+    ("wrong_avar", check_avar),
+    ("wrong_avar", check_structure_vs_simulation),
+    ("no_role", check_declarations_),
+    ("no_role", check_selection_and_start),
+    ("bad_starts", check_start_variants),
+    ("worst_time", check_worst_axis),
+    ("fast_exchangeable", check_exchangeable),
+    ("worst_unknown", check_declarations_),
 ]
 
 

@@ -12,10 +12,12 @@ def _lines(n):
 
 
 def test_regular_time_gives_rate_and_all_samples(rng):
-    t = np.arange(1000) / 200.0 + 1e-5 * rng.standard_normal(1000)  # clock jitter (0.2% of a step) is accepted
+    # clock jitter (0.2% of a step) is accepted
+    t = np.arange(1000) / 200.0 + 1e-5 * rng.standard_normal(1000)
     base = check_time(t, lines=_lines(1000))
     assert base.rate_source == "time column" and (base.start, base.stop) == (0, 1000)
-    # the span estimate: rate error ~ 200 Hz * sqrt(2) 1e-5 s / 5 s = 6e-4 Hz (1 sigma); 0.003 Hz is 5 sigma
+    # the span estimate: rate error ~ 200 Hz * sqrt(2) 1e-5 s / 5 s = 6e-4 Hz (1 sigma); 0.003 Hz is
+    # 5 sigma
     assert abs(base.rate_hz - 200.0) < 0.003 and base.first_line == 2 and base.last_line == 1001
 
 

@@ -23,7 +23,10 @@ XS = (1e-7, 1e-4, 0.01, 0.3, 1.0, 1.5, np.pi / 2)
 
 
 def _params(x, amplitude=0.7):
-    return {"vibration_frequency": np.array(x / (np.pi * DT)), "vibration_amplitude": np.array(amplitude)}
+    return {
+        "vibration_frequency": np.array(x / (np.pi * DT)),
+        "vibration_amplitude": np.array(amplitude),
+    }
 
 
 def _mp_variance(weights, x, amplitude, start=0):
@@ -80,20 +83,26 @@ def test_drift_matches_mpmath_sums(x, order, start):
         ref = _mp_variance(w, x, 0.7, start=-n_cal if calibrated else 0) * DT ** (2 * order)
         got = TERM.drift_variance(order, np.array([float(k)]), _params(x), DT, bias_start=start,
                                   n_cal=float(n_cal))[0]
-        scale = _mp_variance(np.abs(w), 0.0, 0.7) * DT ** (2 * order)  # the size of the cancelled terms
+        # the size of the cancelled terms
+        scale = _mp_variance(np.abs(w), 0.0, 0.7) * DT ** (2 * order)
         assert got == pytest.approx(ref, rel=1e-9, abs=1e-15 * scale), (k, n_cal)
 
 
 def test_drift_broadcasts_over_draws():
-    p = {"vibration_frequency": np.array([[0.5, 3.0, 20.0]]), "vibration_amplitude": np.array([[1.0, 0.2, 0.05]])}
+    p = {
+        "vibration_frequency": np.array([[0.5, 3.0, 20.0]]),
+        "vibration_amplitude": np.array([[1.0, 0.2, 0.05]]),
+    }
     k = np.array([0.0, 1.0, 10.0, 1e4])
     for order in (1, 2):
         batch = TERM.drift_variance(order, k, p, DT, bias_start="calibrated", n_cal=100.0)
         assert batch.shape == (1, 3, 4)
         for j in range(3):
             one = {n: v[0, j] for n, v in p.items()}
-            assert np.array_equal(batch[0, j], TERM.drift_variance(order, k, one, DT, bias_start="calibrated",
-                                                                   n_cal=100.0))
+            assert np.array_equal(
+                batch[0, j],
+                TERM.drift_variance(order, k, one, DT, bias_start="calibrated", n_cal=100.0),
+            )
 
 
 def test_prior_box_spans_one_cycle_per_record_to_nyquist():
@@ -122,9 +131,17 @@ def test_avar_covariance_of_a_line_matches_monte_carlo(rng):
     model = NoiseModel(("white", "vibration"), DT)
     p = {"noise_variance": 1.0, "vibration_frequency": 7.0, "vibration_amplitude": 2.0}
     m = np.array([1, 2, 4, 8, 16])
-    draws = np.array([allan_variance(model.components[0].simulate(p, n, DT, rng)
-                                     + TERM.simulate(p, n, DT, rng), rate_hz=1 / DT, m=m, segments=0).avar
-                      for _ in range(reps)])
+    draws = np.array(
+        [
+            allan_variance(
+                model.components[0].simulate(p, n, DT, rng) + TERM.simulate(p, n, DT, rng),
+                rate_hz=1 / DT,
+                m=m,
+                segments=0,
+            ).avar
+            for _ in range(reps)
+        ]
+    )
     cov = avar_covariance(model, p, m, n)
     var = draws.var(axis=0, ddof=1)
     assert np.all(np.abs(var / np.diag(cov) - 1) < 5 * 2 * np.sqrt(2 / reps)), var / np.diag(cov)

@@ -59,7 +59,9 @@ def test_calls_run_side_by_side_once_the_caller_waits(tmp_path):
     with OutputWriter(background=True) as writer:
         writer.submit(_interval, out, 1.5)
         writer.submit(_interval, out, 1.5)
-    (a0, a1), (b0, b1) = sorted(tuple(map(float, line.split())) for line in out.read_text().splitlines())
+    (a0, a1), (b0, b1) = sorted(
+        tuple(map(float, line.split())) for line in out.read_text().splitlines()
+    )
     assert (b0 < a1) == (usable_cpus() >= 2)
 
 
@@ -105,10 +107,12 @@ def _square(x):
 
 
 @pytest.mark.parametrize("background", [True, False])
-def test_computed_calls_come_back_with_their_values_or_errors_and_stop_nothing(tmp_path, background):
-    """compute(): each call's value comes back (from the worker, or at once here); a call that fails comes back
-    with its exception (exception(), and result() raises it) and the outputs sent after it are still written;
-    done() never waits."""
+def test_computed_calls_come_back_with_their_values_or_errors_and_stop_nothing(
+    tmp_path, background
+):
+    """compute(): each call's value comes back (from the worker, or at once here); a call that fails
+    comes back with its exception (exception(), and result() raises it) and the outputs sent after
+    it are still written; done() never waits."""
     out = tmp_path / "log.txt"
     with OutputWriter(background=background) as writer:
         futures = [writer.compute(_square, i) for i in range(4)]
@@ -126,8 +130,9 @@ def test_computed_calls_come_back_with_their_values_or_errors_and_stop_nothing(t
 
 
 def test_a_worker_that_dies_is_reported_in_one_line_by_a_computed_call(tmp_path):
-    """The output process killed while the caller waits for a computed value (say, by the kernel's out-of-memory
-    killer): the caller gets the same RuntimeError as when it waits for its outputs, not a bare EOFError."""
+    """The output process killed while the caller waits for a computed value (say, by the kernel's
+    out-of-memory killer): the caller gets the same RuntimeError as when it waits for its outputs,
+    not a bare EOFError."""
     import signal
 
     writer = OutputWriter(background=True)
@@ -143,8 +148,8 @@ def test_a_worker_that_dies_is_reported_in_one_line_by_a_computed_call(tmp_path)
 
 
 def test_a_computed_value_not_waited_for_does_not_hold_the_caller(tmp_path):
-    """Leaving the writer waits for the outputs only: a computed call still running (a speculative search that
-    was not needed) is stopped with the worker."""
+    """Leaving the writer waits for the outputs only: a computed call still running (a speculative
+    search that was not needed) is stopped with the worker."""
     start = time.perf_counter()
     with OutputWriter(background=True) as writer:
         writer.submit(_append, tmp_path / "out.txt", "written")
@@ -198,28 +203,57 @@ def test_no_output_process_on_a_busy_machine(monkeypatch):
 def _fit(tmp_path, name, workers, monkeypatch, log):
     monkeypatch.setenv(WORKERS_ENV, workers)
     out = tmp_path / name
-    args = ["fit", str(log), "--column", "gyro", "--rate", "100", "--terms", "white,gauss_markov", "--sensor", "gyro",
-            "--horizon", "30", "--out", str(out), "--seed", "3", "--quiet"]
+    args = [
+        "fit",
+        str(log),
+        "--column",
+        "gyro",
+        "--rate",
+        "100",
+        "--terms",
+        "white,gauss_markov",
+        "--sensor",
+        "gyro",
+        "--horizon",
+        "30",
+        "--out",
+        str(out),
+        "--seed",
+        "3",
+        "--quiet",
+    ]
     assert main(args) == 0
     return out
 
 
 def test_fit_outputs_are_the_same_from_the_worker_and_in_process(tmp_path, rng, monkeypatch):
-    """Every file of a fit (figures byte for byte, the ArviZ file's arrays) is the same whether the worker
-    process or the command itself writes it."""
+    """Every file of a fit (figures byte for byte, the ArviZ file's arrays) is the same whether the
+    worker process or the command itself writes it."""
     from bayes_imu.inference.fit import import_arviz
 
     log = tmp_path / "log.csv"
-    y = 0.05 * rng.standard_normal(30_000) + 0.002 * np.convolve(rng.standard_normal(30_000), np.ones(500) / 500, "same")
+    y = 0.05 * rng.standard_normal(30_000) + 0.002 * np.convolve(
+        rng.standard_normal(30_000), np.ones(500) / 500, "same"
+    )
     log.write_text("gyro\n" + "\n".join(f"{v:.9g}" for v in y) + "\n")
     here = _fit(tmp_path, "here", "0", monkeypatch, log)
     there = _fit(tmp_path, "there", "1", monkeypatch, log)
     names = sorted(p.name for p in here.iterdir())
     assert names == sorted(p.name for p in there.iterdir())
-    assert {"allan_fit.png", "corner.png", "drift.png", "posterior.nc", "summary.json", "drift.csv", "fit.npz"} <= set(names)
+    assert {
+        "allan_fit.png",
+        "corner.png",
+        "drift.png",
+        "posterior.nc",
+        "summary.json",
+        "drift.csv",
+        "fit.npz",
+    } <= set(names)
     for name in ("allan_fit.png", "corner.png", "drift.png", "drift.csv"):
         assert (here / name).read_bytes() == (there / name).read_bytes(), name
-    assert json.loads((here / "summary.json").read_text()) == json.loads((there / "summary.json").read_text())
+    assert json.loads((here / "summary.json").read_text()) == json.loads(
+        (there / "summary.json").read_text()
+    )
     az = import_arviz()
     a, b = az.from_netcdf(here / "posterior.nc"), az.from_netcdf(there / "posterior.nc")
     assert a.groups() == b.groups()
@@ -230,10 +264,11 @@ def test_fit_outputs_are_the_same_from_the_worker_and_in_process(tmp_path, rng, 
 
 
 def test_a_widened_fit_command_is_the_same_with_modes_sought_ahead(tmp_path, monkeypatch):
-    """A fit command whose candidates all fail the adequacy check (white noise plus a 3 s square wave,
-    which a vibration line does not describe either: every candidate
-    scored again with the discrepancy term) writes the same summary.json and fit.npz whether its output process
-    seeks the widened modes ahead (fit_allan's pool) or the command seeks them all itself."""
+    """A fit command whose candidates all fail the adequacy check (white noise plus a 3 s square
+    wave, which a vibration line does not describe either: every candidate
+    scored again with the discrepancy term) writes the same summary.json and fit.npz whether its
+    output process seeks the widened modes ahead (fit_allan's pool) or the command seeks them all
+    itself."""
     t = np.arange(30_000) / 100.0
     y = 0.05 * np.random.default_rng(3).standard_normal(t.size)
     y += 0.02 * np.sign(np.sin(2.0 * np.pi * t / 3.0))
@@ -243,8 +278,24 @@ def test_a_widened_fit_command_is_the_same_with_modes_sought_ahead(tmp_path, mon
     for workers in ("1", "0"):
         monkeypatch.setenv(WORKERS_ENV, workers)
         outs[workers] = tmp_path / f"out{workers}"
-        assert main(["fit", str(log), "--column", "gyro", "--rate", "100", "--out", str(outs[workers]), "--seed", "1",
-                     "--quiet"]) == 0
+        assert (
+            main(
+                [
+                    "fit",
+                    str(log),
+                    "--column",
+                    "gyro",
+                    "--rate",
+                    "100",
+                    "--out",
+                    str(outs[workers]),
+                    "--seed",
+                    "1",
+                    "--quiet",
+                ]
+            )
+            == 0
+        )
     ahead, alone = (json.loads((outs[w] / "summary.json").read_text()) for w in ("1", "0"))
     assert ahead["adequacy"]["widened"] and ahead == alone
     with np.load(outs["1"] / "fit.npz") as a, np.load(outs["0"] / "fit.npz") as b:
@@ -255,16 +306,34 @@ def test_a_widened_fit_command_is_the_same_with_modes_sought_ahead(tmp_path, mon
 
 
 def test_command_exits_with_its_status_and_flushed_output(tmp_path):
-    """The executable leaves without the interpreter's teardown: its status and every line it printed
-    arrive (a user error: one line, status 2; a run: its summary lines, status 0)."""
-    bad = subprocess.run([sys.executable, "-m", "bayes_imu.cli", "fit", str(tmp_path / "missing.csv"), "--rate", "100",
-                          "--out", str(tmp_path / "o")], capture_output=True, text=True, timeout=120)
+    """The executable leaves without the interpreter's teardown: its status and every line it
+    printed arrive (a user error: one line, status 2; a run: its summary lines, status 0)."""
+    bad = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "bayes_imu.cli",
+            "fit",
+            str(tmp_path / "missing.csv"),
+            "--rate",
+            "100",
+            "--out",
+            str(tmp_path / "o"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert bad.returncode == 2
     assert bad.stderr.count("\n") == 1 and "missing.csv" in bad.stderr
     sensor = tmp_path / "s.json"
     sensor.write_text(json.dumps({"kind": "gyro", "rate_hz": 100, "noise_density": 1e-3}))
-    good = subprocess.run([sys.executable, "-m", "bayes_imu.cli", "drift", str(sensor), "--out", str(tmp_path / "d")],
-                          capture_output=True, text=True, timeout=120)
+    good = subprocess.run(
+        [sys.executable, "-m", "bayes_imu.cli", "drift", str(sensor), "--out", str(tmp_path / "d")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert good.returncode == 0 and good.stderr == ""
     assert good.stdout.splitlines()[0].startswith("attitude: 1-sigma drift after 3600 s")
     assert good.stdout.splitlines()[-1] == f"wrote {tmp_path / 'd' / 'drift.csv'}"
@@ -272,12 +341,17 @@ def test_command_exits_with_its_status_and_flushed_output(tmp_path):
 
 
 def test_a_reader_that_leaves_early_does_not_stop_the_run(tmp_path):
-    """``bayes-imu ... | head -1``: standard output closed before the command prints. The run goes on
-    quietly and writes its outputs (status 0, nothing on standard error), as with a reader that stays."""
+    """``bayes-imu ... | head -1``: standard output closed before the command prints. The run goes
+    on quietly and writes its outputs (status 0, nothing on standard error), as with a reader that
+    stays."""
     sensor = tmp_path / "s.json"
     sensor.write_text(json.dumps({"kind": "gyro", "rate_hz": 100, "noise_density": 1e-3}))
-    proc = subprocess.Popen([sys.executable, "-m", "bayes_imu.cli", "drift", str(sensor), "--out", str(tmp_path / "d")],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "bayes_imu.cli", "drift", str(sensor), "--out", str(tmp_path / "d")],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     proc.stdout.close()  # the reader is gone before the first line
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 0 and err == ""
@@ -285,21 +359,28 @@ def test_a_reader_that_leaves_early_does_not_stop_the_run(tmp_path):
 
 
 def test_plotting_imports_are_quiet(tmp_path):
-    """ArviZ announces a refactor on standard error once a day (a stamp file in the user's cache folder,
-    written when it announces). The plotting warm-up no longer imports it (corner without ArviZ), and
-    where corner's ArviZ entry point imports it later, it does so without a word: on a day with no stamp
-    yet, nothing is printed and the stamp shows that ArviZ did reach its announcement."""
-    code = ("import sys; from bayes_imu.report.plots import import_plotting; import_plotting(); "
-            "assert 'arviz' not in sys.modules; import corner, numpy as np; "
-            "corner.corner({'x': np.random.default_rng(0).normal(size=(2, 100))}); assert 'arviz' in sys.modules")
+    """ArviZ announces a refactor on standard error once a day (a stamp file in the user's cache
+    folder, written when it announces). The plotting warm-up no longer imports it (corner without
+    ArviZ), and where corner's ArviZ entry point imports it later, it does so without a word: on a
+    day with no stamp yet, nothing is printed and the stamp shows that ArviZ did reach its
+    announcement."""
+    code = (
+        "import sys; from bayes_imu.report.plots import import_plotting; import_plotting(); "
+        "assert 'arviz' not in sys.modules; import corner, numpy as np; "
+        "corner.corner({'x': np.random.default_rng(0).normal(size=(2, 100))}); assert 'arviz' in "
+        "sys.modules"
+    )
     env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path)}  # no stamp: ArviZ announces today
-    quiet = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    quiet = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
+    )
     assert quiet.returncode == 0 and quiet.stderr == "" and quiet.stdout == ""
     assert any(tmp_path.rglob("daily_warning"))
 
 
 def test_warm_ups_leave_nothing_behind(tmp_path, monkeypatch):
-    """The worker's warm-ups write only inside a temporary folder they remove, and close their figure."""
+    """The worker's warm-ups write only inside a temporary folder they remove, and close their
+    figure."""
     import tempfile
 
     from bayes_imu.report.plots import import_plotting, pyplot
@@ -328,9 +409,10 @@ def test_no_output_process_from_a_daemonic_process(monkeypatch):
 
 
 def test_python_callers_of_main_write_in_process_unless_asked(tmp_path, rng, monkeypatch):
-    """main() from Python (no environment setting) writes a fit's outputs in the calling process: a spawned
-    output process re-runs the caller's script, which without a __main__ guard ran the command again there
-    (an 'internal error' printed by the child). The executable and an explicit setting use the worker."""
+    """main() from Python (no environment setting) writes a fit's outputs in the calling process: a
+    spawned output process re-runs the caller's script, which without a __main__ guard ran the
+    command again there (an 'internal error' printed by the child). The executable and an explicit
+    setting use the worker."""
     import sys as _sys
 
     import bayes_imu.report.runs as runs
@@ -345,9 +427,22 @@ def test_python_callers_of_main_write_in_process_unless_asked(tmp_path, rng, mon
 
     monkeypatch.setattr(runs, "OutputWriter", Recording)  # the fit's run (report.runs)
     log = tmp_path / "log.csv"
-    log.write_text("gyro\n" + "\n".join(f"{v:.9g}" for v in 0.05 * rng.standard_normal(4096)) + "\n")
+    log.write_text(
+        "gyro\n" + "\n".join(f"{v:.9g}" for v in 0.05 * rng.standard_normal(4096)) + "\n"
+    )
     monkeypatch.delenv(WORKERS_ENV, raising=False)
-    args = ["fit", str(log), "--column", "gyro", "--rate", "100", "--terms", "white", "--quiet", "--out"]
+    args = [
+        "fit",
+        str(log),
+        "--column",
+        "gyro",
+        "--rate",
+        "100",
+        "--terms",
+        "white",
+        "--quiet",
+        "--out",
+    ]
     assert main(args + [str(tmp_path / "a")]) == 0
     monkeypatch.setattr(cli, "_EXECUTABLE", True)  # as bayes_imu.cli:command sets it
     assert main(args + [str(tmp_path / "b")]) == 0

@@ -17,19 +17,49 @@ split out) are module globals, as a kernel's callees must be for numba's cache.
 import numba
 import numpy as np
 
-__all__ = ["pair_sum", "pair_sums", "phase_chunk", "sum3", "centred_sums", "compensated_add", "centred_mean",
-           "centred_bases", "fill_blocks", "phase_blocks", "phase_and_sums", "residue_sums", "tile_sums", "sums_all",
-           "block_totals", "FASTMATH", "PARALLEL"]
+__all__ = [
+    "pair_sum",
+    "pair_sums",
+    "phase_chunk",
+    "sum3",
+    "centred_sums",
+    "compensated_add",
+    "centred_mean",
+    "centred_bases",
+    "fill_blocks",
+    "phase_blocks",
+    "phase_and_sums",
+    "residue_sums",
+    "tile_sums",
+    "sums_all",
+    "block_totals",
+    "FASTMATH",
+    "PARALLEL",
+]
 
 #: LLVM fast-math flags of the sum-of-squares kernels
 _SQUARES = {"reassoc", "contract", "nsz", "arcp"}
-FASTMATH = {"sum3": _SQUARES, "sums_all": _SQUARES, "phase_and_sums": _SQUARES, "residue_sums": _SQUARES}
+FASTMATH = {
+    "sum3": _SQUARES,
+    "sums_all": _SQUARES,
+    "phase_and_sums": _SQUARES,
+    "residue_sums": _SQUARES,
+}
 #: kernels whose ``prange`` loops run on numba's threads when JIT-compiled
-PARALLEL = {"pair_sums", "sum3", "centred_sums", "phase_blocks", "phase_and_sums", "residue_sums", "sums_all"}
+PARALLEL = {
+    "pair_sums",
+    "sum3",
+    "centred_sums",
+    "phase_blocks",
+    "phase_and_sums",
+    "residue_sums",
+    "sums_all",
+}
 
 
 def pair_sum(table, a, b, n, h, s2, x):
-    """``sum_l n(l) c(l)^2`` for one pair of cluster sizes (see :mod:`bayes_imu.noise.avar_covariance`).
+    """``sum_l n(l) c(l)^2`` for one pair of cluster sizes (see
+    :mod:`bayes_imu.noise.avar_covariance`).
 
     ``s2`` and ``x`` are arrays over the model's Gauss-Markov components (variance and dt/T).
     """
@@ -57,7 +87,13 @@ def pair_sum(table, a, b, n, h, s2, x):
     for g in range(n_gm):
         one_minus_phi = -np.expm1(-x[g])
         phi = 1.0 - one_minus_phi
-        amp[g] = s2[g] * phi * (-np.expm1(-a * x[g])) ** 2 * (-np.expm1(-b * x[g])) ** 2 / one_minus_phi**2
+        amp[g] = (
+            s2[g]
+            * phi
+            * (-np.expm1(-a * x[g])) ** 2
+            * (-np.expm1(-b * x[g])) ** 2
+            / one_minus_phi**2
+        )
     for side in range(2):
         start = 2 * a + 1 if side == 0 else 2 * b + 1
         lag = start
@@ -160,8 +196,8 @@ def sum3(a0, a1, a2, block):
 def centred_sums(y, block):
     # out[b] = the plain sum over block b of (y[i] - y[b * block]), the block's first sample: one
     # read of the record gives its exact mean (centred_mean) and the blocks' sums about any offset
-    # (centred_bases) as precisely as summing about that offset would (the terms stay small where the
-    # record is locally smooth, whatever its offset); the threads take 256 blocks at a time
+    # (centred_bases) as precisely as summing about that offset would (the terms stay small where
+    # the record is locally smooth, whatever its offset); the threads take 256 blocks at a time
     n_blocks = (y.size + block - 1) // block
     out = np.empty(n_blocks)
     for g in numba.prange((n_blocks + 255) // 256):
@@ -205,13 +241,15 @@ def centred_bases(y, sums, offset, block):
     for b in range(sums.size):
         out[b] = s + c
         lo = b * block
-        s, c = compensated_add_compiled(s, c, sums[b] + (min(lo + block, y.size) - lo) * (y[lo] - offset))
+        s, c = compensated_add_compiled(
+            s, c, sums[b] + (min(lo + block, y.size) - lo) * (y[lo] - offset)
+        )
     return out
 
 
 def fill_blocks(y, offset, bases, block, first, last, out):
-    # out[i] = base of the block + the plain sum within the block of (y - offset) up to y[i], for the
-    # blocks first <= b < last (strict IEEE: never compiled with fast-math)
+    # out[i] = base of the block + the plain sum within the block of (y - offset) up to y[i], for
+    # the blocks first <= b < last (strict IEEE: never compiled with fast-math)
     for b in range(first, last):
         base = bases[b]
         acc = 0.0
@@ -229,11 +267,11 @@ def phase_blocks(y, offset, bases, block, out):
 
 
 def phase_and_sums(y, offset, bases, block, x, ms, tile, lag, n_chunks):
-    # x[0] = 0 and x[1:] = phase_blocks' running sum, filled tile by tile (tile samples, a multiple of
-    # block) on n_chunks runs of tiles, one per thread; each run sums the sizes ms over its tiles of
-    # start indices (tile_sums) lag tiles behind its fill, while the tiles are in cache (lag tiles
-    # cover the reach of the largest size, 2 max(ms)). A run's first tile (it reads the sample the
-    # run before writes) and its last lag tiles are summed after every fill. Tile sums added in
+    # x[0] = 0 and x[1:] = phase_blocks' running sum, filled tile by tile (tile samples, a multiple
+    # of block) on n_chunks runs of tiles, one per thread; each run sums the sizes ms over its tiles
+    # of start indices (tile_sums) lag tiles behind its fill, while the tiles are in cache (lag
+    # tiles cover the reach of the largest size, 2 max(ms)). A run's first tile (it reads the sample
+    # the run before writes) and its last lag tiles are summed after every fill. Tile sums added in
     # tile order: the same bits as sums_all(x, ms, tile), on any number of runs.
     x[0] = 0.0
     out = x[1:]
@@ -246,7 +284,9 @@ def phase_and_sums(y, offset, bases, block, x, ms, tile, lag, n_chunks):
     for c in numba.prange(n_chunks):
         first = c * run
         for t in range(first, min(first + run, n_fill)):
-            fill_blocks_compiled(y, offset, bases, block, t * per_tile, min(t * per_tile + per_tile, bases.size), out)
+            fill_blocks_compiled(
+                y, offset, bases, block, t * per_tile, min(t * per_tile + per_tile, bases.size), out
+            )
             s = t - lag
             if first < s < n_tiles:
                 tile_sums_compiled(x, ms, s * tile, tile, partial[s])
@@ -290,13 +330,18 @@ def residue_sums(x, ms, period, width, n_chunks):
                 tile_sums_compiled(full, shifts, lo, min(sub, full.size - lo), row)
                 for j in range(k):
                     partial[rb, j] += row[j]
-            # the row whose furthest sample lies in the last row: start indices with i + 2 m < len(x)
+            # the row whose furthest sample lies in the last row: start indices with i + 2 m <
+            # len(x)
             last = min(width, n - (rows - 1) * period - r0)
             for j in range(k):
                 start = (rows - 1) * width - 2 * shifts[j]
                 s = 0.0
                 for r in range(max(last, 0)):
-                    d = buf[start + 2 * shifts[j] + r] - 2.0 * buf[start + shifts[j] + r] + buf[start + r]
+                    d = (
+                        buf[start + 2 * shifts[j] + r]
+                        - 2.0 * buf[start + shifts[j] + r]
+                        + buf[start + r]
+                    )
                     s += d * d
                 partial[rb, j] += s
     out = np.empty(k)
@@ -309,9 +354,9 @@ def residue_sums(x, ms, period, width, n_chunks):
 
 
 def tile_sums(x, ms, lo, block, row):
-    # the sums of every size over the start indices lo <= i < lo + block (and i < len(x) - 2 m), into
-    # row[j] (a size with no start index there is left as it is): the sizes in the order given, so
-    # on an octave grid a size's stream at x[i + m] is the block the size before it read at
+    # the sums of every size over the start indices lo <= i < lo + block (and i < len(x) - 2 m),
+    # into row[j] (a size with no start index there is left as it is): the sizes in the order given,
+    # so on an octave grid a size's stream at x[i + m] is the block the size before it read at
     # x[i + 2 m'], still in cache, and the small sizes share one block of x. Four sizes m, 2m, 4m,
     # 8m in a row (an octave run) are summed in one loop over the block: six streams x[i],
     # x[i + m], ..., x[i + 16 m] for four sizes instead of twelve (the loop is bound by loads from
@@ -331,7 +376,12 @@ def tile_sums(x, ms, lo, block, row):
             a4 = x[lo + 4 * m:lo + block + 4 * m]
             s1 = 0.0
             s2 = 0.0
-            if j + 3 < k and ms[j + 2] == 4 * m and ms[j + 3] == 8 * m and lo + block <= x.size - 16 * m:
+            if (
+                j + 3 < k
+                and ms[j + 2] == 4 * m
+                and ms[j + 3] == 8 * m
+                and lo + block <= x.size - 16 * m
+            ):
                 a8 = x[lo + 8 * m:lo + block + 8 * m]
                 a16 = x[lo + 16 * m:lo + block + 16 * m]
                 s4 = 0.0

@@ -72,7 +72,9 @@ def autocorrelation_fit(y, *, rate_hz, cutoff_hz=None, max_lag_s=None):
         raise InputError(f"rate_hz={rate_hz!r}: expected a positive number (Hz)")
     cutoff_hz = rate_hz / 50.0 if cutoff_hz is None else float(cutoff_hz)
     if not 0 < cutoff_hz < rate_hz / 2:
-        raise InputError(f"cutoff_hz={cutoff_hz!r}: expected 0 < cutoff < rate_hz/2 = {rate_hz / 2}")
+        raise InputError(
+            f"cutoff_hz={cutoff_hz!r}: expected 0 < cutoff < rate_hz/2 = {rate_hz / 2}"
+        )
     sos = signal.butter(4, cutoff_hz, fs=rate_hz, output="sos")
     z = signal.sosfiltfilt(sos, y - y.mean())
     n = z.size
@@ -98,13 +100,15 @@ def autocorrelation_fit(y, *, rate_hz, cutoff_hz=None, max_lag_s=None):
     try:
         (log_var, log_tau), _ = optimize.curve_fit(model, lags, target, p0=start, maxfev=5000)
     except RuntimeError as exc:
-        raise InputError(f"y: the autocorrelation does not decay like exp(-T/tau) ({exc})") from None
+        raise InputError(
+            f"y: the autocorrelation does not decay like exp(-T/tau) ({exc})"
+        ) from None
     tau = float(np.exp(log_tau))
     ratio = n / rate_hz / tau
     if ratio < 100:
         warnings.warn(
-            f"record is {ratio:.0f} time constants long; autocorrelation estimates of sigma_b^2 and tau "
-            "need ~100 or more (relative error ~ sqrt(2 tau / T))",
+            f"record is {ratio:.0f} time constants long; autocorrelation estimates of sigma_b^2 "
+            "and tau need ~100 or more (relative error ~ sqrt(2 tau / T))",
             UserWarning,
             stacklevel=2,
         )

@@ -16,8 +16,9 @@ linear trends of ``x``), the overlapping average over every start ``j``
 is an unbiased estimate of the mean-square error ``E e^2`` the drift bands predict: it needs no
 model. Starts closer than a 32nd of the span ``k + N`` carry almost the same error, so the average
 takes every ``max(1, (k + N) // 32)``-th start (the EDF counts exactly the starts used); a record of
-``n`` samples then costs ``O(32 n / (k + N))`` per outage instead of ``O(n)``. Its sampling distribution (the EDF) does depend on the noise and is computed from a model's
-structure function (:func:`bayes_imu.noise.contrast_covariance.contrast_edf`).
+``n`` samples then costs ``O(32 n / (k + N))`` per outage instead of ``O(n)``. Its sampling
+distribution (the EDF) does depend on the noise and is computed from a model's structure function
+(:func:`bayes_imu.noise.contrast_covariance.contrast_edf`).
 
 :func:`phase_contrasts` evaluates ``V_hat`` on a log-spaced grid of outage lengths (one vectorised
 strided pass each over the phase record the Allan variance already builds), up to spans ``k + N`` of
@@ -30,10 +31,19 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["PhaseContrasts", "phase_contrasts", "contrast_mean_square", "contrast_stride", "DEFAULT_CONTRAST_SPAN_S",
-           "CONTRASTS_PER_DECADE", "MAX_SPAN_FRACTION", "STARTS_PER_SPAN"]
+__all__ = [
+    "PhaseContrasts",
+    "phase_contrasts",
+    "contrast_mean_square",
+    "contrast_stride",
+    "DEFAULT_CONTRAST_SPAN_S",
+    "CONTRASTS_PER_DECADE",
+    "MAX_SPAN_FRACTION",
+    "STARTS_PER_SPAN",
+]
 
-#: calibration window of the contrasts computed with every Allan variance [s] (the drift bands' default)
+#: calibration window of the contrasts computed with every Allan variance [s] (the drift bands'
+#: default)
 DEFAULT_CONTRAST_SPAN_S = 60.0
 #: outage lengths per decade of the grid
 CONTRASTS_PER_DECADE = 6
@@ -91,7 +101,8 @@ class PhaseContrasts:
         return (k >= self.k[0]) & (k <= self.k[-1])
 
     def at(self, t):
-        """``V_hat`` at outages ``t`` [s], interpolated in log-log between grid points (``nan`` outside)."""
+        """``V_hat`` at outages ``t`` [s], interpolated in log-log between grid points (``nan``
+        outside)."""
         t = np.asarray(t, dtype=float)
         inside = self.covers(t)
         out = np.full(t.shape, np.nan)
@@ -108,22 +119,30 @@ def contrast_stride(k, n_cal):
 
 
 def contrast_mean_square(x, k, n_cal, stride=1):
-    """``V_hat / dt^2`` for outage ``k`` and window ``n_cal`` from a phase record ``x`` ``(n + 1,)``,
-    averaged over the starts ``N, N + stride, ...``.
+    """``V_hat / dt^2`` for outage ``k`` and window ``n_cal`` from a phase record ``x`` ``(n +
+    1,)``, averaged over the starts ``N, N + stride, ...``.
 
     ``x`` is the running sum of the rate about any constant (the contrast annihilates it).
     """
     n = x.size - 1
     k, n_cal, stride = int(k), int(n_cal), int(stride)
     if k < 1 or n_cal < 1 or k + n_cal > n:
-        raise InputError(f"outage {k} + calibration {n_cal} samples: expected 1 <= each, sum <= {n}")
+        raise InputError(
+            f"outage {k} + calibration {n_cal} samples: expected 1 <= each, sum <= {n}"
+        )
     r = k / n_cal
     mid = x[n_cal:n + 1 - k:stride]
-    e = x[n_cal + k::stride][:mid.size] - (1.0 + r) * mid + r * x[:n + 1 - n_cal - k:stride][:mid.size]
+    e = (
+        x[n_cal + k :: stride][: mid.size]
+        - (1.0 + r) * mid
+        + r * x[: n + 1 - n_cal - k : stride][: mid.size]
+    )
     return float(np.dot(e, e)) / e.size
 
 
-def contrast_grid(n_samples, n_cal, per_decade=CONTRASTS_PER_DECADE, max_fraction=MAX_SPAN_FRACTION):
+def contrast_grid(
+    n_samples, n_cal, per_decade=CONTRASTS_PER_DECADE, max_fraction=MAX_SPAN_FRACTION
+):
     """Whole-sample outage lengths from 1 to ``max_fraction n - N``, ``per_decade`` per decade."""
     top = int(np.floor(max_fraction * n_samples)) - int(n_cal)
     if top < 1:
@@ -159,8 +178,15 @@ def phase_contrasts(y=None, *, rate_hz, calibration_s=DEFAULT_CONTRAST_SPAN_S, x
     n = x.size - 1
     n_cal = int(round(calibration_s * rate_hz))
     if n_cal < 1:
-        raise InputError(f"calibration={calibration_s!r} s: expected at least one sample ({1.0 / rate_hz:g} s)")
+        raise InputError(
+            f"calibration={calibration_s!r} s: expected at least one sample ({1.0 / rate_hz:g} s)"
+        )
     ks = contrast_grid(n, n_cal) if k is None else np.asarray(k, dtype=np.int64)
     strides = contrast_stride(ks, n_cal)
-    ms = np.array([contrast_mean_square(x, kk, n_cal, st) for kk, st in zip(ks, strides)]) / rate_hz**2
-    return PhaseContrasts(ks, n_cal, ms.reshape(ks.shape), (n - n_cal - ks) // strides + 1, float(rate_hz), int(n))
+    ms = (
+        np.array([contrast_mean_square(x, kk, n_cal, st) for kk, st in zip(ks, strides)])
+        / rate_hz**2
+    )
+    return PhaseContrasts(
+        ks, n_cal, ms.reshape(ks.shape), (n - n_cal - ks) // strides + 1, float(rate_hz), int(n)
+    )

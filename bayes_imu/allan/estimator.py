@@ -41,8 +41,8 @@ _MAX_SEGMENT_TAUS = 40
 class SegmentAllan:
     """Allan variance of each of ``n_segments`` consecutive, equal, non-overlapping parts of a log.
 
-    The stationarity check (:mod:`bayes_imu.inference.stationarity`) compares them: a sensor whose noise
-    changes during the record (warm-up, temperature) gives segments that differ by more than
+    The stationarity check (:mod:`bayes_imu.inference.stationarity`) compares them: a sensor whose
+    noise changes during the record (warm-up, temperature) gives segments that differ by more than
     their sampling error.
 
     Attributes
@@ -133,10 +133,21 @@ class AllanResult:
         if factor == 1.0:
             return self
         f2 = factor * factor
-        segments = self.segments if self.segments is None else replace(self.segments, avar=self.segments.avar * f2)
+        segments = (
+            self.segments
+            if self.segments is None
+            else replace(self.segments, avar=self.segments.avar * f2)
+        )
         contrasts = self.contrasts if self.contrasts is None else self.contrasts.scaled(factor)
-        return replace(self, avar=self.avar * f2, adev=self.adev * abs(factor), avar_low=self.avar_low * f2,
-                       avar_high=self.avar_high * f2, segments=segments, contrasts=contrasts)
+        return replace(
+            self,
+            avar=self.avar * f2,
+            adev=self.adev * abs(factor),
+            avar_low=self.avar_low * f2,
+            avar_high=self.avar_high * f2,
+            segments=segments,
+            contrasts=contrasts,
+        )
 
     @property
     def duration_s(self):
@@ -170,16 +181,23 @@ def cluster_sizes(m, n_samples):
         elif m == "all":
             grid = np.arange(1, limit + 1)
         else:
-            raise InputError(f"m={m!r}: expected 'octave', 'decade', 'all' or an array of cluster sizes")
+            raise InputError(
+                f"m={m!r}: expected 'octave', 'decade', 'all' or an array of cluster sizes"
+            )
         grid = grid[grid <= limit]
         if grid.size == 0:
-            raise InputError(f"{n_samples} samples: too few for an Allan variance (at least 4 needed for m='{m}')")
+            raise InputError(
+                f"{n_samples} samples: too few for an Allan variance (at least 4 needed for "
+                f"m='{m}')"
+            )
         return grid.astype(np.int64)
     grid = np.asarray(m)
     if grid.ndim != 1 or grid.size == 0 or not np.issubdtype(grid.dtype, np.number):
         raise InputError(f"m={m!r}: expected a non-empty 1-D array of integer cluster sizes")
     if np.any(grid != np.round(grid)) or np.any(grid < 1) or np.any(2 * grid > n_samples):
-        raise InputError(f"m={m!r}: expected whole cluster sizes 1 <= m <= n_samples/2 = {n_samples // 2}")
+        raise InputError(
+            f"m={m!r}: expected whole cluster sizes 1 <= m <= n_samples/2 = {n_samples // 2}"
+        )
     if np.any(np.diff(grid) <= 0):
         raise InputError(f"m={m!r}: expected strictly increasing cluster sizes")
     return grid.astype(np.int64)
@@ -193,8 +211,19 @@ def check_sensor(sensor):
     return sensor
 
 
-def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, interval="exact", progress=False,
-                   segments=DEFAULT_SEGMENTS, contrast_span_s=DEFAULT_CONTRAST_SPAN_S, sensor=None):
+def allan_variance(
+    y,
+    *,
+    rate_hz,
+    m="octave",
+    alpha=None,
+    confidence=0.683,
+    interval="exact",
+    progress=False,
+    segments=DEFAULT_SEGMENTS,
+    contrast_span_s=DEFAULT_CONTRAST_SPAN_S,
+    sensor=None,
+):
     """Fully overlapping Allan variance of uniformly sampled rate data (SP1065 eq 14).
 
     Parameters
@@ -241,18 +270,21 @@ def allan_variance(y, *, rate_hz, m="octave", alpha=None, confidence=0.683, inte
     contrasts = None
     if contrast_span_s is not None and contrast_span_s * rate_hz >= 1.0:
         contrasts = phase_contrasts(x=x, rate_hz=rate_hz, calibration_s=contrast_span_s)
-    return replace(result, segments=segment_allan(y, ms, segments, x=x), contrasts=contrasts, sensor=sensor)
+    return replace(
+        result, segments=segment_allan(y, ms, segments, x=x), contrasts=contrasts, sensor=sensor
+    )
 
 
 def segment_allan(y, m, n_segments=DEFAULT_SEGMENTS, *, x=None):
-    """:class:`SegmentAllan` of ``n_segments`` consecutive parts of ``y`` at the sizes of ``m`` that fit
-    (at most a quarter of a segment, as the named grids); ``None`` if none does or ``n_segments < 2``.
+    """:class:`SegmentAllan` of ``n_segments`` consecutive parts of ``y`` at the sizes of ``m`` that
+    fit (at most a quarter of a segment, as the named grids); ``None`` if none does or ``n_segments
+    < 2``.
 
-    ``x``: the running sum of ``y`` about any constant, with a leading 0 (what :func:`allan_variance`
-    has built; ``y`` is then not read): each part's second differences are those of its slice of
-    ``x`` (the constant cancels), so the parts cost their sums only, not another pass for their
-    means and running sums (issue 39). The same values up to rounding (1e-15 relative on the
-    tests' records)."""
+    ``x``: the running sum of ``y`` about any constant, with a leading 0 (what
+    :func:`allan_variance` has built; ``y`` is then not read): each part's second differences are
+    those of its slice of ``x`` (the constant cancels), so the parts cost their sums only, not
+    another pass for their means and running sums (issue 39). The same values up to rounding (1e-15
+    relative on the tests' records)."""
     n_segments = int(n_segments)
     if n_segments < 2:
         return None
@@ -276,8 +308,8 @@ def segment_allan(y, m, n_segments=DEFAULT_SEGMENTS, *, x=None):
 
 
 def avar_from_sums(sums, ms, n_samples):
-    """Overlapping Allan variance from the second-difference sums of ``n_samples`` rate samples (SP1065 eq 14):
-    ``sums / (2 m^2 (n_samples + 1 - 2 m))``."""
+    """Overlapping Allan variance from the second-difference sums of ``n_samples`` rate samples
+    (SP1065 eq 14): ``sums / (2 m^2 (n_samples + 1 - 2 m))``."""
     return sums / (2.0 * (n_samples + 1 - 2 * ms) * ms.astype(float) ** 2)
 
 
@@ -285,7 +317,9 @@ def check_options(rate_hz, confidence, interval):
     """Validated ``rate_hz`` (and the interval options) of an Allan variance computation."""
     rate_hz = positive_number("rate_hz", rate_hz, what="sample rate in Hz")
     if not 0 < confidence < 1:
-        raise InputError(f"confidence={confidence!r}: expected a probability strictly between 0 and 1")
+        raise InputError(
+            f"confidence={confidence!r}: expected a probability strictly between 0 and 1"
+        )
     if interval not in ("exact", "stable32"):
         raise InputError(f"interval={interval!r}: expected 'exact' or 'stable32'")
     return rate_hz
@@ -299,8 +333,18 @@ def assemble_result(ms, sums, alpha, n_samples, rate_hz, confidence, interval):
     edf = greenhall_edf(alphas, ms, n_samples + 1)
     low, high = chi2_interval(avar, edf, confidence, interval)
     return AllanResult(
-        tau=ms / rate_hz, m=ms, avar=avar, adev=np.sqrt(avar), n_terms=n_terms, edf=edf, alpha=alphas,
-        avar_low=low, avar_high=high, confidence=float(confidence), rate_hz=rate_hz, n_samples=n_samples,
+        tau=ms / rate_hz,
+        m=ms,
+        avar=avar,
+        adev=np.sqrt(avar),
+        n_terms=n_terms,
+        edf=edf,
+        alpha=alphas,
+        avar_low=low,
+        avar_high=high,
+        confidence=float(confidence),
+        rate_hz=rate_hz,
+        n_samples=n_samples,
     )
 
 
@@ -310,7 +354,9 @@ def _as_samples(y):
         raise InputError(f"y: expected a 1-D array of rate samples, got shape {y.shape}")
     bad = ~np.isfinite(y)
     if bad.any():
-        raise InputError(f"y: sample {int(np.argmax(bad))} is {y[bad][0]!r}; expected finite numbers")
+        raise InputError(
+            f"y: sample {int(np.argmax(bad))} is {y[bad][0]!r}; expected finite numbers"
+        )
     return np.ascontiguousarray(y)
 
 
@@ -324,7 +370,8 @@ def _alpha_array(alpha, n):
 def chi2_interval(avar, edf, confidence, interval="exact"):
     """Chi-squared interval on ``avar`` (SP1065 eq 45): ``edf avar / chi2`` at both tails."""
     tail = (1.0 - confidence) / 2.0
-    upper, lower = special.chdtri(edf, tail), 2.0 * special.gammaincinv(edf / 2.0, tail)  # chi2 isf, ppf
+    # chi2 isf, ppf
+    upper, lower = special.chdtri(edf, tail), 2.0 * special.gammaincinv(edf / 2.0, tail)
     if interval == "stable32":
         large = edf > 100  # Stable32 iterates exactly up to 100 degrees of freedom
         upper = np.where(large, _stable32_chi2(edf, tail), upper)
@@ -413,7 +460,13 @@ def _lag1_alpha(series, max_differences):
 
 # --- equivalent degrees of freedom (Greenhall & Riley 2003) ----------------------------
 
-_TABLE2 = {2: (35.0 / 18.0, 1.0), 1: (790.0, 410.0), 0: (2.0 / 3.0, 1.0 / 3.0), -1: (0.852, 0.375), -2: (1.079, 0.368)}
+_TABLE2 = {
+    2: (35.0 / 18.0, 1.0),
+    1: (790.0, 410.0),
+    0: (2.0 / 3.0, 1.0 / 3.0),
+    -1: (0.852, 0.375),
+    -2: (1.079, 0.368),
+}
 _TABLE3_B = (15.23, 12.0)  # alpha = 1, d = 2
 
 
@@ -435,7 +488,13 @@ def _sx(t, f, alpha):
 
 def _sz(t, f, alpha):
     """Eq 9 for d = 2 (Allan)."""
-    return 6 * _sx(t, f, alpha) - 4 * _sx(t - 1, f, alpha) - 4 * _sx(t + 1, f, alpha) + _sx(t - 2, f, alpha) + _sx(t + 2, f, alpha)
+    return (
+        6 * _sx(t, f, alpha)
+        - 4 * _sx(t - 1, f, alpha)
+        - 4 * _sx(t + 1, f, alpha)
+        + _sx(t - 2, f, alpha)
+        + _sx(t + 2, f, alpha)
+    )
 
 
 def _basic_sum(n_lags, n_terms, stride, f, alpha):
@@ -460,7 +519,9 @@ def greenhall_edf(alpha, m, n_phase):
         Number of phase points, ``n_samples + 1``.
     """
     alpha, m = np.broadcast_arrays(np.asarray(alpha, dtype=np.int64), np.asarray(m, dtype=np.int64))
-    return np.array([_edf_one(int(a), int(mm), int(n_phase)) for a, mm in zip(alpha, m)], dtype=float)
+    return np.array(
+        [_edf_one(int(a), int(mm), int(n_phase)) for a, mm in zip(alpha, m)], dtype=float
+    )
 
 
 def _edf_one(alpha, m, n_phase):
@@ -485,9 +546,13 @@ def _edf_one(alpha, m, n_phase):
     # case 2: alpha <= 0
     if n_lags <= _J_MAX:
         f = m if m * (d + 1) <= _J_MAX else np.inf
-        return 1.0 / (_basic_sum(n_lags, n_terms, m, f, alpha) / (_sz(0.0, f, alpha) ** 2 * n_terms))
+        return 1.0 / (
+            _basic_sum(n_lags, n_terms, m, f, alpha) / (_sz(0.0, f, alpha) ** 2 * n_terms)
+        )
     if r > d + 1:
         a0, a1 = _TABLE2[alpha]
         return 1.0 / ((a0 - a1 / r) / r)
     mp = _J_MAX / r
-    return 1.0 / (_basic_sum(_J_MAX, _J_MAX, mp, np.inf, alpha) / (_sz(0.0, np.inf, alpha) ** 2 * _J_MAX))
+    return 1.0 / (
+        _basic_sum(_J_MAX, _J_MAX, mp, np.inf, alpha) / (_sz(0.0, np.inf, alpha) ** 2 * _J_MAX)
+    )

@@ -29,12 +29,25 @@ import contextlib
 
 import numpy as np
 
-__all__ = ["record_mean", "phase_from_rate", "allan_sums", "phase_chunk", "second_difference_sum", "second_difference_sums",
-           "avar_pair_sums", "threads_for", "threads_for_pass", "precompiled", "compiled_kernel", "SAMPLES_PER_THREAD",
-           "PRECOMPILED_BELOW"]
+__all__ = [
+    "record_mean",
+    "phase_from_rate",
+    "allan_sums",
+    "phase_chunk",
+    "second_difference_sum",
+    "second_difference_sums",
+    "avar_pair_sums",
+    "threads_for",
+    "threads_for_pass",
+    "precompiled",
+    "compiled_kernel",
+    "SAMPLES_PER_THREAD",
+    "PRECOMPILED_BELOW",
+]
 
 _BLOCK = 1 << 14
-#: start indices per block of the one-pass sums of every cluster size (:func:`second_difference_sums`)
+#: start indices per block of the one-pass sums of every cluster size
+#: (:func:`second_difference_sums`)
 _BLOCK_ALL = 1 << 16
 #: samples per plain sum of the compensated running sum
 _PHASE_BLOCK = 256
@@ -43,15 +56,15 @@ _RESIDUES = 256
 #: samples per thread of the Allan variance sums (8 MiB of phase: enough work per cluster size to
 #: pay for a thread)
 SAMPLES_PER_THREAD = 1 << 20
-#: records shorter than this are summed by the precompiled kernels, on one thread (:func:`threads_for`
-#: gives one thread below it on any machine)
+#: records shorter than this are summed by the precompiled kernels, on one thread
+#: (:func:`threads_for` gives one thread below it on any machine)
 PRECOMPILED_BELOW = 2 * SAMPLES_PER_THREAD
 _compiled = {}
 
 
 def precompiled():
-    """The ahead-of-time build of the kernels (module ``bayes_imu._compiled``), or ``None`` where the
-    package was built without it."""
+    """The ahead-of-time build of the kernels (module ``bayes_imu._compiled``), or ``None`` where
+    the package was built without it."""
     try:
         from .. import _compiled as module
     except ImportError:
@@ -60,32 +73,47 @@ def precompiled():
 
 
 def _compile():
-    """The JIT build of every kernel (imports numba; compiled once, then loaded from numba's cache)."""
+    """The JIT build of every kernel (imports numba; compiled once, then loaded from numba's
+    cache)."""
     if _compiled:
         return _compiled
     import numba
 
     from . import _sources
 
-    for name in ("pair_sums", "phase_chunk", "sum3", "centred_sums", "centred_mean", "centred_bases", "phase_blocks",
-                 "phase_and_sums", "residue_sums", "sums_all"):
-        _compiled[name] = numba.njit(parallel=name in _sources.PARALLEL, cache=True,
-                                     fastmath=_sources.FASTMATH.get(name, False))(getattr(_sources, name))
+    for name in (
+        "pair_sums",
+        "phase_chunk",
+        "sum3",
+        "centred_sums",
+        "centred_mean",
+        "centred_bases",
+        "phase_blocks",
+        "phase_and_sums",
+        "residue_sums",
+        "sums_all",
+    ):
+        _compiled[name] = numba.njit(
+            parallel=name in _sources.PARALLEL,
+            cache=True,
+            fastmath=_sources.FASTMATH.get(name, False),
+        )(getattr(_sources, name))
     return _compiled
 
 
 def _precompiled_for(n_samples):
-    """The ahead-of-time build where it sums a record of ``n_samples`` (shorter than :data:`PRECOMPILED_BELOW`
-    and built), else ``None``: the JIT kernels of :func:`_compile` then."""
+    """The ahead-of-time build where it sums a record of ``n_samples`` (shorter than
+    :data:`PRECOMPILED_BELOW` and built), else ``None``: the JIT kernels of :func:`_compile`
+    then."""
     return precompiled() if n_samples < PRECOMPILED_BELOW else None
 
 
 def compiled_kernel(name, sources, **jit_options):
-    """The compiled kernel ``name`` of another module: the ahead-of-time build's where the package has it
-    (no numba import, nothing compiled), else numba's JIT build (``jit_options``, cached on disk) of the
-    function ``name`` of the module ``sources``, imported only then (a kernel source module imports
-    numba). An extension built before a kernel was added (an in-place build not redone) lacks it: that
-    kernel is then JIT-compiled."""
+    """The compiled kernel ``name`` of another module: the ahead-of-time build's where the package
+    has it (no numba import, nothing compiled), else numba's JIT build (``jit_options``, cached on
+    disk) of the function ``name`` of the module ``sources``, imported only then (a kernel source
+    module imports numba). An extension built before a kernel was added (an in-place build not
+    redone) lacks it: that kernel is then JIT-compiled."""
     module = precompiled()
     if module is not None and hasattr(module, name):
         return getattr(module, name)
@@ -112,7 +140,9 @@ def record_mean(y):
         return float(np.mean(y))
     kernels = _compile()
     with threads_for_pass(y.size):
-        return float(kernels["centred_mean"](y, kernels["centred_sums"](y, _PHASE_BLOCK), _PHASE_BLOCK))
+        return float(
+            kernels["centred_mean"](y, kernels["centred_sums"](y, _PHASE_BLOCK), _PHASE_BLOCK)
+        )
 
 
 def phase_from_rate(y, offset):
@@ -138,8 +168,13 @@ def phase_from_rate(y, offset):
     kernels = _compile()
     with threads_for_pass(y.size):
         sums = kernels["centred_sums"](y, _PHASE_BLOCK)
-        kernels["phase_blocks"](y, float(offset), kernels["centred_bases"](y, sums, float(offset), _PHASE_BLOCK),
-                                _PHASE_BLOCK, out[1:])
+        kernels["phase_blocks"](
+            y,
+            float(offset),
+            kernels["centred_bases"](y, sums, float(offset), _PHASE_BLOCK),
+            _PHASE_BLOCK,
+            out[1:],
+        )
     return out
 
 
@@ -152,7 +187,9 @@ def phase_chunk(y, offset, state):
     of it for a longer one (whose block totals are rounded differently).
     """
     out = np.empty(y.size)
-    return _compile()["phase_chunk"](np.ascontiguousarray(y, dtype=float), float(offset), out, _PHASE_BLOCK, state)
+    return _compile()["phase_chunk"](
+        np.ascontiguousarray(y, dtype=float), float(offset), out, _PHASE_BLOCK, state
+    )
 
 
 def second_difference_sum(x0, x1, x2):
@@ -171,8 +208,8 @@ def threads_for(n_samples):
 
 @contextlib.contextmanager
 def threads_for_pass(n_samples):
-    """Run numba's parallel loops on :func:`threads_for` ``(n_samples)`` threads inside the block, restoring
-    the caller's setting after it."""
+    """Run numba's parallel loops on :func:`threads_for` ``(n_samples)`` threads inside the block,
+    restoring the caller's setting after it."""
     import numba
 
     previous = numba.get_num_threads()
@@ -208,22 +245,25 @@ def second_difference_sums(x, ms):
 
 
 def _far_sums(x, ms):
-    """JIT sums of the sizes ``ms`` (at least one) of a long record, inside :func:`threads_for_pass`: the
-    whole multiples of :data:`_BLOCK_ALL` by residue runs of :data:`_RESIDUES` (``residue_sums``: the
-    record gathered once, a run at a time, into a buffer of ``len(x) / 32`` bytes a thread), the others block by block
-    (``sums_all``)."""
+    """JIT sums of the sizes ``ms`` (at least one) of a long record, inside
+    :func:`threads_for_pass`: the whole multiples of :data:`_BLOCK_ALL` by residue runs of
+    :data:`_RESIDUES` (``residue_sums``: the record gathered once, a run at a time, into a buffer of
+    ``len(x) / 32`` bytes a thread), the others block by block (``sums_all``)."""
     kernels = _compile()
     by_residue = ms % _BLOCK_ALL == 0
     sums = np.empty(ms.size)
     if by_residue.any():
-        sums[by_residue] = kernels["residue_sums"](x, ms[by_residue], _BLOCK_ALL, _RESIDUES, threads_for(x.size))
+        sums[by_residue] = kernels["residue_sums"](
+            x, ms[by_residue], _BLOCK_ALL, _RESIDUES, threads_for(x.size)
+        )
     if not by_residue.all():
         sums[~by_residue] = kernels["sums_all"](x, ms[~by_residue], _BLOCK_ALL)
     return sums
 
 
 def allan_sums(y, ms, progress=None):
-    """The running sum ``x = phase_from_rate(y, record_mean(y))`` and its ``second_difference_sums(x, ms)``.
+    """The running sum ``x = phase_from_rate(y, record_mean(y))`` and its
+    ``second_difference_sums(x, ms)``.
 
     A record the precompiled kernels sum takes exactly those three calls. A longer one is read
     twice instead of four times: once on :func:`threads_for` threads for the block sums that give
@@ -265,9 +305,11 @@ def allan_sums(y, ms, progress=None):
         bases = kernels["centred_bases"](y, centred, mean, _PHASE_BLOCK)
         x = np.empty(y.size + 1)
         if near.any():
-            lag = (2 * int(ms[near].max()) + _BLOCK_ALL - 2) // _BLOCK_ALL  # tiles the largest size reaches ahead
-            sums[near] = kernels["phase_and_sums"](y, mean, bases, _PHASE_BLOCK, x, ms[near], _BLOCK_ALL, lag,
-                                                   threads_for(y.size))
+            # tiles the largest size reaches ahead
+            lag = (2 * int(ms[near].max()) + _BLOCK_ALL - 2) // _BLOCK_ALL
+            sums[near] = kernels["phase_and_sums"](
+                y, mean, bases, _PHASE_BLOCK, x, ms[near], _BLOCK_ALL, lag, threads_for(y.size)
+            )
         else:
             x[0] = 0.0
             kernels["phase_blocks"](y, mean, bases, _PHASE_BLOCK, x[1:])
@@ -283,10 +325,16 @@ def avar_pair_sums(table, ms, n, h, s2, x):
 
     ``table[k] = D(k)`` is the model's phase structure function for ``0 <= k <= 4 max(ms)``;
     ``h`` the flicker level ``B^2/pi``; ``s2`` and ``x = dt/T`` arrays over the Gauss-Markov
-    components (empty when there are none); ``n`` the record's length, which chooses the build as for
-    the record's own sums.
+    components (empty when there are none); ``n`` the record's length, which chooses the build as
+    for the record's own sums.
     """
     aot = _precompiled_for(int(n))
     pair_sums = _compile()["pair_sums"] if aot is None else aot.pair_sums
-    return pair_sums(np.ascontiguousarray(table, dtype=float), np.ascontiguousarray(ms, dtype=np.int64), int(n),
-                     float(h), np.ascontiguousarray(s2, dtype=float), np.ascontiguousarray(x, dtype=float))
+    return pair_sums(
+        np.ascontiguousarray(table, dtype=float),
+        np.ascontiguousarray(ms, dtype=np.int64),
+        int(n),
+        float(h),
+        np.ascontiguousarray(s2, dtype=float),
+        np.ascontiguousarray(x, dtype=float),
+    )

@@ -7,8 +7,9 @@
    temporary float64 file; chunks are multiples of 256 samples and the compensation
    state is carried between them, so the phase is the in-memory sequential pass's bit for bit
    (up to the last bits of the mean): that of a log shorter than 2**21 samples; a longer log's
-   in-memory running sum rounds its block totals differently, within a few ulp. The phase values that the noise identification
-   needs (at most 2**18 + 1 per cluster size) are collected on the way;
+   in-memory running sum rounds its block totals differently, within a few ulp. The phase values
+   that the noise identification needs (at most 2**18 + 1 per cluster size) are collected on the
+   way;
 3. per cluster size ``m``, the second differences ``x[i+2m] - 2 x[i+m] + x[i]`` from three
    chunk-sized reads of the phase file.
 
@@ -30,21 +31,41 @@ import numpy as np
 
 from .kernels import phase_chunk, second_difference_sum, threads_for_pass
 from .._progress import progress_bar
-from .estimator import assemble_result, check_options, cluster_sizes, identification_span, noise_from_phase_samples
+from .estimator import (
+    assemble_result,
+    check_options,
+    cluster_sizes,
+    identification_span,
+    noise_from_phase_samples,
+)
 from ..errors import InputError
 from ..io.readers import SignalExtent
 
 __all__ = ["allan_variance_file", "head_samples", "BINARY_SUFFIXES"]
 
-BINARY_SUFFIXES = (".npy", ".bin", ".raw", ".f64", ".f32")  # not .dat: text logs use it too (PHASE.DAT)
+# not .dat: text logs use it too (PHASE.DAT)
+BINARY_SUFFIXES = (".npy", ".bin", ".raw", ".f64", ".f32")
 _TEXT = (".csv", ".tsv", ".txt", ".gz")
 _ALIGN = 256  # the phase kernel's block: chunk boundaries on multiples keep it bit-identical
 
 
-def allan_variance_file(path, *, rate_hz, column=None, dtype="<f8", m="octave", alpha=None, confidence=0.683,
-                        interval="exact", chunk_samples=1 << 22, workdir=None, progress=False):
+def allan_variance_file(
+    path,
+    *,
+    rate_hz,
+    column=None,
+    dtype="<f8",
+    m="octave",
+    alpha=None,
+    confidence=0.683,
+    interval="exact",
+    chunk_samples=1 << 22,
+    workdir=None,
+    progress=False,
+):
     """Overlapping Allan variance of a log file too large for memory (same result as
-    :func:`bayes_imu.allan.estimator.allan_variance` on the loaded samples, relative difference ~1e-13).
+    :func:`bayes_imu.allan.estimator.allan_variance` on the loaded samples, relative difference
+    ~1e-13).
 
     Parameters
     ----------
@@ -78,12 +99,18 @@ def allan_variance_file(path, *, rate_hz, column=None, dtype="<f8", m="octave", 
     ms = cluster_sizes(m, n)
     free = _available_disk(workdir)
     if free < 8 * (n + 1):
-        raise InputError(f"{path}: the temporary phase file needs {8 * (n + 1) / 1e9:.3g} GB; "
-                         f"{free / 1e9:.3g} GB free in {workdir or tempfile.gettempdir()} (use workdir=)")
+        raise InputError(
+            f"{path}: the temporary phase file needs {8 * (n + 1) / 1e9:.3g} GB; "
+            f"{free / 1e9:.3g} GB free in {workdir or tempfile.gettempdir()} (use workdir=)"
+        )
     spans = [identification_span(int(mi), n) for mi in ms]
     total = 2 * n + int(np.sum(n + 1 - 2 * ms))
-    with progress_bar(total=total, desc=f"Allan variance of {path.name}", unit="sample", enabled=progress) as bar, \
-            tempfile.TemporaryDirectory(dir=workdir, prefix="bayes_imu_phase_") as tmp:
+    with (
+        progress_bar(
+            total=total, desc=f"Allan variance of {path.name}", unit="sample", enabled=progress
+        ) as bar,
+        tempfile.TemporaryDirectory(dir=workdir, prefix="bayes_imu_phase_") as tmp,
+    ):
         bar.update(n)
         phase_path = Path(tmp) / "phase.f64"
         id_samples = _write_phase(source, mean, phase_path, ms, spans, bar)
@@ -115,7 +142,9 @@ class _Source:
         if path.is_dir():
             raise InputError(f"{path}: is a directory; expected a log file")
         if not path.is_file():
-            raise InputError(f"{path}: not a regular file (a pipe or device); save the log to a file first")
+            raise InputError(
+                f"{path}: not a regular file (a pipe or device); save the log to a file first"
+            )
         self.path, self.chunk = path, chunk
         suffix = path.suffix.lower()
         if suffix in _TEXT or (suffix not in BINARY_SUFFIXES and column is not None):
@@ -133,11 +162,15 @@ class _Source:
             self.kind = "raw"
             self.dtype = np.dtype("<f4" if suffix == ".f32" and dtype == "<f8" else dtype)
             if self.dtype.kind != "f":
-                raise InputError(f"dtype={dtype!r}: expected a floating-point type such as '<f8' or '<f4'")
+                raise InputError(
+                    f"dtype={dtype!r}: expected a floating-point type such as '<f8' or '<f4'"
+                )
             _refuse_text(path)
             size = path.stat().st_size
             if size % self.dtype.itemsize:
-                raise InputError(f"{path}: {size} bytes is not a whole number of {self.dtype} samples")
+                raise InputError(
+                    f"{path}: {size} bytes is not a whole number of {self.dtype} samples"
+                )
             self.offset, self.count = 0, size // self.dtype.itemsize
 
     def __iter__(self):
@@ -149,7 +182,9 @@ class _Source:
             handle.seek(self.offset)
             done = 0
             while done < self.count:
-                raw = np.fromfile(handle, dtype=self.dtype, count=min(self.chunk, self.count - done))
+                raw = np.fromfile(
+                    handle, dtype=self.dtype, count=min(self.chunk, self.count - done)
+                )
                 if raw.size == 0:
                     raise InputError(f"{self.path}: ends after {done} of {self.count} samples")
                 yield done, raw.astype(np.float64)
@@ -164,7 +199,9 @@ class _Source:
         done = 0
         with raw:
             try:
-                reader = pd.read_csv(stream, chunksize=self.chunk, **csv_options(self.fmt, [self.index]))
+                reader = pd.read_csv(
+                    stream, chunksize=self.chunk, **csv_options(self.fmt, [self.index])
+                )
                 for frame in reader:
                     values = frame[self.index].to_numpy(dtype=np.float64)
                     if not np.all(np.isfinite(values)):
@@ -175,7 +212,9 @@ class _Source:
                 diagnose_text(self.path, self.fmt, [self.index])
             except (OSError, EOFError, zlib.error) as exc:  # a corrupt or truncated gzip member
                 text = str(exc).strip().splitlines()
-                raise InputError(f"{self.path}: cannot read ({text[0] if text else type(exc).__name__})") from None
+                raise InputError(
+                    f"{self.path}: cannot read ({text[0] if text else type(exc).__name__})"
+                ) from None
 
 
 def _npy_layout(path):
@@ -183,7 +222,11 @@ def _npy_layout(path):
     with open(path, "rb") as handle:
         try:
             version = np.lib.format.read_magic(handle)
-            reader = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+            reader = (
+                np.lib.format.read_array_header_1_0
+                if version == (1, 0)
+                else np.lib.format.read_array_header_2_0
+            )
             shape, fortran, dtype = reader(handle)
         except ValueError as exc:
             raise InputError(f"{path}: not a valid .npy file ({exc})") from None
@@ -203,7 +246,10 @@ def _first_pass(source):
         bad = ~np.isfinite(values)
         if bad.any():
             i = int(np.argmax(bad))
-            raise InputError(f"{source.path}: sample {start + i + 1} is {float(values[i])!r}; expected a finite number")
+            raise InputError(
+                f"{source.path}: sample {start + i + 1} is {float(values[i])!r}; expected a finite "
+                "number"
+            )
         s = float(np.sum(values))
         t = total + s  # Neumaier summation of the chunk sums
         comp += (total - t) + s if abs(total) >= abs(s) else (s - t) + total
@@ -243,14 +289,17 @@ def _second_difference_sums(phase_path, ms, n, chunk, bar):
             handle.seek(8 * first)
             return np.fromfile(handle, dtype="<f8", count=count)
 
-        with threads_for_pass(chunk):  # the threads a chunk of this size is worth (the sums do not depend on it)
+        # the threads a chunk of this size is worth (the sums do not depend on it)
+        with threads_for_pass(chunk):
             for k, m in enumerate(ms):
                 m = int(m)
                 terms = n + 1 - 2 * m
                 total = 0.0
                 for lo in range(0, terms, chunk):
                     count = min(chunk, terms - lo)
-                    total += second_difference_sum(read(lo, count), read(lo + m, count), read(lo + 2 * m, count))
+                    total += second_difference_sum(
+                        read(lo, count), read(lo + m, count), read(lo + 2 * m, count)
+                    )
                     bar.update(count)
                 sums[k] = total
     return sums
@@ -263,11 +312,14 @@ def _available_disk(folder=None):
 
 
 def _refuse_text(path, n_bytes=4096):
-    """A raw binary log whose first bytes are all printable text is a text log under a binary name."""
+    """A raw binary log whose first bytes are all printable text is a text log under a binary
+    name."""
     with open(path, "rb") as handle:
         head = handle.read(n_bytes)
     printable = set(range(32, 127)) | {9, 10, 13}
     if head and all(b in printable for b in head):
         first = head.split(b"\n", 1)[0][:40].decode("ascii")
-        raise InputError(f"{path}: starts like text ({first!r}), not raw float samples; rename a text log to .csv, "
-                         "or give a column to read it as text")
+        raise InputError(
+            f"{path}: starts like text ({first!r}), not raw float samples; rename a text log to "
+            ".csv, or give a column to read it as text"
+        )

@@ -77,7 +77,8 @@ class LogSource:
         Unit of the time stamps (``None``: from the column's name, or the unit agreeing with
         ``rate``, else seconds; :func:`~bayes_imu.io.timebase.check_time`).
     trust_units : bool
-        Skip the plausibility check of ``units`` against a static log (:mod:`bayes_imu.io.plausible`).
+        Skip the plausibility check of ``units`` against a static log
+        (:mod:`bayes_imu.io.plausible`).
     label : str or None
         The name outputs give the log (default: ``log`` as given).
     calibration : float or None
@@ -284,12 +285,14 @@ def _table(opts):
     return SourceAllan(("adev",), (result.scaled(factor),), unit, info)
 
 
-#: a .npy log of at most this many samples is read into memory (unless ``stream``): 512 MB of float64
+#: a .npy log of at most this many samples is read into memory (unless ``stream``): 512 MB of
+#: float64
 IN_MEMORY_NPY = 2**26
 
 
 def _small_npy(opts):
-    """The samples of a ``.npy`` log small enough to hold in memory, ``None`` otherwise (streamed)."""
+    """The samples of a ``.npy`` log small enough to hold in memory, ``None`` otherwise
+    (streamed)."""
     if opts.stream or opts.log.suffix.lower() != ".npy" or opts.column not in (None, "0"):
         return None
     from .outofcore import _npy_layout
@@ -311,7 +314,9 @@ def _npy_in_memory(opts, values, purpose):
         raise InputError(f"{opts.log}: no sample rate: give rate_hz")
     bad = np.flatnonzero(~np.isfinite(values))
     if bad.size:
-        raise InputError(f"{opts.log}: sample {bad[0]} is {values[bad[0]]!r}; expected finite numbers")
+        raise InputError(
+            f"{opts.log}: sample {bad[0]} is {values[bad[0]]!r}; expected finite numbers"
+        )
     _require_samples(opts, values.size, purpose)
     steps = _plausible(opts, values[:, None], opts.rate, ["0"])
     info = {"log": str(opts.log), "columns": ["0"], "read": "in memory", "rate_hz": opts.rate,
@@ -333,8 +338,11 @@ def _streamed(opts, purpose, grid, progress):
         raise InputError(f"{opts.log}: where={opts.where!r} is not available out of core (stream, "
                          "a binary log); read the text log in memory")
     binary = opts.log.suffix.lower() in BINARY_SUFFIXES
-    if binary and opts.column not in (None, "0"):  # its one channel is column "0" (a scene names it)
-        raise InputError(f"{opts.log}: a binary log has one channel; leave out column (or give '0')")
+    # its one channel is column "0" (a scene names it)
+    if binary and opts.column not in (None, "0"):
+        raise InputError(
+            f"{opts.log}: a binary log has one channel; leave out column (or give '0')"
+        )
     columns = ["0"] if binary else _columns(opts, purpose)
     results = [
         allan_variance_file(

@@ -5,7 +5,8 @@
 ``bayes-imu fit LOG --column NAME[,NAME...] --rate HZ --out DIR [--seed N]``
     Model selection and posterior (summary.json, posterior.nc, allan_fit.png, corner.png,
     drift.csv and drift.png with ``--sensor``); one sub-folder per column when several.
-``bayes-imu report SCENE.toml --out DIR``, ``bayes-imu kalibr ...``, ``bayes-imu drift SENSOR.json --out DIR``
+``bayes-imu report SCENE.toml --out DIR``, ``bayes-imu kalibr ...``, ``bayes-imu drift SENSOR.json
+--out DIR``
 
 Every output is written to a temporary folder beside ``--out`` and moved into place only
 when complete; an existing non-empty ``--out`` is refused unless ``--force``.
@@ -116,31 +117,60 @@ def _input_options(batch=False, optional_log=False):
     """Options shared by the commands that read logs (``batch``: several logs)."""
     common = _Parser(add_help=False)
     if batch:
-        common.add_argument("logs", type=Path, nargs="+", help="logs, all with the same columns and options")
+        common.add_argument(
+            "logs", type=Path, nargs="+", help="logs, all with the same columns and options"
+        )
     else:
         common.add_argument("log", type=Path, nargs="?" if optional_log else None,
                             help="log: delimited text (.gz accepted), .npy / raw binary, ROS bag"
                                  + (" (or --allan-table)" if optional_log else ""))
-    common.add_argument("--column", help="column name or 0-based index (text logs); fit takes a comma list")
-    common.add_argument("--topic", help="ROS bag: the sensor_msgs/Imu topic (columns gyro_x ... accel_z)")
-    common.add_argument("--stream", action="store_true",
-                        help="read a text log out of core, in chunks (automatic for .npy and raw binary logs)")
-    common.add_argument("--rate", type=_rate_type,
-                        help=f"sample rate (Hz, {RATE_RANGE[0]:g} to {RATE_RANGE[1]:g}); optional with --time-column")
+    common.add_argument(
+        "--column", help="column name or 0-based index (text logs); fit takes a comma list"
+    )
+    common.add_argument(
+        "--topic", help="ROS bag: the sensor_msgs/Imu topic (columns gyro_x ... accel_z)"
+    )
+    common.add_argument(
+        "--stream",
+        action="store_true",
+        help="read a text log out of core, in chunks (automatic for .npy and raw binary logs)",
+    )
+    common.add_argument(
+        "--rate",
+        type=_rate_type,
+        help=f"sample rate (Hz, {RATE_RANGE[0]:g} to {RATE_RANGE[1]:g}); optional with "
+             "--time-column",
+    )
     common.add_argument("--time-column", help="time stamps: the rate is derived from them and "
                                               "checked")
     common.add_argument("--time-unit", choices=tuple(TIME_UNITS),
                         help="unit of the --time-column stamps (default: from the column's name, "
                              "e.g. t_ms, "
                              "time_us, else the one agreeing with --rate, else s)")
-    common.add_argument("--gaps", choices=GAP_POLICIES, default="error",
-                        help="irregular time steps: error (default) or fit the longest regular segment")
-    common.add_argument("--input", choices=("rate", "increments"), default="rate",
-                        help="rate samples (default), or delta-angle / delta-velocity increments per sample "
-                             "(divided by the sample period into rates)")
-    common.add_argument("--units", "--unit", dest="units", choices=tuple(UNITS) + tuple(INCREMENT_UNITS),
-                        help="units of the column(s), converted to SI (rad/s, m/s^2): rates " + ", ".join(UNITS)
-                             + "; increments " + ", ".join(INCREMENT_UNITS) + "; default: left as they are")
+    common.add_argument(
+        "--gaps",
+        choices=GAP_POLICIES,
+        default="error",
+        help="irregular time steps: error (default) or fit the longest regular segment",
+    )
+    common.add_argument(
+        "--input",
+        choices=("rate", "increments"),
+        default="rate",
+        help="rate samples (default), or delta-angle / delta-velocity increments per sample "
+        "(divided by the sample period into rates)",
+    )
+    common.add_argument(
+        "--units",
+        "--unit",
+        dest="units",
+        choices=tuple(UNITS) + tuple(INCREMENT_UNITS),
+        help="units of the column(s), converted to SI (rad/s, m/s^2): rates "
+        + ", ".join(UNITS)
+        + "; increments "
+        + ", ".join(INCREMENT_UNITS)
+        + "; default: left as they are",
+    )
     common.add_argument("--where", metavar="FILTER",
                         help="keep only the rows satisfying FILTER, e.g. 'period == 0' or "
                              "'period == 2 and status != 1' (COLUMN OP NUMBER joined by and; "
@@ -148,8 +178,17 @@ def _input_options(batch=False, optional_log=False):
     common.add_argument("--trust-units", action="store_true",
                         help="skip the check that a static log is plausible in --units (a moving "
                              "log, a test rig)")
-    common.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
-    common.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
+    common.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help="output folder: new, empty, or a previous bayes_imu result with --force",
+    )
+    common.add_argument(
+        "--force",
+        action="store_true",
+        help="replace a previous bayes_imu result in --out (never other files)",
+    )
     common.add_argument("--quiet", action="store_true", help="no progress bars or messages")
     return common
 
@@ -162,37 +201,61 @@ def _build_parser():
     common = _input_options()
 
     allan = sub.add_parser(
-        "allan", parents=[common], help="overlapping Allan deviation of one column of a log",
-        description=textwrap.fill("Overlapping Allan deviation with chi-squared confidence intervals (Greenhall EDF). Writes "
-                    "allan.csv (tau, m, adev, interval, edf, unit) and allan.png.", 96),
-        epilog="examples:\n  bayes-imu allan imu.csv --column gyro_x --rate 100 --units deg/s --out allan_gx\n"
-               "  bayes-imu allan big.npy --rate 400 --out allan_big   (binary logs are read out of core)",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
-    allan.add_argument("--grid", default="octave", choices=("octave", "decade", "all"), help="cluster sizes")
+        "allan",
+        parents=[common],
+        help="overlapping Allan deviation of one column of a log",
+        description=textwrap.fill(
+            "Overlapping Allan deviation with chi-squared confidence intervals (Greenhall EDF). "
+            "Writes allan.csv (tau, m, adev, interval, edf, unit) and allan.png.",
+            96,
+        ),
+        epilog="examples:\n  bayes-imu allan imu.csv --column gyro_x --rate 100 --units deg/s "
+        "--out allan_gx\n  bayes-imu allan big.npy --rate 400 --out allan_big   (binary logs are "
+        "read out of core)",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    allan.add_argument(
+        "--grid", default="octave", choices=("octave", "decade", "all"), help="cluster sizes"
+    )
     allan.set_defaults(handler=_cmd_allan)
 
     fit = sub.add_parser(
-        "fit", parents=[_input_options(optional_log=True)], help="Bayesian noise-model fit of columns of a log",
-        description=textwrap.fill("Select the noise terms the log needs (Bayesian evidence), sample their posterior (emcee), "
-                    "check the fit's adequacy. Writes summary.json (posteriors in SI and datasheet units, "
-                    "adequacy, every candidate's probability), posterior.nc (ArviZ), fit.npz (for report and "
-                    "kalibr), allan_fit.png and corner.png; with --sensor also drift.csv and drift.png (the drift "
-                    "credible bands of a GPS outage). Several columns: one sub-folder each.", 96),
+        "fit",
+        parents=[_input_options(optional_log=True)],
+        help="Bayesian noise-model fit of columns of a log",
+        description=textwrap.fill(
+            "Select the noise terms the log needs (Bayesian evidence), sample their posterior "
+            "(emcee), check the fit's adequacy. Writes summary.json (posteriors in SI and "
+            "datasheet units, adequacy, every candidate's probability), posterior.nc (ArviZ), "
+            "fit.npz (for report and kalibr), allan_fit.png and corner.png; with --sensor also "
+            "drift.csv and drift.png (the drift credible bands of a GPS outage). Several columns: "
+            "one sub-folder each.",
+            96,
+        ),
         epilog="examples:\n"
-               "  bayes-imu fit imu.csv --column gyro_x --rate 100 --units deg/s --sensor gyro --out fit_gx\n"
-               "  bayes-imu fit imu.csv --column accel_x,accel_y,accel_z --rate 100 --units g --sensor accel "
-               "--out fit_acc\n"
-               "  bayes-imu fit --allan-table adev.csv --rate 200 --samples 1440000 --units deg/h --out fit_table\n"
-               "  bayes-imu fit dtheta.csv --column dx --rate 400 --input increments --units rad --out fit_inc\n"
-               "terms: " + ", ".join(TERMS),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        "  bayes-imu fit imu.csv --column gyro_x --rate 100 --units deg/s --sensor gyro --out "
+        "fit_gx\n  bayes-imu fit imu.csv --column accel_x,accel_y,accel_z --rate 100 --units g "
+        "--sensor accel --out fit_acc\n"
+        "  bayes-imu fit --allan-table adev.csv --rate 200 --samples 1440000 --units deg/h --out "
+        "fit_table\n  bayes-imu fit dtheta.csv --column dx --rate 400 --input increments --units "
+        "rad --out fit_inc\nterms: " + ", ".join(TERMS),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     _fit_options(fit)
-    fit.add_argument("--allan-table", type=Path, metavar="FILE",
-                     help="fit a published or external Allan deviation table instead of a log: a header with "
-                          "tau (s) and adev (or avar), optionally edf; --rate is the rate of the log it came from")
-    fit.add_argument("--samples", type=_positive_int, metavar="N",
-                     help="with --allan-table: samples in the log it came from (sets the intervals; unknown: "
-                          "the shortest record the table allows is assumed, the widest intervals)")
+    fit.add_argument(
+        "--allan-table",
+        type=Path,
+        metavar="FILE",
+        help="fit a published or external Allan deviation table instead of a log: a header with "
+        "tau (s) and adev (or avar), optionally edf; --rate is the rate of the log it came from",
+    )
+    fit.add_argument(
+        "--samples",
+        type=_positive_int,
+        metavar="N",
+        help="with --allan-table: samples in the log it came from (sets the intervals; unknown: "
+        "the shortest record the table allows is assumed, the widest intervals)",
+    )
     fit.set_defaults(handler=_cmd_fit)
     add_fit_options(fit)  # --datasheet (cli/extra.py, issue 38)
 
@@ -200,41 +263,76 @@ def _build_parser():
                            help="fit many logs in parallel (Dask), one output folder per log")
     _fit_options(batch)
     add_fit_options(batch)  # --datasheet, as fit
-    batch.add_argument("--scheduler", help="address of a running Dask scheduler (default: a LocalCluster)")
-    batch.add_argument("--workers", type=_workers_type, help="LocalCluster worker processes (default: one per core)")
-    batch.add_argument("--serial", action="store_true", help="no Dask: one log after another in this process")
+    batch.add_argument(
+        "--scheduler", help="address of a running Dask scheduler (default: a LocalCluster)"
+    )
+    batch.add_argument(
+        "--workers",
+        type=_workers_type,
+        help="LocalCluster worker processes (default: one per core)",
+    )
+    batch.add_argument(
+        "--serial", action="store_true", help="no Dask: one log after another in this process"
+    )
     batch.set_defaults(handler=_cmd_fit_batch)
 
     population = sub.add_parser(
-        "fit-population", parents=[_input_options(batch=True)],
+        "fit-population",
+        parents=[_input_options(batch=True)],
         help="joint (hierarchical) fit of several units of one IMU model: what a new unit will do",
-        description="Fit the logs of several units of one IMU model (or long sessions of one unit) jointly: "
-                    "a hierarchical model on the log-parameters gives each unit's posterior, the population's "
-                    "spread, and the posterior predictive for a NEW unit (parameters, Allan deviation band, "
-                    "drift bands). Writes summary.json, population.png, and with --sensor (or gyro / accel "
-                    "--units) drift.csv and drift.png for the new unit.",
-        epilog="example: bayes-imu fit-population imu1.csv imu2.csv imu3.csv --column gyro_x --rate 100 "
-               "--units deg/s --out pop_gx")
+        description="Fit the logs of several units of one IMU model (or long sessions of one unit) "
+        "jointly: a hierarchical model on the log-parameters gives each unit's posterior, the "
+        "population's spread, and the posterior predictive for a NEW unit (parameters, Allan "
+        "deviation band, drift bands). Writes summary.json, population.png, and with --sensor (or "
+        "gyro / accel --units) drift.csv and drift.png for the new unit.",
+        epilog="example: bayes-imu fit-population imu1.csv imu2.csv imu3.csv --column gyro_x "
+        "--rate 100 --units deg/s --out pop_gx",
+    )
     population.add_argument("--seed", type=_seed_type, default=0,
                             help="random seed, 0 to 2**32 - 1 (recorded in the outputs), default 0")
-    population.add_argument("--terms", default="auto",
-                            help="'auto' (the common structure chosen by the units' summed evidence) or a "
-                                 "comma-separated list of terms: " + ", ".join(TERMS))
-    population.add_argument("--spread-scale", type=_ranged("spread_scale"), default=1.0, metavar="S",
-                            help="scale of the half-normal prior on the unit-to-unit spread of each "
-                                 "ln-parameter (default 1: a factor e, weakly informative)")
+    population.add_argument(
+        "--terms",
+        default="auto",
+        help="'auto' (the common structure chosen by the units' summed evidence) or a "
+        "comma-separated list of terms: " + ", ".join(TERMS),
+    )
+    population.add_argument(
+        "--spread-scale",
+        type=_ranged("spread_scale"),
+        default=1.0,
+        metavar="S",
+        help="scale of the half-normal prior on the unit-to-unit spread of each "
+        "ln-parameter (default 1: a factor e, weakly informative)",
+    )
     _drift_options(population)
     population.set_defaults(handler=_cmd_fit_population, models="selected")
 
     report = sub.add_parser(
-        "report", help="conservative drift bounds for several IMUs (scene TOML)",
-        description=textwrap.fill("Fit (or read) every sensor of a scene and rank them by their conservative drift bounds: "
-                    "report.json, report.html (self-contained) and comparison.png.", 96),
-        epilog=_SCENE_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+        "report",
+        help="conservative drift bounds for several IMUs (scene TOML)",
+        description=textwrap.fill(
+            "Fit (or read) every sensor of a scene and rank them by their conservative drift "
+            "bounds: report.json, report.html (self-contained) and comparison.png.",
+            96,
+        ),
+        epilog=_SCENE_HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     report.add_argument("scene", type=Path, help="scene TOML file (format below)")
-    report.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
-    report.add_argument("--seed", type=_seed_type, default=0, help="random seed (0 to 2**32 - 1), default 0")
-    report.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
+    report.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help="output folder: new, empty, or a previous bayes_imu result with --force",
+    )
+    report.add_argument(
+        "--seed", type=_seed_type, default=0, help="random seed (0 to 2**32 - 1), default 0"
+    )
+    report.add_argument(
+        "--force",
+        action="store_true",
+        help="replace a previous bayes_imu result in --out (never other files)",
+    )
     report.add_argument("--quiet", action="store_true", help="no progress messages")
     report.add_argument("--display-units", choices=DISPLAY_CHOICES, default=None,
                         help="units shown in report.html, comparison.png and report.json's "
@@ -246,35 +344,65 @@ def _build_parser():
     report.set_defaults(handler=_cmd_report)
 
     kalibr = sub.add_parser(
-        "kalibr", help="Kalibr IMU noise YAML from fit folders",
-        description="Write a Kalibr / VIO imu.yaml (noise densities and bias random walks, SI) from bayes-imu fit "
-                    "folders fitted with --units. Either sensor may be given alone; several axes (folders, or a "
-                    "several-column fit) give the worst axis, each axis's value listed in comments.",
-        epilog="example: bayes-imu kalibr --gyro fit_gyro --accel fit_accel --credibility 0.95 --topic /imu0 "
-               "--out imu.yaml")
+        "kalibr",
+        help="Kalibr IMU noise YAML from fit folders",
+        description="Write a Kalibr / VIO imu.yaml (noise densities and bias random walks, SI) "
+        "from bayes-imu fit folders fitted with --units. Either sensor may be given alone; several "
+        "axes (folders, or a several-column fit) give the worst axis, each axis's value listed in "
+        "comments.",
+        epilog="example: bayes-imu kalibr --gyro fit_gyro --accel fit_accel --credibility 0.95 "
+        "--topic /imu0 --out imu.yaml",
+    )
     kalibr.add_argument("--gyro", type=Path, nargs="+", help="fit folder(s) of gyro axes")
     kalibr.add_argument("--accel", type=Path, nargs="+", help="fit folder(s) of accelerometer axes")
-    kalibr.add_argument("--topic", default="/imu0", help="rostopic written into the file, default /imu0")
+    kalibr.add_argument(
+        "--topic", default="/imu0", help="rostopic written into the file, default /imu0"
+    )
     kalibr.add_argument("--out", type=file_path, required=True, help="YAML file to write")
-    kalibr.add_argument("--credibility", type=float, default=None,
-                        help="upper posterior quantile for conservative values (e.g. 0.95); default: medians")
-    kalibr.add_argument("--force", action="store_true", help="replace a file bayes_imu wrote earlier (never other files)")
+    kalibr.add_argument(
+        "--credibility",
+        type=float,
+        default=None,
+        help="upper posterior quantile for conservative values (e.g. 0.95); default: medians",
+    )
+    kalibr.add_argument(
+        "--force",
+        action="store_true",
+        help="replace a file bayes_imu wrote earlier (never other files)",
+    )
     kalibr.set_defaults(handler=_cmd_kalibr)
     add_commands(sub)  # export, plan (cli/extra.py, issue 38)
 
     drift = sub.add_parser("drift", help="drift curves from known noise parameters (JSON)")
-    drift.add_argument("sensor", type=Path,
-                       help="JSON file: kind (gyro / accel), rate_hz, noise_density, optional bias_variance, "
-                            "time_constant, random_walk, and units (of the values: rad/s default, deg/s, deg/h; "
-                            "m/s^2 default, g, mg)")
-    drift.add_argument("--out", type=Path, required=True, help="output folder: new, empty, or a previous bayes_imu result with --force")
+    drift.add_argument(
+        "sensor",
+        type=Path,
+        help="JSON file: kind (gyro / accel), rate_hz, noise_density, optional bias_variance, "
+        "time_constant, random_walk, and units (of the values: rad/s default, deg/s, deg/h; "
+        "m/s^2 default, g, mg)",
+    )
+    drift.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help="output folder: new, empty, or a previous bayes_imu result with --force",
+    )
     drift.add_argument("--horizon", type=_ranged("time_s"), default=3600.0,
                        help="longest time (s, 1e-6 to 1e9), default 3600")
     drift.add_argument("--bias-start", choices=DRIFT_BIAS_STARTS, default="zero",
                        help="bias at the start: zero (the paper, default) or stationary")
-    drift.add_argument("--display-units", choices=DISPLAY_CHOICES, default="si",
-                       help="units of drift.csv and the printout: si (rad, m/s, m; default) or deg (attitude in degrees)")
-    drift.add_argument("--force", action="store_true", help="replace a previous bayes_imu result in --out (never other files)")
+    drift.add_argument(
+        "--display-units",
+        choices=DISPLAY_CHOICES,
+        default="si",
+        help="units of drift.csv and the printout: si (rad, m/s, m; default) or deg (attitude in "
+             "degrees)",
+    )
+    drift.add_argument(
+        "--force",
+        action="store_true",
+        help="replace a previous bayes_imu result in --out (never other files)",
+    )
     drift.set_defaults(handler=_cmd_drift)
     add_nav_parser(sub)
     return parser
@@ -295,8 +423,11 @@ def _cmd_allan(args):
     run = run_allan(_source(args), args.out, grid=args.grid, force=args.force,
                     progress=args.progress, on_read=lambda read: _say_time_unit(args, read.info))
     result, info = run.read.results[0], run.read.info
-    _say(args, f"{result.tau.size} cluster sizes from {result.n_samples} samples ({info['action']}); "
-               f"wrote {args.out / 'allan.csv'} and allan.png")
+    _say(
+        args,
+        f"{result.tau.size} cluster sizes from {result.n_samples} samples ({info['action']}); "
+        f"wrote {args.out / 'allan.csv'} and allan.png",
+    )
     return _pictures_status(run.picture_failures)
 
 
@@ -311,11 +442,16 @@ def _fit_request(args, **source_changes):
 def _cmd_fit(args):
     if args.allan_table is not None:
         if args.log is not None:
-            raise InputError(f"fit: give a log or --allan-table, not both (got {args.log} and {args.allan_table})")
+            raise InputError(
+                f"fit: give a log or --allan-table, not both (got {args.log} and "
+                f"{args.allan_table})"
+            )
     elif args.log is None:
         raise InputError("fit: give a log to fit (or --allan-table FILE); see bayes-imu fit --help")
     elif args.samples is not None:
-        raise InputError("--samples goes with --allan-table (a log's sample count is read from the log)")
+        raise InputError(
+            "--samples goes with --allan-table (a log's sample count is read from the log)"
+        )
     unused = [f for f, v in (("--horizon", args.horizon != 3600.0),
                              ("--times", args.times is not None),
                              ("--bias-start", args.bias_start != "calibrated")) if v]
@@ -327,9 +463,9 @@ def _cmd_fit(args):
 
 def _fit(request, args, in_batch=False):
     """``request`` fitted into ``args.out`` (``args``: where and how to write and print)."""
-    # a batch's fits write in their own process: it has its own parallelism, and its imports are made once.
-    # Python callers of main() do too, unless the environment asks (a spawned process re-runs the caller's
-    # script, which without a __main__ guard would run the command again there)
+    # a batch's fits write in their own process: it has its own parallelism, and its imports are
+    # made once. Python callers of main() do too, unless the environment asks (a spawned process
+    # re-runs the caller's script, which without a __main__ guard would run the command again there)
     background = False if in_batch else background_default(automatic=_EXECUTABLE)
     run = run_fit(request, args.out, force=args.force, background=background,
                   progress=args.progress, on_read=lambda read: _say_time_unit(args, read.info),
@@ -362,7 +498,11 @@ def _say_axis(args, axis):
     _say(args, "  parameters (90% intervals include the repeatability between the log's parts; "
                "the record alone: summary.json parameters_this_record)")
     for name, p in (summary.get("parameters_display") or summary["parameters"]).items():
-        _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] {p['unit']}")
+        _say(
+            args,
+            f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] "
+            f"{p['unit']}",
+        )
     _say_datasheet(args, summary["datasheet"])
     _say_readout(args, summary["allan_datasheet"])
     if "datasheet_check" in summary:
@@ -384,19 +524,27 @@ def _warn_axis(axis):
     result, column = axis.result, axis.column
     adequacy = result.adequacy
     if not adequacy.adequate:
-        what = [f"goodness of fit p = {adequacy.p_value:.2g} (worst at tau = {adequacy.worst_tau_s:g} s)"]
+        what = [
+            f"goodness of fit p = {adequacy.p_value:.2g} (worst at tau = {adequacy.worst_tau_s:g} "
+            "s)"
+        ]
         if adequacy.at_prior_bound:
             what.append("at a prior bound: " + ", ".join(adequacy.at_prior_bound))
         widened = ("intervals widened by a fitted model discrepancy" if result.widened
                    else "intervals NOT widened: treat them as too narrow")
-        _warn(f"{column}: the noise model does not describe this log ({'; '.join(what)}); {widened}")
+        _warn(
+            f"{column}: the noise model does not describe this log ({'; '.join(what)}); {widened}"
+        )
     steady = result.stationarity
     if steady is not None and not steady.stationary:
-        _warn(f"{column}: the noise changes during the log: its {steady.n_segments} parts differ by "
-              f"{_ratio_text(steady.largest_ratio())} in Allan deviation at tau = {steady.worst_tau_s:g} s "
-              f"(p = {steady.p_value:.2g}; warm-up?), with a spread of up to x{steady.spread_factor():.2g} (1 sigma) "
-              "at longer tau; drift bands include that spread "
-              "(parameter intervals: the parts' scatter)")
+        _warn(
+            f"{column}: the noise changes during the log: its {steady.n_segments} parts differ by "
+            f"{_ratio_text(steady.largest_ratio())} in Allan deviation at tau = "
+            f"{steady.worst_tau_s:g} s (p = {steady.p_value:.2g}; warm-up?), with a spread of up "
+            f"to x{steady.spread_factor():.2g} (1 sigma) "
+            "at longer tau; drift bands include that spread "
+            "(parameter intervals: the parts' scatter)"
+        )
 
 
 def _model_line(summary, converged):
@@ -416,11 +564,16 @@ def _say_readout(args, block):
         _say(args, "  Allan deviation readings (IEEE Std 952, model-averaged):")
         for name, p in block.items():
             at = f" at tau = {p['tau_s']:.3g} s" if "tau_s" in p else ""
-            _say(args, f"    {name:30s} median {p['median']:.4g}  90% [{p['q05']:.4g}, {p['q95']:.4g}] {p['unit']}{at}")
+            _say(
+                args,
+                f"    {name:30s} median {p['median']:.4g}  90% [{p['q05']:.4g}, {p['q95']:.4g}] "
+                f"{p['unit']}{at}",
+            )
 
 
 def _ratio_text(ratio):
-    """``1.3x``; below 1.1x a percentage (``2.4%``): a long log resolves a small change, which "1x" would hide."""
+    """``1.3x``; below 1.1x a percentage (``2.4%``): a long log resolves a small change, which "1x"
+    would hide."""
     return f"{100.0 * (ratio - 1.0):.2g}%" if ratio < 1.1 else f"{ratio:.2g}x"
 
 
@@ -428,13 +581,20 @@ def _say_datasheet(args, block):
     if block:
         _say(args, "  datasheet units:")
         for name, p in block.items():
-            _say(args, f"    {name:30s} median {p['median']:.4g}  90% [{p['q05']:.4g}, {p['q95']:.4g}] {p['unit']}")
+            _say(
+                args,
+                f"    {name:30s} median {p['median']:.4g}  90% [{p['q05']:.4g}, {p['q95']:.4g}] "
+                f"{p['unit']}",
+            )
 
 
 def _say_drift(args, drift):
     for b, u in zip(drift.bands, drift.units):
-        _say(args, f"{b.quantity}: 1-sigma drift after {b.t_s[-1]:g} s: median {b.total[1][-1]:.4g}, "
-                   f"90% [{b.total[0][-1]:.4g}, {b.total[2][-1]:.4g}] {u}")
+        _say(
+            args,
+            f"{b.quantity}: 1-sigma drift after {b.t_s[-1]:g} s: median {b.total[1][-1]:.4g}, "
+            f"90% [{b.total[0][-1]:.4g}, {b.total[2][-1]:.4g}] {u}",
+        )
     first = drift.bands[0]
     if first.extrapolated[-1]:
         _warn(f"the drift horizon ({first.t_s[-1]:g} s) is longer than the log "
@@ -487,12 +647,19 @@ def _cmd_kalibr(args):
 
     if not args.gyro and not args.accel:
         raise InputError("kalibr: give --gyro FIT_FOLDER..., --accel FIT_FOLDER..., or both")
-    result = kalibr_values_from_folders(args.gyro or (), args.accel or (), credibility=args.credibility)
-    inputs = [p for folder in (args.gyro or []) + (args.accel or []) for p in Path(folder).rglob("*")]
+    result = kalibr_values_from_folders(
+        args.gyro or (), args.accel or (), credibility=args.credibility
+    )
+    inputs = [
+        p for folder in (args.gyro or []) + (args.accel or []) for p in Path(folder).rglob("*")
+    ]
     with staged_file(args.out, force=args.force, inputs=inputs) as tmp:
         write_kalibr_yaml(result, tmp, topic=args.topic)
     if not result.adequate:
-        _warn("Kalibr values from fits that failed the goodness-of-fit check: " + ", ".join(result.inadequate))
+        _warn(
+            "Kalibr values from fits that failed the goodness-of-fit check: "
+            + ", ".join(result.inadequate)
+        )
     several = any(len(rows) > 1 for rows in result.per_axis.values())
     _say(args, f"wrote {args.out} ({result.mode}{', worst axis' if several else ''})")
     return 0
@@ -501,36 +668,74 @@ def _cmd_kalibr(args):
 def _fit_options(parser):
     parser.add_argument("--seed", type=_seed_type, default=0,
                         help="random seed, 0 to 2**32 - 1 (recorded in the outputs), default 0")
-    parser.add_argument("--terms", default="auto",
-                        help="'auto' (model selection, default) or a comma-separated list of terms: "
-                             + ", ".join(TERMS))
-    parser.add_argument("--likelihood", choices=LIKELIHOODS, default=LIKELIHOODS[0],
-                        help="Allan-variance likelihood: correlated (default: multivariate normal on log AVAR with "
-                             "the exact covariance of the estimates), copula (gamma margins, same correlation), "
-                             "independent (gamma per cluster size, ignores correlation: faster, overconfident)")
+    parser.add_argument(
+        "--terms",
+        default="auto",
+        help="'auto' (model selection, default) or a comma-separated list of terms: "
+        + ", ".join(TERMS),
+    )
+    parser.add_argument(
+        "--likelihood",
+        choices=LIKELIHOODS,
+        default=LIKELIHOODS[0],
+        help="Allan-variance likelihood: correlated (default: multivariate normal on log AVAR with "
+        "the exact covariance of the estimates), copula (gamma margins, same correlation), "
+        "independent (gamma per cluster size, ignores correlation: faster, overconfident)",
+    )
     _drift_options(parser)
-    parser.add_argument("--models", choices=MODEL_CHOICES, default="averaged",
-                        help="drift from every candidate model weighted by its posterior probability (averaged, "
-                             "default) or from the selected model alone (selected)")
-    parser.add_argument("--discrepancy", choices=DISCREPANCY_MODES, default="auto",
-                        help="model-discrepancy term that widens the intervals of an inadequate fit: auto (added "
-                             "when the best model fails the goodness-of-fit check), never, always")
+    parser.add_argument(
+        "--models",
+        choices=MODEL_CHOICES,
+        default="averaged",
+        help="drift from every candidate model weighted by its posterior probability (averaged, "
+        "default) or from the selected model alone (selected)",
+    )
+    parser.add_argument(
+        "--discrepancy",
+        choices=DISCREPANCY_MODES,
+        default="auto",
+        help="model-discrepancy term that widens the intervals of an inadequate fit: auto (added "
+        "when the best model fails the goodness-of-fit check), never, always",
+    )
 
 
 def _drift_options(parser):
-    parser.add_argument("--sensor", choices=("gyro", "accel"),
-                        help="also write drift.csv / drift.png: attitude (gyro) or velocity and position (accel)")
+    parser.add_argument(
+        "--sensor",
+        choices=("gyro", "accel"),
+        help="also write drift.csv / drift.png: attitude (gyro) or velocity and position (accel)",
+    )
     parser.add_argument("--horizon", type=_ranged("time_s"), default=3600.0,
                         help="longest drift time (s, 1e-6 to 1e9), default 3600")
-    parser.add_argument("--bias-start", choices=BIAS_STARTS, default="calibrated",
-                        help="bias at the start of the outage: calibrated (default: the mean of the --calibration "
-                             "seconds before it is removed), zero (the paper) or stationary (never estimated)")
-    parser.add_argument("--calibration", type=_ranged("calibration_s"), default=DEFAULT_CALIBRATION_S, metavar="S",
-                        help=f"calibration window of --bias-start calibrated (s), default {DEFAULT_CALIBRATION_S:g}")
-    parser.add_argument("--times", type=_times, metavar="T1,T2,...",
-                        help="write drift.csv rows at exactly these times (s) instead of a log grid up to --horizon")
-    parser.add_argument("--display-units", choices=DISPLAY_CHOICES, default="si",
-                        help="units of drift.csv / drift.png: si (rad, m/s, m; default) or deg (attitude in degrees)")
+    parser.add_argument(
+        "--bias-start",
+        choices=BIAS_STARTS,
+        default="calibrated",
+        help="bias at the start of the outage: calibrated (default: the mean of the --calibration "
+        "seconds before it is removed), zero (the paper) or stationary (never estimated)",
+    )
+    parser.add_argument(
+        "--calibration",
+        type=_ranged("calibration_s"),
+        default=DEFAULT_CALIBRATION_S,
+        metavar="S",
+        help="calibration window of --bias-start calibrated (s), default "
+             f"{DEFAULT_CALIBRATION_S:g}",
+    )
+    parser.add_argument(
+        "--times",
+        type=_times,
+        metavar="T1,T2,...",
+        help="write drift.csv rows at exactly these times (s) instead of a log grid up to "
+             "--horizon",
+    )
+    parser.add_argument(
+        "--display-units",
+        choices=DISPLAY_CHOICES,
+        default="si",
+        help="units of drift.csv / drift.png: si (rad, m/s, m; default) or deg (attitude in "
+             "degrees)",
+    )
 
 
 def _cmd_fit_population(args):
@@ -546,9 +751,11 @@ def _cmd_fit_population(args):
     status = _pictures_status(args.picture_failures)
     d = run.population.diagnostics
     if not d["converged"]:
-        _warn(f"the population sampler did not converge (R-hat {d['rhat_max']:.3f}, effective draws "
-              f"{d['ess_hyper_min']:.0f}; needed < 1.01 and > 400): the numbers in {args.out} are not "
-              f"reliable (exit status {NOT_CONVERGED_STATUS})")
+        _warn(
+            f"the population sampler did not converge (R-hat {d['rhat_max']:.3f}, effective draws "
+            f"{d['ess_hyper_min']:.0f}; needed < 1.01 and > 400): the numbers in {args.out} are "
+            f"not reliable (exit status {NOT_CONVERGED_STATUS})"
+        )
         return NOT_CONVERGED_STATUS
     return status
 
@@ -577,7 +784,8 @@ def _say_population(args, run):
 
 
 def _cmd_fit_batch(args):
-    """Every log's own fit into a staged copy of --out (claimed, moved in whole: the rules of any output)."""
+    """Every log's own fit into a staged copy of --out (claimed, moved in whole: the rules of any
+    output)."""
     scheduler = "serial" if args.serial else args.scheduler
     run = run_fit_batch(_fit_request(args, log=None), args.logs, args.out, task=_fleet_fit,
                         scheduler=scheduler, n_workers=args.workers, force=args.force,
@@ -585,7 +793,10 @@ def _cmd_fit_batch(args):
     results, doc = run.results, run.summary
     failed = [r for r in results if not r.fitted]
     for r in failed:
-        print(f"bayes-imu: error: {r.name}: {r.error.removeprefix('bayes-imu: error: ')}", file=sys.stderr)
+        print(
+            f"bayes-imu: error: {r.name}: {r.error.removeprefix('bayes-imu: error: ')}",
+            file=sys.stderr,
+        )
     _say(args, f"{len(results) - len(failed)} of {len(results)} logs fitted in {run.seconds:.1f} s "
                f"({doc['logs_per_minute']:.1f} logs/min); wrote {args.out / 'batch.json'}")
     unpictured = [r for r in results if r.status == PICTURE_FAILED_STATUS]
@@ -626,7 +837,8 @@ def _cmd_drift(args):
 # ---------------------------------------------------------------------------- entry point
 
 def _checked(convert, ok, expected):
-    """An argparse type: ``convert(text)``, refused unless ``ok(value)``, with ``expected`` in the message."""
+    """An argparse type: ``convert(text)``, refused unless ``ok(value)``, with ``expected`` in the
+    message."""
     def check(text):
         try:
             value = convert(text)
@@ -665,7 +877,9 @@ def _times(text):
     try:
         values = [float(v) for v in text.split(",") if v.strip()]
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated times in seconds, got {text!r}") from None
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated times in seconds, got {text!r}"
+        ) from None
     low, high, _ = RANGES["time_s"]
     if not values or not all(np.isfinite(v) and low <= v <= high for v in values):
         raise argparse.ArgumentTypeError(f"expected times from {low:g} s to {high:g} s, got "
@@ -678,12 +892,14 @@ def _say(args, text):
         return
     try:
         print(text)
-    except BrokenPipeError:  # the reader left early (| head): the run goes on and writes its outputs, quietly
+    # the reader left early (| head): the run goes on and writes its outputs, quietly
+    except BrokenPipeError:
         _stdout_to_devnull()
 
 
 def _stdout_to_devnull():
-    """Standard output to the null device, for the rest of the run (what is still buffered is dropped there)."""
+    """Standard output to the null device, for the rest of the run (what is still buffered is
+    dropped there)."""
     devnull = os.open(os.devnull, os.O_WRONLY)
     try:
         os.dup2(devnull, sys.stdout.fileno())
@@ -709,7 +925,8 @@ def main(argv=None):
         return 2
     args.progress = show_progress(getattr(args, "quiet", False))
     args.picture_failures = []
-    logging.basicConfig(level=logging.WARNING, format="%(message)s")  # third-party loggers stay quiet
+    # third-party loggers stay quiet
+    logging.basicConfig(level=logging.WARNING, format="%(message)s")
     log.setLevel(logging.INFO)
     with warnings.catch_warnings(), _sigterm_as_interrupt():  # warnings shown the command's way
         warnings.simplefilter("default")
@@ -717,7 +934,8 @@ def main(argv=None):
         return _run(args)
 
 
-#: set by :func:`command`: the executable's fits write their outputs from a second process (report.worker)
+#: set by :func:`command`: the executable's fits write their outputs from a second process
+#: (report.worker)
 _EXECUTABLE = False
 
 
@@ -738,7 +956,8 @@ def command(argv=None):
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
-        except (BrokenPipeError, ValueError):  # a reader that left early (| head), or a closed stream
+        # a reader that left early (| head), or a closed stream
+        except (BrokenPipeError, ValueError):
             pass
     logging.shutdown()
     os._exit(status)
@@ -764,39 +983,48 @@ def _sigterm_as_interrupt():
         signal.signal(signal.SIGTERM, previous)
 
 
-#: the library's parameter names in its messages -> this command's flags (the library never names a flag)
-_FLAGS = ((re.compile(r"\bforce=True\b"), "--force"), (re.compile(r"\bscheduler='serial'"), "--serial"),
-          (re.compile(r"\bgaps='longest'"), "--gaps longest"), (re.compile(r"\bgive rate_hz or a time column\b"),
-                                                             "give --rate HZ or a --time-column"),
-          (re.compile(r"^(out|scheduler)="), r"--\1 "), (re.compile(r"^columns="), "--column "),
-          (re.compile(r"\bbut rate_hz is\b"), "but --rate is"), (re.compile(r"\(is rate_hz right\?\)"), "(is --rate right?)"),
-          (re.compile(r"\bgive a column\b"), "give --column"),
-          (re.compile(r"\btime_unit='(\w+)'"), r"--time-unit \1"),
-          (re.compile(r"\b(give|leave out) time_unit\b"), r"\1 --time-unit"),
-          (re.compile(r"\btrust_units\b"), "--trust-units"),
-          (re.compile(r"\bunits=(\S+) as given"), r"--units \1 as given"),
-          (re.compile(r"\bgive rate_hz="), "give --rate "),
-          (re.compile(r"\bgive rate_hz\b"), "give --rate HZ"),
-          (re.compile(r"\bthe time column and give\b"), "--time-column and give"),
-          (re.compile(r"\bgoes with a time column\b"), "goes with --time-column"),
-          (re.compile(r"^horizon_s="), "--horizon="),
-          # allan.pipeline's LogSource fields
-          (re.compile(r"^(column|units|datasheet)="), r"--\1 "),
-          (re.compile(r"\bbut sensor is\b"), "but --sensor is"),
-          (re.compile(r"\bleave out input='increments'"), "leave out --input"),
-          (re.compile(r"\binput='increments'"), "--input increments"),
-          (re.compile(r"\bneeds a (column|topic) \("), r"needs --\1 ("),
-          (re.compile(r"\bleave out column\b"), "leave out --column"),
-          (re.compile(r"^display_units='deg'"), "--display-units deg"),
-          (re.compile(r"\(give units\)"), "(give --units)"),
-          (re.compile(r"\ban Allan table needs rate_hz\b"), "--allan-table needs --rate HZ"),
-          (re.compile(r"\ba time column is not available out of core; give rate_hz\b"),
-           "--time-column is not available out of core; give --rate HZ"))
+#: the library's parameter names in its messages -> this command's flags (the library never names a
+#: flag)
+_FLAGS = (
+    (re.compile(r"\bforce=True\b"), "--force"),
+    (re.compile(r"\bscheduler='serial'"), "--serial"),
+    (re.compile(r"\bgaps='longest'"), "--gaps longest"),
+    (re.compile(r"\bgive rate_hz or a time column\b"), "give --rate HZ or a --time-column"),
+    (re.compile(r"^(out|scheduler)="), r"--\1 "),
+    (re.compile(r"^columns="), "--column "),
+    (re.compile(r"\bbut rate_hz is\b"), "but --rate is"),
+    (re.compile(r"\(is rate_hz right\?\)"), "(is --rate right?)"),
+    (re.compile(r"\bgive a column\b"), "give --column"),
+    (re.compile(r"\btime_unit='(\w+)'"), r"--time-unit \1"),
+    (re.compile(r"\b(give|leave out) time_unit\b"), r"\1 --time-unit"),
+    (re.compile(r"\btrust_units\b"), "--trust-units"),
+    (re.compile(r"\bunits=(\S+) as given"), r"--units \1 as given"),
+    (re.compile(r"\bgive rate_hz="), "give --rate "),
+    (re.compile(r"\bgive rate_hz\b"), "give --rate HZ"),
+    (re.compile(r"\bthe time column and give\b"), "--time-column and give"),
+    (re.compile(r"\bgoes with a time column\b"), "goes with --time-column"),
+    (re.compile(r"^horizon_s="), "--horizon="),
+    # allan.pipeline's LogSource fields
+    (re.compile(r"^(column|units|datasheet)="), r"--\1 "),
+    (re.compile(r"\bbut sensor is\b"), "but --sensor is"),
+    (re.compile(r"\bleave out input='increments'"), "leave out --input"),
+    (re.compile(r"\binput='increments'"), "--input increments"),
+    (re.compile(r"\bneeds a (column|topic) \("), r"needs --\1 ("),
+    (re.compile(r"\bleave out column\b"), "leave out --column"),
+    (re.compile(r"^display_units='deg'"), "--display-units deg"),
+    (re.compile(r"\(give units\)"), "(give --units)"),
+    (re.compile(r"\ban Allan table needs rate_hz\b"), "--allan-table needs --rate HZ"),
+    (
+        re.compile(r"\ba time column is not available out of core; give rate_hz\b"),
+        "--time-column is not available out of core; give --rate HZ",
+    ),
+)
 
 
 def as_flags(message):
-    """A library error message in this command's terms: ``out=X`` -> ``--out X``, ``force=True`` -> ``--force``
-    (parameters are named at the start of a message, so a path that contains ``out=`` is left alone)."""
+    """A library error message in this command's terms: ``out=X`` -> ``--out X``, ``force=True`` ->
+    ``--force`` (parameters are named at the start of a message, so a path that contains ``out=`` is
+    left alone)."""
     for pattern, flag in _FLAGS:
         message = pattern.sub(flag, message)
     return message
@@ -806,12 +1034,18 @@ def _run(args):
     try:
         return args.handler(args)
     except KeyboardInterrupt:
-        print("bayes-imu: interrupted (Ctrl-C): nothing was kept from this run; earlier results are unchanged",
-              file=sys.stderr)
+        print(
+            "bayes-imu: interrupted (Ctrl-C): nothing was kept from this run; earlier results are "
+            "unchanged",
+            file=sys.stderr,
+        )
         return 130
     except _Terminated:
-        print("bayes-imu: terminated (SIGTERM): nothing was kept from this run; earlier results are unchanged",
-              file=sys.stderr)
+        print(
+            "bayes-imu: terminated (SIGTERM): nothing was kept from this run; earlier results are "
+            "unchanged",
+            file=sys.stderr,
+        )
         return 143
     except BayesIMUError as exc:
         if args.debug or os.environ.get("BAYES_IMU_DEBUG") == "1":
@@ -821,7 +1055,8 @@ def _run(args):
     except Exception as exc:  # an internal error: one line, the traceback with --debug
         if args.debug or os.environ.get("BAYES_IMU_DEBUG") == "1":
             raise
-        reason = user_os_error(exc)  # a path, permission or full disk: the user's to fix (exit 2), not a bug
+        # a path, permission or full disk: the user's to fix (exit 2), not a bug
+        reason = user_os_error(exc)
         if reason is not None:
             print(f"bayes-imu: error: {reason}", file=sys.stderr)
             return 2

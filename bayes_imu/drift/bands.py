@@ -7,8 +7,9 @@ paper eqs 5, 11, 16, 22, 29 corrected, and the exact forms of the other terms). 
 are pointwise posterior quantiles of ``sigma(t)``.
 
 Model uncertainty: by default (``models="averaged"``) the draws come from every candidate
-model in proportion to its posterior probability (:attr:`bayes_imu.inference.fit.FitResult.mixture`);
-``models="selected"`` uses the selected model alone.
+model in proportion to its posterior probability
+(:attr:`bayes_imu.inference.fit.FitResult.mixture`); ``models="selected"`` uses the selected model
+alone.
 
 Non-stationary logs: when the fit's between-segment check flags the record
 (:mod:`bayes_imu.inference.stationarity`), each draw's drift is multiplied by ``exp(z s(t) / 2)``,
@@ -31,8 +32,17 @@ from ..errors import InputError, UnmeasuredWarning
 from ..noise import BIAS_STARTS, TERMS, NoiseModel
 from ..noise.quantities import SENSORS
 
-__all__ = ["SENSOR_QUANTITIES", "MODEL_CHOICES", "DEFAULT_CALIBRATION_S", "DriftBands", "drift_bands", "drift_draws",
-           "default_times", "integrated_unit", "model_draws"]
+__all__ = [
+    "SENSOR_QUANTITIES",
+    "MODEL_CHOICES",
+    "DEFAULT_CALIBRATION_S",
+    "DriftBands",
+    "drift_bands",
+    "drift_draws",
+    "default_times",
+    "integrated_unit",
+    "model_draws",
+]
 
 SENSOR_QUANTITIES = {name: s.quantities for name, s in SENSORS.items()}
 MODEL_CHOICES = ("averaged", "selected")
@@ -54,7 +64,8 @@ class DriftBands:
         quantization, high-frequency correlated) and of the rest (biases, random walk, ramp)
         (display aids; the bands themselves use every draw).
     crossover_s : float
-        First time where the median of the rest exceeds the median short-term part (``nan`` if never).
+        First time where the median of the rest exceeds the median short-term part (``nan`` if
+        never).
     bias_start : str
     record_s : float
         Duration of the fitted log (s); bands beyond it extrapolate the model (terms slower
@@ -108,10 +119,15 @@ class DriftBands:
         """The same bands in another unit (every drift value times ``factor``)."""
         from dataclasses import replace
 
-        return replace(self, total=self.total * factor, white=self.white * factor, bias=self.bias * factor,
-                       terms={n: v * factor for n, v in self.terms.items()},
-                       model_total=None if self.model_total is None else self.model_total * factor,
-                       check=None if self.check is None else self.check.scaled(factor))
+        return replace(
+            self,
+            total=self.total * factor,
+            white=self.white * factor,
+            bias=self.bias * factor,
+            terms={n: v * factor for n, v in self.terms.items()},
+            model_total=None if self.model_total is None else self.model_total * factor,
+            check=None if self.check is None else self.check.scaled(factor),
+        )
 
     def quantile(self, q):
         """Band at probability ``q`` (one of :attr:`quantiles`)."""
@@ -122,10 +138,16 @@ class DriftBands:
 
 
 def integrated_unit(unit, quantity):
-    """Unit of the integrated quantity: ``deg/s`` -> ``deg``; ``m/s^2`` -> ``m/s`` or ``m``; else ``u s^n``."""
+    """Unit of the integrated quantity: ``deg/s`` -> ``deg``; ``m/s^2`` -> ``m/s`` or ``m``; else
+    ``u s^n``."""
     order = QUANTITY_ORDER[quantity]
-    known = {"rad/s": ("rad", "rad s"), "deg/s": ("deg", "deg s"), "deg/h": ("deg s/h", "deg s^2/h"),
-             "m/s^2": ("m/s", "m"), "m/s2": ("m/s", "m")}
+    known = {
+        "rad/s": ("rad", "rad s"),
+        "deg/s": ("deg", "deg s"),
+        "deg/h": ("deg s/h", "deg s^2/h"),
+        "m/s^2": ("m/s", "m"),
+        "m/s2": ("m/s", "m"),
+    }
     if unit in known:
         return known[unit][order - 1]
     return f"{unit} s" if order == 1 else f"{unit} s^2"
@@ -134,7 +156,9 @@ def integrated_unit(unit, quantity):
 def default_times(dt, horizon_s=3600.0, n=60):
     """Log-spaced whole-sample times from one sample to ``horizon_s`` (at least ``n`` distinct)."""
     if not (np.isfinite(horizon_s) and horizon_s > dt):
-        raise InputError(f"horizon={horizon_s!r} s: expected a time longer than one sample ({dt} s)")
+        raise InputError(
+            f"horizon={horizon_s!r} s: expected a time longer than one sample ({dt} s)"
+        )
     k = np.unique(np.round(np.geomspace(1.0, horizon_s / dt, n)))
     extra = n
     while k.size < min(n, int(horizon_s / dt)):
@@ -144,7 +168,8 @@ def default_times(dt, horizon_s=3600.0, n=60):
 
 
 def model_draws(fit, models="averaged"):
-    """``[(NoiseModel, samples), ...]``: the mixture of candidates (``"averaged"``) or the selected model."""
+    """``[(NoiseModel, samples), ...]``: the mixture of candidates (``"averaged"``) or the selected
+    model."""
     if models not in MODEL_CHOICES:
         raise InputError(f"models={models!r}: expected one of {', '.join(MODEL_CHOICES)}")
     if models == "selected" or not getattr(fit, "mixture", ()):
@@ -159,8 +184,19 @@ def _check_times(t):
     return t
 
 
-def drift_draws(fit, t, *, quantity, bias_start="calibrated", calibration_s=DEFAULT_CALIBRATION_S, models="averaged",
-                max_draws=None, rng=None, component_draws=slice(None), segment_spread=True):
+def drift_draws(
+    fit,
+    t,
+    *,
+    quantity,
+    bias_start="calibrated",
+    calibration_s=DEFAULT_CALIBRATION_S,
+    models="averaged",
+    max_draws=None,
+    rng=None,
+    component_draws=slice(None),
+    segment_spread=True,
+):
     """Per-draw 1-sigma drift of ``quantity`` at times ``t`` [s].
 
     ``segment_spread``: include the between-segment spread of a log flagged non-stationary
@@ -180,7 +216,9 @@ def drift_draws(fit, t, *, quantity, bias_start="calibrated", calibration_s=DEFA
         raise InputError(f"bias_start={bias_start!r}: expected one of {', '.join(BIAS_STARTS)}")
     dt = fit.model.dt
     if not (np.isfinite(calibration_s) and calibration_s >= dt):
-        raise InputError(f"calibration={calibration_s!r} s: expected at least one sample ({dt:g} s)")
+        raise InputError(
+            f"calibration={calibration_s!r} s: expected at least one sample ({dt:g} s)"
+        )
     order = QUANTITY_ORDER[quantity]
     t = _check_times(t)
     k = np.round(t / dt)
@@ -191,7 +229,10 @@ def drift_draws(fit, t, *, quantity, bias_start="calibrated", calibration_s=DEFA
     if max_draws is not None and n_all > max_draws:
         keep = np.sort(rng.choice(n_all, size=max_draws, replace=False))
         bounds = np.cumsum([0] + [p[1].shape[0] for p in parts])
-        parts = [(m, s[keep[(keep >= lo) & (keep < hi)] - lo]) for (m, s), lo, hi in zip(parts, bounds[:-1], bounds[1:])]
+        parts = [
+            (m, s[keep[(keep >= lo) & (keep < hi)] - lo])
+            for (m, s), lo, hi in zip(parts, bounds[:-1], bounds[1:])
+        ]
         n_all = max_draws
     names = _term_order(parts)
     short, rest = np.zeros((n_all, k.size)), np.zeros((n_all, k.size))
@@ -211,12 +252,18 @@ def drift_draws(fit, t, *, quantity, bias_start="calibrated", calibration_s=DEFA
     steady = getattr(fit, "stationarity", None)
     if segment_spread and steady is not None and not steady.stationary:
         total = total * np.exp(rng.standard_normal((n_all, 1)) * steady.drift_log_sd(k * dt))
-    return {"t_s": k * dt, "total": total, "white": np.sqrt(short[component_draws]),
-            "bias": np.sqrt(rest[component_draws]), "terms": {n: np.sqrt(v) for n, v in variances.items()}}
+    return {
+        "t_s": k * dt,
+        "total": total,
+        "white": np.sqrt(short[component_draws]),
+        "bias": np.sqrt(rest[component_draws]),
+        "terms": {n: np.sqrt(v) for n, v in variances.items()},
+    }
 
 
 def _component_subset(n, limit=1000):
-    """Every draw up to ``limit``, else an evenly spaced subset (component medians are display aids)."""
+    """Every draw up to ``limit``, else an evenly spaced subset (component medians are display
+    aids)."""
     return slice(None) if n <= limit else slice(None, None, int(np.ceil(n / limit)))
 
 
@@ -225,9 +272,21 @@ def _term_order(parts):
     return [t for t in TERMS if t in present]
 
 
-def drift_bands(fit, t=None, *, quantity, bias_start="calibrated", calibration_s=DEFAULT_CALIBRATION_S, models="averaged",
-                quantiles=(0.05, 0.5, 0.95), horizon_s=3600.0, max_draws=None, rng=None, segment_spread=True,
-                honest=True):
+def drift_bands(
+    fit,
+    t=None,
+    *,
+    quantity,
+    bias_start="calibrated",
+    calibration_s=DEFAULT_CALIBRATION_S,
+    models="averaged",
+    quantiles=(0.05, 0.5, 0.95),
+    horizon_s=3600.0,
+    max_draws=None,
+    rng=None,
+    segment_spread=True,
+    honest=True,
+):
     """Posterior quantiles of the 1-sigma drift of ``quantity`` at times ``t`` (s).
 
     Parameters
@@ -261,9 +320,18 @@ def drift_bands(fit, t=None, *, quantity, bias_start="calibrated", calibration_s
     t = default_times(fit.model.dt, horizon_s) if t is None else t
     n = sum(s.shape[0] for _, s in model_draws(fit, models))
     sub = _component_subset(n if max_draws is None else min(n, max_draws))
-    draws = drift_draws(fit, t, quantity=quantity, bias_start=bias_start, calibration_s=calibration_s, models=models,
-                        max_draws=max_draws, rng=rng, component_draws=sub,
-                        segment_spread=segment_spread)
+    draws = drift_draws(
+        fit,
+        t,
+        quantity=quantity,
+        bias_start=bias_start,
+        calibration_s=calibration_s,
+        models=models,
+        max_draws=max_draws,
+        rng=rng,
+        component_draws=sub,
+        segment_spread=segment_spread,
+    )
     q = np.asarray(quantiles, dtype=float)
     white = np.median(draws["white"], axis=0)
     bias = np.median(draws["bias"], axis=0)
@@ -274,13 +342,30 @@ def drift_bands(fit, t=None, *, quantity, bias_start="calibrated", calibration_s
     # for the other models would understate a term that few, but heavy, models carry)
     terms = {n: np.median(v[np.isfinite(v[:, 0])], axis=0) for n, v in draws["terms"].items()
              if np.isfinite(v[:, 0]).any()}
-    probability = {n: float(np.mean(np.isfinite(v[:, 0]))) for n, v in draws["terms"].items() if n in terms}
+    probability = {
+        n: float(np.mean(np.isfinite(v[:, 0]))) for n, v in draws["terms"].items() if n in terms
+    }
     cal = float(calibration_s) if bias_start == "calibrated" else float("nan")
     total = np.quantile(draws["total"], q, axis=0)
-    measured = direct_part(fit, draws, quantity, bias_start, calibration_s, q, total) if honest else None
-    return DriftBands(draws["t_s"], quantity, q, total if measured is None else measured[0], white, bias, crossover,
-                      bias_start, record, terms, cal, models, probability,
-                      *((float("nan"), None, None) if measured is None else measured[1:]))
+    measured = (
+        direct_part(fit, draws, quantity, bias_start, calibration_s, q, total) if honest else None
+    )
+    return DriftBands(
+        draws["t_s"],
+        quantity,
+        q,
+        total if measured is None else measured[0],
+        white,
+        bias,
+        crossover,
+        bias_start,
+        record,
+        terms,
+        cal,
+        models,
+        probability,
+        *((float("nan"), None, None) if measured is None else measured[1:]),
+    )
 
 
 def _warn_other_window(fit, quantity, bias_start, calibration_s):
@@ -293,18 +378,22 @@ def _warn_other_window(fit, quantity, bias_start, calibration_s):
     if (measured is None or bias_start != "calibrated" or QUANTITY_ORDER[quantity] != 1
             or same_window(measured, calibration_s)):
         return False
-    warnings.warn(f"the record measured its own drift for a {measured.calibration_s:g} s calibration "
-                  f"window, not the {calibration_s:g} s asked: these bands are the model's alone; "
-                  f"compute the Allan variance with contrast_span_s={calibration_s:g} for bands that "
-                  "contain what the record shows", UnmeasuredWarning, stacklevel=4)
+    warnings.warn(
+        f"the record measured its own drift for a {measured.calibration_s:g} s calibration "
+        f"window, not the {calibration_s:g} s asked: these bands are the model's alone; "
+        f"compute the Allan variance with contrast_span_s={calibration_s:g} for bands that "
+        "contain what the record shows",
+        UnmeasuredWarning,
+        stacklevel=4,
+    )
     return True
 
 
 def direct_part(fit, draws, quantity, bias_start, calibration_s, q, total):
-    """``(honest total, measured_s, model total, DriftCheck)``, or ``None`` where the record measures
-    nothing of these drift semantics (:mod:`bayes_imu.drift.direct`); at a calibration window other
-    than the one the record measured, the model's band with ``measured_s = 0`` (every horizon marked
-    extrapolated) and a warning."""
+    """``(honest total, measured_s, model total, DriftCheck)``, or ``None`` where the record
+    measures nothing of these drift semantics (:mod:`bayes_imu.drift.direct`); at a calibration
+    window other than the one the record measured, the model's band with ``measured_s = 0`` (every
+    horizon marked extrapolated) and a warning."""
     contrasts = direct_contrasts(fit, quantity, bias_start, calibration_s)
     if contrasts is None:
         if _warn_other_window(fit, quantity, bias_start, calibration_s):

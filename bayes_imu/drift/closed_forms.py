@@ -171,7 +171,9 @@ def gauss_markov_driving_variance(bias_variance, time_constant, dt, *, discretiz
     to the continuous PSD ``2 sigma_b**2 / tau`` times ``1/dt`` as ``dt -> 0``.
     """
     _check_choice("discretization", discretization, _DISCRETIZATIONS)
-    a = _step_ratio(np.asarray(dt, dtype=float), np.asarray(time_constant, dtype=float), discretization)
+    a = _step_ratio(
+        np.asarray(dt, dtype=float), np.asarray(time_constant, dtype=float), discretization
+    )
     return np.asarray(bias_variance, dtype=float) * a * (2.0 - a) / np.asarray(dt, dtype=float) ** 2
 
 
@@ -252,10 +254,14 @@ def drift_sigma(
     dt = _positive("dt", dt)
     t = np.asarray(t, dtype=float)
     if np.any(~np.isfinite(t) | (t < 0)):
-        raise InputError(f"t={t[~np.isfinite(t) | (t < 0)].flat[0]!r}: expected finite times >= 0 (s)")
+        raise InputError(
+            f"t={t[~np.isfinite(t) | (t < 0)].flat[0]!r}: expected finite times >= 0 (s)"
+        )
     k = np.round(t / dt)
     if noise_density is not None:
-        noise_variance = noise_density_to_variance(_positive("noise_density", noise_density, allow_zero=True), dt)
+        noise_variance = noise_density_to_variance(
+            _positive("noise_density", noise_density, allow_zero=True), dt
+        )
     q_white = 0.0 if noise_variance is None else noise_variance
     white = euler_variance("white", order, k, dt=dt, noise_variance=q_white)
 
@@ -265,7 +271,9 @@ def drift_sigma(
     # q dt**2 = sigma_b**2 a (2 - a): the variance in units of dt**(2 order)
     bias = sigma_b2 * a * (2.0 - a) * dt ** (2 * order) * gm_sum_broadcast(order, k, a)
     if bias_start == "stationary":
-        bias = bias + sigma_b2 * (dt**order * gm_coefficient(order, *np.broadcast_arrays(k, a))) ** 2
+        bias = (
+            bias + sigma_b2 * (dt**order * gm_coefficient(order, *np.broadcast_arrays(k, a))) ** 2
+        )
 
     k_rw = _positive("random_walk", random_walk, allow_zero=True)
     rw = k_rw**2 * dt ** (2 * order + 1) * gm_sum(order, *np.broadcast_arrays(k, np.zeros_like(k)))

@@ -1,4 +1,5 @@
-"""The drift the record itself shows: a drift-space adequacy check and bands honest within the record.
+"""The drift the record itself shows: a drift-space adequacy check and bands honest within the
+record.
 
 For a calibrated outage (``bias_start="calibrated"``) of attitude or velocity the error is a
 fixed contrast of the phase record, whose mean square the log measures without a model
@@ -35,8 +36,18 @@ from ..noise.contrast_covariance import contrast_edf
 
 special = LazyModule("scipy.special")
 
-__all__ = ["DriftCheck", "drift_check", "direct_contrasts", "direct_edf", "honest_quantiles", "record_drift_check",
-           "unmeasured_reason", "same_window", "record_edf_floor", "DRIFT_ALPHA"]
+__all__ = [
+    "DriftCheck",
+    "drift_check",
+    "direct_contrasts",
+    "direct_edf",
+    "honest_quantiles",
+    "record_drift_check",
+    "unmeasured_reason",
+    "same_window",
+    "record_edf_floor",
+    "DRIFT_ALPHA",
+]
 
 #: false-alarm rate of the drift-space check on a correct model
 DRIFT_ALPHA = 0.05
@@ -88,8 +99,15 @@ class DriftCheck:
         from dataclasses import replace
 
         f = abs(factor)
-        return replace(self, direct=self.direct * f, direct_low=self.direct_low * f, direct_high=self.direct_high * f,
-                       model_q05=self.model_q05 * f, model_q50=self.model_q50 * f, model_q95=self.model_q95 * f)
+        return replace(
+            self,
+            direct=self.direct * f,
+            direct_low=self.direct_low * f,
+            direct_high=self.direct_high * f,
+            model_q05=self.model_q05 * f,
+            model_q50=self.model_q50 * f,
+            model_q95=self.model_q95 * f,
+        )
 
     def _edf_interval(self):
         return self.edf if self.edf_interval is None else self.edf_interval
@@ -112,9 +130,15 @@ class DriftCheck:
                     self.t_s, self.direct, self.direct_low, self.direct_high, self.edf,
                     self.model_q05, self.model_q50, self.model_q95, self.p_value,
                     self._edf_interval())]
-        return {"adequate": self.adequate, "p_value": float(self.p_combined), "alpha": DRIFT_ALPHA,
-                "worst_t_s": self.worst_t_s, "calibration_s": float(self.calibration_s), "unit": unit,
-                "horizons": rows}
+        return {
+            "adequate": self.adequate,
+            "p_value": float(self.p_combined),
+            "alpha": DRIFT_ALPHA,
+            "worst_t_s": self.worst_t_s,
+            "calibration_s": float(self.calibration_s),
+            "unit": unit,
+            "horizons": rows,
+        }
 
 
 def same_window(contrasts, calibration_s):
@@ -144,12 +168,14 @@ def _reference_point(fit):
 
 def direct_edf(fit, contrasts, t):
     """EDF of the record's direct estimate at outages ``t`` [s] under the fit's reference point:
-    exact at up to :data:`_EDF_PER_DECADE` outages per decade spanning ``t``, interpolated in log-log
-    between them (the EDF is smooth in the outage length)."""
+    exact at up to :data:`_EDF_PER_DECADE` outages per decade spanning ``t``, interpolated in
+    log-log between them (the EDF is smooth in the outage length)."""
     model, params = _reference_point(fit)
     k = np.round(np.asarray(t, dtype=float) * contrasts.rate_hz)
     lo, hi = k.min(), k.max()
-    nodes = np.unique(np.round(np.geomspace(lo, hi, max(2, int(np.log10(hi / lo) * _EDF_PER_DECADE) + 2))))
+    nodes = np.unique(
+        np.round(np.geomspace(lo, hi, max(2, int(np.log10(hi / lo) * _EDF_PER_DECADE) + 2)))
+    )
     if nodes.size >= k.size:
         return contrast_edf(model, params, k, contrasts.n_cal, contrasts.n_samples,
                             contrast_stride(k, contrasts.n_cal))
@@ -192,7 +218,8 @@ def honest_quantiles(quantiles, total, mean_square, edf):
     """
     q = np.asarray(quantiles, dtype=float)[:, None]
     nu = np.where(np.isfinite(mean_square), edf, 1.0)
-    direct = np.sqrt(nu * mean_square / special.gammainccinv(nu / 2.0, q) / 2.0)  # P(chi2_nu > c) = q
+    # P(chi2_nu > c) = q
+    direct = np.sqrt(nu * mean_square / special.gammainccinv(nu / 2.0, q) / 2.0)
     lower = np.where(np.isfinite(direct), np.minimum(total, direct), total)
     upper = np.where(np.isfinite(direct), np.maximum(total, direct), total)
     return np.where(q < 0.5, lower, np.where(q > 0.5, upper, total))
@@ -231,14 +258,25 @@ def unmeasured_reason(fit, bias_start, calibration_s):
     if contrasts is None:
         return "the log's samples were not kept (an Allan table, or a log read out of core)"
     if not same_window(contrasts, calibration_s):
-        return f"measured for a {contrasts.calibration_s:g} s calibration window, not {calibration_s:g} s"
+        return (
+            f"measured for a {contrasts.calibration_s:g} s calibration window, not "
+            f"{calibration_s:g} s"
+        )
     if contrasts.k.size == 0:
         return f"the log is shorter than twice the {calibration_s:g} s calibration window"
     return None
 
 
-def record_drift_check(fit, t, *, bias_start="calibrated", calibration_s=60.0, models="averaged", rng=None,
-                       max_draws=_CHECK_DRAWS):
+def record_drift_check(
+    fit,
+    t,
+    *,
+    bias_start="calibrated",
+    calibration_s=60.0,
+    models="averaged",
+    rng=None,
+    max_draws=_CHECK_DRAWS,
+):
     """The :class:`DriftCheck` of ``fit`` at horizons ``t`` [s] (attitude / velocity, order 1), or
     ``None`` where the record measures nothing of these semantics (:func:`unmeasured_reason`);
     ``max_draws`` posterior draws (a random subset, ``rng``)."""
@@ -250,5 +288,13 @@ def record_drift_check(fit, t, *, bias_start="calibrated", calibration_s=60.0, m
     inside = fit.allan.contrasts.covers(t)
     if not inside.any():
         return None
-    return drift_bands(fit, t[inside], quantity="attitude", bias_start=bias_start,
-                       calibration_s=calibration_s, models=models, rng=rng, max_draws=max_draws).check
+    return drift_bands(
+        fit,
+        t[inside],
+        quantity="attitude",
+        bias_start=bias_start,
+        calibration_s=calibration_s,
+        models=models,
+        rng=rng,
+        max_draws=max_draws,
+    ).check

@@ -24,7 +24,8 @@ _AMOUNT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\s\d
 
 
 def display_unit(unit, display):
-    """``(shown unit, factor from unit)``: ``rad`` shown as ``deg`` with ``display="deg"``, else unchanged."""
+    """``(shown unit, factor from unit)``: ``rad`` shown as ``deg`` with ``display="deg"``, else
+    unchanged."""
     if display not in DISPLAY_CHOICES:
         raise InputError(f"display units {display!r}: expected one of {', '.join(DISPLAY_CHOICES)}")
     if display == "deg" and unit == "rad":
@@ -33,15 +34,20 @@ def display_unit(unit, display):
 
 
 def parse_amount(value, quantity, where):
-    """An amount of ``quantity`` in SI: a number (SI already) or a string with a unit, e.g. ``"0.5 deg"``."""
+    """An amount of ``quantity`` in SI: a number (SI already) or a string with a unit, e.g. ``"0.5
+    deg"``."""
     units = QUANTITY_UNITS[quantity]
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-        raise InputError(f"{where}: {value!r}: expected a positive number (SI) or a string like '0.5 "
-                         f"{list(units)[0]}'")
+        raise InputError(
+            f"{where}: {value!r}: expected a positive number (SI) or a string like '0.5 "
+            f"{list(units)[0]}'"
+        )
     if isinstance(value, str):
         match = _AMOUNT.match(value)
         if not match or (match.group(2) or "") not in units:
-            raise InputError(f"{where}: {value!r}: expected a number and a unit, one of {', '.join(units)}")
+            raise InputError(
+                f"{where}: {value!r}: expected a number and a unit, one of {', '.join(units)}"
+            )
         number, unit = float(match.group(1)), match.group(2)
     else:
         number, unit = float(value), next(iter(units))

@@ -2,8 +2,8 @@
 
 Owns the AVAR likelihoods (:mod:`~bayes_imu.inference.likelihood`), evidences, model selection
 and the adequacy check (:mod:`~bayes_imu.inference.selection`), the stationarity check
-(:mod:`~bayes_imu.inference.stationarity`), R-hat and ESS (:mod:`~bayes_imu.inference.diagnostics`), the emcee
-ensemble (:mod:`~bayes_imu.inference.sampling`), the sampler and :class:`FitResult`
+(:mod:`~bayes_imu.inference.stationarity`), R-hat and ESS (:mod:`~bayes_imu.inference.diagnostics`),
+the emcee ensemble (:mod:`~bayes_imu.inference.sampling`), the sampler and :class:`FitResult`
 (:mod:`~bayes_imu.inference.fit`), the hierarchical population fit
 (:mod:`~bayes_imu.inference.population`) and saved fits (:mod:`~bayes_imu.inference.archive`).
 """

@@ -48,7 +48,13 @@ _UG = 1.0 / (9.80665 * 1e-6)
 _UNITS = {
     "random_walk": (_DEG * 60.0, "deg/sqrt(h)", 60.0, "m/s/sqrt(h)", "{u}/sqrt(Hz)"),
     "bias_instability": (_DEG * 3600.0, "deg/h", _UG, "ug", "{u}"),
-    "rate_random_walk": (_DEG * 3600.0**1.5, "deg/h/sqrt(h)", 3600.0**1.5, "m/s/h/sqrt(h)", "{u}/sqrt(s)"),
+    "rate_random_walk": (
+        _DEG * 3600.0**1.5,
+        "deg/h/sqrt(h)",
+        3600.0**1.5,
+        "m/s/h/sqrt(h)",
+        "{u}/sqrt(s)",
+    ),
 }
 _NAMES = {"gyro": ("angle_random_walk", "bias_instability", "rate_random_walk"),
           "accel": ("velocity_random_walk", "bias_instability", "acceleration_random_walk"),
@@ -80,8 +86,14 @@ def _adev_draws(fit, m, rng=None):
 
 def _entry(values, factor, unit, what, **extra):
     v = np.asarray(values, float) * factor
-    return {"median": float(np.median(v)), "q05": float(np.quantile(v, 0.05)), "q95": float(np.quantile(v, 0.95)),
-            "unit": unit, "what": what, **extra}
+    return {
+        "median": float(np.median(v)),
+        "q05": float(np.quantile(v, 0.05)),
+        "q95": float(np.quantile(v, 0.95)),
+        "unit": unit,
+        "what": what,
+        **extra,
+    }
 
 
 def allan_readout(fit, kind=None, *, unit="u"):
@@ -103,7 +115,9 @@ def allan_readout(fit, kind=None, *, unit="u"):
     """
     dt = fit.model.dt
     lo, hi = float(fit.allan.tau[0]), float(fit.allan.tau[-1])
-    m = np.unique(np.round(np.geomspace(max(1.0, lo / dt), max(1.0, hi / dt), 160))).astype(np.int64)
+    m = np.unique(np.round(np.geomspace(max(1.0, lo / dt), max(1.0, hi / dt), 160))).astype(
+        np.int64
+    )
     m_extra = np.unique(np.round([1.0 / dt, 3.0 / dt])).clip(1).astype(np.int64)
     adev, white = _adev_draws(fit, np.concatenate((m, m_extra)))
     tau = m * dt
@@ -112,7 +126,9 @@ def allan_readout(fit, kind=None, *, unit="u"):
     idx = np.argmin(grid, axis=1)
     floor = grid[np.arange(grid.shape[0]), idx]
     k_line = grid[:, -1] * np.sqrt(3.0 / tau[-1])
-    slope = np.log(grid[:, -1] / grid[:, max(0, m.size - 9)]) / np.log(tau[-1] / tau[max(0, m.size - 9)])
+    slope = np.log(grid[:, -1] / grid[:, max(0, m.size - 9)]) / np.log(
+        tau[-1] / tau[max(0, m.size - 9)]
+    )
     # repeatability between parts: each reading widened by the parts' read of the terms behind it
     reads, steady = getattr(fit, "part_reads", None), getattr(fit, "stationarity", None)
     groups = [kalibr_group(fit.model, role) for role in ("noise_density", "random_walk")]
@@ -128,14 +144,28 @@ def allan_readout(fit, kind=None, *, unit="u"):
         return (1.0, row[4].format(u=unit)) if pick is None else (row[pick], row[pick + 1])
 
     out = {
-        names[0]: _entry(at1, *units("random_walk"), "-1/2-slope line of the Allan deviation read at tau = 1 s",
-                         tau_s=float(m_extra[0] * dt)),
-        names[1]: _entry(floor / BI_FLOOR, *units("bias_instability"),
-                         "flat minimum of the Allan deviation / 0.664 over the fitted averaging times",
-                         tau_s=float(np.median(tau[idx])), at_edge=float(np.mean(idx == m.size - 1))),
-        names[2]: _entry(k_line, *units("rate_random_walk"),
-                         "+1/2-slope line through the Allan deviation at the longest fitted tau, read at 3 s",
-                         tau_s=float(tau[-1]), rising=float(np.mean(slope > 0.25))),
-        "white_noise_density": _entry(white, *units("random_walk"), "white term alone, sqrt(noise_variance dt)"),
+        names[0]: _entry(
+            at1,
+            *units("random_walk"),
+            "-1/2-slope line of the Allan deviation read at tau = 1 s",
+            tau_s=float(m_extra[0] * dt),
+        ),
+        names[1]: _entry(
+            floor / BI_FLOOR,
+            *units("bias_instability"),
+            "flat minimum of the Allan deviation / 0.664 over the fitted averaging times",
+            tau_s=float(np.median(tau[idx])),
+            at_edge=float(np.mean(idx == m.size - 1)),
+        ),
+        names[2]: _entry(
+            k_line,
+            *units("rate_random_walk"),
+            "+1/2-slope line through the Allan deviation at the longest fitted tau, read at 3 s",
+            tau_s=float(tau[-1]),
+            rising=float(np.mean(slope > 0.25)),
+        ),
+        "white_noise_density": _entry(
+            white, *units("random_walk"), "white term alone, sqrt(noise_variance dt)"
+        ),
     }
     return out

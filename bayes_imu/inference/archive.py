@@ -1,9 +1,11 @@
-"""A fit saved with its folder (``fit.npz``) and read back, so reports reuse fits instead of refitting.
+"""A fit saved with its folder (``fit.npz``) and read back, so reports reuse fits instead of
+refitting.
 
-``fit.npz`` (NumPy archive, no pickles) holds everything a :class:`~bayes_imu.inference.fit.FitResult`
-needs except the ArviZ ``InferenceData`` (``posterior.nc`` beside it): the Allan variance,
-the draws of the selected model and of every model-averaging component, the candidates'
-evidences, the adequacy and stationarity checks, the covariance and the diagnostics.
+``fit.npz`` (NumPy archive, no pickles) holds everything a
+:class:`~bayes_imu.inference.fit.FitResult` needs except the ArviZ ``InferenceData``
+(``posterior.nc`` beside it): the Allan variance, the draws of the selected model and of every
+model-averaging component, the candidates' evidences, the adequacy and stationarity checks, the
+covariance and the diagnostics.
 
 An archive is untrusted input (a report reads fit folders it did not write): :func:`load_fit`
 reads the arrays' headers first and refuses an archive whose arrays declare more bytes than
@@ -45,23 +47,51 @@ def save_fit(fit, path):
     """Write ``fit`` to ``path`` (a ``.npz`` file)."""
     a, q, st = fit.allan, fit.adequacy, getattr(fit, "stationarity", None)
     meta = {
-        "format": _FORMAT, "terms": list(fit.model.terms), "dt": fit.model.dt, "likelihood": fit.likelihood,
-        "selected": int(fit.selected), "widened": bool(fit.widened), "diagnostics": fit.diagnostics,
+        "format": _FORMAT,
+        "terms": list(fit.model.terms),
+        "dt": fit.model.dt,
+        "likelihood": fit.likelihood,
+        "selected": int(fit.selected),
+        "widened": bool(fit.widened),
+        "diagnostics": fit.diagnostics,
         "seed": fit.seed if isinstance(fit.seed, (int, type(None))) else str(fit.seed),
-        "allan": {"confidence": a.confidence, "rate_hz": a.rate_hz, "n_samples": int(a.n_samples),
-                  "sensor": getattr(a, "sensor", None)},
-        "candidates": [{"terms": list(c.terms), "log_evidence": c.log_evidence, "se": c.log_evidence_se,
-                        "ess": c.ess, "method": c.method} for c in fit.candidates],
+        "allan": {
+            "confidence": a.confidence,
+            "rate_hz": a.rate_hz,
+            "n_samples": int(a.n_samples),
+            "sensor": getattr(a, "sensor", None),
+        },
+        "candidates": [
+            {
+                "terms": list(c.terms),
+                "log_evidence": c.log_evidence,
+                "se": c.log_evidence_se,
+                "ess": c.ess,
+                "method": c.method,
+            }
+            for c in fit.candidates
+        ],
         "mixture": [{"terms": list(c.terms), "probability": c.probability} for c in fit.mixture],
         "adequacy": None if q is None else {**q.to_dict(), "residuals": None},
         "segments": None if a.segments is None else {"n_samples": int(a.segments.n_samples)},
-        "contrasts": None if getattr(a, "contrasts", None) is None else {"n_cal": int(a.contrasts.n_cal)},
-        "stationarity": None if st is None else {"stationary": bool(st.stationary), "p_value": float(st.p_value),
-                                                 "worst_tau_s": float(st.worst_tau_s)},
+        "contrasts": None
+        if getattr(a, "contrasts", None) is None
+        else {"n_cal": int(a.contrasts.n_cal)},
+        "stationarity": None
+        if st is None
+        else {
+            "stationary": bool(st.stationary),
+            "p_value": float(st.p_value),
+            "worst_tau_s": float(st.worst_tau_s),
+        },
     }
     arrays = {f"allan_{k}": getattr(a, k) for k in _ALLAN_ARRAYS}
-    arrays.update(samples=fit.samples, log_prob=fit.log_prob, covariance=fit.covariance,
-                  probabilities=np.asarray(fit.probabilities if fit.probabilities is not None else []))
+    arrays.update(
+        samples=fit.samples,
+        log_prob=fit.log_prob,
+        covariance=fit.covariance,
+        probabilities=np.asarray(fit.probabilities if fit.probabilities is not None else []),
+    )
     for i, c in enumerate(fit.candidates):
         arrays[f"mode_{i}"] = np.asarray(c.mode)
     for i, c in enumerate(fit.mixture):
@@ -73,7 +103,11 @@ def save_fit(fit, path):
     if getattr(a, "contrasts", None) is not None:
         arrays.update(contrasts_k=a.contrasts.k, contrasts_mean_square=a.contrasts.mean_square)
     if st is not None:
-        arrays.update(stationarity_tau=st.tau_s, stationarity_adev=st.segment_adev, stationarity_spread=st.spread)
+        arrays.update(
+            stationarity_tau=st.tau_s,
+            stationarity_adev=st.segment_adev,
+            stationarity_spread=st.spread,
+        )
     with open(path, "wb") as f:
         np.savez_compressed(f, meta=np.array(json.dumps(meta)), **arrays)
 
@@ -100,8 +134,14 @@ def load_fit(path):
     path = Path(path)
     file = path / ARCHIVE_NAME if path.is_dir() else path
     if not file.is_file():
-        hint = " (a folder written by an older bayes_imu: run bayes-imu fit again)" if path.is_dir() else ""
-        raise InputError(f"{path}: no {ARCHIVE_NAME}; expected a folder written by bayes-imu fit{hint}")
+        hint = (
+            " (a folder written by an older bayes_imu: run bayes-imu fit again)"
+            if path.is_dir()
+            else ""
+        )
+        raise InputError(
+            f"{path}: no {ARCHIVE_NAME}; expected a folder written by bayes-imu fit{hint}"
+        )
     _check_sizes(file)
     try:
         with np.load(file, allow_pickle=False) as z:
@@ -118,32 +158,94 @@ def load_fit(path):
     except (KeyError, TypeError, ValueError, IndexError) as exc:
         raise InputError(f"{file}: damaged or crafted fit archive: {_short(exc)}") from None
     seg = meta.get("segments")
-    segments = None if seg is None else SegmentAllan(data["segments_m"], data["segments_avar"], seg["n_samples"])
+    segments = (
+        None
+        if seg is None
+        else SegmentAllan(data["segments_m"], data["segments_avar"], seg["n_samples"])
+    )
     con = meta.get("contrasts")
     n_all, rate = meta["allan"]["n_samples"], meta["allan"]["rate_hz"]
-    contrasts = None if con is None else PhaseContrasts(data["contrasts_k"], con["n_cal"],
-                                                        data["contrasts_mean_square"],
-                                                        n_all - con["n_cal"] - data["contrasts_k"] + 1, rate, n_all)
-    allan = AllanResult(**{k: data[f"allan_{k}"] for k in _ALLAN_ARRAYS}, confidence=meta["allan"]["confidence"],
-                        rate_hz=rate, n_samples=n_all, segments=segments, contrasts=contrasts,
-                        sensor=meta["allan"].get("sensor"))
+    contrasts = (
+        None
+        if con is None
+        else PhaseContrasts(
+            data["contrasts_k"],
+            con["n_cal"],
+            data["contrasts_mean_square"],
+            n_all - con["n_cal"] - data["contrasts_k"] + 1,
+            rate,
+            n_all,
+        )
+    )
+    allan = AllanResult(
+        **{k: data[f"allan_{k}"] for k in _ALLAN_ARRAYS},
+        confidence=meta["allan"]["confidence"],
+        rate_hz=rate,
+        n_samples=n_all,
+        segments=segments,
+        contrasts=contrasts,
+        sensor=meta["allan"].get("sensor"),
+    )
     st = meta.get("stationarity")
-    steady = None if st is None else Stationarity(st["stationary"], st["p_value"], st["worst_tau_s"],
-                                                  data["stationarity_tau"], data["stationarity_adev"],
-                                                  data["stationarity_spread"])
+    steady = (
+        None
+        if st is None
+        else Stationarity(
+            st["stationary"],
+            st["p_value"],
+            st["worst_tau_s"],
+            data["stationarity_tau"],
+            data["stationarity_adev"],
+            data["stationarity_spread"],
+        )
+    )
     model = NoiseModel(tuple(meta["terms"]), meta["dt"])
-    candidates = tuple(CandidateScore(tuple(c["terms"]), c["log_evidence"], c["se"], c["ess"], data[f"mode_{i}"],
-                                      c.get("method", "importance"))
-                       for i, c in enumerate(meta["candidates"]))
+    candidates = tuple(
+        CandidateScore(
+            tuple(c["terms"]),
+            c["log_evidence"],
+            c["se"],
+            c["ess"],
+            data[f"mode_{i}"],
+            c.get("method", "importance"),
+        )
+        for i, c in enumerate(meta["candidates"])
+    )
     mixture = tuple(MixtureComponent(tuple(c["terms"]), c["probability"], data[f"mixture_{i}"])
                     for i, c in enumerate(meta["mixture"]))
     q = meta["adequacy"]
-    adequacy = None if q is None else Adequacy(q["adequate"], q["p_value"], q["statistic"], q["dof"],
-                                               data["residuals"], q["worst_tau_s"], tuple(q["at_prior_bound"]))
+    adequacy = (
+        None
+        if q is None
+        else Adequacy(
+            q["adequate"],
+            q["p_value"],
+            q["statistic"],
+            q["dof"],
+            data["residuals"],
+            q["worst_tau_s"],
+            tuple(q["at_prior_bound"]),
+        )
+    )
     probabilities = data["probabilities"] if data["probabilities"].size else None
-    return FitResult(model, data["samples"], data["log_prob"], allan, candidates, meta["selected"], meta["diagnostics"],
-                     meta["likelihood"], data["covariance"], meta["seed"], None, adequacy, probabilities, mixture,
-                     meta["widened"], steady)
+    return FitResult(
+        model,
+        data["samples"],
+        data["log_prob"],
+        allan,
+        candidates,
+        meta["selected"],
+        meta["diagnostics"],
+        meta["likelihood"],
+        data["covariance"],
+        meta["seed"],
+        None,
+        adequacy,
+        probabilities,
+        mixture,
+        meta["widened"],
+        steady,
+    )
 
 
 def _short(value, limit=80):
@@ -192,7 +294,9 @@ def _validate(meta, data):
         if finite and not np.all(np.isfinite(a)):
             raise ValueError(f"field {name!r} holds NaN or infinite values")
         if positive and not np.all(a > 0):
-            raise ValueError(f"field {name!r} holds zero or negative values; expected positive ones")
+            raise ValueError(
+                f"field {name!r} holds zero or negative values; expected positive ones"
+            )
         return a
 
     terms = meta["terms"]
@@ -200,7 +304,11 @@ def _validate(meta, data):
         raise ValueError(f"field 'terms' = {terms!r}; expected a list of {', '.join(TERMS)}")
     for key, value in (("dt", meta["dt"]), ("allan.rate_hz", meta["allan"]["rate_hz"]),
                        ("allan.confidence", meta["allan"]["confidence"])):
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not (math.isfinite(value) and value > 0)
+        ):
             raise ValueError(f"field {key!r} = {value!r}; expected a positive number")
     if abs(meta["dt"] * meta["allan"]["rate_hz"] - 1.0) > 1e-9:
         raise ValueError(f"fields 'dt' and 'allan.rate_hz' disagree ({meta['dt']!r} s, "
@@ -211,8 +319,12 @@ def _validate(meta, data):
                          "least 4")
     n_tau = field("allan_tau", positive=True, ndim=1).shape[0]
     for k in _ALLAN_ARRAYS:
-        field(f"allan_{k}", positive=k in ("tau", "m", "avar", "adev", "n_terms", "edf", "avar_low", "avar_high"),
-              ndim=1, length=n_tau)
+        field(
+            f"allan_{k}",
+            positive=k in ("tau", "m", "avar", "adev", "n_terms", "edf", "avar_low", "avar_high"),
+            ndim=1,
+            length=n_tau,
+        )
     n_parameters = len(NoiseModel(tuple(terms), meta["dt"]).parameter_names) + bool(meta["widened"])
     samples = field("samples", positive=True, ndim=2)
     if samples.shape[1] != n_parameters or samples.shape[0] < 1:
@@ -226,7 +338,10 @@ def _validate(meta, data):
                          f"{n_tau})")
     for i, c in enumerate(meta["mixture"]):
         mix = field(f"mixture_{i}", positive=True, ndim=2)
-        if mix.shape[1] - len(NoiseModel(tuple(c["terms"]), meta["dt"]).parameter_names) not in (0, 1):
+        if mix.shape[1] - len(NoiseModel(tuple(c["terms"]), meta["dt"]).parameter_names) not in (
+            0,
+            1,
+        ):
             raise ValueError(f"field 'mixture_{i}' has shape {mix.shape}; expected one column per "
                              "parameter of "
                              f"{' + '.join(map(str, c['terms']))}")
@@ -246,7 +361,8 @@ def _validate(meta, data):
 
 
 def write_netcdf(fit, path):
-    """The posterior as an ArviZ NetCDF file: what ``fit.inference_data.to_netcdf(path)`` writes, without ArviZ.
+    """The posterior as an ArviZ NetCDF file: what ``fit.inference_data.to_netcdf(path)`` writes,
+    without ArviZ.
 
     ``arviz.from_netcdf`` (and xarray, group by group) reads it as :attr:`FitResult.inference_data`:
     groups ``posterior`` (``log_<name>`` and ``<name>`` of each parameter), ``sample_stats``
@@ -258,8 +374,10 @@ def write_netcdf(fit, path):
     """
     chains = fit.chains
     if chains is None:
-        raise InputError("write_netcdf: this fit has no chains (read back from fit.npz); posterior.nc is written "
-                         "by the fit that sampled them")
+        raise InputError(
+            "write_netcdf: this fit has no chains (read back from fit.npz); posterior.nc is "
+            "written by the fit that sampled them"
+        )
     names = fit.parameter_names
     n_draws, n_walkers = chains.chain.shape[:2]
     sampled = {"chain": np.arange(n_walkers), "draw": np.arange(n_draws)}
@@ -272,14 +390,19 @@ def write_netcdf(fit, path):
         "sample_stats": (sampled, {"lp": (dims, chains.log_prob.T)}),
         "observed_data": ({"tau": fit.allan.tau}, {"avar": (("tau",), fit.allan.avar)}),
     }
-    attrs = {"terms": " ".join(fit.model.terms), "likelihood": fit.likelihood, "bayes_imu_version": __version__}
+    attrs = {
+        "terms": " ".join(fit.model.terms),
+        "likelihood": fit.likelihood,
+        "bayes_imu_version": __version__,
+    }
     _write_groups(path, groups, attrs)
 
 
 def _write_groups(path, groups, attrs):
-    """A NetCDF-4 file of ``groups`` = ``{name: (coordinates, variables)}``, ``coordinates`` = ``{dim: values}``,
-    ``variables`` = ``{name: (dims, values)}``, as xarray encodes them (zlib-compressed, NaN fill value
-    on floats); each group stamped with its creation time and this library, the file with ``attrs``."""
+    """A NetCDF-4 file of ``groups`` = ``{name: (coordinates, variables)}``, ``coordinates`` =
+    ``{dim: values}``, ``variables`` = ``{name: (dims, values)}``, as xarray encodes them
+    (zlib-compressed, NaN fill value on floats); each group stamped with its creation time and this
+    library, the file with ``attrs``."""
     from datetime import datetime, timezone
 
     import h5netcdf
@@ -290,9 +413,16 @@ def _write_groups(path, groups, attrs):
         for name, (coordinates, variables) in groups.items():
             g = f.create_group(name)
             g.dimensions = {dim: len(values) for dim, values in coordinates.items()}
-            for dim, values in {**{d: ((d,), v) for d, v in coordinates.items()}, **variables}.items():
+            for dim, values in {
+                **{d: ((d,), v) for d, v in coordinates.items()},
+                **variables,
+            }.items():
                 dims, values = values
                 values = np.asarray(values)
                 fill = {"fillvalue": np.nan} if values.dtype.kind == "f" else {}
                 g.create_variable(dim, dims, data=values, compression="gzip", **fill)
-            g.attrs.update(created_at=created, inference_library="bayes_imu", inference_library_version=__version__)
+            g.attrs.update(
+                created_at=created,
+                inference_library="bayes_imu",
+                inference_library_version=__version__,
+            )

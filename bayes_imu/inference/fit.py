@@ -15,8 +15,8 @@ Pipeline of :func:`fit_allan`:
    log-parameters, in chunks of 250 steps (a tenth of the chain past 10 000 steps:
    :func:`~bayes_imu.inference.sampling.steps_to_next_check`) until the chain is longer than 50
    integrated autocorrelation times and that estimate has settled to 5%; then
-   rank-normalised R-hat and bulk/tail ESS (:mod:`bayes_imu.inference.diagnostics`). Non-convergence warns (:class:`ConvergenceWarning`)
-   and sets ``diagnostics["converged"] = False``.
+   rank-normalised R-hat and bulk/tail ESS (:mod:`bayes_imu.inference.diagnostics`). Non-convergence
+   warns (:class:`ConvergenceWarning`) and sets ``diagnostics["converged"] = False``.
 """
 
 import warnings
@@ -32,8 +32,15 @@ from ..errors import ConvergenceWarning, InputError
 from .likelihood import LIKELIHOODS, LogPosterior, default_bounds
 from ..noise.avar_forms import BASE_TERMS, PARAMETER_UNITS, NoiseModel
 from .diagnostics import summary as convergence_summary
-from .sampling import (GEOMETRIC_FROM, autocorr_time, burn_and_thin, ensemble_sampler, long_enough, one_blas_thread,
-                       steps_to_next_check)
+from .sampling import (
+    GEOMETRIC_FROM,
+    autocorr_time,
+    burn_and_thin,
+    ensemble_sampler,
+    long_enough,
+    one_blas_thread,
+    steps_to_next_check,
+)
 from .stationarity import Stationarity, stationarity_check
 from .selection import (
     Adequacy,
@@ -53,7 +60,15 @@ from .selection import (
     to_phi,
 )
 
-__all__ = ["FitResult", "MixtureComponent", "SamplerChains", "fit", "fit_allan", "score_models", "DISCREPANCY_MODES"]
+__all__ = [
+    "FitResult",
+    "MixtureComponent",
+    "SamplerChains",
+    "fit",
+    "fit_allan",
+    "score_models",
+    "DISCREPANCY_MODES",
+]
 
 DISCREPANCY_MODES = ("auto", "never", "always")
 RHAT_MAX = 1.01
@@ -83,15 +98,22 @@ class SamplerChains:
         return self.posterior.log_likelihood(self.chain)
 
     def to_inference_data(self, names, allan, attrs):
-        """``arviz.InferenceData``: walkers as chains; ``log_<name>`` and ``<name>`` for each parameter."""
+        """``arviz.InferenceData``: walkers as chains; ``log_<name>`` and ``<name>`` for each
+        parameter."""
         az = import_arviz()
         posterior = {f"log_{n}": self.chain[:, :, i].T for i, n in enumerate(names)}
         posterior.update({n: np.exp(self.chain[:, :, i].T) for i, n in enumerate(names)})
         with warnings.catch_warnings():  # "more chains than draws" on short runs
             warnings.simplefilter("ignore", UserWarning)
-            return az.from_dict(posterior=posterior, sample_stats={"lp": self.log_prob.T},
-                                log_likelihood={"allan": self.log_likelihood.T}, observed_data={"avar": allan.avar},
-                                coords={"tau": allan.tau}, dims={"avar": ["tau"]}, attrs=attrs)
+            return az.from_dict(
+                posterior=posterior,
+                sample_stats={"lp": self.log_prob.T},
+                log_likelihood={"allan": self.log_likelihood.T},
+                observed_data={"avar": allan.avar},
+                coords={"tau": allan.tau},
+                dims={"avar": ["tau"]},
+                attrs=attrs,
+            )
 
 
 @dataclass(frozen=True)
@@ -150,8 +172,8 @@ class FitResult:
     widened : bool
         The model-discrepancy term was added (the best candidate was inadequate).
     stationarity : Stationarity or None
-        Between-segment check of the log (:mod:`bayes_imu.inference.stationarity`); drift bands of a log
-        flagged non-stationary include the spread between its parts.
+        Between-segment check of the log (:mod:`bayes_imu.inference.stationarity`); drift bands of a
+        log flagged non-stationary include the spread between its parts.
     """
 
     model: NoiseModel
@@ -173,11 +195,15 @@ class FitResult:
 
     @cached_property
     def inference_data(self):
-        """``arviz.InferenceData`` of the chains (walkers as chains; built on first use, which imports
-        ArviZ), ``None`` for a fit read back from ``fit.npz``."""
+        """``arviz.InferenceData`` of the chains (walkers as chains; built on first use, which
+        imports ArviZ), ``None`` for a fit read back from ``fit.npz``."""
         if self.chains is None:
             return None
-        attrs = {"terms": " ".join(self.model.terms), "likelihood": self.likelihood, "bayes_imu_version": __version__}
+        attrs = {
+            "terms": " ".join(self.model.terms),
+            "likelihood": self.likelihood,
+            "bayes_imu_version": __version__,
+        }
         return self.chains.to_inference_data(self.parameter_names, self.allan, attrs)
 
     @property
@@ -197,14 +223,18 @@ class FitResult:
 
     def draws(self, name):
         """Posterior draws of one parameter, or of a derived one: ``noise_density`` (white plus
-        the white-noise equivalents of the filtered-white and high-frequency correlated terms, the value to compare
-        with a datasheet ARW / VRW), ``white_noise_density`` (the white term alone)."""
+        the white-noise equivalents of the filtered-white and high-frequency correlated terms, the
+        value to compare with a datasheet ARW / VRW), ``white_noise_density`` (the white term
+        alone)."""
         if name == "noise_density":
             return np.sqrt(self.model.short_term_variance(self.samples) * self.model.dt)
         if name == "white_noise_density":
             return np.sqrt(self.draws("noise_variance") * self.model.dt)
         if name not in self.parameter_names:
-            raise InputError(f"parameter {name!r}: the model {self.model.terms} has {', '.join(self.parameter_names)}")
+            raise InputError(
+                f"parameter {name!r}: the model {self.model.terms} has "
+                f"{', '.join(self.parameter_names)}"
+            )
         return self.samples[:, self.parameter_names.index(name)]
 
     def _derived_names(self):
@@ -218,18 +248,22 @@ class FitResult:
 
     def term_probabilities(self):
         """Dict term -> posterior probability that the sensor has it: the summed probability of the
-        model-averaged components (:attr:`mixture`, what the drift bands average over) whose model has the term,
-        for every term of any component, in the canonical term order.
+        model-averaged components (:attr:`mixture`, what the drift bands average over) whose model
+        has the term, for every term of any component, in the canonical term order.
 
-        It can disagree with :attr:`model`, the selection rule's answer (the simplest model within the margin of
-        the best evidence): a term the selected model leaves out may carry most of the probability when several
-        richer models each come close to the best (a real ADIS16405 gyro: rate random walk at 0.84, the
-        selected model, without it, at 0.16).
+        It can disagree with :attr:`model`, the selection rule's answer (the simplest model within
+        the margin of the best evidence): a term the selected model leaves out may carry most of the
+        probability when several richer models each come close to the best (a real ADIS16405 gyro:
+        rate random walk at 0.84, the selected model, without it, at 0.16).
         """
         from ..noise.avar_forms import TERMS
 
         present = {t for c in self.mixture for t in c.terms}
-        return {t: float(sum(c.probability for c in self.mixture if t in c.terms)) for t in TERMS if t in present}
+        return {
+            t: float(sum(c.probability for c in self.mixture if t in c.terms))
+            for t in TERMS
+            if t in present
+        }
 
     def quantiles(self, q=(0.05, 0.5, 0.95)):
         """Dict name -> quantiles of each parameter (and the derived densities)."""
@@ -282,7 +316,9 @@ class FitResult:
         """Posterior draws of the model Allan variance, ``(n_draws, n_tau)`` (one term if given)."""
         m = self.allan.m if m is None else np.asarray(m)
         rng = np.random.default_rng(rng)
-        idx = rng.choice(self.samples.shape[0], size=min(n_draws, self.samples.shape[0]), replace=False)
+        idx = rng.choice(
+            self.samples.shape[0], size=min(n_draws, self.samples.shape[0]), replace=False
+        )
         params = self.model.unpack(self.samples[idx])
         return self.model.avar(m, params) if term is None else self.model.term_avar(term, m, params)
 
@@ -299,11 +335,17 @@ class FitResult:
                     "q95": float(np.quantile(d, 0.95)),
                     "unit": PARAMETER_UNITS.get(name, "1").format(u=unit),
                 }
-        probabilities = self.probabilities if self.probabilities is not None else np.full(len(self.candidates), np.nan)
+        probabilities = (
+            self.probabilities
+            if self.probabilities is not None
+            else np.full(len(self.candidates), np.nan)
+        )
         adequacy = self.adequacy.to_dict() if self.adequacy is not None else None
         if adequacy is not None:
             adequacy["widened"] = bool(self.widened)
-            adequacy["stationarity"] = self.stationarity.to_dict() if self.stationarity is not None else None
+            adequacy["stationarity"] = (
+                self.stationarity.to_dict() if self.stationarity is not None else None
+            )
         from ..noise.datasheet import datasheet
         from ..noise.quantities import si_sensor
         from .allan_readout import allan_readout
@@ -317,14 +359,30 @@ class FitResult:
             "datasheet": datasheet(_Repeatable(self), kind) if kind is not None else None,
             "allan_datasheet": allan_readout(self, kind, unit=unit),
             "adequacy": adequacy,
-            "diagnostics": {k: (bool(v) if k == "converged" else int(v) if k in ("n_steps", "n_walkers") else float(v))
-                            for k, v in self.diagnostics.items()},
+            "diagnostics": {
+                k: (
+                    bool(v)
+                    if k == "converged"
+                    else int(v)
+                    if k in ("n_steps", "n_walkers")
+                    else float(v)
+                )
+                for k, v in self.diagnostics.items()
+            },
             "candidates": [
-                {"model": list(c.terms), "log_evidence": c.log_evidence, "log_evidence_se": c.log_evidence_se,
-                 "evidence_method": c.method, "probability": float(p), "selected": i == self.selected}
+                {
+                    "model": list(c.terms),
+                    "log_evidence": c.log_evidence,
+                    "log_evidence_se": c.log_evidence_se,
+                    "evidence_method": c.method,
+                    "probability": float(p),
+                    "selected": i == self.selected,
+                }
                 for i, (c, p) in enumerate(zip(self.candidates, probabilities))
             ],
-            "model_averaging": [{"model": list(c.terms), "probability": c.probability} for c in self.mixture],
+            "model_averaging": [
+                {"model": list(c.terms), "probability": c.probability} for c in self.mixture
+            ],
             "term_probability": self.term_probabilities(),
             "likelihood": self.likelihood,
             "rate_hz": float(self.allan.rate_hz),
@@ -348,12 +406,36 @@ class _Repeatable:
         return self.fit.repeatable_draws(name)
 
 
-def fit(y, *, rate_hz, m="octave", terms="auto", likelihood="correlated", rng=None, n_walkers=32, max_steps=40000,
-        threshold=1.0, n_evidence=4000, discrepancy="auto", progress=False, pool=None):
+def fit(
+    y,
+    *,
+    rate_hz,
+    m="octave",
+    terms="auto",
+    likelihood="correlated",
+    rng=None,
+    n_walkers=32,
+    max_steps=40000,
+    threshold=1.0,
+    n_evidence=4000,
+    discrepancy="auto",
+    progress=False,
+    pool=None,
+):
     """Fit rate samples ``y`` (1-D, units u) at ``rate_hz`` [Hz]; options as :func:`fit_allan`."""
-    return fit_allan(allan_variance(y, rate_hz=rate_hz, m=m), terms=terms, likelihood=likelihood, rng=rng,
-                     n_walkers=n_walkers, max_steps=max_steps, threshold=threshold, n_evidence=n_evidence,
-                     discrepancy=discrepancy, progress=progress, pool=pool)
+    return fit_allan(
+        allan_variance(y, rate_hz=rate_hz, m=m),
+        terms=terms,
+        likelihood=likelihood,
+        rng=rng,
+        n_walkers=n_walkers,
+        max_steps=max_steps,
+        threshold=threshold,
+        n_evidence=n_evidence,
+        discrepancy=discrepancy,
+        progress=progress,
+        pool=pool,
+    )
 
 
 @dataclass(frozen=True)
@@ -365,8 +447,20 @@ class _Scored:
     evidence: EvidenceResult
 
 
-def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walkers=32, max_steps=40000,
-              threshold=1.0, n_evidence=4000, discrepancy="auto", progress=False, pool=None):
+def fit_allan(
+    allan,
+    *,
+    terms="auto",
+    likelihood="correlated",
+    rng=None,
+    n_walkers=32,
+    max_steps=40000,
+    threshold=1.0,
+    n_evidence=4000,
+    discrepancy="auto",
+    progress=False,
+    pool=None,
+):
     """Select a noise model for ``allan``, sample its posterior, check its adequacy.
 
     Parameters
@@ -395,15 +489,16 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
         Progress bars (candidates, sampler steps) on standard error; same numbers.
     pool : executor or None
         Somewhere to compute ahead, on another core: an object whose ``submit(fn, *args)`` returns a
-        future (``done()``, ``exception()``, ``result()``), as a :class:`concurrent.futures.Executor`
-        does, or :meth:`bayes_imu.report.worker.OutputWriter.pool`. With ``discrepancy="auto"`` and
-        the correlated likelihood, each candidate's mode with the discrepancy term (and its Laplace
+        future (``done()``, ``exception()``, ``result()``), as a
+        :class:`concurrent.futures.Executor` does, or
+        :meth:`bayes_imu.report.worker.OutputWriter.pool`. With ``discrepancy="auto"`` and the
+        correlated likelihood, each candidate's mode with the discrepancy term (and its Laplace
         estimate) is sought there as soon as the candidate is scored without it, in case the best
-        candidate fails the adequacy check and every candidate is scored again with the term; a
-        mode not found there by then is sought here. The numbers are the same as without a pool,
-        bit for bit (the same function on the same inputs; tested). On ADIS16405 imu1 and imu5 (an
-        ad-hoc count, two runs each) the command's output process found 26 of 29 and 20 of 26
-        widened modes this way.
+        candidate fails the adequacy check and every candidate is scored again with the term; a mode
+        not found there by then is sought here. The numbers are the same as without a pool, bit for
+        bit (the same function on the same inputs; tested). On ADIS16405 imu1 and imu5 (an ad-hoc
+        count, two runs each) the command's output process found 26 of 29 and 20 of 26 widened modes
+        this way.
 
     Returns
     -------
@@ -412,23 +507,52 @@ def fit_allan(allan, *, terms="auto", likelihood="correlated", rng=None, n_walke
     if not isinstance(allan, AllanResult):
         raise InputError(f"allan: expected an AllanResult, got {type(allan).__name__}")
     if allan.m.size < 4:
-        raise InputError(f"Allan variance has {allan.m.size} cluster sizes: need at least 4 to fit a model")
+        raise InputError(
+            f"Allan variance has {allan.m.size} cluster sizes: need at least 4 to fit a model"
+        )
     if not np.all(allan.avar > 0):
         i = int(np.argmin(allan.avar))
-        raise InputError(f"Allan variance is {allan.avar[i]!r} at tau = {allan.tau[i]:g} s: a noise model needs a "
-                         "positive Allan variance at every cluster size (is the signal constant or periodic?)")
+        raise InputError(
+            f"Allan variance is {allan.avar[i]!r} at tau = {allan.tau[i]:g} s: a noise model needs "
+            "a positive Allan variance at every cluster size (is the signal constant or periodic?)"
+        )
     if likelihood not in LIKELIHOODS:
         raise InputError(f"likelihood={likelihood!r}: expected one of {', '.join(LIKELIHOODS)}")
     if discrepancy not in DISCREPANCY_MODES:
-        raise InputError(f"discrepancy={discrepancy!r}: expected one of {', '.join(DISCREPANCY_MODES)}")
+        raise InputError(
+            f"discrepancy={discrepancy!r}: expected one of {', '.join(DISCREPANCY_MODES)}"
+        )
     if discrepancy == "always" and likelihood != "correlated":
         raise InputError(f"discrepancy='always' needs likelihood='correlated', got {likelihood!r}")
     with one_blas_thread():
-        return _fit(allan, terms, likelihood, rng, n_walkers, max_steps, threshold, n_evidence, discrepancy, progress,
-                    pool)
+        return _fit(
+            allan,
+            terms,
+            likelihood,
+            rng,
+            n_walkers,
+            max_steps,
+            threshold,
+            n_evidence,
+            discrepancy,
+            progress,
+            pool,
+        )
 
 
-def _fit(allan, terms, likelihood, rng, n_walkers, max_steps, threshold, n_evidence, discrepancy, progress, pool):
+def _fit(
+    allan,
+    terms,
+    likelihood,
+    rng,
+    n_walkers,
+    max_steps,
+    threshold,
+    n_evidence,
+    discrepancy,
+    progress,
+    pool,
+):
     """:func:`fit_allan` after its checks."""
     seed = rng
     rng = np.random.default_rng(rng)
@@ -446,8 +570,18 @@ def _fit(allan, terms, likelihood, rng, n_walkers, max_steps, threshold, n_evide
     ahead = (_WidenedAhead(pool, allan, reference) if pool is not None and discrepancy == "auto"
              and likelihood == "correlated" else None)
     with progress_bar(desc="model selection", unit="model", enabled=progress) as bar:
-        scored = _search(make, allan, reference, candidates, stepwise, threshold, n_evidence, rng, bar,
-                         None if ahead is None else ahead.submit)
+        scored = _search(
+            make,
+            allan,
+            reference,
+            candidates,
+            stepwise,
+            threshold,
+            n_evidence,
+            rng,
+            bar,
+            None if ahead is None else ahead.submit,
+        )
         chosen = select([c.score for c in scored], threshold=threshold) if len(scored) > 1 else 0
         if discrepancy == "auto" and likelihood == "correlated":
             best = scored[chosen]
@@ -455,15 +589,23 @@ def _fit(allan, terms, likelihood, rng, n_walkers, max_steps, threshold, n_evide
                 widen = True
                 scored = _rescore_widened(scored, allan, reference, n_evidence, rng, ahead)
                 bar.update(len(scored))
-                chosen = select([c.score for c in scored], threshold=threshold) if len(scored) > 1 else 0
+                chosen = (
+                    select([c.score for c in scored], threshold=threshold) if len(scored) > 1 else 0
+                )
     scores = tuple(c.score for c in scored)
     model = NoiseModel(scores[chosen].terms, dt)
     n_model = len(model.parameter_names)
     mode = dict(zip(model.parameter_names, np.exp(scores[chosen].mode[:n_model])))
     if likelihood != "independent":  # covariance refined at the selected model's mode
         cov = _covariance(model, mode, allan)
-        post = LogPosterior.from_covariance(model, allan, cov, model.avar(allan.m, mode), default_bounds(model, allan),
-                                            kind=likelihood)
+        post = LogPosterior.from_covariance(
+            model,
+            allan,
+            cov,
+            model.avar(allan.m, mode),
+            default_bounds(model, allan),
+            kind=likelihood,
+        )
     else:
         cov = np.diag(2.0 * allan.avar**2 / allan.edf)
         post = LogPosterior.build(model, allan, kind="independent")
@@ -475,13 +617,34 @@ def _fit(allan, terms, likelihood, rng, n_walkers, max_steps, threshold, n_evide
     check = adequacy(post, best_draw, allan.tau, log_samples)
     probabilities = model_probabilities(scores)
     mixture = _mixture(scored, chosen, probabilities, np.exp(log_samples), rng)
-    steady = stationarity_check(allan, model, dict(zip(model.parameter_names, np.exp(best_draw[:n_model]))))
-    return FitResult(model, np.exp(log_samples), log_prob, allan, scores, chosen, diagnostics, likelihood, cov, seed,
-                     chains, check, probabilities, mixture, widen, steady)
+    steady = stationarity_check(
+        allan, model, dict(zip(model.parameter_names, np.exp(best_draw[:n_model])))
+    )
+    return FitResult(
+        model,
+        np.exp(log_samples),
+        log_prob,
+        allan,
+        scores,
+        chosen,
+        diagnostics,
+        likelihood,
+        cov,
+        seed,
+        chains,
+        check,
+        probabilities,
+        mixture,
+        widen,
+        steady,
+    )
 
 
-def score_models(allan, models, *, widened=False, likelihood="correlated", n_evidence=4000, rng=None):
-    """Evidence of each model in ``models`` for ``allan``, as :func:`fit_allan` scores its candidates.
+def score_models(
+    allan, models, *, widened=False, likelihood="correlated", n_evidence=4000, rng=None
+):
+    """Evidence of each model in ``models`` for ``allan``, as :func:`fit_allan` scores its
+    candidates.
 
     The covariance comes from the same pilot (the full base model), so the evidences are
     comparable with a fit's own ``candidates`` and across calls on one Allan result.
@@ -535,8 +698,8 @@ def _score_batch(jobs, allan, reference, n_evidence, rng, best, ready=None):
     sampling in decreasing order of the Laplace estimate, except for candidates that
     :func:`~bayes_imu.inference.selection.can_skip` rules out against ``best`` (the largest
     importance-sampled log evidence so far). ``ready(i)``: job ``i``'s ``(mode, Laplace log Z, its
-    covariance)`` where computed ahead (:class:`_WidenedAhead`), else ``None``; the jobs not ready are
-    done here, the last first (the ones least likely to be ready), asking again before each.
+    covariance)`` where computed ahead (:class:`_WidenedAhead`), else ``None``; the jobs not ready
+    are done here, the last first (the ones least likely to be ready), asking again before each.
     Returns the ``_Scored`` in the order of ``jobs`` and the new ``best``."""
     found = [None] * len(jobs)
     for i in reversed(range(len(jobs))):
@@ -550,7 +713,9 @@ def _score_batch(jobs, allan, reference, n_evidence, rng, best, ready=None):
     for i in sorted(range(len(found)), key=lambda i: -found[i][3]):
         model, post, mode, log_z, cov = found[i]
         if can_skip(post, mode.u, log_z, cov, best, rng):
-            out[i] = _Scored(CandidateScore(model.terms, log_z, 0.0, 0.0, mode.phi, "laplace"), post, None)
+            out[i] = _Scored(
+                CandidateScore(model.terms, log_z, 0.0, 0.0, mode.phi, "laplace"), post, None
+            )
             continue
         ev = log_evidence(post, mode.u, n_draws=n_evidence, rng=rng, hessian_cov=cov)
         out[i] = _Scored(CandidateScore(model.terms, ev.log_z, ev.se, ev.ess, mode.phi), post, ev)
@@ -559,7 +724,8 @@ def _score_batch(jobs, allan, reference, n_evidence, rng, best, ready=None):
 
 
 def _mode_and_laplace(post, starts):
-    """``(mode, Laplace log Z, its covariance)`` of ``post`` from ``starts``: a candidate's first step in
+    """``(mode, Laplace log Z, its covariance)`` of ``post`` from ``starts``: a candidate's first
+    step in
     :func:`_score_batch`, here or in a pool (:func:`_mode_ahead`)."""
     mode = posterior_mode(post, starts)
     return (mode,) + laplace_log_evidence(post, mode.u)
@@ -572,39 +738,57 @@ def _mode_ahead(post, starts):
 
 
 class _WidenedAhead:
-    """Each scored candidate's widened mode and Laplace estimate, sought in ``pool`` while the search goes on
-    (:func:`fit_allan`'s ``pool``): one pool job per candidate, sent as its batch is scored (:meth:`submit`),
-    taken back by :func:`_rescore_widened` where it is done by then (:meth:`take`)."""
+    """Each scored candidate's widened mode and Laplace estimate, sought in ``pool`` while the
+    search goes on (:func:`fit_allan`'s ``pool``): one pool job per candidate, sent as its batch is
+    scored (:meth:`submit`), taken back by :func:`_rescore_widened` where it is done by then
+    (:meth:`take`)."""
 
     def __init__(self, pool, allan, reference):
         self.pool, self.allan, self.reference, self.jobs = pool, allan, reference, {}
 
     def submit(self, batch):
-        """Send the widened jobs of ``batch`` (``(model, _Scored)`` pairs just scored) to the pool."""
+        """Send the widened jobs of ``batch`` (``(model, _Scored)`` pairs just scored) to the
+        pool."""
         for model, c in batch:
             post, starts = _widened_job(model, c, self.allan, self.reference)
             self.jobs[model.terms] = (post, starts, self.pool.submit(_mode_ahead, post, starts))
 
     def take(self, terms):
-        """``(post, starts, ready)`` of candidate ``terms``: ``ready()`` is its computed tuple where its job is
-        done without an error, else ``None``; ``None`` for a candidate never sent."""
+        """``(post, starts, ready)`` of candidate ``terms``: ``ready()`` is its computed tuple where
+        its job is done without an error, else ``None``; ``None`` for a candidate never sent."""
         if terms not in self.jobs:
             return None
         post, starts, future = self.jobs[terms]
-        return post, starts, lambda: future.result() if future.done() and future.exception() is None else None
+        return (
+            post,
+            starts,
+            lambda: future.result() if future.done() and future.exception() is None else None,
+        )
 
 
 def _widened_job(model, scored, allan, reference):
-    """``(post, starts)`` of a candidate scored without the discrepancy term, scored again with it: its own mode
-    (discrepancy 0.1) first, then the usual starts."""
+    """``(post, starts)`` of a candidate scored without the discrepancy term, scored again with it:
+    its own mode (discrepancy 0.1) first, then the usual starts."""
     post = scored.post.with_discrepancy()
     own = np.append(scored.score.mode, np.log(0.1))[None, :]
     return post, np.vstack([own, _candidate_starts(model, post, allan, reference)])
 
 
-def _search(make_post, allan, reference, candidates, stepwise, threshold, n_evidence, rng, bar, on_scored=None):
-    """Score the base candidates, then (``stepwise``) the extension search of :mod:`bayes_imu.inference.selection`;
-    ``on_scored``: called with each batch's ``(model, _Scored)`` pairs as they are scored."""
+def _search(
+    make_post,
+    allan,
+    reference,
+    candidates,
+    stepwise,
+    threshold,
+    n_evidence,
+    rng,
+    bar,
+    on_scored=None,
+):
+    """Score the base candidates, then (``stepwise``) the extension search of
+    :mod:`bayes_imu.inference.selection`; ``on_scored``: called with each batch's ``(model,
+    _Scored)`` pairs as they are scored."""
     dt = 1.0 / allan.rate_hz
     scored = {}
     best = -np.inf
@@ -616,8 +800,14 @@ def _search(make_post, allan, reference, candidates, stepwise, threshold, n_evid
             model = NoiseModel(terms, dt)  # canonical term order: the key of a candidate
             if model.terms not in scored:
                 models[model.terms] = model
-        results, best = _score_batch([(m, make_post(m), None) for m in models.values()], allan, reference,
-                                     n_evidence, rng, best)
+        results, best = _score_batch(
+            [(m, make_post(m), None) for m in models.values()],
+            allan,
+            reference,
+            n_evidence,
+            rng,
+            best,
+        )
         scored.update(zip(models, results))
         if on_scored is not None and results:
             on_scored(list(zip(models.values(), results)))
@@ -632,10 +822,12 @@ def _search(make_post, allan, reference, candidates, stepwise, threshold, n_evid
             if not new:
                 break
             best_new = max(new, key=lambda c: c.score.log_evidence)
-            if within_margin(current.score, best_new.score, threshold):  # the addition gains no more than the margin
+            # the addition gains no more than the margin
+            if within_margin(current.score, best_new.score, threshold):
                 break
             current = best_new
-        while True:  # backward: on to the best removal while it stays within the selection margin of the best
+        # backward: on to the best removal while it stays within the selection margin of the best
+        while True:
             new = run(reductions(current.score.terms))
             top = max(scored.values(), key=lambda c: c.score.log_evidence).score
             near = [c for c in new if within_margin(c.score, top, threshold)]
@@ -646,11 +838,12 @@ def _search(make_post, allan, reference, candidates, stepwise, threshold, n_evid
 
 
 def _rescore_widened(scored, allan, reference, n_evidence, rng, ahead=None):
-    """Every candidate again with the model-discrepancy term, with the Laplace screen; its mode is sought
-    from the usual starts and from its own mode without the term (discrepancy 0.1). On the ADIS16405 logs
-    each of the two alone missed the best mode of some candidates by 4-15 nats (the usual starts once
-    by 5.8 nats): the candidates' widened evidences are now those of their best mode. ``ahead``: the
-    modes already sought in a pool (:class:`_WidenedAhead`), used where done."""
+    """Every candidate again with the model-discrepancy term, with the Laplace screen; its mode is
+    sought from the usual starts and from its own mode without the term (discrepancy 0.1). On the
+    ADIS16405 logs each of the two alone missed the best mode of some candidates by 4-15 nats (the
+    usual starts once by 5.8 nats): the candidates' widened evidences are now those of their best
+    mode. ``ahead``: the modes already sought in a pool (:class:`_WidenedAhead`), used where
+    done."""
     dt = 1.0 / allan.rate_hz
     jobs, ready = [], []
     for c in scored:
@@ -681,7 +874,8 @@ def _mixture(scored, chosen, probabilities, samples, rng, floor=1e-3):
         if i == chosen:
             draws = samples[rng.choice(n_total, size=min(count, n_total), replace=False)]
         else:
-            ev = scored[i].evidence  # never None here: a screened candidate's probability is below e^-10
+            # never None here: a screened candidate's probability is below e^-10
+            ev = scored[i].evidence
             lw = np.where(np.isfinite(ev.log_w), ev.log_w, -np.inf)
             p = np.exp(lw - lw.max())
             idx = rng.choice(p.size, size=count, replace=True, p=p / p.sum())
@@ -691,19 +885,22 @@ def _mixture(scored, chosen, probabilities, samples, rng, floor=1e-3):
 
 
 def _shared_posterior(pilot_model, allan, likelihood):
-    """The pilot fit of ``pilot_model`` and the factory of every candidate's posterior (one covariance for all)."""
+    """The pilot fit of ``pilot_model`` and the factory of every candidate's posterior (one
+    covariance for all)."""
     reference = _pilot(pilot_model, allan)
     return reference, _posterior_factory(pilot_model, reference, allan, likelihood)
 
 
 def _posterior_factory(ref_model, reference, allan, likelihood):
-    """``model -> LogPosterior`` sharing one AVAR covariance computed under ``ref_model`` at ``reference``."""
+    """``model -> LogPosterior`` sharing one AVAR covariance computed under ``ref_model`` at
+    ``reference``."""
     if likelihood == "independent":
         return lambda model: LogPosterior.build(model, allan, kind="independent")
     cov = _covariance(ref_model, reference, allan)
     ref_avar = ref_model.avar(allan.m, reference)
-    return lambda model: LogPosterior.from_covariance(model, allan, cov, ref_avar, default_bounds(model, allan),
-                                                      kind=likelihood)
+    return lambda model: LogPosterior.from_covariance(
+        model, allan, cov, ref_avar, default_bounds(model, allan), kind=likelihood
+    )
 
 
 def _covariance(model, params, allan):
@@ -774,7 +971,11 @@ def _initial_walkers(post, evidence, phi_mode, n_walkers, rng):
     w /= w.sum()
     k = min(n_walkers, int(np.count_nonzero(w)))
     idx = rng.choice(w.size, size=k, replace=False, p=w) if k == n_walkers else np.array([], int)
-    start = to_phi(u[idx], post.bounds) if idx.size and u.shape[1] == phi_mode.size else np.empty((0, phi_mode.size))
+    start = (
+        to_phi(u[idx], post.bounds)
+        if idx.size and u.shape[1] == phi_mode.size
+        else np.empty((0, phi_mode.size))
+    )
     if start.shape[0] < n_walkers:
         start = phi_mode + 1e-3 * rng.standard_normal((n_walkers, phi_mode.size))
         if len(post.order) > 1:
@@ -798,7 +999,10 @@ def exchangeable_biases(post):
         return None
     var_cols, time_cols = (list(c) for c in zip(*columns))
     rows = post.bounds
-    if not (np.all(rows[var_cols] == rows[var_cols[0]]) and np.all(rows[time_cols] == rows[time_cols[0]])):
+    if not (
+        np.all(rows[var_cols] == rows[var_cols[0]])
+        and np.all(rows[time_cols] == rows[time_cols[0]])
+    ):
         return None
     return var_cols, time_cols, rows[time_cols[0]]
 
@@ -813,8 +1017,11 @@ def _sample(post, start, rng, max_steps, progress=False):
             state = sampler.run_mcmc(state, chunk, progress=False)
             tau_max = float(np.max(autocorr_time(sampler.get_chain())))
             bar.update(chunk)
-            if sampler.iteration >= GEOMETRIC_FROM:  # a long chain: checked at a tenth of its length, up to the cap
-                chunk = min(steps_to_next_check(sampler.iteration, 250), max_steps - sampler.iteration)
+            # a long chain: checked at a tenth of its length, up to the cap
+            if sampler.iteration >= GEOMETRIC_FROM:
+                chunk = min(
+                    steps_to_next_check(sampler.iteration, 250), max_steps - sampler.iteration
+                )
             bar.set_postfix_str(f"autocorrelation {tau_max:.0f} steps")
             settled = long_enough(sampler.iteration, tau_max, tau_old)
             tau_old = tau_max
@@ -826,8 +1033,9 @@ def _sample(post, start, rng, max_steps, progress=False):
     if not converged:
         chain, lp, diagnostics = _thinned(sampler, tau_max, n_walkers, False)
         warnings.warn(
-            f"sampler not converged after {sampler.iteration} steps (autocorrelation time {tau_max:.0f} steps, "
-            f"R-hat {diagnostics['rhat_max']:.3f}, bulk ESS {diagnostics['ess_bulk_min']:.0f}); "
+            f"sampler not converged after {sampler.iteration} steps (autocorrelation time "
+            f"{tau_max:.0f} steps, R-hat {diagnostics['rhat_max']:.3f}, bulk ESS "
+            f"{diagnostics['ess_bulk_min']:.0f}); "
             "raise max_steps or inspect the chain",
             ConvergenceWarning,
             stacklevel=4,
@@ -836,14 +1044,15 @@ def _sample(post, start, rng, max_steps, progress=False):
 
 
 def warm_up():
-    """Import what a fit's pool jobs need (:func:`_mode_ahead`; scipy.optimize for a mode search's last steps):
-    the warm-up of the command's output process, which then seeks modes ahead."""
+    """Import what a fit's pool jobs need (:func:`_mode_ahead`; scipy.optimize for a mode search's
+    last steps): the warm-up of the command's output process, which then seeks modes ahead."""
     import scipy.optimize  # noqa: F401
     import scipy.special  # noqa: F401
 
 
 def import_arviz():
-    """``arviz``, imported without its import-time announcement (a FutureWarning and lines on stdout)."""
+    """``arviz``, imported without its import-time announcement (a FutureWarning and lines on
+    stdout)."""
     import contextlib
     import io
 
@@ -855,7 +1064,8 @@ def import_arviz():
 
 
 def _thinned(sampler, tau_max, n_walkers, settled):
-    """Drop the burn-in, thin (:func:`~bayes_imu.inference.sampling.burn_and_thin`); diagnostics on the rest."""
+    """Drop the burn-in, thin (:func:`~bayes_imu.inference.sampling.burn_and_thin`); diagnostics on
+    the rest."""
     burn, thin = burn_and_thin(tau_max)
     chain = sampler.get_chain(discard=burn, thin=thin)  # (draws, walkers, par)
     lp = sampler.get_log_prob(discard=burn, thin=thin)
@@ -865,7 +1075,9 @@ def _thinned(sampler, tau_max, n_walkers, settled):
 def _diagnostics(chain, tau_max, n_steps, n_walkers, converged):
     out = {**convergence_summary(chain), "autocorr_time": float(tau_max), "n_steps": int(n_steps),
            "n_walkers": int(n_walkers)}
-    out["converged"] = bool(converged and out["rhat_max"] < RHAT_MAX and out["ess_bulk_min"] >= ESS_MIN)
+    out["converged"] = bool(
+        converged and out["rhat_max"] < RHAT_MAX and out["ess_bulk_min"] >= ESS_MIN
+    )
     return out
 
 

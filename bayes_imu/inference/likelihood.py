@@ -36,7 +36,8 @@ PRIOR_DECADES_BELOW = 4.0
 PRIOR_DECADES_ABOVE = 1.0
 #: log of the model-discrepancy standard deviation (relative error on the Allan variance)
 DISCREPANCY_BOUNDS = (float(np.log(1e-3)), float(np.log(3.0)))
-#: normal score of the smallest positive float probability, -ndtri(tiny) (checked in tests/test_likelihood.py)
+#: normal score of the smallest positive float probability, -ndtri(tiny) (checked in
+#: tests/test_likelihood.py)
 _MAX_SCORE = 37.5193793471445
 
 
@@ -59,14 +60,16 @@ def default_bounds(model, allan):
     Each amplitude is bounded so that its term's largest Allan variance over the fitted
     grid lies between ``10**-4`` times the smallest and ``10**1`` times the largest
     observed value; time constants as each term states (:mod:`bayes_imu.noise`). The
-    model-discrepancy row, when used, is :data:`DISCREPANCY_BOUNDS` (:meth:`LogPosterior.with_discrepancy`).
+    model-discrepancy row, when used, is :data:`DISCREPANCY_BOUNDS`
+    (:meth:`LogPosterior.with_discrepancy`).
     """
     scale = prior_scale(allan)
     return np.array([row for t in model.components for row in t.bounds(scale)], dtype=float)
 
 
 def ordered_log_mass(bounds, order):
-    """``log P(phi_i1 < phi_i2 < ...)`` for independent uniforms on the rows ``order`` of ``bounds``.
+    """``log P(phi_i1 < phi_i2 < ...)`` for independent uniforms on the rows ``order`` of
+    ``bounds``.
 
     The prior of ordered time constants is the box prior restricted to the ordered region,
     renormalised by this mass (so evidences stay comparable). Computed by propagating the
@@ -141,28 +144,52 @@ class LogPosterior:
             object.__setattr__(self, "evaluate", self.model.avar_evaluator(self.m))
         if not self.order and len(self.model.ordered) > 1:
             object.__setattr__(self, "order", self.model.ordered)
-            object.__setattr__(self, "log_order_mass", ordered_log_mass(self.bounds, self.model.ordered))
-        # the uniform prior's log density inside the box, and its edges, computed once (not per call)
-        object.__setattr__(self, "_log_prior_inside", -float(np.sum(np.log(self.bounds[:, 1] - self.bounds[:, 0]))))
+            object.__setattr__(
+                self, "log_order_mass", ordered_log_mass(self.bounds, self.model.ordered)
+            )
+        # the uniform prior's log density inside the box, and its edges, computed once (not per
+        # call)
+        object.__setattr__(
+            self, "_log_prior_inside", -float(np.sum(np.log(self.bounds[:, 1] - self.bounds[:, 0])))
+        )
         object.__setattr__(self, "_low", np.ascontiguousarray(self.bounds[:, 0]))
         object.__setattr__(self, "_high", np.ascontiguousarray(self.bounds[:, 1]))
         n_model = len(self.model.parameter_names)
         if self.bounds.shape[0] != n_model + int(self.discrepancy):
-            raise InputError(f"prior box has {self.bounds.shape[0]} rows: the model has {n_model} parameters"
-                             + (" plus the discrepancy" if self.discrepancy else ""))
+            raise InputError(
+                f"prior box has {self.bounds.shape[0]} rows: the model has {n_model} parameters"
+                + (" plus the discrepancy" if self.discrepancy else "")
+            )
 
     def with_discrepancy(self):
-        """The same likelihood with a model-discrepancy parameter appended (``"correlated"`` only)."""
+        """The same likelihood with a model-discrepancy parameter appended (``"correlated"``
+        only)."""
         if self.kind != "correlated":
-            raise InputError(f"likelihood={self.kind!r}: the model-discrepancy term needs 'correlated'")
+            raise InputError(
+                f"likelihood={self.kind!r}: the model-discrepancy term needs 'correlated'"
+            )
         if self.discrepancy:
             return self
         chol = np.linalg.inv(self.whiten)  # whiten = chol^-1 (lower triangular)
         values, vectors = np.linalg.eigh(chol @ chol.T)
         bounds = np.vstack([self.bounds, DISCREPANCY_BOUNDS])
-        return LogPosterior(self.model, bounds, self.m, self.log_avar, self.kind, self.whiten, self.offset, self.shape,
-                            self.norm, self.evaluate, True, np.clip(values, 0.0, None), vectors, self.order,
-                            self.log_order_mass)
+        return LogPosterior(
+            self.model,
+            bounds,
+            self.m,
+            self.log_avar,
+            self.kind,
+            self.whiten,
+            self.offset,
+            self.shape,
+            self.norm,
+            self.evaluate,
+            True,
+            np.clip(values, 0.0, None),
+            vectors,
+            self.order,
+            self.log_order_mass,
+        )
 
     def residuals(self, log_theta):
         """Whitened residuals ``(..., n_tau)`` of ``log avar`` under this likelihood's covariance.
@@ -220,7 +247,9 @@ class LogPosterior:
             chol = np.linalg.cholesky(rho)
             norm = _gamma_norm(shape, log_avar) - float(np.sum(np.log(np.diag(chol))))
             precision = np.linalg.inv(rho) - np.eye(k)
-            return cls(model, bounds, allan.m, log_avar, "copula", precision, np.zeros(k), shape, norm)
+            return cls(
+                model, bounds, allan.m, log_avar, "copula", precision, np.zeros(k), shape, norm
+            )
         trig = special.polygamma(1, nu / 2.0)
         log_cov = rho * np.sqrt(np.outer(trig, trig))
         chol = np.linalg.cholesky(log_cov)
@@ -246,7 +275,9 @@ class LogPosterior:
         if self.kind == "correlated" and self.discrepancy:
             var = self.eig_values + np.exp(2.0 * log_theta[..., -1:])
             r = (self.log_avar - mu - self.offset) @ self.eig_vectors
-            out = -0.5 * (r * r / var + np.log(var)).sum(axis=-1) - 0.5 * self.m.size * np.log(2.0 * np.pi)
+            out = -0.5 * (r * r / var + np.log(var)).sum(axis=-1) - 0.5 * self.m.size * np.log(
+                2.0 * np.pi
+            )
         elif self.kind == "correlated":
             r = (self.log_avar - mu - self.offset) @ self.whiten.T
             out = self.norm - 0.5 * (r * r).sum(axis=-1)
@@ -269,10 +300,13 @@ class LogPosterior:
 
     def log_prior(self, log_theta):
         """Uniform density on the box of log-parameters."""
-        return np.where(self.in_prior(np.asarray(log_theta, float)), self._log_prior_inside, -np.inf)
+        return np.where(
+            self.in_prior(np.asarray(log_theta, float)), self._log_prior_inside, -np.inf
+        )
 
     def __call__(self, log_theta):
-        """Log posterior (unnormalised), ``-inf`` outside the prior box; emcee ``vectorize=True``."""
+        """Log posterior (unnormalised), ``-inf`` outside the prior box; emcee
+        ``vectorize=True``."""
         log_theta = np.asarray(log_theta, float)
         ok = self.in_prior(log_theta)
         if ok.all():  # the usual case: every point inside the box

@@ -94,11 +94,15 @@ class UnitPosterior:
         return self.model.parameter_names
 
     def draws(self, name):
-        """Draws of one parameter, or ``noise_density`` (short-term white equivalent, u/sqrt(Hz))."""
+        """Draws of one parameter, or ``noise_density`` (short-term white equivalent,
+        u/sqrt(Hz))."""
         if name == "noise_density":
             return np.sqrt(self.model.short_term_variance(self.samples) * self.model.dt)
         if name not in self.parameter_names:
-            raise InputError(f"parameter {name!r}: the model {self.model.terms} has {', '.join(self.parameter_names)}")
+            raise InputError(
+                f"parameter {name!r}: the model {self.model.terms} has "
+                f"{', '.join(self.parameter_names)}"
+            )
         return self.samples[:, self.parameter_names.index(name)]
 
     def quantiles(self, q=(0.05, 0.5, 0.95)):
@@ -150,8 +154,8 @@ class PopulationResult:
         Index of the chosen structure.
     diagnostics : dict
         ``autocorr_time``, ``n_steps`` (iterations per chain), ``n_walkers`` (chains), ``n_draws``,
-        ``converged``, ``rhat_max`` and ``ess_hyper_min`` (over the hyper-parameters), ``accept``, and
-        the pooled draws' importance ``ess_min``.
+        ``converged``, ``rhat_max`` and ``ess_hyper_min`` (over the hyper-parameters), ``accept``,
+        and the pooled draws' importance ``ess_min``.
     spread_scale : float
     seed : object
     """
@@ -175,7 +179,8 @@ class PopulationResult:
         return self.model.parameter_names
 
     def spread_quantiles(self, q=(0.05, 0.5, 0.95)):
-        """Dict parameter -> quantiles of the population spread sigma (ln units, ~ relative spread)."""
+        """Dict parameter -> quantiles of the population spread sigma (ln units, ~ relative
+        spread)."""
         return {n: np.quantile(self.spread[:, i], q) for i, n in enumerate(self.parameter_names)}
 
     def summary(self, *, unit="u"):
@@ -186,17 +191,32 @@ class PopulationResult:
         kind = sensor_of_si_unit(unit)
 
         def stats(draws, name):
-            return {"median": float(np.median(draws)), "q05": float(np.quantile(draws, 0.05)),
-                    "q95": float(np.quantile(draws, 0.95)), "unit": PARAMETER_UNITS.get(name, "1").format(u=unit)}
+            return {
+                "median": float(np.median(draws)),
+                "q05": float(np.quantile(draws, 0.05)),
+                "q95": float(np.quantile(draws, 0.95)),
+                "unit": PARAMETER_UNITS.get(name, "1").format(u=unit),
+            }
 
         def block(post):
             return {n: stats(post.draws(n), n) for n in post.parameter_names + ("noise_density",)}
 
         units = []
         for label, alone, pooled in zip(self.labels, self.unit_fits, self.units):
-            units.append({"label": label, "n_samples": int(alone.allan.n_samples), "record_s": pooled.record_s,
-                          "alone": {n: stats(alone.draws(n), n) for n in self.parameter_names + ("noise_density",)},
-                          "pooled": block(pooled), "adequacy": alone.adequacy.to_dict(), "widened": bool(alone.widened)})
+            units.append(
+                {
+                    "label": label,
+                    "n_samples": int(alone.allan.n_samples),
+                    "record_s": pooled.record_s,
+                    "alone": {
+                        n: stats(alone.draws(n), n)
+                        for n in self.parameter_names + ("noise_density",)
+                    },
+                    "pooled": block(pooled),
+                    "adequacy": alone.adequacy.to_dict(),
+                    "widened": bool(alone.widened),
+                }
+            )
         population = {}
         for i, name in enumerate(self.parameter_names):
             population[name] = {"median": float(np.exp(np.median(self.mean[:, i]))),
@@ -206,29 +226,55 @@ class PopulationResult:
                                               "q95": float(np.quantile(self.spread[:, i], 0.95))}}
         return {
             "model": list(self.model.terms),
-            "what": "posterior predictive for a new unit of this sensor model (unit-to-unit spread included)",
+            "what": "posterior predictive for a new unit of this sensor model (unit-to-unit spread "
+                    "included)",
             "new_unit": block(self.new_unit),
             "new_unit_datasheet": datasheet(self.new_unit, kind) if kind else None,
             "population": population,
             "units": units,
             # fixed terms (no selection) score no evidence: null, not NaN (invalid JSON)
-            "structures": [{"model": list(s.terms), "log_evidence": _number(s.log_evidence),
-                            "log_evidence_se": _number(s.log_evidence_se),
-                            "per_unit": [_number(v) for v in self.per_unit_evidence[i]],
-                            "selected": i == self.selected}
-                           for i, s in enumerate(self.structures)],
+            "structures": [
+                {
+                    "model": list(s.terms),
+                    "log_evidence": _number(s.log_evidence),
+                    "log_evidence_se": _number(s.log_evidence_se),
+                    "per_unit": [_number(v) for v in self.per_unit_evidence[i]],
+                    "selected": i == self.selected,
+                }
+                for i, s in enumerate(self.structures)
+            ],
             "spread_prior": f"half-normal, scale {self.spread_scale:g} (ln units)",
             # a chain that never moved has no finite R-hat: null in JSON
-            "diagnostics": {k: (bool(v) if k == "converged" else int(v) if k in ("n_steps", "n_walkers", "n_draws")
-                                else _number(v)) for k, v in self.diagnostics.items()},
+            "diagnostics": {
+                k: (
+                    bool(v)
+                    if k == "converged"
+                    else int(v)
+                    if k in ("n_steps", "n_walkers", "n_draws")
+                    else _number(v)
+                )
+                for k, v in self.diagnostics.items()
+            },
             "rate_hz": float(self.unit_fits[0].allan.rate_hz),
             "seed": self.seed if isinstance(self.seed, (int, type(None))) else str(self.seed),
             "bayes_imu_version": __version__,
         }
 
 
-def fit_population(allans, *, labels=None, terms="auto", unit_fits=None, rng=None, threshold=1.0, spread_scale=1.0,
-                   n_unit_draws=800, n_new=4000, max_steps=4000, progress=False):
+def fit_population(
+    allans,
+    *,
+    labels=None,
+    terms="auto",
+    unit_fits=None,
+    rng=None,
+    threshold=1.0,
+    spread_scale=1.0,
+    n_unit_draws=800,
+    n_new=4000,
+    max_steps=4000,
+    progress=False,
+):
     """Fit several units of one sensor model jointly (module docstring).
 
     Parameters
@@ -258,13 +304,19 @@ def fit_population(allans, *, labels=None, terms="auto", unit_fits=None, rng=Non
     """
     allans = list(allans)
     if len(allans) < 2 or not all(isinstance(a, AllanResult) for a in allans):
-        raise InputError(f"fit_population: expected at least 2 AllanResults (one per unit), got {len(allans)}")
+        raise InputError(
+            f"fit_population: expected at least 2 AllanResults (one per unit), got {len(allans)}"
+        )
     rate = allans[0].rate_hz
     for i, a in enumerate(allans):
         if not np.isclose(a.rate_hz, rate, rtol=1e-9):
-            raise InputError(f"fit_population: unit {i + 1} is sampled at {a.rate_hz:g} Hz, unit 1 at {rate:g} Hz: "
-                             "expected one sample rate")
-    labels = tuple(labels) if labels is not None else tuple(f"unit {i + 1}" for i in range(len(allans)))
+            raise InputError(
+                f"fit_population: unit {i + 1} is sampled at {a.rate_hz:g} Hz, unit 1 at {rate:g} "
+                "Hz: expected one sample rate"
+            )
+    labels = (
+        tuple(labels) if labels is not None else tuple(f"unit {i + 1}" for i in range(len(allans)))
+    )
     if len(labels) != len(allans) or len(set(labels)) != len(labels):
         raise InputError(f"fit_population: expected {len(allans)} distinct labels, got {labels!r}")
     if not (np.isfinite(spread_scale) and spread_scale > 0):
@@ -272,7 +324,9 @@ def fit_population(allans, *, labels=None, terms="auto", unit_fits=None, rng=Non
     seed = rng
     rng = np.random.default_rng(rng)
     if unit_fits is None:
-        unit_fits = [_unit_fit(label, a, rng=rng, progress=progress) for label, a in zip(labels, allans)]
+        unit_fits = [
+            _unit_fit(label, a, rng=rng, progress=progress) for label, a in zip(labels, allans)
+        ]
     elif len(unit_fits) != len(allans) or not all(isinstance(f, FitResult) for f in unit_fits):
         raise InputError("unit_fits: expected one FitResult per Allan result")
     dt = 1.0 / rate
@@ -280,16 +334,26 @@ def fit_population(allans, *, labels=None, terms="auto", unit_fits=None, rng=Non
         structures, evidence, chosen = _choose_structure(allans, unit_fits, threshold, rng)
     else:
         model = NoiseModel(tuple(terms), dt)
-        structures, evidence, chosen = (CandidateScore(model.terms, np.nan, np.nan, np.nan, np.empty(0)),), \
-            np.full((1, len(allans)), np.nan), 0
+        structures, evidence, chosen = (
+            (CandidateScore(model.terms, np.nan, np.nan, np.nan, np.empty(0)),),
+            np.full((1, len(allans)), np.nan),
+            0,
+        )
     model = NoiseModel(structures[chosen].terms, dt)
-    fits = [f if f.model.terms == model.terms else
-            _unit_fit(label, a, terms=model.terms, discrepancy="always" if f.widened else "auto", rng=rng)
-            for label, a, f in zip(labels, allans, unit_fits)]
+    fits = [
+        f
+        if f.model.terms == model.terms
+        else _unit_fit(
+            label, a, terms=model.terms, discrepancy="always" if f.widened else "auto", rng=rng
+        )
+        for label, a, f in zip(labels, allans, unit_fits)
+    ]
     p = len(model.parameter_names)
     phis, boxes = [], []
     for a, f in zip(allans, fits):
-        idx = rng.choice(f.samples.shape[0], size=min(n_unit_draws, f.samples.shape[0]), replace=False)
+        idx = rng.choice(
+            f.samples.shape[0], size=min(n_unit_draws, f.samples.shape[0]), replace=False
+        )
         phis.append(np.log(f.samples[idx, :p]))
         boxes.append(default_bounds(model, a))
     target = _HyperPosterior(phis, boxes, spread_scale)
@@ -297,18 +361,38 @@ def fit_population(allans, *, labels=None, terms="auto", unit_fits=None, rng=Non
     pooled, ess = [], []
     for label, a, f, phi, box in zip(labels, allans, fits, phis, boxes):
         draws, e = _pooled_draws(phi, box, mean, spread, rng)
-        pooled.append(UnitPosterior(model, np.exp(draws), a.duration_s, label, _discrepancy(f, draws.shape[0], rng)))
+        pooled.append(
+            UnitPosterior(
+                model, np.exp(draws), a.duration_s, label, _discrepancy(f, draws.shape[0], rng)
+            )
+        )
         ess.append(e)
     diagnostics["ess_min"] = float(min(ess))
     new = _new_unit(model, mean, spread, target, n_new, rng)
     new_disc = None
-    if any(f.widened for f in fits):  # a new unit's discrepancy: a random unit's (zero for adequate units)
-        pool = np.concatenate([f.samples[:, p] if f.widened else np.zeros(f.samples.shape[0]) for f in fits])
+    # a new unit's discrepancy: a random unit's (zero for adequate units)
+    if any(f.widened for f in fits):
+        pool = np.concatenate(
+            [f.samples[:, p] if f.widened else np.zeros(f.samples.shape[0]) for f in fits]
+        )
         new_disc = pool[rng.integers(pool.size, size=new.shape[0])]
     record = float(min(a.duration_s for a in allans))
     new_unit = UnitPosterior(model, np.exp(new), record, "new unit", new_disc)
-    return PopulationResult(model, labels, tuple(fits), tuple(pooled), mean, spread, new_unit, structures, evidence,
-                            chosen, diagnostics, float(spread_scale), seed)
+    return PopulationResult(
+        model,
+        labels,
+        tuple(fits),
+        tuple(pooled),
+        mean,
+        spread,
+        new_unit,
+        structures,
+        evidence,
+        chosen,
+        diagnostics,
+        float(spread_scale),
+        seed,
+    )
 
 
 def _discrepancy(fit, n, rng):
@@ -319,7 +403,8 @@ def _discrepancy(fit, n, rng):
 
 
 def _choose_structure(allans, unit_fits, threshold, rng):
-    """Candidate structures with posterior mass in any unit, scored on every unit; summed evidence."""
+    """Candidate structures with posterior mass in any unit, scored on every unit; summed
+    evidence."""
     seen = []
     for f in unit_fits:
         for terms in [f.model.terms] + [c.terms for c in f.mixture]:
@@ -331,8 +416,12 @@ def _choose_structure(allans, unit_fits, threshold, rng):
         scores = score_models(a, seen, widened=f.widened, likelihood=f.likelihood, rng=rng)
         evidence[:, j] = [s.log_evidence for s in scores]
         se[:, j] = [s.log_evidence_se for s in scores]
-    summed = tuple(CandidateScore(t, float(evidence[i].sum()), float(np.sqrt(np.sum(se[i] ** 2))), np.nan, np.empty(0))
-                   for i, t in enumerate(seen))
+    summed = tuple(
+        CandidateScore(
+            t, float(evidence[i].sum()), float(np.sqrt(np.sum(se[i] ** 2))), np.nan, np.empty(0)
+        )
+        for i, t in enumerate(seen)
+    )
     chosen = select(summed, threshold=threshold) if len(summed) > 1 else 0
     return summed, evidence, chosen
 
@@ -361,7 +450,8 @@ class _HyperPosterior:
 
     @cached_property
     def mean_box(self):
-        """Box of ``mu``: the union of the units' prior boxes (computed once; the posterior is called every step)."""
+        """Box of ``mu``: the union of the units' prior boxes (computed once; the posterior is
+        called every step)."""
         lo = np.min([b[:, 0] for b in self.boxes], axis=0)
         hi = np.max([b[:, 1] for b in self.boxes], axis=0)
         return np.column_stack([lo, hi])
@@ -377,7 +467,9 @@ class _HyperPosterior:
         mu, log_sigma = x[:, :p], x[:, p:]
         box = self.mean_box
         inside = np.all((mu >= box[:, 0]) & (mu <= box[:, 1]), axis=1) & np.all(
-            (log_sigma >= np.log(SPREAD_BOUNDS[0])) & (log_sigma <= np.log(SPREAD_BOUNDS[1])), axis=1)
+            (log_sigma >= np.log(SPREAD_BOUNDS[0])) & (log_sigma <= np.log(SPREAD_BOUNDS[1])),
+            axis=1,
+        )
         out = np.full(x.shape[0], -np.inf)
         if not inside.any():
             return out
@@ -391,14 +483,16 @@ class _HyperPosterior:
         return out
 
     def value_and_grad(self, x):
-        """Log posterior ``(W,)`` of rows ``x`` ``(W, 2p)`` and its gradient ``(W, 2p)`` (-inf and zeros
-        outside the support): what the Hamiltonian sampler follows."""
+        """Log posterior ``(W,)`` of rows ``x`` ``(W, 2p)`` and its gradient ``(W, 2p)`` (-inf and
+        zeros outside the support): what the Hamiltonian sampler follows."""
         x = np.atleast_2d(x)
         p = self.n_par
         box = self.mean_box
         mu, log_sigma = x[:, :p], x[:, p:]
         inside = np.all((mu >= box[:, 0]) & (mu <= box[:, 1]), axis=1) & np.all(
-            (log_sigma >= np.log(SPREAD_BOUNDS[0])) & (log_sigma <= np.log(SPREAD_BOUNDS[1])), axis=1)
+            (log_sigma >= np.log(SPREAD_BOUNDS[0])) & (log_sigma <= np.log(SPREAD_BOUNDS[1])),
+            axis=1,
+        )
         out, grad = np.full(x.shape[0], -np.inf), np.zeros_like(x)
         if not inside.any():
             return out, grad
@@ -460,7 +554,9 @@ def density_log_likelihood(density, mu, sigma, *, gradient=False):
     np.exp(quad, out=quad)  # the log of the mean of the exponentials, about each row's largest term
     total = quad.sum(axis=0)
     value = np.log(total) - 0.5 * (least + np.sum(d * d / v, axis=1))
-    value = value - 0.5 * np.sum(np.log(v), axis=1) - 0.5 * q.shape[1] * _LOG_2PI - np.log(q.shape[0])
+    value = (
+        value - 0.5 * np.sum(np.log(v), axis=1) - 0.5 * q.shape[1] * _LOG_2PI - np.log(q.shape[0])
+    )
     if not gradient:
         return value
     moments = (quad.T @ design) / total[:, None]  # (W, 2p): weighted means of q^2 and q
@@ -473,11 +569,13 @@ def density_log_likelihood(density, mu, sigma, *, gradient=False):
 def log_truncated_normal(phi, box, mu, sigma):
     """``log N_trunc(phi_n; mu_w, sigma_w)``, shape ``(W, n)``: each draw under each population row.
 
-    ``phi`` ``(n, p)``: one unit's ln-parameter draws; ``mu``, ``sigma`` ``(W, p)``; ``box`` ``(p, 2)``:
-    the truncation (that unit's prior box).
+    ``phi`` ``(n, p)``: one unit's ln-parameter draws; ``mu``, ``sigma`` ``(W, p)``; ``box`` ``(p,
+    2)``: the truncation (that unit's prior box).
     """
     z = (phi[None, :, :] - mu[:, None, :]) / sigma[:, None, :]
-    norm = np.sum(np.log(sigma), axis=1) + 0.5 * phi.shape[1] * _LOG_2PI + log_box_mass(box, mu, sigma)
+    norm = (
+        np.sum(np.log(sigma), axis=1) + 0.5 * phi.shape[1] * _LOG_2PI + log_box_mass(box, mu, sigma)
+    )
     return -0.5 * np.einsum("wnp,wnp->wn", z, z) - norm[:, None]
 
 
@@ -487,11 +585,14 @@ def unit_log_likelihood(phi, box, mu, sigma):
     ``phi`` ``(n, p)``: one unit's single-fit posterior draws (ln parameters); ``box`` ``(p, 2)``:
     the truncation (that fit's prior box). Up to the constant ``-log pi_u``.
     """
-    return special.logsumexp(log_truncated_normal(phi, box, mu, sigma), axis=1) - np.log(phi.shape[0])
+    return special.logsumexp(log_truncated_normal(phi, box, mu, sigma), axis=1) - np.log(
+        phi.shape[0]
+    )
 
 
 def log_box_mass(box, mu, sigma, *, gradient=False):
-    """``sum_d log P(a_d < N(mu_d, sigma_d) < b_d)`` for rows of ``mu``, ``sigma`` (stable in both tails).
+    """``sum_d log P(a_d < N(mu_d, sigma_d) < b_d)`` for rows of ``mu``, ``sigma`` (stable in both
+    tails).
 
     ``gradient``: also its derivatives ``(W, p)`` by ``mu`` and by ``ln sigma``:
     ``(phi(A) - phi(B)) / (sigma P)`` and ``(A phi(A) - B phi(B)) / P`` with ``A``, ``B`` the box's
@@ -524,9 +625,10 @@ N_CHAINS = 16
 
 
 def _sample_hyper(target, rng, max_steps):
-    """Draws of ``(mu, sigma)`` by Hamiltonian Monte Carlo (:func:`~bayes_imu.inference.hmc.sample_hmc`)
-    on :data:`N_CHAINS` chains until every hyper-parameter has split R-hat below :data:`RHAT_MAX`
-    and more than :data:`ESS_MIN` effective draws, or ``max_steps`` iterations.
+    """Draws of ``(mu, sigma)`` by Hamiltonian Monte Carlo
+    (:func:`~bayes_imu.inference.hmc.sample_hmc`) on :data:`N_CHAINS` chains until every
+    hyper-parameter has split R-hat below :data:`RHAT_MAX` and more than :data:`ESS_MIN` effective
+    draws, or ``max_steps`` iterations.
 
     The emcee ensemble used before needed 20 000 steps and more on 16-20 hyper-parameters
     (autocorrelation times of 150-1000 steps: issue 39); the posterior being smooth
@@ -535,19 +637,29 @@ def _sample_hyper(target, rng, max_steps):
     p = target.n_par
     medians = np.array([np.median(phi, axis=0) for phi in target.phis])
     spread0 = np.clip(np.std(medians, axis=0, ddof=1), 0.01, 1.0)
-    start = np.column_stack([medians.mean(axis=0) + 0.3 * spread0 * rng.standard_normal((N_CHAINS, p)),
-                             np.log(spread0) + 0.3 * rng.standard_normal((N_CHAINS, p))])
+    start = np.column_stack(
+        [
+            medians.mean(axis=0) + 0.3 * spread0 * rng.standard_normal((N_CHAINS, p)),
+            np.log(spread0) + 0.3 * rng.standard_normal((N_CHAINS, p)),
+        ]
+    )
     box = target.mean_box
     start[:, :p] = np.clip(start[:, :p], box[:, 0] + 1e-6, box[:, 1] - 1e-6)
-    start[:, p:] = np.clip(start[:, p:], np.log(SPREAD_BOUNDS[0]) + 1e-6, np.log(SPREAD_BOUNDS[1]) - 1e-6)
+    start[:, p:] = np.clip(
+        start[:, p:], np.log(SPREAD_BOUNDS[0]) + 1e-6, np.log(SPREAD_BOUNDS[1]) - 1e-6
+    )
     scaled = _ScaledMean(target)
     with one_blas_thread():
         run = sample_hmc(scaled.value_and_grad, scaled.to_scaled(start), rng, max_steps=max_steps,
                          rhat_max=RHAT_MAX, ess_min=ESS_MIN, monitor=scaled.to_hyper)
     if not run.converged:
-        warnings.warn(f"population sampler not converged after {run.chain.shape[0]} iterations of {N_CHAINS} "
-                      f"chains (R-hat {np.max(run.rhat):.3f}, effective draws {np.min(run.ess):.0f}; needed "
-                      f"< {RHAT_MAX} and > {ESS_MIN}); raise max_steps", ConvergenceWarning, stacklevel=3)
+        warnings.warn(
+            f"population sampler not converged after {run.chain.shape[0]} iterations of {N_CHAINS} "
+            f"chains (R-hat {np.max(run.rhat):.3f}, effective draws {np.min(run.ess):.0f}; needed "
+            f"< {RHAT_MAX} and > {ESS_MIN}); raise max_steps",
+            ConvergenceWarning,
+            stacklevel=3,
+        )
     chain = run.chain.reshape(-1, 2 * p)
     diagnostics = {"autocorr_time": float(np.max(run.autocorr_time)), "n_steps": run.chain.shape[0],
                    "n_walkers": N_CHAINS, "n_draws": chain.shape[0], "converged": run.converged,
@@ -611,7 +723,8 @@ class _ScaledMean:
 
 
 def _pooled_draws(phi, box, mean, spread, rng, n_hyper=400):
-    """One unit's draws reweighted by the population (mean over hyper draws); resampled, and the ESS."""
+    """One unit's draws reweighted by the population (mean over hyper draws); resampled, and the
+    ESS."""
     pick = rng.choice(mean.shape[0], size=min(n_hyper, mean.shape[0]), replace=False)
     log_w = special.logsumexp(log_truncated_normal(phi, box, mean[pick], spread[pick]), axis=0)
     w = np.exp(log_w - log_w.max())
@@ -632,7 +745,9 @@ def _new_unit(model, mean, spread, target, n_new, rng):
             bad |= np.any(np.diff(out[:, order], axis=1) <= 0, axis=1)
         if not bad.any():
             break
-        out[bad] = mean[rows[bad]] + spread[rows[bad]] * rng.standard_normal((int(bad.sum()), mean.shape[1]))
+        out[bad] = mean[rows[bad]] + spread[rows[bad]] * rng.standard_normal(
+            (int(bad.sum()), mean.shape[1])
+        )
     return np.clip(out, box[:, 0], box[:, 1])
 
 
@@ -643,7 +758,8 @@ def _number(value):
 
 
 def _unit_fit(label, allan, **options):
-    """:func:`fit_allan` of one unit; an error names the unit (one unfittable unit among several)."""
+    """:func:`fit_allan` of one unit; an error names the unit (one unfittable unit among
+    several)."""
     try:
         return fit_allan(allan, **options)
     except BayesIMUError as exc:

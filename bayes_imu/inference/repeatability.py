@@ -74,7 +74,10 @@ def normal_scores(n, stream=0):
     """``n`` deterministic standard normal scores: ``Phi^-1(frac(1/2 + (i + 1/2) a))`` for an
     irrational step ``a`` (one per stream), equidistributed in (0, 1) like a random sample's
     uniform scores but with no random state."""
-    u = np.mod(0.5 + (np.arange(n) + 0.5) * _STEPS[stream % len(_STEPS)] + 0.1 * (stream // len(_STEPS)), 1.0)
+    u = np.mod(
+        0.5 + (np.arange(n) + 0.5) * _STEPS[stream % len(_STEPS)] + 0.1 * (stream // len(_STEPS)),
+        1.0,
+    )
     return special.ndtri(u)
 
 

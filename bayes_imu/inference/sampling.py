@@ -23,15 +23,28 @@ never visited it; with the move all eight converge, 3-5% of their draws there
 import numpy as np
 from .._lazy import import_without
 
-__all__ = ["AUTOCORR_MULTIPLE", "RELABEL_SHARE", "ensemble_sampler", "relabel_move", "import_emcee", "autocorr_time",
-           "long_enough", "burn_and_thin", "one_blas_thread", "steps_to_next_check",
-           "GEOMETRIC_FROM", "reserved_backend"]
+__all__ = [
+    "AUTOCORR_MULTIPLE",
+    "RELABEL_SHARE",
+    "ensemble_sampler",
+    "relabel_move",
+    "import_emcee",
+    "autocorr_time",
+    "long_enough",
+    "burn_and_thin",
+    "one_blas_thread",
+    "steps_to_next_check",
+    "GEOMETRIC_FROM",
+    "reserved_backend",
+]
 
 #: chain length, in integrated autocorrelation times, before the sampler may stop
 AUTOCORR_MULTIPLE = 50
-#: chain length (steps) from which convergence is checked at a tenth of the chain instead of every fixed chunk
+#: chain length (steps) from which convergence is checked at a tenth of the chain instead of every
+#: fixed chunk
 GEOMETRIC_FROM = 10_000
-#: share of the steps that are :func:`relabel_move` where a model has exchangeable Gauss-Markov biases
+#: share of the steps that are :func:`relabel_move` where a model has exchangeable Gauss-Markov
+#: biases
 RELABEL_SHARE = 0.1
 
 
@@ -49,8 +62,11 @@ def ensemble_sampler(target, start, rng, exchangeable=None, capacity=None):
     sampler_class, de_move, stretch_move = _lean_classes(emcee)
     moves = [(de_move(), 0.8), (stretch_move(), 0.2)]
     if exchangeable is not None and len(exchangeable[1]) >= 2:
-        moves = [(de_move(), 0.8 * (1.0 - RELABEL_SHARE)), (stretch_move(), 0.2 * (1.0 - RELABEL_SHARE)),
-                 (relabel_move(*exchangeable), RELABEL_SHARE)]
+        moves = [
+            (de_move(), 0.8 * (1.0 - RELABEL_SHARE)),
+            (stretch_move(), 0.2 * (1.0 - RELABEL_SHARE)),
+            (relabel_move(*exchangeable), RELABEL_SHARE),
+        ]
     backend = None if capacity is None else reserved_backend(emcee, capacity)
     sampler = sampler_class(n_walkers, n_par, target, vectorize=True, moves=moves, backend=backend)
     sampler.random_state = np.random.RandomState(rng.integers(2**32)).get_state()
@@ -78,17 +94,19 @@ def reserved_backend(emcee, capacity):
 
 
 def relabel_move(variance_columns, time_columns, bounds):
-    """Metropolis move that redraws the time constant of the weakest of exchangeable Gauss-Markov biases.
+    """Metropolis move that redraws the time constant of the weakest of exchangeable Gauss-Markov
+    biases.
 
-    Each walker takes the bias with the smallest log variance among the columns ``variance_columns``,
-    draws its log time constant uniformly within ``bounds`` (the common prior interval of the
-    ``time_columns``), and sorts the biases, each keeping its variance, by time constant (the ordered
-    parameters). The weakest bias is the same one after the move (no variance changes) and its new
-    time constant has the same density whatever the old one, so the proposal is symmetric and a walker
-    moves with probability ``min(1, p(new) / p(old))``: a Metropolis-Hastings move of the ordered
-    posterior, valid however many biases and whatever the other parameters (tested against the exact
-    distribution of order statistics). It joins, in one step, the regions of a negligible bias below
-    and above the others' time constants, which otherwise connect only through a swap of labels.
+    Each walker takes the bias with the smallest log variance among the columns
+    ``variance_columns``, draws its log time constant uniformly within ``bounds`` (the common prior
+    interval of the ``time_columns``), and sorts the biases, each keeping its variance, by time
+    constant (the ordered parameters). The weakest bias is the same one after the move (no variance
+    changes) and its new time constant has the same density whatever the old one, so the proposal is
+    symmetric and a walker moves with probability ``min(1, p(new) / p(old))``: a Metropolis-Hastings
+    move of the ordered posterior, valid however many biases and whatever the other parameters
+    (tested against the exact distribution of order statistics). It joins, in one step, the regions
+    of a negligible bias below and above the others' time constants, which otherwise connect only
+    through a swap of labels.
 
     Parameters
     ----------
@@ -122,20 +140,22 @@ _LEAN = {}
 
 
 def _lean_classes(emcee):
-    """emcee's sampler and its two moves, with the same draws from the same random numbers, less Python per step.
+    """emcee's sampler and its two moves, with the same draws from the same random numbers, less
+    Python per step.
 
     At 32 walkers emcee's own classes cost more than a step's two vectorised likelihood calls,
     and these less a step (timings: docs/speed_under_load.md#sampler). emcee's time goes where
     it handles one walker at a time or copies its random state:
 
-    * the sampler's ``random_state`` reads as ``None``: emcee copies the generator's state (624 words) into
-      every ``State`` it makes, twice a step, and on the next ``run_mcmc`` sets the generator back to the
-      state of the last step, which it is in already (its setter ignores ``None``, as it does a state it
-      cannot set). Setting it (the seed) works as in emcee.
-    * ``compute_log_prob`` converts the vectorised log densities in one call, not one walker at a time (no
-      blobs; the same errors for non-finite coordinates and NaN densities).
-    * the moves accept or reject a half-ensemble's proposals in one comparison, with its uniform numbers
-      drawn in one call: the legacy generator draws the same numbers in one call as one at a time (tested).
+    * the sampler's ``random_state`` reads as ``None``: emcee copies the generator's state (624
+      words) into every ``State`` it makes, twice a step, and on the next ``run_mcmc`` sets the
+      generator back to the state of the last step, which it is in already (its setter ignores
+      ``None``, as it does a state it cannot set). Setting it (the seed) works as in emcee.
+    * ``compute_log_prob`` converts the vectorised log densities in one call, not one walker at a
+      time (no blobs; the same errors for non-finite coordinates and NaN densities).
+    * the moves accept or reject a half-ensemble's proposals in one comparison, with its uniform
+      numbers drawn in one call: the legacy generator draws the same numbers in one call as one at a
+      time (tested).
 
     The chains are the same, bit for bit, as emcee's own classes give (tested).
     """
@@ -168,8 +188,10 @@ def _lean_classes(emcee):
         def propose(self, model, state):
             n_walkers, n_dim = state.coords.shape
             if n_walkers < 2 * n_dim and not self.live_dangerously:
-                raise RuntimeError("It is unadvisable to use a red-blue move with fewer walkers than twice the "
-                                   "number of dimensions.")
+                raise RuntimeError(
+                    "It is unadvisable to use a red-blue move with fewer walkers than twice the "
+                    "number of dimensions."
+                )
             self.setup(state.coords)
             accepted = np.zeros(n_walkers, dtype=bool)
             halves = np.arange(n_walkers) % self.nsplits
@@ -178,11 +200,18 @@ def _lean_classes(emcee):
             for split in range(self.nsplits):
                 chosen = halves == split
                 sets = [state.coords[halves == j] for j in range(self.nsplits)]
-                proposal, factors = self.get_proposal(sets[split], sets[:split] + sets[split + 1:], model.random)
+                proposal, factors = self.get_proposal(
+                    sets[split], sets[:split] + sets[split + 1 :], model.random
+                )
                 new_log_probs, new_blobs = model.compute_log_prob_fn(proposal)
                 difference = factors + new_log_probs - state.log_prob[chosen]
                 accepted[chosen] = difference > np.log(model.random.rand(difference.size))
-                state = self.update(state, State(proposal, log_prob=new_log_probs, blobs=new_blobs), accepted, chosen)
+                state = self.update(
+                    state,
+                    State(proposal, log_prob=new_log_probs, blobs=new_blobs),
+                    accepted,
+                    chosen,
+                )
             return state, accepted
 
     class DEMove(WholeHalves, emcee.moves.DEMove):
@@ -210,7 +239,8 @@ def import_emcee():
 
 
 def _gaussian_kde(*args, **kwargs):
-    """``scipy.stats.gaussian_kde``, imported when first called (emcee's KDE move, see :func:`import_emcee`)."""
+    """``scipy.stats.gaussian_kde``, imported when first called (emcee's KDE move, see
+    :func:`import_emcee`)."""
     from scipy.stats import gaussian_kde
 
     return gaussian_kde(*args, **kwargs)
@@ -222,9 +252,10 @@ _ACF_ROWS = 8
 
 
 def autocorr_time(chain, c=5):
-    """Integrated autocorrelation time of each parameter of ``chain`` ``(steps, walkers, parameters)``:
-    emcee's estimator (:func:`emcee.autocorr.integrated_time` with ``tol=0``: the walkers' normalised
-    autocorrelation functions averaged, Sokal's window with ``c = 5``), with real FFTs.
+    """Integrated autocorrelation time of each parameter of ``chain`` ``(steps, walkers,
+    parameters)``: emcee's estimator (:func:`emcee.autocorr.integrated_time` with ``tol=0``: the
+    walkers' normalised autocorrelation functions averaged, Sokal's window with ``c = 5``), with
+    real FFTs.
 
     emcee transforms each walker's series as complex numbers, one at a time; here each parameter's
     walkers are transformed together, as contiguous rows, with real transforms: the same numbers as
@@ -255,8 +286,9 @@ def autocorr_time(chain, c=5):
 
 
 def steps_to_next_check(iteration, every):
-    """Steps to run before the next convergence check of a chain ``iteration`` steps long: ``every`` while
-    it is shorter than :data:`GEOMETRIC_FROM`, then a tenth of its length (a multiple of ``every``).
+    """Steps to run before the next convergence check of a chain ``iteration`` steps long: ``every``
+    while it is shorter than :data:`GEOMETRIC_FROM`, then a tenth of its length (a multiple of
+    ``every``).
 
     Each check estimates the autocorrelation time over the whole chain (an FFT of every walker's
     series), so checking every ``every`` steps costs quadratically in the chain length: on a real
@@ -271,7 +303,8 @@ def steps_to_next_check(iteration, every):
 
 
 def long_enough(iteration, tau_max, tau_previous):
-    """The chain is ``AUTOCORR_MULTIPLE`` autocorrelation times long and ``tau`` moved < 5% since the last check."""
+    """The chain is ``AUTOCORR_MULTIPLE`` autocorrelation times long and ``tau`` moved < 5% since
+    the last check."""
     return iteration >= AUTOCORR_MULTIPLE * tau_max and abs(tau_max - tau_previous) < 0.05 * tau_max
 
 

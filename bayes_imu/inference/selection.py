@@ -18,10 +18,11 @@ estimate. A candidate keeps its Laplace estimate (``method="laplace"``) when it 
 :data:`LAPLACE_SCREEN` nats below the largest importance-sampled evidence so far and a pilot
 of :data:`PILOT_DRAWS` draws from the importance proposal agrees (:func:`can_skip`): no draw
 denser than the mode (an optimiser that stopped short makes the Laplace estimate far too low:
-68-1320 nats on some real gyro candidates) and the pilot's estimate that far below too. ``scripts/laplace_screen.py`` checks the rule on the shipped synthetic logs and 37
-real channels: every candidate it would skip has an importance-sampled evidence far below the
-best (``docs/reference.md``), so it could not change the selection, and its posterior
-probability is below the model average's 1e-3 floor.
+68-1320 nats on some real gyro candidates) and the pilot's estimate that far below too.
+``scripts/laplace_screen.py`` checks the rule on the shipped synthetic logs and 37 real channels:
+every candidate it would skip has an importance-sampled evidence far below the best
+(``docs/reference.md``), so it could not change the selection, and its posterior probability is
+below the model average's 1e-3 floor.
 
 Selection rule: the candidate with the largest evidence, except that a candidate with
 fewer terms is preferred while its log evidence is within ``threshold`` nats (default 1)
@@ -36,11 +37,11 @@ a stepwise evidence search over the terms real MEMS logs add (filtered white noi
 high-frequency correlated term, a second Gauss-Markov bias, a rate ramp, a vibration line;
 each term's :attr:`~bayes_imu.noise.Term.selection`): from the best candidate so far, each
 single addition is scored; the search moves to the best addition while it gains more than
-the selection threshold, then goes backward: it scores each single removal from where it stopped and moves to
-the best one while that stays within the selection margin of the best evidence so far (below), until none does.
-A simpler model the selection rule would prefer is thereby scored even when it lies two or more removals from
-where the forward steps stopped (on real ADIS16405 logs the forward steps can add two terms, neither
-needed on its own).
+the selection threshold, then goes backward: it scores each single removal from where it stopped and
+moves to the best one while that stays within the selection margin of the best evidence so far
+(below), until none does. A simpler model the selection rule would prefer is thereby scored even
+when it lies two or more removals from where the forward steps stopped (on real ADIS16405 logs the
+forward steps can add two terms, neither needed on its own).
 
 Adequacy (:func:`adequacy`): the whitened residuals of ``log avar`` under the likelihood's
 own covariance, at the posterior's best draw, are ``N(0, I)`` when the model is right; their
@@ -60,10 +61,27 @@ optimize = LazyModule("scipy.optimize")
 special = LazyModule("scipy.special")
 linalg = LazyModule("scipy.linalg")
 
-__all__ = ["CandidateScore", "Adequacy", "ModeResult", "EvidenceResult", "candidate_terms", "extensions",
-           "posterior_mode", "newton_mode", "log_evidence", "laplace_log_evidence", "select", "within_margin",
-           "model_probabilities", "adequacy", "at_prior_bound", "negative_hessian", "to_phi", "can_skip",
-           "LAPLACE_SCREEN"]
+__all__ = [
+    "CandidateScore",
+    "Adequacy",
+    "ModeResult",
+    "EvidenceResult",
+    "candidate_terms",
+    "extensions",
+    "posterior_mode",
+    "newton_mode",
+    "log_evidence",
+    "laplace_log_evidence",
+    "select",
+    "within_margin",
+    "model_probabilities",
+    "adequacy",
+    "at_prior_bound",
+    "negative_hessian",
+    "to_phi",
+    "can_skip",
+    "LAPLACE_SCREEN",
+]
 
 #: terms of the exhaustive first round and terms added by the stepwise search, in registry
 #: order, from each term's declared :attr:`~bayes_imu.noise.Term.selection`
@@ -73,7 +91,8 @@ EXTENSION_TERMS = tuple(name for name, t in REGISTRY.items() if "extension" in t
 BASE_MODEL = tuple(name for name, t in REGISTRY.items() if "base" in t.selection)
 #: p-value below which a fit is inadequate
 ADEQUACY_ALPHA = 0.01
-#: a parameter is "at a prior bound" when this fraction of draws lies in the outer BOUND_EDGE of its box
+#: a parameter is "at a prior bound" when this fraction of draws lies in the outer BOUND_EDGE of its
+#: box
 BOUND_FRACTION = 0.10
 BOUND_EDGE = 0.02
 _T_DOF = 4.0
@@ -125,7 +144,8 @@ class CandidateScore:
 
 @dataclass(frozen=True)
 class ModeResult:
-    """Posterior mode: ``u`` (unbounded coordinates), ``phi`` (log-parameters), ``neg_log_density``."""
+    """Posterior mode: ``u`` (unbounded coordinates), ``phi`` (log-parameters),
+    ``neg_log_density``."""
 
     u: np.ndarray
     phi: np.ndarray
@@ -134,8 +154,8 @@ class ModeResult:
 
 @dataclass(frozen=True)
 class EvidenceResult:
-    """Importance-sampling evidence: ``log_z``, its ``se``, ``ess``, the draws ``u``, their ``log_w`` and
-    ``log_density`` (the unnormalised log posterior density of each draw in ``u``)."""
+    """Importance-sampling evidence: ``log_z``, its ``se``, ``ess``, the draws ``u``, their
+    ``log_w`` and ``log_density`` (the unnormalised log posterior density of each draw in ``u``)."""
 
     log_z: float
     se: float
@@ -176,9 +196,14 @@ class Adequacy:
     at_prior_bound: tuple
 
     def to_dict(self):
-        return {"adequate": bool(self.adequate), "p_value": float(self.p_value), "statistic": float(self.statistic),
-                "dof": int(self.dof), "worst_tau_s": float(self.worst_tau_s),
-                "at_prior_bound": list(self.at_prior_bound)}
+        return {
+            "adequate": bool(self.adequate),
+            "p_value": float(self.p_value),
+            "statistic": float(self.statistic),
+            "dof": int(self.dof),
+            "worst_tau_s": float(self.worst_tau_s),
+            "at_prior_bound": list(self.at_prior_bound),
+        }
 
 
 def candidate_terms(optional=OPTIONAL_TERMS):
@@ -211,7 +236,8 @@ def reductions(terms):
 
 
 def model_probabilities(scores):
-    """Posterior probability of each candidate from its evidence (equal prior odds over the candidates scored)."""
+    """Posterior probability of each candidate from its evidence (equal prior odds over the
+    candidates scored)."""
     log_z = np.array([s.log_evidence for s in scores])
     return np.exp(log_z - special.logsumexp(log_z))
 
@@ -259,8 +285,9 @@ def _to_u(phi, bounds):
 def _log_density_u(post, u):
     """Log posterior density in ``u`` (likelihood x logistic prior), vectorised."""
     u = np.atleast_2d(u)
-    # log sigma(u)(1 - sigma(u)) = -(|u| + 2 log1p(e^-|u|)): the two log(1 + e^x) terms, as numpy's logaddexp
-    # writes them, in a third of its time (importance sampling evaluates this for every draw)
+    # log sigma(u)(1 - sigma(u)) = -(|u| + 2 log1p(e^-|u|)): the two log(1 + e^x) terms, as numpy's
+    # logaddexp writes them, in a third of its time (importance sampling evaluates this for every
+    # draw)
     size = np.abs(u)
     tail = np.log1p(np.exp(-size))
     log_jac = -((size + tail) + tail).sum(axis=-1)
@@ -268,7 +295,8 @@ def _log_density_u(post, u):
 
 
 def posterior_mode(post, starts):
-    """Mode of the density in ``u`` from several starting log-parameter vectors: a :class:`ModeResult`.
+    """Mode of the density in ``u`` from several starting log-parameter vectors: a
+    :class:`ModeResult`.
 
     From each start, :func:`newton_mode` (a Newton search on finite-difference derivatives, a
     few vectorised likelihood calls per step); where it ends with a gradient above
@@ -282,8 +310,14 @@ def posterior_mode(post, starts):
             continue
         u, fun, grad = newton_mode(post, u0)
         if np.max(np.abs(grad)) > POLISH_GRADIENT:
-            res = optimize.minimize(_neg_log_density, u, args=(post,), jac=_neg_gradient, method="BFGS",
-                                    options={"gtol": MODE_GTOL, "maxiter": 2000})
+            res = optimize.minimize(
+                _neg_log_density,
+                u,
+                args=(post,),
+                jac=_neg_gradient,
+                method="BFGS",
+                options={"gtol": MODE_GTOL, "maxiter": 2000},
+            )
             if res.fun < fun:
                 u, fun = res.x, float(res.fun)
         if best is None or fun < best[1]:
@@ -291,7 +325,9 @@ def posterior_mode(post, starts):
     if best is None:
         from ..errors import ConvergenceError
 
-        raise ConvergenceError(f"model {post.model.terms}: no starting point has a finite posterior density")
+        raise ConvergenceError(
+            f"model {post.model.terms}: no starting point has a finite posterior density"
+        )
     return ModeResult(best[0], to_phi(best[0], post.bounds), float(best[1]))
 
 
@@ -333,7 +369,9 @@ def newton_mode(post, u0, *, gtol=None, max_iter=100, max_step=4.0):
         slope = grad @ step
         if -slope < 1e-12 * (1.0 + abs(fun)):  # no decrease beyond rounding left
             break
-        values = _neg_density(post, np.vstack([u + step + offsets, u + LINE_FRACTIONS[1:, None] * step]))
+        values = _neg_density(
+            post, np.vstack([u + step + offsets, u + LINE_FRACTIONS[1:, None] * step])
+        )
         trial = np.concatenate([values[:1], values[n_stencil:]])
         accept = trial <= fun + 1e-4 * LINE_FRACTIONS * slope
         if accept[0]:
@@ -355,13 +393,16 @@ def _neg_density(post, u):
 
 
 def _stencil(n):
-    """Offsets of the central-difference stencil in ``n`` dimensions and the function that turns the values
-    there into ``(value, gradient, Hessian)`` (non-finite differences, next to a wall, read as 0)."""
+    """Offsets of the central-difference stencil in ``n`` dimensions and the function that turns the
+    values there into ``(value, gradient, Hessian)`` (non-finite differences, next to a wall, read
+    as 0)."""
     eye = np.eye(n)
     i, j = np.triu_indices(n, 1)
     pair = eye[i] + eye[j]
     hg, hh = GRADIENT_STEP, HESSIAN_STEP
-    offsets = np.vstack([np.zeros((1, n)), hg * eye, -hg * eye, hh * eye, -hh * eye, hh * pair, -hh * pair])
+    offsets = np.vstack(
+        [np.zeros((1, n)), hg * eye, -hg * eye, hh * eye, -hh * eye, hh * pair, -hh * pair]
+    )
 
     def derivatives(values):
         f0 = values[0]
@@ -371,7 +412,9 @@ def _stencil(n):
             grad = (gp - gm) / (2.0 * hg)
             hess = np.diag((hp - 2.0 * f0 + hm) / hh**2)
             # f(x+a+b) - f(x+a) - f(x+b) + 2 f(x) - f(x-a) - f(x-b) + f(x-a-b) = 2 h^2 H_ab + O(h^4)
-            hess[i, j] = hess[j, i] = (pp - hp[i] - hp[j] + 2.0 * f0 - hm[i] - hm[j] + mm) / (2.0 * hh * hh)
+            hess[i, j] = hess[j, i] = (pp - hp[i] - hp[j] + 2.0 * f0 - hm[i] - hm[j] + mm) / (
+                2.0 * hh * hh
+            )
         return f0, np.where(np.isfinite(grad), grad, 0.0), np.where(np.isfinite(hess), hess, 0.0)
 
     return offsets, derivatives
@@ -392,7 +435,8 @@ def _neg_gradient(u, post, step=GRADIENT_STEP):
 
 
 def negative_hessian(log_density, x0, step=1e-3):
-    """``-d2 log_density / dx2`` at ``x0`` by central differences, all points in one vectorised call."""
+    """``-d2 log_density / dx2`` at ``x0`` by central differences, all points in one vectorised
+    call."""
     n = x0.size
     pts, pairs = [], []
     for i in range(n):
@@ -423,7 +467,8 @@ def _hessian_cov(post, u0, step=1e-3):
         h = np.where(bad, 0.0, h)
         h[np.diag(np.diag(bad))] = 1.0
     w, v = np.linalg.eigh(h)
-    w = np.clip(w, 1e-2, None)  # a flat direction is bounded by the logistic prior (curvature >= ~0.1)
+    # a flat direction is bounded by the logistic prior (curvature >= ~0.1)
+    w = np.clip(w, 1e-2, None)
     return (v / w) @ v.T
 
 
@@ -433,7 +478,9 @@ def _importance(post, loc, cov, n_draws, rng):
     n_prior = int(round(_PRIOR_WEIGHT * n_draws))
     u = np.vstack([t.rvs(n_draws - n_prior, rng), rng.logistic(size=(n_prior, loc.size))])
     log_prior_u = np.sum(_logistic_logpdf(u), axis=-1)
-    log_q = np.logaddexp(np.log1p(-_PRIOR_WEIGHT) + t.logpdf(u), np.log(_PRIOR_WEIGHT) + log_prior_u)
+    log_q = np.logaddexp(
+        np.log1p(-_PRIOR_WEIGHT) + t.logpdf(u), np.log(_PRIOR_WEIGHT) + log_prior_u
+    )
     log_density = _log_density_u(post, u)
     log_w = log_density - log_q
     log_z = special.logsumexp(log_w) - np.log(n_draws)
@@ -470,8 +517,13 @@ class _StudentT:
         maha = np.square(np.dot(u - self.loc, self.whiten)).sum(axis=-1)
         df, dim = self.df, self.loc.size
         t = 0.5 * (df + dim)
-        return (special.gammaln(t) - special.gammaln(0.5 * df) - dim / 2.0 * np.log(df * np.pi) - 0.5 * self.log_pdet
-                - t * np.log(1 + (1.0 / df) * maha))
+        return (
+            special.gammaln(t)
+            - special.gammaln(0.5 * df)
+            - dim / 2.0 * np.log(df * np.pi)
+            - 0.5 * self.log_pdet
+            - t * np.log(1 + (1.0 / df) * maha)
+        )
 
 
 def _logistic_logpdf(u):
@@ -481,12 +533,14 @@ def _logistic_logpdf(u):
 
 
 def _stopped_short(post, u_mode, log_density):
-    """Whether draws of these log densities are denser than ``u_mode``: the optimiser stopped short of the mode."""
+    """Whether draws of these log densities are denser than ``u_mode``: the optimiser stopped short
+    of the mode."""
     return bool(np.max(log_density) > _log_density_u(post, u_mode)[0] + 1e-6)
 
 
 def laplace_log_evidence(post, u_mode):
-    """Laplace approximation of ``log Z`` at the mode ``u_mode`` (in ``u``) and the covariance it uses.
+    """Laplace approximation of ``log Z`` at the mode ``u_mode`` (in ``u``) and the covariance it
+    uses.
 
     Returns ``(log_z, cov)``: ``log p(u*) + n/2 log(2 pi) + 1/2 log det cov``, ``cov`` the inverse
     negative Hessian of the log density with its eigenvalues floored (:func:`log_evidence`'s
@@ -494,12 +548,15 @@ def laplace_log_evidence(post, u_mode):
     """
     cov = _hessian_cov(post, u_mode)
     _, log_det = np.linalg.slogdet(cov)
-    log_z = float(_log_density_u(post, u_mode)[0] + 0.5 * u_mode.size * np.log(2.0 * np.pi) + 0.5 * log_det)
+    log_z = float(
+        _log_density_u(post, u_mode)[0] + 0.5 * u_mode.size * np.log(2.0 * np.pi) + 0.5 * log_det
+    )
     return log_z, cov
 
 
 def can_skip(post, u_mode, laplace_z, hessian_cov, best, rng, *, screen=None, n_pilot=PILOT_DRAWS):
-    """Whether a candidate's evidence may stay at its Laplace estimate ``laplace_z`` (module docstring).
+    """Whether a candidate's evidence may stay at its Laplace estimate ``laplace_z`` (module
+    docstring).
 
     True when the Laplace estimate is more than ``screen`` (default :data:`LAPLACE_SCREEN`) nats
     below ``best`` and a pilot of ``n_pilot`` draws from the importance proposal agrees: none is
@@ -513,7 +570,9 @@ def can_skip(post, u_mode, laplace_z, hessian_cov, best, rng, *, screen=None, n_
     return not _stopped_short(post, u_mode, pilot.log_density) and pilot.log_z < best - screen
 
 
-def log_evidence(post, u_mode, *, n_draws=4000, rng=None, target_se=0.05, max_rounds=3, hessian_cov=None):
+def log_evidence(
+    post, u_mode, *, n_draws=4000, rng=None, target_se=0.05, max_rounds=3, hessian_cov=None
+):
     """Defensive importance-sampling estimate of ``log Z``: an :class:`EvidenceResult`.
 
     If an importance draw is denser than ``u_mode``, the optimiser stopped short of the mode:
@@ -530,10 +589,13 @@ def log_evidence(post, u_mode, *, n_draws=4000, rng=None, target_se=0.05, max_ro
     rng = np.random.default_rng(rng)
     cov = _INFLATE**2 * (_hessian_cov(post, u_mode) if hessian_cov is None else hessian_cov)
     out = _importance(post, u_mode, cov, n_draws, rng)
-    # a draw denser than the "mode" means the optimiser stopped short: restart it from the best draws
+    # a draw denser than the "mode" means the optimiser stopped short: restart it from the best
+    # draws
     top = out.u[np.argsort(out.log_w)[-5:]]
     if _stopped_short(post, u_mode, _log_density_u(post, top)):
-        u_mode = posterior_mode(post, np.vstack([to_phi(top, post.bounds), to_phi(u_mode, post.bounds)])).u
+        u_mode = posterior_mode(
+            post, np.vstack([to_phi(top, post.bounds), to_phi(u_mode, post.bounds)])
+        ).u
         cov = _INFLATE**2 * _hessian_cov(post, u_mode)
         out = _importance(post, u_mode, cov, n_draws, rng)
     for _ in range(max_rounds):
@@ -543,7 +605,10 @@ def log_evidence(post, u_mode, *, n_draws=4000, rng=None, target_se=0.05, max_ro
         if ess >= u.shape[1] + 2:
             w = np.exp(log_w - log_w.max())
             w /= w.sum()
-            mean, cov = w @ u, _INFLATE**2 * (np.atleast_2d(np.cov(u.T, aweights=w)) + 1e-6 * np.eye(u.shape[1]))
+            mean, cov = (
+                w @ u,
+                _INFLATE**2 * (np.atleast_2d(np.cov(u.T, aweights=w)) + 1e-6 * np.eye(u.shape[1])),
+            )
         else:
             mean, cov = u[np.argmax(log_w)], 4.0 * cov
         refit = _importance(post, mean, cov, 4 * n_draws, rng)
@@ -554,8 +619,8 @@ def log_evidence(post, u_mode, *, n_draws=4000, rng=None, target_se=0.05, max_ro
 
 
 def within_margin(score, top, threshold=1.0):
-    """Whether ``score``'s log evidence is within ``threshold`` plus twice the Monte Carlo standard error
-    of the difference of ``top``'s (:class:`CandidateScore` both): the selection margin."""
+    """Whether ``score``'s log evidence is within ``threshold`` plus twice the Monte Carlo standard
+    error of the difference of ``top``'s (:class:`CandidateScore` both): the selection margin."""
     margin = threshold + 2.0 * np.hypot(score.log_evidence_se, top.log_evidence_se)
     return score.log_evidence >= top.log_evidence - margin
 

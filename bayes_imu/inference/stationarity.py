@@ -36,7 +36,13 @@ from ..noise.avar_covariance import avar_covariance, equivalent_dof
 
 special = LazyModule("scipy.special")
 
-__all__ = ["Stationarity", "stationarity_check", "segment_test", "STATIONARITY_ALPHA", "MIN_SEGMENT_EDF"]
+__all__ = [
+    "Stationarity",
+    "stationarity_check",
+    "segment_test",
+    "STATIONARITY_ALPHA",
+    "MIN_SEGMENT_EDF",
+]
 
 #: false-alarm rate of the stationarity check on a stationary log
 STATIONARITY_ALPHA = 0.01
@@ -92,7 +98,8 @@ class Stationarity:
         return float(a.max() / a.min())
 
     def spread_factor(self):
-        """Largest 1-sigma factor on the Allan deviation between parts, ``exp(max s / 2)`` (1 if none)."""
+        """Largest 1-sigma factor on the Allan deviation between parts, ``exp(max s / 2)`` (1 if
+        none)."""
         return float(np.exp(0.5 * self.spread.max())) if self.spread.size else 1.0
 
     def to_dict(self):
@@ -124,12 +131,15 @@ def stationarity_check(allan, model, params, *, alpha=STATIONARITY_ALPHA):
     seg = allan.segments
     if seg is None:
         return None
-    edf = equivalent_dof(model.avar(seg.m, params), avar_covariance(model, params, seg.m, seg.n_samples))
+    edf = equivalent_dof(
+        model.avar(seg.m, params), avar_covariance(model, params, seg.m, seg.n_samples)
+    )
     return segment_test(seg, edf, allan.rate_hz, alpha=alpha)
 
 
 def segment_test(segments, edf, rate_hz, *, alpha=STATIONARITY_ALPHA):
-    """The test of the module docstring on the parts' Allan variances, given each part's EDF per size.
+    """The test of the module docstring on the parts' Allan variances, given each part's EDF per
+    size.
 
     Parameters
     ----------
@@ -157,5 +167,12 @@ def segment_test(segments, edf, rate_hz, *, alpha=STATIONARITY_ALPHA):
     p = float(min(1.0, p_each.size * p_each.min()))
     excess = np.maximum(0.0, dev2 / (k - 1) - v)
     tau = segments.m[keep] / rate_hz
-    return Stationarity(p >= alpha, p, float(tau[int(np.argmin(p_each))]), tau, np.sqrt(segments.avar[:, keep]),
-                        np.sqrt(np.maximum.accumulate(excess)), p_each)
+    return Stationarity(
+        p >= alpha,
+        p,
+        float(tau[int(np.argmin(p_each))]),
+        tau,
+        np.sqrt(segments.avar[:, keep]),
+        np.sqrt(np.maximum.accumulate(excess)),
+        p_each,
+    )

@@ -8,9 +8,9 @@ content, not the file name). Columns are chosen by header name or by 0-based ind
 
 Parsing runs in numpy's C reader where the file is a plain table whose converted columns are numbers
 (every column of a log of one or two, the wanted ones and the last of a wider delimited log whose
-delimiters are counted: :func:`_parse_plain`), else in pandas' C reader (quoted fields, ragged rows, text
-in a converted column, whitespace-separated wide logs; hundreds of MB/s, ``scripts/bench_io.py``); when
-that meets anything wrong, a
+delimiters are counted: :func:`_parse_plain`), else in pandas' C reader (quoted fields, ragged rows,
+text in a converted column, whitespace-separated wide logs; hundreds of MB/s,
+``scripts/bench_io.py``); when that meets anything wrong, a
 line-by-line pass in Python finds the first offending line and the error names the file,
 the line (1-based, counting every line of the file), the column, what was found and what
 was expected. All conversion to float64 and all validation of
@@ -29,9 +29,21 @@ import numpy as np
 from .._progress import progress_bar
 from ..errors import InputError
 
-__all__ = ["LogData", "read_log", "read_columns", "read_text", "check_signal", "SignalExtent", "positive_number",
-           "excerpt", "read_json_object", "MAX_TEXT_BYTES",
-           "UNITS", "to_si", "MAX_MAGNITUDE"]
+__all__ = [
+    "LogData",
+    "read_log",
+    "read_columns",
+    "read_text",
+    "check_signal",
+    "SignalExtent",
+    "positive_number",
+    "excerpt",
+    "read_json_object",
+    "MAX_TEXT_BYTES",
+    "UNITS",
+    "to_si",
+    "MAX_MAGNITUDE",
+]
 
 #: input units and their factor to SI (rad/s for rates, m/s^2 for specific force)
 UNITS = {
@@ -71,13 +83,16 @@ def excerpt(value, limit=80, *, quoted=True):
 
 
 def read_json_object(path, what):
-    """A JSON file holding one object (``what`` names it in the errors): the dict, or one-line errors."""
+    """A JSON file holding one object (``what`` names it in the errors): the dict, or one-line
+    errors."""
     import json
 
     try:
         doc = json.loads(read_text(path))
     except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: line {exc.lineno} column {exc.colno}: invalid JSON ({exc.msg})") from None
+        raise InputError(
+            f"{path}: line {exc.lineno} column {exc.colno}: invalid JSON ({exc.msg})"
+        ) from None
     except RecursionError:
         raise InputError(f"{path}: JSON nested too deeply; expected {what}") from None
     if not isinstance(doc, dict):
@@ -193,10 +208,20 @@ class LogData:
 
 
 def read_log(path, *, column, time_column=None, progress=False):
-    """Read one numeric column (and optionally a time column, s) of a log; see :func:`read_columns`."""
+    """Read one numeric column (and optionally a time column, s) of a log; see
+    :func:`read_columns`."""
     data = read_columns(path, columns=[column], time_column=time_column, progress=progress)
-    return LogData(data.values[:, 0], data.columns, data.path, data.time_s, data.lines, data.delimiter, data.header,
-                   data.time_name, data.time_iso)
+    return LogData(
+        data.values[:, 0],
+        data.columns,
+        data.path,
+        data.time_s,
+        data.lines,
+        data.delimiter,
+        data.header,
+        data.time_name,
+        data.time_iso,
+    )
 
 
 def read_columns(path, *, columns, time_column=None, progress=False, signal=True, where=None):
@@ -240,7 +265,10 @@ def read_columns(path, *, columns, time_column=None, progress=False, signal=True
     if time_column is not None:
         wanted.append(resolve_column(path, fmt, time_column))
     if len(set(wanted)) != len(wanted):
-        raise InputError(f"{path}: the same column is asked for twice ({', '.join(fmt['names'][i] for i in wanted)})")
+        raise InputError(
+            f"{path}: the same column is asked for twice "
+            f"({', '.join(fmt['names'][i] for i in wanted)})"
+        )
     rows = None if where is None else _row_filter(where)
     filtered = [] if rows is None else [resolve_column(path, fmt, c) for c in rows.columns]
     stamps = None if time_column is None else _iso_stamps(path, fmt, wanted[-1])
@@ -261,9 +289,17 @@ def read_columns(path, *, columns, time_column=None, progress=False, signal=True
         check_signal(table[:, j], where=f"{path}: column {excerpt(name, 40)}")
     values = np.ascontiguousarray(table[:, : len(columns)])
     time_s = None if time_column is None else np.ascontiguousarray(table[:, -1])
-    return LogData(values, names[: len(columns)], str(path), time_s, lines, fmt["delimiter_name"], fmt["header"],
-                   names[-1] if time_column is not None and fmt["header"] else None,
-                   stamps is not None)
+    return LogData(
+        values,
+        names[: len(columns)],
+        str(path),
+        time_s,
+        lines,
+        fmt["delimiter_name"],
+        fmt["header"],
+        names[-1] if time_column is not None and fmt["header"] else None,
+        stamps is not None,
+    )
 
 
 def _row_filter(where):
@@ -311,8 +347,15 @@ class SignalExtent:
             self.first = float(values[0])
         i = int(np.argmax(np.abs(values)))
         if abs(values[i]) > self.big:
-            self.big, self.big_index, self.big_value = float(abs(values[i])), start + i, float(values[i])
-        self.low, self.high = min(self.low, float(values.min())), max(self.high, float(values.max()))
+            self.big, self.big_index, self.big_value = (
+                float(abs(values[i])),
+                start + i,
+                float(values[i]),
+            )
+        self.low, self.high = (
+            min(self.low, float(values.min())),
+            max(self.high, float(values.max())),
+        )
         self.n += values.size
         return self
 
@@ -320,15 +363,21 @@ class SignalExtent:
         if self.n == 0:
             raise InputError(f"{where}: no samples")
         if self.big > MAX_MAGNITUDE:
-            raise InputError(f"{where}: sample {self.big_index + 1} is {self.big_value!r}; expected |value| <= "
-                             f"{MAX_MAGNITUDE:g} (a rate or specific force; larger values overflow the Allan variance)")
+            raise InputError(
+                f"{where}: sample {self.big_index + 1} is {self.big_value!r}; expected |value| <= "
+                f"{MAX_MAGNITUDE:g} (a rate or specific force; larger values overflow the Allan "
+                "variance)"
+            )
         spread = self.high - self.low
         if spread == 0.0:
             raise InputError(f"{where}: constant signal (all {self.n} samples are {self.first!r}); "
                              "expected a varying sensor output")
         if spread < _MIN_SPREAD:
-            raise InputError(f"{where}: samples vary by only {spread:g}; expected a spread above {_MIN_SPREAD:g} "
-                             "(smaller values underflow the Allan variance: rescale the column)")
+            raise InputError(
+                f"{where}: samples vary by only {spread:g}; expected a spread above "
+                f"{_MIN_SPREAD:g} "
+                "(smaller values underflow the Allan variance: rescale the column)"
+            )
 
 
 #: a gzip log may decompress to at most this many times its compressed size (plus
@@ -381,17 +430,24 @@ def open_binary(path):
     raw = open(path, "rb")
     magic = raw.read(2)
     raw.seek(0)
-    return (_Bounded(gzip.GzipFile(fileobj=raw), raw, path), raw) if magic == b"\x1f\x8b" else (raw, raw)
+    return (
+        (_Bounded(gzip.GzipFile(fileobj=raw), raw, path), raw)
+        if magic == b"\x1f\x8b"
+        else (raw, raw)
+    )
 
 
 def _head(path, size=_SNIFF_BYTES):
-    """The first ``size`` bytes of the (decompressed) file, with one-line errors for what is not a file."""
+    """The first ``size`` bytes of the (decompressed) file, with one-line errors for what is not a
+    file."""
     if not path.exists():
         raise InputError(f"{path}: no such file")
     if path.is_dir():
         raise InputError(f"{path}: is a directory; expected a CSV file")
     if not path.is_file():
-        raise InputError(f"{path}: not a regular file (a pipe or device); save the log to a file first")
+        raise InputError(
+            f"{path}: not a regular file (a pipe or device); save the log to a file first"
+        )
     try:
         stream, raw = open_binary(path)
         with raw:
@@ -418,7 +474,10 @@ def sniff_file(path):
         if fmt is not None:
             return fmt
         if complete:
-            raise InputError(f"{path}: no data rows (only blank or comment lines); expected a header row and samples")
+            raise InputError(
+                f"{path}: no data rows (only blank or comment lines); expected a header row and "
+                "samples"
+            )
         if size >= MAX_SNIFF_BYTES:
             raise InputError(f"{path}: no header and data row within the first {MAX_SNIFF_BYTES} "
                              "bytes (a comment "
@@ -427,18 +486,23 @@ def sniff_file(path):
 
 
 def _sniff(path, head, *, complete=None):
-    """Delimiter, header and column names from the first bytes (``None``: no data row in them yet)."""
+    """Delimiter, header and column names from the first bytes (``None``: no data row in them
+    yet)."""
     complete = len(head) < _SNIFF_BYTES if complete is None else complete
     if not head:
         raise InputError(f"{path}: empty file; expected a header row and samples")
     nul = head.find(b"\x00")
     if nul >= 0:
-        raise InputError(f"{path}: binary data (NUL byte at offset {nul}); expected a delimited text log")
+        raise InputError(
+            f"{path}: binary data (NUL byte at offset {nul}); expected a delimited text log"
+        )
     try:  # a multi-byte character may be cut at the end of the sample
         text = head.decode("utf-8") if complete else head[:-4].decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not UTF-8 text (byte 0x{head[exc.start]:02x} at offset {exc.start}); "
-                         "expected a delimited text log") from None
+        raise InputError(
+            f"{path}: not UTF-8 text (byte 0x{head[exc.start]:02x} at offset {exc.start}); "
+            "expected a delimited text log"
+        ) from None
     text = text.removeprefix("\ufeff")
     rows = []  # (line number, content) of the first non-blank, non-comment lines
     for number, line in enumerate(text.splitlines() if complete else text.splitlines()[:-1], 1):
@@ -458,17 +522,33 @@ def _sniff(path, head, *, complete=None):
     if header and len(rows) > 1:
         counts = {len(_split(r, delimiter)) for _, r in rows[1:]}
         if len(counts) == 1 and (n := counts.pop()) != len(first):
-            raise InputError(f"{path}: line {rows[0][0]}: the header has {len(first)} fields but line {rows[1][0]} has "
-                             f"{n}; expected one name per column (a missing or extra header field would shift "
-                             "every column)")
-    names = [f.strip().strip('"').strip("'") for f in first] if header else [str(i) for i in range(len(first))]
+            raise InputError(
+                f"{path}: line {rows[0][0]}: the header has {len(first)} fields but line "
+                f"{rows[1][0]} has {n}; expected one name per column (a missing or extra header "
+                "field would shift every column)"
+            )
+    names = (
+        [f.strip().strip('"').strip("'") for f in first]
+        if header
+        else [str(i) for i in range(len(first))]
+    )
     if header and len(rows) == 1:
         raise InputError(f"{path}: a header row but no samples; expected samples below the header")
     dupes = sorted({n for n in names if names.count(n) > 1})
-    # whether the sampled rows end in a number: numpy's reader converts a wide log's last column (_parse_plain)
-    last_numeric = all(_is_number(_split(r, delimiter)[-1]) for _, r in (rows[1:] if header else rows))
-    return {"delimiter": delimiter, "delimiter_name": _DELIMITERS.get(delimiter, "whitespace"), "header": header,
-            "names": names, "dupes": dupes, "first_line": rows[0][0], "last_numeric": last_numeric}
+    # whether the sampled rows end in a number: numpy's reader converts a wide log's last column
+    # (_parse_plain)
+    last_numeric = all(
+        _is_number(_split(r, delimiter)[-1]) for _, r in (rows[1:] if header else rows)
+    )
+    return {
+        "delimiter": delimiter,
+        "delimiter_name": _DELIMITERS.get(delimiter, "whitespace"),
+        "header": header,
+        "names": names,
+        "dupes": dupes,
+        "first_line": rows[0][0],
+        "last_numeric": last_numeric,
+    }
 
 
 def _delimiter(rows):
@@ -499,7 +579,8 @@ _DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+([eE][+-]?\d+)?$")
 
 
 def _refuse_decimal_commas(path, rows):
-    """Fields like ``1,25`` between semicolons or tabs: decimal commas, which would be cut at the comma."""
+    """Fields like ``1,25`` between semicolons or tabs: decimal commas, which would be cut at the
+    comma."""
     for number, content in rows:
         for sep in (";", "\t"):
             fields = [_unquote(f.strip()) for f in content.split(sep)]
@@ -534,7 +615,10 @@ def resolve_column(path, fmt, column):
     try:
         index = int(key)
     except ValueError:
-        shown = excerpt(", ".join(repr(n) for n in names[:12]) + (", ..." if len(names) > 12 else ""), quoted=False)
+        shown = excerpt(
+            ", ".join(repr(n) for n in names[:12]) + (", ..." if len(names) > 12 else ""),
+            quoted=False,
+        )
         import difflib
 
         near = ([n for n in names if n.lower() == key.lower()]  # names are case-sensitive
@@ -544,22 +628,26 @@ def resolve_column(path, fmt, column):
                          "or a 0-based column index"
                          + (f"; did you mean {excerpt(near[0], 40)}?" if near else "")) from None
     if not 0 <= index < len(names):
-        raise InputError(f"{path}: column index {index} out of range; the file has {len(names)} columns "
-                         f"(0 to {len(names) - 1})")
+        raise InputError(
+            f"{path}: column index {index} out of range; the file has {len(names)} columns "
+            f"(0 to {len(names) - 1})"
+        )
     return index
 
 
-#: the widest log whose every field numpy's reader converts (:func:`_parse_plain`; a wider one: the wanted columns
-#: and the last)
+#: the widest log whose every field numpy's reader converts (:func:`_parse_plain`; a wider one: the
+#: wanted columns and the last)
 PLAIN_COLUMNS = 2
 
 
 def _parse(path, fmt, usecols, progress):
-    """The columns ``usecols`` of the data rows: :func:`_parse_plain`, else pandas' C reader on the selected
-    columns; anything odd goes to :func:`diagnose_text`."""
+    """The columns ``usecols`` of the data rows: :func:`_parse_plain`, else pandas' C reader on the
+    selected columns; anything odd goes to :func:`diagnose_text`."""
     table = None
     if _numpy_first(fmt, usecols):
-        with progress_bar(total=path.stat().st_size, desc=f"reading {path.name}", unit="B", enabled=progress) as bar:
+        with progress_bar(
+            total=path.stat().st_size, desc=f"reading {path.name}", unit="B", enabled=progress
+        ) as bar:
             table = _parse_plain(path, fmt, usecols, bar)
     if table is None:
         table = _parse_pandas(path, fmt, usecols, progress)
@@ -584,25 +672,28 @@ def _numpy_first(fmt, usecols):
 
 
 def _parse_plain(path, fmt, usecols, bar):
-    """``numpy.loadtxt`` on a plain table: every data line with as many numeric fields as the header (or the first
-    row) names; ``None`` for any other file, which pandas then reads as before (:func:`_parse_pandas`).
+    """``numpy.loadtxt`` on a plain table: every data line with as many numeric fields as the header
+    (or the first row) names; ``None`` for any other file, which pandas then reads as before
+    (:func:`_parse_pandas`).
 
-    A log of at most :data:`PLAIN_COLUMNS` columns (one channel, with or without its time stamps) has every field
-    converted, so a ragged row is refused by numpy itself. A wider log with a one-character delimiter has only
-    the wanted columns converted, and the last one, so a row short of the last field is refused; the delimiters
-    of the whole text are counted as it streams past, and unless they come to ``columns - 1`` a line (header
-    included), some row is longer than the header, or a delimiter sits in a quoted field or a comment, and the
-    file goes to pandas. So where the wide path reads a file, every row has exactly the header's fields, as
-    pandas' path requires (it tokenises every column); the other columns are not converted there either (text is
-    fine). A whitespace-separated wide log stays with pandas (its delimiters are runs of blanks), and so does one
-    whose sampled rows end in text (``fmt["last_numeric"]``, :func:`sniff_file`: numpy would refuse it).
+    A log of at most :data:`PLAIN_COLUMNS` columns (one channel, with or without its time stamps)
+    has every field converted, so a ragged row is refused by numpy itself. A wider log with a
+    one-character delimiter has only the wanted columns converted, and the last one, so a row short
+    of the last field is refused; the delimiters of the whole text are counted as it streams past,
+    and unless they come to ``columns - 1`` a line (header included), some row is longer than the
+    header, or a delimiter sits in a quoted field or a comment, and the file goes to pandas. So
+    where the wide path reads a file, every row has exactly the header's fields, as pandas' path
+    requires (it tokenises every column); the other columns are not converted there either (text is
+    fine). A whitespace-separated wide log stays with pandas (its delimiters are runs of blanks),
+    and so does one whose sampled rows end in text (``fmt["last_numeric"]``, :func:`sniff_file`:
+    numpy would refuse it).
 
-    Where numpy reads a field at all, its value is pandas' (both round each decimal string correctly:
-    ``tests/test_io.py`` compares them on every shipped log, the real logs and edge cases), and every field numpy
-    refuses (quotes, an empty field, a decimal comma, text in the last column) sends the file to pandas, so what
-    is accepted or refused, and every error message, is as before. It spares a command the import of pandas
-    (docs/speed_under_load.md#imports); :func:`_numpy_first` says when it is tried
-    (``scripts/bench_io.py`` for large logs).
+    Where numpy reads a field at all, its value is pandas' (both round each decimal string
+    correctly: ``tests/test_io.py`` compares them on every shipped log, the real logs and edge
+    cases), and every field numpy refuses (quotes, an empty field, a decimal comma, text in the last
+    column) sends the file to pandas, so what is accepted or refused, and every error message, is as
+    before. It spares a command the import of pandas (docs/speed_under_load.md#imports);
+    :func:`_numpy_first` says when it is tried (``scripts/bench_io.py`` for large logs).
     """
     import warnings
 
@@ -615,10 +706,16 @@ def _parse_plain(path, fmt, usecols, bar):
     stream, raw = open_binary(path)
     counting = _Counting(stream, raw, bar, ord(delimiter) if wide else None, path)
     try:
-        with raw, io.TextIOWrapper(io.BufferedReader(counting, buffer_size=1 << 20), encoding="utf-8-sig",
-                                   newline=None) as text, warnings.catch_warnings():
+        with (
+            raw,
+            io.TextIOWrapper(
+                io.BufferedReader(counting, buffer_size=1 << 20), encoding="utf-8-sig", newline=None
+            ) as text,
+            warnings.catch_warnings(),
+        ):
             _read_in_megabytes(text)
-            warnings.simplefilter("error")  # "input contained no data": pandas' path says what is wrong
+            # "input contained no data": pandas' path says what is wrong
+            warnings.simplefilter("error")
             table = np.loadtxt(text, dtype=np.float64, delimiter=delimiter, comments="#",
                                skiprows=1 if fmt["header"] else 0, ndmin=2, usecols=read)
     except InputError:  # a decompression bomb: no second reader tries it
@@ -636,9 +733,10 @@ def _parse_plain(path, fmt, usecols, bar):
 
 
 def _read_in_megabytes(text):
-    """Let the text wrapper ``text`` read its bytes 1 MiB at a time instead of 8 KiB (``_CHUNK_SIZE``, an attribute
-    of CPython's io implementations; without it, the same text in smaller reads): fewer reads, a
-    little faster, and the delimiters are counted in megabyte chunks."""
+    """Let the text wrapper ``text`` read its bytes 1 MiB at a time instead of 8 KiB
+    (``_CHUNK_SIZE``, an attribute of CPython's io implementations; without it, the same text in
+    smaller reads): fewer reads, a little faster, and the delimiters are counted in megabyte
+    chunks."""
     try:
         text._CHUNK_SIZE = 1 << 20
     except AttributeError:
@@ -650,12 +748,17 @@ def _parse_pandas(path, fmt, usecols, progress):
     :func:`diagnose_text`."""
     import pandas as pd
 
-    with progress_bar(total=path.stat().st_size, desc=f"reading {path.name}", unit="B", enabled=progress) as bar:
+    with progress_bar(
+        total=path.stat().st_size, desc=f"reading {path.name}", unit="B", enabled=progress
+    ) as bar:
         stream, raw = open_binary(path)
         try:
             with raw:
-                frame = pd.read_csv(io.BufferedReader(_Counting(stream, raw, bar, path=path), buffer_size=1 << 20),
-                                    low_memory=False, **csv_options(fmt, usecols))
+                frame = pd.read_csv(
+                    io.BufferedReader(_Counting(stream, raw, bar, path=path), buffer_size=1 << 20),
+                    low_memory=False,
+                    **csv_options(fmt, usecols),
+                )
         except InputError:
             raise
         except (ValueError, pd.errors.ParserError, UnicodeDecodeError):
@@ -671,10 +774,17 @@ def csv_options(fmt, usecols):
     Every column is tokenised (with ``usecols``, pandas would drop the extra fields of a
     too-long row silently); only the wanted ones are converted, so text elsewhere is fine.
     """
-    return {"encoding": "utf-8-sig", "sep": r"\s+" if fmt["delimiter"] is None else fmt["delimiter"],
-            "header": 0 if fmt["header"] else None, "names": range(len(fmt["names"])),
-            "dtype": {i: np.float64 for i in usecols}, "comment": "#", "skip_blank_lines": True,
-            "skipinitialspace": True, "engine": "c"}
+    return {
+        "encoding": "utf-8-sig",
+        "sep": r"\s+" if fmt["delimiter"] is None else fmt["delimiter"],
+        "header": 0 if fmt["header"] else None,
+        "names": range(len(fmt["names"])),
+        "dtype": {i: np.float64 for i in usecols},
+        "comment": "#",
+        "skip_blank_lines": True,
+        "skipinitialspace": True,
+        "engine": "c",
+    }
 
 
 #: longest line of a text log (bytes): a longer one is refused as it streams past (memory stays
@@ -683,9 +793,9 @@ MAX_LINE_BYTES = 1 << 20
 
 
 class _Counting(io.RawIOBase):
-    """Byte stream that advances a progress bar by the compressed bytes consumed, and counts the byte
-    ``delimiter`` (an ASCII code) in what it passes on (:attr:`delimiters`) when given one. A line
-    longer than
+    """Byte stream that advances a progress bar by the compressed bytes consumed, and counts the
+    byte ``delimiter`` (an ASCII code) in what it passes on (:attr:`delimiters`) when given one. A
+    line longer than
     :data:`MAX_LINE_BYTES` raises :class:`InputError` (naming ``path``) as it passes."""
 
     def __init__(self, stream, raw, bar, delimiter=None, path="log"):
@@ -701,7 +811,9 @@ class _Counting(io.RawIOBase):
         self._check_lines(data)
         buffer[: len(data)] = data
         if self._delimiter is not None:  # numpy's comparison: faster than bytes.count here
-            self.delimiters += int(np.count_nonzero(np.frombuffer(data, np.uint8) == self._delimiter))
+            self.delimiters += int(
+                np.count_nonzero(np.frombuffer(data, np.uint8) == self._delimiter)
+            )
         position = self._raw.tell()
         self._bar.update(position - self._seen)
         self._seen = position
@@ -745,17 +857,23 @@ def diagnose_text(path, fmt, usecols):
     try:
         _find_bad_line(path, fmt, usecols)
     except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not UTF-8 text ({exc.reason} in the data); expected a delimited text log") from None
-    raise InputError(f"{path}: cannot parse as a delimited text log ({fmt['delimiter_name']}-separated, "
-                     f"{len(fmt['names'])} columns)")
+        raise InputError(
+            f"{path}: not UTF-8 text ({exc.reason} in the data); expected a delimited text log"
+        ) from None
+    raise InputError(
+        f"{path}: cannot parse as a delimited text log ({fmt['delimiter_name']}-separated, "
+        f"{len(fmt['names'])} columns)"
+    )
 
 
 def _find_bad_line(path, fmt, usecols):
     n_fields = len(fmt["names"])
     for number, fields in _data_lines(path, fmt):
         if len(fields) != n_fields:
-            raise InputError(f"{path}: line {number}: {len(fields)} field{'s' * (len(fields) != 1)}; expected {n_fields} "
-                             f"({'as in the header' if fmt['header'] else 'as in the first row'})")
+            raise InputError(
+                f"{path}: line {number}: {len(fields)} field{'s' * (len(fields) != 1)}; expected "
+                f"{n_fields} ({'as in the header' if fmt['header'] else 'as in the first row'})"
+            )
         for i in usecols:
             text = fields[i].strip()
             try:

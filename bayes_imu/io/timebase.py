@@ -32,8 +32,18 @@ import numpy as np
 from ..errors import InputError
 from .readers import positive_number
 
-__all__ = ["TimeBase", "check_time", "check_rate", "unit_from_name", "GAP_POLICIES", "STEP_TOLERANCE",
-           "RATE_TOLERANCE", "RATE_RANGE", "TIME_UNITS", "TYPICAL_RATE_RANGE"]
+__all__ = [
+    "TimeBase",
+    "check_time",
+    "check_rate",
+    "unit_from_name",
+    "GAP_POLICIES",
+    "STEP_TOLERANCE",
+    "RATE_TOLERANCE",
+    "RATE_RANGE",
+    "TIME_UNITS",
+    "TYPICAL_RATE_RANGE",
+]
 
 GAP_POLICIES = ("error", "longest")
 #: accepted relative deviation of one step from the median step
@@ -48,10 +58,12 @@ RATE_RANGE = (0.01, 1e6)
 TYPICAL_RATE_RANGE = (1.0, 1e4)
 #: units of time stamps and their factor to seconds
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
-_UNIT_WORDS = {"s": ("s", "sec", "secs", "second", "seconds"),
-               "ms": ("ms", "msec", "msecs", "millis", "millisecond", "milliseconds"),
-               "us": ("us", "\u00b5s", "\u03bcs", "usec", "usecs", "micros", "microsecond", "microseconds"),
-               "ns": ("ns", "nsec", "nsecs", "nanos", "nanosecond", "nanoseconds")}
+_UNIT_WORDS = {
+    "s": ("s", "sec", "secs", "second", "seconds"),
+    "ms": ("ms", "msec", "msecs", "millis", "millisecond", "milliseconds"),
+    "us": ("us", "\u00b5s", "\u03bcs", "usec", "usecs", "micros", "microsecond", "microseconds"),
+    "ns": ("ns", "nsec", "nsecs", "nanos", "nanosecond", "nanoseconds"),
+}
 _WORD_UNIT = {w: u for u, words in _UNIT_WORDS.items() for w in words}
 _NAME_PARTS = re.compile(r"[^0-9a-z\u00b5\u03bc]+")
 
@@ -76,7 +88,9 @@ def check_rate(rate_hz, source="--rate", where=None):
     if lo <= rate_hz <= hi:
         return rate_hz
     prefix = f"{where}: " if where else ""
-    raise InputError(f"{prefix}{source} gives a sample rate of {rate_hz:.6g} Hz; expected {lo:g} Hz to {hi:g} Hz")
+    raise InputError(
+        f"{prefix}{source} gives a sample rate of {rate_hz:.6g} Hz; expected {lo:g} Hz to {hi:g} Hz"
+    )
 
 
 def _unit_rates(step_raw):
@@ -118,7 +132,9 @@ def _resolve_unit(time_unit, column, step_raw, rate_hz, where):
     if named is not None:
         return named, f"column name {_short(column)}"
     if rate_hz is not None:
-        agree = [u for u, r in _unit_rates(step_raw).items() if abs(r / rate_hz - 1.0) <= STEP_TOLERANCE]
+        agree = [
+            u for u, r in _unit_rates(step_raw).items() if abs(r / rate_hz - 1.0) <= STEP_TOLERANCE
+        ]
         if len(agree) == 1:
             return agree[0], f"agrees with rate_hz={rate_hz:g}"
         if not agree and _unlikely(step_raw):
@@ -172,9 +188,16 @@ class TimeBase:
     time_unit_source: str | None = None
 
     def to_json(self):
-        doc = {"rate_hz": self.rate_hz, "rate_source": self.rate_source, "samples_used": self.stop - self.start,
-               "first_line": self.first_line, "last_line": self.last_line, "irregular_steps": self.irregular,
-               "dropped_samples": self.dropped, "action": self.action}
+        doc = {
+            "rate_hz": self.rate_hz,
+            "rate_source": self.rate_source,
+            "samples_used": self.stop - self.start,
+            "first_line": self.first_line,
+            "last_line": self.last_line,
+            "irregular_steps": self.irregular,
+            "dropped_samples": self.dropped,
+            "action": self.action,
+        }
         if self.time_unit is not None:
             doc.update(time_unit=self.time_unit, time_unit_source=self.time_unit_source)
         return doc
@@ -187,8 +210,18 @@ class TimeBase:
                 f"({self.time_unit_source})")
 
 
-def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n_samples=None, what="line",
-               time_unit=None, column=None):
+def check_time(
+    time_s,
+    *,
+    rate_hz=None,
+    gaps="error",
+    lines=None,
+    where="log",
+    n_samples=None,
+    what="line",
+    time_unit=None,
+    column=None,
+):
     """Sample rate and usable segment from a time column (or from ``rate_hz`` alone).
 
     Parameters
@@ -220,11 +253,15 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
     if gaps not in GAP_POLICIES:
         raise InputError(f"gaps={gaps!r}: expected one of {', '.join(GAP_POLICIES)}")
     if rate_hz is not None:
-        rate_hz = check_rate(positive_number("rate_hz", rate_hz, what="sample rate in Hz"), where=where)
+        rate_hz = check_rate(
+            positive_number("rate_hz", rate_hz, what="sample rate in Hz"), where=where
+        )
     if time_s is None:
         if rate_hz is None:
             raise InputError(f"{where}: no sample rate: give rate_hz or a time column")
-        first, last = (int(lines[0]), int(lines[-1])) if lines is not None and len(lines) else (None, None)
+        first, last = (
+            (int(lines[0]), int(lines[-1])) if lines is not None and len(lines) else (None, None)
+        )
         return TimeBase(rate_hz, "--rate", 0, int(n_samples), first, last)
     raw = np.asarray(time_s, dtype=np.float64)
     lines = np.arange(2, raw.size + 2) if lines is None else np.asarray(lines)
@@ -241,13 +278,16 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
     unit, source = _resolve_unit(time_unit, column, step_raw, rate_hz, where)
     t = raw * TIME_UNITS[unit] if unit != "s" else raw
     steps = np.diff(t)
-    step = step_raw * TIME_UNITS[unit]  # classifies the steps; the rate comes from the segment's span
+    # classifies the steps; the rate comes from the segment's span
+    step = step_raw * TIME_UNITS[unit]
     mean_rate = (t.size - 1) / float(t[-1] - t[0]) if t[-1] > t[0] else None
     stated = f"stamps in {unit}" + ("" if source == "given" else f" ({source})")
     if not RATE_RANGE[0] <= 1.0 / step <= RATE_RANGE[1]:
-        raise InputError(f"{where}: the time column gives {1.0 / step:.6g} Hz with {stated}; "
-                         "expected "
-                         f"{RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz" + _stamp_hint(step_raw, unit))
+        raise InputError(
+            f"{where}: the time column gives {1.0 / step:.6g} Hz with {stated}; "
+            "expected "
+            f"{RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz" + _stamp_hint(step_raw, unit)
+        )
     if source == "assumed" and _unlikely(step_raw):
         raise InputError(f"{where}: the time column gives {1.0 / step:.6g} Hz if its stamps are "
                          "seconds (no unit "
@@ -260,8 +300,10 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
     if n_bad and gaps == "error":
         i = int(np.argmax(bad))
         more = f" ({n_bad - 1} more irregular steps after it)" if n_bad > 1 else ""
-        raise InputError(f"{where}: {what} {lines[i + 1]}: {_describe(t[i], t[i + 1], step)}{more}; expected steps of "
-                         f"{step:.6g} s" + _bursty_hint(n_bad, steps.size, mean_rate, gaps_ok=True))
+        raise InputError(
+            f"{where}: {what} {lines[i + 1]}: {_describe(t[i], t[i + 1], step)}{more}; expected "
+            f"steps of {step:.6g} s" + _bursty_hint(n_bad, steps.size, mean_rate, gaps_ok=True)
+        )
     # longest run of regular steps: segments are split at every irregular step
     cuts = np.concatenate(([0], np.flatnonzero(bad) + 1, [t.size]))
     k = int(np.argmax(np.diff(cuts)))
@@ -273,8 +315,10 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
     # least-noise rate: every stamp of the segment counts (clock jitter averages out)
     rate = (stop - start - 1) / float(t[stop - 1] - t[start])
     if not RATE_RANGE[0] <= rate <= RATE_RANGE[1]:
-        raise InputError(f"{where}: the time column gives {rate:.6g} Hz with {stated}; expected "
-                         f"{RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz" + _stamp_hint(step_raw, unit))
+        raise InputError(
+            f"{where}: the time column gives {rate:.6g} Hz with {stated}; expected "
+            f"{RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz" + _stamp_hint(step_raw, unit)
+        )
     if rate_hz is not None and abs(rate / rate_hz - 1.0) > RATE_TOLERANCE:
         raise InputError(f"{where}: the time column gives {rate:.6g} Hz (step {1 / rate:.6g} s, "
                          f"{stated}) but "
@@ -282,16 +326,37 @@ def check_time(time_s, *, rate_hz=None, gaps="error", lines=None, where="log", n
                          f"{RATE_TOLERANCE:.0%} (or give "
                          "only one)")
     if not n_bad:
-        return TimeBase(rate, "time column", 0, t.size, int(lines[0]), int(lines[-1]), time_unit=unit,
-                        time_unit_source=source)
+        return TimeBase(
+            rate,
+            "time column",
+            0,
+            t.size,
+            int(lines[0]),
+            int(lines[-1]),
+            time_unit=unit,
+            time_unit_source=source,
+        )
     if stop - start < 0.5 * t.size and n_bad > 0.01 * steps.size and mean_rate is not None:
         raise InputError(f"{where}: the longest regular segment holds only {stop - start} of "
                          f"{t.size} samples"
                          + _bursty_hint(n_bad, steps.size, mean_rate, gaps_ok=False))
-    action = (f"{n_bad} irregular time steps; used the longest regular segment, {what}s {lines[start]}-{lines[stop - 1]} "
-              f"({stop - start} of {t.size} samples)")
-    return TimeBase(rate, "time column", start, stop, int(lines[start]), int(lines[stop - 1]), n_bad,
-                    t.size - (stop - start), action, unit, source)
+    action = (
+        f"{n_bad} irregular time steps; used the longest regular segment, {what}s "
+        f"{lines[start]}-{lines[stop - 1]} ({stop - start} of {t.size} samples)"
+    )
+    return TimeBase(
+        rate,
+        "time column",
+        start,
+        stop,
+        int(lines[start]),
+        int(lines[stop - 1]),
+        n_bad,
+        t.size - (stop - start),
+        action,
+        unit,
+        source,
+    )
 
 
 def _unlikely(step_raw):
@@ -306,7 +371,11 @@ def _bursty_hint(n_bad, n_steps, mean_rate, *, gaps_ok):
     """The way out of irregular stamps: the longest segment where they are few, the mean rate where
     they are many
     (a host's bursty stamps: no long regular segment exists)."""
-    if mean_rate is not None and n_bad > 0.01 * n_steps and RATE_RANGE[0] <= mean_rate <= RATE_RANGE[1]:
+    if (
+        mean_rate is not None
+        and n_bad > 0.01 * n_steps
+        and RATE_RANGE[0] <= mean_rate <= RATE_RANGE[1]
+    ):
         return (f"; {n_bad} of {n_steps} steps are irregular (bursty stamps?): the mean rate over "
                 "the log is "
                 f"{mean_rate:.6g} Hz; if the sensor samples on its own clock, drop the time "
@@ -322,5 +391,8 @@ def _describe(t0, t1, step):
     if t1 == t0:
         return f"time stamp {t0!r} s repeats"
     if t1 - t0 > step:
-        return f"gap from {t0!r} s to {t1!r} s ({t1 - t0:.6g} s, about {round((t1 - t0) / step) - 1} missing samples)"
+        return (
+            f"gap from {t0!r} s to {t1!r} s ({t1 - t0:.6g} s, about {round((t1 - t0) / step) - 1} "
+            "missing samples)"
+        )
     return f"short step from {t0!r} s to {t1!r} s ({t1 - t0:.6g} s)"

@@ -118,7 +118,8 @@ class CovarianceTail:
 
 
 def calibrated_contrast(structure, order, k, n_cal, *, sums=None):
-    """Variance of the calibrated-start error contrast, in phase units (multiply by ``dt**(2 order)``).
+    """Variance of the calibrated-start error contrast, in phase units (multiply by ``dt**(2
+    order)``).
 
     Parameters
     ----------
@@ -184,7 +185,12 @@ def calibrated_contrast(structure, order, k, n_cal, *, sums=None):
     def at(arr, idx):
         return np.where(idx >= 0, arr[np.clip(idx, 0, None)], 0.0)
 
-    out = -(at(g, ki - 2) + a0 * at(f, ki - 1) + c * (at(f, ni + ki - 1) - at(f, ni)) + a0 * c * at(table, ni))
+    out = -(
+        at(g, ki - 2)
+        + a0 * at(f, ki - 1)
+        + c * (at(f, ni + ki - 1) - at(f, ni))
+        + a0 * c * at(table, ni)
+    )
     return np.where(k > 1, np.asarray(out, dtype=float), 0.0)
 
 
@@ -277,7 +283,8 @@ class PriorScale:
     record_s: float
 
     def amplitude(self, shift, power):
-        """Box ``((lo + shift) power, (hi + shift) power)``: ``log(parameter) = power (log AVAR peak + shift)``."""
+        """Box ``((lo + shift) power, (hi + shift) power)``: ``log(parameter) = power (log AVAR
+        peak + shift)``."""
         return ((self.log_lo + shift) * power, (self.log_hi + shift) * power)
 
 
@@ -400,7 +407,8 @@ class Term:
                          f"(tail_kind={self.tail_kind!r}, expected one of {TAIL_KINDS})")
 
     def drift_variance(self, order, k, params, dt, *, bias_start="zero", n_cal=None):
-        """Mean-square drift ``(..., n_t)`` [u^2 s^(2 order)] for parameters ``(...)`` and steps ``k`` ``(n_t,)``.
+        """Mean-square drift ``(..., n_t)`` [u^2 s^(2 order)] for parameters ``(...)`` and steps
+        ``k`` ``(n_t,)``.
 
         Parameters
         ----------
@@ -456,8 +464,13 @@ class Term:
         """Drift variance at unit squared amplitude ``(n_t,)``; default: the calibrated contrast."""
         unit = {p: 1.0 for p in self.parameters}
         sums = None if self.structure_sums is None else (lambda n: self.structure_sums(n, dt))
-        return dt ** (2 * order) * calibrated_contrast(lambda lag: self.structure(lag, unit, dt) / self.amplitude2(unit),
-                                                       order, k, n_cal, sums=sums)
+        return dt ** (2 * order) * calibrated_contrast(
+            lambda lag: self.structure(lag, unit, dt) / self.amplitude2(unit),
+            order,
+            k,
+            n_cal,
+            sums=sums,
+        )
 
     @property
     def plot_label(self):

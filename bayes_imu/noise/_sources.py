@@ -13,19 +13,27 @@ scalars.
 import numba
 import numpy as np
 
-from .euler_sums import LAMBDA_SWITCH, PHI2_SWITCH, _closed_formula, _lambda_minus_a_series, _phi2_series
+from .euler_sums import (
+    LAMBDA_SWITCH,
+    PHI2_SWITCH,
+    _closed_formula,
+    _lambda_minus_a_series,
+    _phi2_series,
+)
 
 __all__ = ["avar_rows", "drift_rows", "powers_scalar", "coefficient_scalar"]
 
-# module globals, not closure variables: numba's cache keys a closure's captured dispatcher by identity
+# module globals, not closure variables: numba's cache keys a closure's captured dispatcher by
+# identity
 closed_scalar = numba.njit(cache=True)(_closed_formula)
 phi2_series = numba.njit(cache=True)(_phi2_series)
 lambda_minus_a_series = numba.njit(cache=True)(_lambda_minus_a_series)
 
 
 def avar_rows(mf, coeffs, s2, x, fx, e2, fy, switch, out):
-    """``out[i, j]`` = AVAR at ``mf[j]`` of row ``i`` (``x = dt/T``, ``fx = 1 - e^-x``, ``e2 = 1 - e^-2x``,
-    ``fy = 1 - e^-(m x)``): the exact series below ``m x = switch``, else the closed form."""
+    """``out[i, j]`` = AVAR at ``mf[j]`` of row ``i`` (``x = dt/T``, ``fx = 1 - e^-x``, ``e2 = 1 -
+    e^-2x``, ``fy = 1 - e^-(m x)``): the exact series below ``m x = switch``, else the closed
+    form."""
     n_terms = coeffs.shape[0]
     for i in range(x.size):
         ratio = x[i] / fx[i] if fx[i] > 0 else 1.0
@@ -39,13 +47,16 @@ def avar_rows(mf, coeffs, s2, x, fx, e2, fy, switch, out):
                     poly = poly * ys + coeffs[k, j]
                 value = x[i] * ratio * ratio * poly / (m * m)
             else:
-                value = (m * e2[i] - (1.0 - fx[i]) * fy[i, j] * (2.0 + fy[i, j])) / (m * m * fx[i] * fx[i])
+                value = (m * e2[i] - (1.0 - fx[i]) * fy[i, j] * (2.0 + fy[i, j])) / (
+                    m * m * fx[i] * fx[i]
+                )
             out[i, j] = s2[i] * value
 
 
 @numba.njit(cache=True)
 def powers_scalar(k, a, log_abs):
-    """Scalar ``(E, 1 - E, 1 - E**2)`` of :func:`bayes_imu.noise.euler_sums._powers`, given ``log|1 - a|`` (a != 1)."""
+    """Scalar ``(E, 1 - E, 1 - E**2)`` of :func:`bayes_imu.noise.euler_sums._powers`, given
+    ``log|1 - a|`` (a != 1)."""
     if a == 1.0:
         return (1.0, 0.0, 0.0) if k == 0 else (0.0, 1.0, 1.0)
     kl = k * log_abs
@@ -59,7 +70,8 @@ def powers_scalar(k, a, log_abs):
 
 @numba.njit(cache=True)
 def coefficient_scalar(order, k, a, one_minus_e, lam):
-    """Scalar :func:`bayes_imu.noise.euler_sums.gm_coefficient` for order 1 or 2 (same branches); ``lam = -log1p(-a)``."""
+    """Scalar :func:`bayes_imu.noise.euler_sums.gm_coefficient` for order 1 or 2 (same branches);
+    ``lam = -log1p(-a)``."""
     if k < order:  # c_r(k) = 0 exactly for k < r
         return 0.0
     if a == 0.0:
@@ -74,11 +86,27 @@ def coefficient_scalar(order, k, a, one_minus_e, lam):
     return (k * a - one_minus_e) / (a * a)
 
 
-def drift_rows(order, k, a, log_abs, q, rw, switch, bias_scale, stationary_scale, white_scales, white_ks, extra_scales,
-               extra_ks, total, bias):
+def drift_rows(
+    order,
+    k,
+    a,
+    log_abs,
+    q,
+    rw,
+    switch,
+    bias_scale,
+    stationary_scale,
+    white_scales,
+    white_ks,
+    extra_scales,
+    extra_ks,
+    total,
+    bias,
+):
     """``total[j, i]``, ``bias[j, i]``: the fused 1-sigma drift of draw ``i`` at time ``k[j]``
     (:func:`bayes_imu.noise.euler_sums.drift_grid`), laid out (times, draws) so that quantiles over
-    draws read contiguous memory; ``numba.prange`` over times (one thread in the ahead-of-time build)."""
+    draws read contiguous memory; ``numba.prange`` over times (one thread in the ahead-of-time
+    build)."""
     n_terms = q.shape[0]
     for j in numba.prange(k.size):
         kj = k[j]
@@ -86,8 +114,12 @@ def drift_rows(order, k, a, log_abs, q, rw, switch, bias_scale, stationary_scale
             ai = a[i]
             y = ai * kj
             closed = y >= switch or ai >= 1.0
-            need_powers = (bias_scale[i] != 0.0 and closed) or (stationary_scale[i] != 0.0 and ai > 0.0)
-            e, one_minus_e, one_minus_e2 = powers_scalar(kj, ai, log_abs[i]) if need_powers else (1.0, 0.0, 0.0)
+            need_powers = (bias_scale[i] != 0.0 and closed) or (
+                stationary_scale[i] != 0.0 and ai > 0.0
+            )
+            e, one_minus_e, one_minus_e2 = (
+                powers_scalar(kj, ai, log_abs[i]) if need_powers else (1.0, 0.0, 0.0)
+            )
             if bias_scale[i] == 0.0 or kj <= order:
                 v = 0.0
             elif y < 1e-18:

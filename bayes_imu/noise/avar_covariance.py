@@ -173,7 +173,8 @@ def _add_window_covariance(c, local, a, b, ma, mb):
 
 
 def _second_differences(table, b, reach):
-    """``g[j + reach] = sum_q w_q D(|j - q b|)``, ``|j| <= reach``: D's second difference, step b."""
+    """``g[j + reach] = sum_q w_q D(|j - q b|)``, ``|j| <= reach``: D's second difference, step
+    b."""
     top = table.size - 1  # the table holds D(0..top), top >= n + 4 max(m)
     ext = np.concatenate([table[:0:-1], table])  # ext[j + top] = D(|j|)
     lo, size = top - reach, 2 * reach + 1

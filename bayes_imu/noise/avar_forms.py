@@ -41,7 +41,9 @@ def quantization_avar(m, quantization, *, dt):
 
 def bias_instability_avar(m, bias_instability):
     """Allan variance of flicker rate noise, ``2 ln2 B^2 / pi`` (flat)."""
-    return REGISTRY["bias_instability"].avar(m_array(m), {"bias_instability": bias_instability}, 1.0)
+    return REGISTRY["bias_instability"].avar(
+        m_array(m), {"bias_instability": bias_instability}, 1.0
+    )
 
 
 def random_walk_avar(m, rate_random_walk, *, dt):
@@ -55,9 +57,11 @@ def ramp_avar(m, rate_ramp, *, dt):
 
 
 def gauss_markov_avar(m, bias_variance, time_constant, *, dt):
-    """Exact Allan variance of a sampled first-order Gauss-Markov process (:mod:`bayes_imu.noise.gauss_markov`)."""
-    return REGISTRY["gauss_markov"].avar(m_array(m), {"bias_variance": bias_variance, "time_constant": time_constant},
-                                         dt)
+    """Exact Allan variance of a sampled first-order Gauss-Markov process
+    (:mod:`bayes_imu.noise.gauss_markov`)."""
+    return REGISTRY["gauss_markov"].avar(
+        m_array(m), {"bias_variance": bias_variance, "time_constant": time_constant}, dt
+    )
 
 
 def structure_function(k, term, params, *, dt):

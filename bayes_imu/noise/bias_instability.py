@@ -83,7 +83,9 @@ class _BiasInstability(Term):
     tail_kind = "flicker"
 
     def avar(self, mf, params, dt):
-        return FLAT * np.asarray(params["bias_instability"], float)[..., None] ** 2 * np.ones_like(mf)
+        return (
+            FLAT * np.asarray(params["bias_instability"], float)[..., None] ** 2 * np.ones_like(mf)
+        )
 
     def structure(self, k, params, dt):
         k = np.asarray(k, dtype=float)
@@ -115,9 +117,14 @@ class _BiasInstability(Term):
         row = np.concatenate([gamma, gamma[-2:0:-1]])
         lam = np.fft.rfft(row).real
         if lam.min() < -1e-9 * np.max(np.abs(lam)):
-            raise ModelError(f"flicker circulant embedding not non-negative for n={n} (min eigenvalue {lam.min():.3g})")
+            raise ModelError(
+                f"flicker circulant embedding not non-negative for n={n} (min eigenvalue "
+                f"{lam.min():.3g})"
+            )
         lam = np.clip(lam, 0.0, None)
-        z = np.fft.irfft(np.sqrt(lam) * np.fft.rfft(rng.standard_normal(row.size)), n=row.size)[: n - 1]
+        z = np.fft.irfft(np.sqrt(lam) * np.fft.rfft(rng.standard_normal(row.size)), n=row.size)[
+            : n - 1
+        ]
         y = np.empty(n)
         y[0] = 0.0
         np.cumsum(z, out=y[1:])
@@ -138,7 +145,9 @@ class _BiasInstability(Term):
         return d, -s2 / pi, -((n + 1) * s2 - s3) / pi
 
     def unit_drift(self, order, k, dt, bias_start, n_cal):
-        return super().unit_drift(order, k, dt, "calibrated", n_cal if bias_start == "calibrated" else np.maximum(k, 1.0))
+        return super().unit_drift(
+            order, k, dt, "calibrated", n_cal if bias_start == "calibrated" else np.maximum(k, 1.0)
+        )
 
     def nav_variance(self, loop, k, params, dt, *, bias_start="calibrated", n_cal=None):
         """Exact quadratic form over the flicker's stationary rate increments
@@ -151,11 +160,18 @@ class _BiasInstability(Term):
         return np.asarray(self.amplitude2(params), float)[..., None, None] * unit
 
 
-BIAS_INSTABILITY = _BiasInstability("bias_instability", ("bias_instability",), {"bias_instability": "{u}"},
-                                    "bias instability", "bias", selection=("optional",),
-                                    kalibr="random_walk", short_label="bias instability",
-                                    worst_axis=("bias_instability",),
-                                    parameter_labels={"bias_instability": "bias instability"})
+BIAS_INSTABILITY = _BiasInstability(
+    "bias_instability",
+    ("bias_instability",),
+    {"bias_instability": "{u}"},
+    "bias instability",
+    "bias",
+    selection=("optional",),
+    kalibr="random_walk",
+    short_label="bias instability",
+    worst_axis=("bias_instability",),
+    parameter_labels={"bias_instability": "bias instability"},
+)
 
 
 _ASYMPTOTIC_FROM = 16  # lag from which flicker_increment_acov uses its asymptotic series

@@ -16,9 +16,9 @@ walks and quantization (``D`` polynomial of degree <= 3, annihilated by the cont
 Gauss-Markov and flicker parts decay smoothly there, and between its kinks (``d = k, N, |k - N|,
 k + N``) ``C`` is smooth. The sum is exact over ``d <= 256`` and a midpoint rule on a geometric
 grid (ratio 1.02, edges at the kinks) beyond (the structure function is evaluated at non-integer
-lags there: every term's ``D`` is a smooth closed form in the lag). The equivalent degrees of freedom
-``nu = 2 C(0)^2 / Var(V_hat)`` make ``V_hat ~ E V_hat chi2_nu / nu`` (a gamma approximation with
-the exact first two moments; its tails are checked against Monte Carlo in the tests).
+lags there: every term's ``D`` is a smooth closed form in the lag). The equivalent degrees of
+freedom ``nu = 2 C(0)^2 / Var(V_hat)`` make ``V_hat ~ E V_hat chi2_nu / nu`` (a gamma approximation
+with the exact first two moments; its tails are checked against Monte Carlo in the tests).
 """
 
 import numpy as np
@@ -73,7 +73,9 @@ def contrast_edf(model, params, k, n_cal, n_samples, stride=1):
     for kk, step in zip(ks, np.broadcast_to(np.asarray(stride, dtype=np.int64), ks.shape)):
         r = kk / n_cal
         lags = np.array([0.0, n_cal, -n_cal, kk, -kk, kk + n_cal, -(kk + n_cal)])
-        weights = np.array([1 + (1 + r) ** 2 + r * r, -r * (1 + r), -r * (1 + r), -(1 + r), -(1 + r), r, r])
+        weights = np.array(
+            [1 + (1 + r) ** 2 + r * r, -r * (1 + r), -r * (1 + r), -(1 + r), -(1 + r), r, r]
+        )
         m = int((n_samples - n_cal - kk) // step + 1)  # starts averaged, ``step`` apart
         u, w = _lags(m, kk / step, n_cal / step)
         d = step * np.concatenate(([0.0], u))

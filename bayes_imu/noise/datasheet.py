@@ -35,7 +35,8 @@ def rows(kind):
 
 
 def datasheet(posterior, kind):
-    """Datasheet values of a posterior: dict name -> ``median``, ``q05``, ``q95``, ``unit``, ``what``.
+    """Datasheet values of a posterior: dict name -> ``median``, ``q05``, ``q95``, ``unit``,
+    ``what``.
 
     Parameters
     ----------

@@ -33,7 +33,14 @@ from math import factorial
 
 import numpy as np
 
-__all__ = ["gm_sum", "gm_sum_broadcast", "gm_terms_broadcast", "gm_coefficient", "SWITCH", "SERIES_TERMS"]
+__all__ = [
+    "gm_sum",
+    "gm_sum_broadcast",
+    "gm_terms_broadcast",
+    "gm_coefficient",
+    "SWITCH",
+    "SERIES_TERMS",
+]
 
 #: ``a * k`` at and above which the closed form of order r is used (measured, see tests)
 SWITCH = {1: 0.5, 2: 1.0}
@@ -43,7 +50,8 @@ SERIES_TERMS = {1: 16, 2: 20}
 
 @lru_cache(maxsize=None)
 def _series_table(order, n_terms=None):
-    """Nonzero terms ``(t, u, (-1)**t W[t][u])`` of ``V_r = sum_t (-a)**t sum_u W[t][u] C(k, u)``."""
+    """Nonzero terms ``(t, u, (-1)**t W[t][u])`` of ``V_r = sum_t (-a)**t sum_u W[t][u] C(k,
+    u)``."""
     n_terms = SERIES_TERMS[order] if n_terms is None else n_terms
     table = {}
     for t in range(n_terms):
@@ -84,15 +92,17 @@ def _powers(k, a):
 
 
 def _closed_formula(order, k, a, e, one_minus_e, one_minus_e2):
-    """The closed forms of ``V_r`` given the powers of ``A`` (arithmetic only: the one definition that
-    numpy evaluates on arrays and numba compiles for scalars)."""
+    """The closed forms of ``V_r`` given the powers of ``A`` (arithmetic only: the one definition
+    that numpy evaluates on arrays and numba compiles for scalars)."""
     geo2 = one_minus_e2 / (a * (2.0 - a))  # sum_{n<k} A**(2n)
     if order == 0:
         return geo2
     if order == 1:
         return (k - 2.0 * one_minus_e / a + geo2) / (a * a)
     sum_n2 = (k - 1.0) * k * (2.0 * k - 1.0) / 6.0
-    return (a * a * sum_n2 - a * k * (k - 1.0) + (k - 2.0) - 2.0 * (k - 1.0) * e + geo2) / (a * a * a * a)
+    return (a * a * sum_n2 - a * k * (k - 1.0) + (k - 2.0) - 2.0 * (k - 1.0) * e + geo2) / (
+        a * a * a * a
+    )
 
 
 def _closed(order, k, a):
@@ -202,14 +212,37 @@ LAMBDA_SWITCH = 0.05
 
 
 def _phi2_series(z):
-    """``(z - 1 + exp(-z)) / z**2`` by its Taylor series, for ``0 <= z < PHI2_SWITCH`` (arithmetic only:
-    shared by numpy and the compiled kernel)."""
-    return 0.5 + z * (-1 / 6 + z * (1 / 24 + z * (-1 / 120 + z * (1 / 720 + z * (-1 / 5040 + z / 40320)))))
+    """``(z - 1 + exp(-z)) / z**2`` by its Taylor series, for ``0 <= z < PHI2_SWITCH`` (arithmetic
+    only: shared by numpy and the compiled kernel)."""
+    return 0.5 + z * (
+        -1 / 6 + z * (1 / 24 + z * (-1 / 120 + z * (1 / 720 + z * (-1 / 5040 + z / 40320))))
+    )
 
 
 def _lambda_minus_a_series(s):
-    """``-log(1 - s) - s = sum_{n >= 2} s**n / n`` to ``n = 11``, for ``0 <= s < LAMBDA_SWITCH`` (arithmetic only)."""
-    return s * s * (1 / 2 + s * (1 / 3 + s * (1 / 4 + s * (1 / 5 + s * (1 / 6 + s * (1 / 7 + s * (1 / 8 + s * (1 / 9 + s * (1 / 10 + s / 11)))))))))
+    """``-log(1 - s) - s = sum_{n >= 2} s**n / n`` to ``n = 11``, for ``0 <= s < LAMBDA_SWITCH``
+    (arithmetic only)."""
+    return (
+        s
+        * s
+        * (
+            1 / 2
+            + s
+            * (
+                1 / 3
+                + s
+                * (
+                    1 / 4
+                    + s
+                    * (
+                        1 / 5
+                        + s
+                        * (1 / 6 + s * (1 / 7 + s * (1 / 8 + s * (1 / 9 + s * (1 / 10 + s / 11)))))
+                    )
+                )
+            )
+        )
+    )
 
 
 def _phi2(z):
@@ -242,7 +275,8 @@ def _horner_rows(order):
 
 
 def series_coefficients(order, k):
-    """``Q[t, j] = (-1)**t sum_u W[t][u] C(k_j, u) / k_j**t``: the series is ``sum_t (a k)**t Q[t]``.
+    """``Q[t, j] = (-1)**t sum_u W[t][u] C(k_j, u) / k_j**t``: the series is ``sum_t (a k)**t
+    Q[t]``.
 
     All ``W`` are positive, so each ``Q`` is a sum of same-sign terms (no cancellation);
     ``C(k, u) / k**t`` is formed as ``prod (k - i)/((i + 1) k)`` times ``k**(u - t)``
@@ -274,8 +308,11 @@ def gm_sum_grid(order, k, a):
     return root**2
 
 
-def drift_grid(order, k, a, bias_scale, stationary_scale, white_scales, white_ks, extra_scales, extra_ks):
-    """Fused 1-sigma drift for draws x times: returns ``(total, bias)``, each ``(n_draws, n_times)``.
+def drift_grid(
+    order, k, a, bias_scale, stationary_scale, white_scales, white_ks, extra_scales, extra_ks
+):
+    """Fused 1-sigma drift for draws x times: returns ``(total, bias)``, each ``(n_draws,
+    n_times)``.
 
     Per draw ``i`` and time ``j`` (variances add)::
 
@@ -289,14 +326,30 @@ def drift_grid(order, k, a, bias_scale, stationary_scale, white_scales, white_ks
     """
     k = np.ascontiguousarray(k, dtype=float).ravel()
     vec = [np.ascontiguousarray(v, dtype=float).ravel() for v in (a, bias_scale, stationary_scale)]
-    mat = [np.ascontiguousarray(np.atleast_2d(v), dtype=float) for v in (white_scales, white_ks, extra_scales, extra_ks)]
+    mat = [
+        np.ascontiguousarray(np.atleast_2d(v), dtype=float)
+        for v in (white_scales, white_ks, extra_scales, extra_ks)
+    ]
     a = vec[0]
     with np.errstate(divide="ignore", invalid="ignore"):
-        log_abs = np.where(a < 1.0, np.log1p(-np.minimum(a, 1.0)), np.log1p(np.maximum(a, 1.0) - 2.0))
+        log_abs = np.where(
+            a < 1.0, np.log1p(-np.minimum(a, 1.0)), np.log1p(np.maximum(a, 1.0) - 2.0)
+        )
     total, bias = np.empty((k.size, a.size)), np.empty((k.size, a.size))
-    _kernel()(int(order), k, a, log_abs, np.ascontiguousarray(series_coefficients(order, k), dtype=float),
-              np.ascontiguousarray(_random_walk(order, k), dtype=float), float(SWITCH[order]), vec[1], vec[2], *mat,
-              total, bias)
+    _kernel()(
+        int(order),
+        k,
+        a,
+        log_abs,
+        np.ascontiguousarray(series_coefficients(order, k), dtype=float),
+        np.ascontiguousarray(_random_walk(order, k), dtype=float),
+        float(SWITCH[order]),
+        vec[1],
+        vec[2],
+        *mat,
+        total,
+        bias,
+    )
     return total.T, bias.T
 
 
@@ -321,11 +374,14 @@ def gm_sum_broadcast(order, k, a):
 
 def _grid_layout(order, k, a):
     """The (draws, 1) x (times,) layout of posterior bands, large enough for the compiled kernel."""
-    return order > 0 and k.ndim == 1 and a.ndim == 2 and a.shape[1] == 1 and a.size * k.size >= 100_000
+    return (
+        order > 0 and k.ndim == 1 and a.ndim == 2 and a.shape[1] == 1 and a.size * k.size >= 100_000
+    )
 
 
 def gm_terms_broadcast(order, k, a, *, stationary, coefficient=False):
-    """``a (2 - a) V_r(k, a) + stationary c_r(k, a)**2`` (and ``c_r(k, a)`` if ``coefficient``), broadcast.
+    """``a (2 - a) V_r(k, a) + stationary c_r(k, a)**2`` (and ``c_r(k, a)`` if ``coefficient``),
+    broadcast.
 
     The exact-sampling Gauss-Markov drift in units of ``s^2 dt^(2r)`` (``0 < a < 1``, where
     ``c_r >= 0``); the posterior-band layout goes through the compiled kernel of
@@ -334,11 +390,22 @@ def gm_terms_broadcast(order, k, a, *, stationary, coefficient=False):
     if _grid_layout(order, k, a):
         a1 = a[:, 0]
         none_a, none_k = np.zeros((1, a1.size)), np.zeros((1, k.size))
-        _, root = drift_grid(order, k, a1, a1 * (2.0 - a1), np.full_like(a1, float(stationary)), none_a, none_k,
-                             none_a, none_k)
+        _, root = drift_grid(
+            order,
+            k,
+            a1,
+            a1 * (2.0 - a1),
+            np.full_like(a1, float(stationary)),
+            none_a,
+            none_k,
+            none_a,
+            none_k,
+        )
         if not coefficient:
             return root**2
-        _, c = drift_grid(order, k, a1, np.zeros_like(a1), np.ones_like(a1), none_a, none_k, none_a, none_k)
+        _, c = drift_grid(
+            order, k, a1, np.zeros_like(a1), np.ones_like(a1), none_a, none_k, none_a, none_k
+        )
         return root**2, c
     kk, aa = np.broadcast_arrays(k, a)
     c = gm_coefficient(order, kk, aa)

@@ -27,7 +27,9 @@ class _FilteredWhite(Term):
     simulated_start = "stationary"
 
     def avar(self, mf, params, dt):
-        return np.asarray(params["filtered_variance"], float)[..., None] * (4.0 * mf - 3.0) / (mf * mf)
+        return (
+            np.asarray(params["filtered_variance"], float)[..., None] * (4.0 * mf - 3.0) / (mf * mf)
+        )
 
     def structure(self, k, params, dt):
         k = np.asarray(k, float)
@@ -64,7 +66,9 @@ class _FilteredWhite(Term):
             return super().unit_drift(order, k, dt, bias_start, n_cal)
         if order == 1:
             return dt**2 * np.where(k > 0, 4.0 * k - 2.0, 0.0)
-        return dt**4 * np.where(k > 0, (k - 1.0) ** 2 + (k - 1.0) * (2.0 * k - 1.0) * (2.0 * k - 3.0) / 3.0, 0.0)
+        return dt**4 * np.where(
+            k > 0, (k - 1.0) ** 2 + (k - 1.0) * (2.0 * k - 1.0) * (2.0 * k - 3.0) / 3.0, 0.0
+        )
 
     def nav_filter(self, params, dt, *, n_cal=None):
         """State ``w_{i-1}``: ``y_i = sqrt(c) (w_{i-1} + eps_i)``, ``w_i = eps_i``."""
@@ -72,8 +76,14 @@ class _FilteredWhite(Term):
         return nav_system([[0.0]], [[1.0]], [c], [c], [[1.0]])
 
 
-FILTERED_WHITE = _FilteredWhite("filtered_white", ("filtered_variance",), {"filtered_variance": "({u})^2"},
-                                "filtered (moving-average) white noise", "short_term",
-                                selection=("extension",), kalibr="noise_density",
-                                short_label="filtered white noise",
-                                parameter_labels={"filtered_variance": "filtered white"})
+FILTERED_WHITE = _FilteredWhite(
+    "filtered_white",
+    ("filtered_variance",),
+    {"filtered_variance": "({u})^2"},
+    "filtered (moving-average) white noise",
+    "short_term",
+    selection=("extension",),
+    kalibr="noise_density",
+    short_label="filtered white noise",
+    parameter_labels={"filtered_variance": "filtered white"},
+)

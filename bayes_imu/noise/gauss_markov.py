@@ -28,7 +28,8 @@ leading term is the random-walk limit ``s^2 x (2m^2 + 1)/(3m)``.
 Structure function ``D(k) = s^2 [k (1 - phi^2) - 2 phi (1 - phi^k)] / (1 - phi)^2`` (the
 variance of a sum of ``k`` consecutive samples), series below ``k x = 0.5``.
 
-Drift of the Euler integral, ``a = 1 - phi`` (:mod:`bayes_imu.noise.euler_sums`, ``c_r`` and ``V_r``)::
+Drift of the Euler integral, ``a = 1 - phi`` (:mod:`bayes_imu.noise.euler_sums`, ``c_r`` and
+``V_r``)::
 
     zero        s^2 a (2 - a) dt^(2r) V_r(k, a)                    (paper eqs 16, 22, 29)
     stationary  + s^2 dt^(2r) c_r(k)^2
@@ -59,7 +60,8 @@ _AVAR_TERMS = 13  # (2 * 0.1)^13 / 16! ~ 4e-23
 _SWITCH = 0.5
 _SERIES_TERMS = 24
 GM_PEAK = 0.3  # ~max over tau of a Gauss-Markov AVAR / s^2 (continuous value 0.30)
-#: time-constant box of each kind: (lowest in samples, highest in samples or None, highest as a record fraction)
+#: time-constant box of each kind: (lowest in samples, highest in samples or None, highest as a
+#: record fraction)
 HF_T_SAMPLES = (1.0, 50.0)
 BIAS_T_MIN_SAMPLES = 3.0
 BIAS_T_MAX_RECORD = 0.25
@@ -67,8 +69,9 @@ BIAS_T_MAX_RECORD = 0.25
 
 @lru_cache(maxsize=64)
 def _series_coefficients(grid):
-    """``c[j, i] = -b_{j+3}(m_i) / ((j+3)! m_i^j)``, exact rationals rounded once; ``grid`` is the cluster
-    sizes' float64 bytes (a cheap cache key: a likelihood calls :func:`gm_avar` with one grid)."""
+    """``c[j, i] = -b_{j+3}(m_i) / ((j+3)! m_i^j)``, exact rationals rounded once; ``grid`` is the
+    cluster sizes' float64 bytes (a cheap cache key: a likelihood calls :func:`gm_avar` with one
+    grid)."""
     ms = [int(v) for v in np.frombuffer(grid)]
     out = np.empty((_AVAR_TERMS, len(ms)))
     for i, m in enumerate(ms):
@@ -119,13 +122,16 @@ def _kernel():
 
 def gm_structure(k, s2, x):
     """``D(k)``, broadcast over ``k``, ``s2`` and ``x = dt/T``; series below ``k x = 0.5``."""
-    k, s2, x = np.broadcast_arrays(np.asarray(k, float), np.asarray(s2, float), np.asarray(x, float))
+    k, s2, x = np.broadcast_arrays(
+        np.asarray(k, float), np.asarray(s2, float), np.asarray(x, float)
+    )
     fx = -np.expm1(-x)
     out = np.zeros(k.shape)
     big = k * x > _SWITCH
     kb, xb, fb = k[big], x[big], fx[big]
     out[big] = (kb * -np.expm1(-2.0 * xb) - 2.0 * (1.0 - fb) * -np.expm1(-kb * xb)) / (fb * fb)
-    # series: (x/f)^2 sum_{n>=2} (-x)^(n-2) e_n(k)/n!, e_n = 2 (k+1)^n - 2 - k 2^n, scaled by k^(n-2)
+    # series: (x/f)^2 sum_{n>=2} (-x)^(n-2) e_n(k)/n!, e_n = 2 (k+1)^n - 2 - k 2^n, scaled by
+    # k^(n-2)
     small = ~big & (k > 0)
     ks, xs, fs = k[small], x[small], fx[small]
     z = -ks * xs
@@ -223,7 +229,8 @@ class _GaussMarkov(Term):
         return [scale.amplitude(-np.log(GM_PEAK), 1.0), self.time_constant_box(scale)]
 
     def white_equivalent(self, params, dt):
-        """Per-sample variance of the white noise this term looks like at ``tau >> T``: ``s^2 (1+phi)/(1-phi)``."""
+        """Per-sample variance of the white noise this term looks like at ``tau >> T``: ``s^2
+        (1+phi)/(1-phi)``."""
         x = dt / np.asarray(params[self.time_constant_name], float)
         return np.asarray(params[self.variance_name], float) * (2.0 + np.expm1(-x)) / -np.expm1(-x)
 
@@ -233,14 +240,19 @@ class _GaussMarkov(Term):
         a = -np.expm1(-x)
         k = np.asarray(k, dtype=float)
         calibrated = bias_start == "calibrated"
-        out = gm_terms_broadcast(order, k, a, stationary=bias_start != "zero", coefficient=calibrated)
+        out = gm_terms_broadcast(
+            order, k, a, stationary=bias_start != "zero", coefficient=calibrated
+        )
         if calibrated:
             out, c = out
             n = np.broadcast_to(np.asarray(n_cal, float), np.shape(k))
             weight = k if order == 1 else k * (k - 1.0) / 2.0
             s_n = (1.0 - a) * -np.expm1(-n * x) / a  # sum_{j=1}^N phi^j
-            out = np.maximum(out + weight**2 * gm_structure(n, 1.0, x) / n**2 - 2.0 * weight * c * s_n / n, 0.0)
-        return s2 * dt ** (2 * order) * np.where(k >= order, out, 0.0)  # exactly 0 before the first full step
+            out = np.maximum(
+                out + weight**2 * gm_structure(n, 1.0, x) / n**2 - 2.0 * weight * c * s_n / n, 0.0
+            )
+        # exactly 0 before the first full step
+        return s2 * dt ** (2 * order) * np.where(k >= order, out, 0.0)
 
     def nav_filter(self, params, dt, *, n_cal=None):
         """``y_i = b_i``, ``b_{i+1} = phi b_i + s sqrt(1 - phi^2) eps_i``, batched over draws;
@@ -270,13 +282,23 @@ HF_CORRELATED = _GaussMarkov("hf_correlated", ("correlated_variance", "correlate
                              parameter_labels={"correlated_variance": "fast correlated variance",
                                                "correlated_time_constant":
                                                    "fast correlated time constant"})
-GAUSS_MARKOV = _GaussMarkov("gauss_markov", ("bias_variance", "time_constant"),
-                            {"bias_variance": "({u})^2", "time_constant": "s"}, "correlated (Gauss-Markov) bias",
-                            "bias", selection=("optional", "extension"), kalibr="random_walk",
-                            short_label="Gauss-Markov bias", exchangeable="gauss_markov",
-                            worst_axis=("bias_variance",), multi_start=True,
-                            parameter_labels={"bias_variance": "Gauss-Markov variance",
-                                              "time_constant": "Gauss-Markov time constant"})
+GAUSS_MARKOV = _GaussMarkov(
+    "gauss_markov",
+    ("bias_variance", "time_constant"),
+    {"bias_variance": "({u})^2", "time_constant": "s"},
+    "correlated (Gauss-Markov) bias",
+    "bias",
+    selection=("optional", "extension"),
+    kalibr="random_walk",
+    short_label="Gauss-Markov bias",
+    exchangeable="gauss_markov",
+    worst_axis=("bias_variance",),
+    multi_start=True,
+    parameter_labels={
+        "bias_variance": "Gauss-Markov variance",
+        "time_constant": "Gauss-Markov time constant",
+    },
+)
 GAUSS_MARKOV_2 = _GaussMarkov("gauss_markov_2", ("bias_variance_2", "time_constant_2"),
                               {"bias_variance_2": "({u})^2", "time_constant_2": "s"},
                               "second, slower Gauss-Markov bias", "bias", selection=("extension",),

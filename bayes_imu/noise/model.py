@@ -86,7 +86,9 @@ def m_array(m):
     """Validated cluster sizes as floats."""
     m = np.asarray(m)
     if m.ndim != 1 or m.size == 0 or not np.all(m >= 1) or not np.all(m == np.round(m)):
-        raise InputError(f"cluster sizes m: expected a non-empty 1-D array of integers >= 1, got {m!r}")
+        raise InputError(
+            f"cluster sizes m: expected a non-empty 1-D array of integers >= 1, got {m!r}"
+        )
     return m.astype(float)
 
 
@@ -108,7 +110,9 @@ class NoiseModel:
     def __post_init__(self):
         unknown = [t for t in self.terms if t not in REGISTRY]
         if unknown or not self.terms or len(set(self.terms)) != len(self.terms):
-            raise InputError(f"model terms {self.terms!r}: expected distinct names from {', '.join(TERMS)}")
+            raise InputError(
+                f"model terms {self.terms!r}: expected distinct names from {', '.join(TERMS)}"
+            )
         if not (np.isfinite(self.dt) and self.dt > 0):
             raise InputError(f"dt={self.dt!r}: expected a positive sample period in seconds")
         for name in self.terms:
@@ -132,24 +136,33 @@ class NoiseModel:
     def ordered(self):
         """Indices of the Gauss-Markov time constants, fastest first (they must increase)."""
         names = self.parameter_names
-        return tuple(names.index(t.parameters[1]) for t in self.components if hasattr(t, "time_constant_name"))
+        return tuple(
+            names.index(t.parameters[1])
+            for t in self.components
+            if hasattr(t, "time_constant_name")
+        )
 
     def unpack(self, theta):
-        """Split an array ``(..., n_par)`` (extra trailing columns ignored) into a dict name -> ``(...)``."""
+        """Split an array ``(..., n_par)`` (extra trailing columns ignored) into a dict name ->
+        ``(...)``."""
         theta = np.asarray(theta, float)
         return {name: theta[..., i] for i, name in enumerate(self.parameter_names)}
 
     def term_avar(self, term, m, params):
         """Allan variance of one term, ``(..., n_tau)``."""
         params = params if isinstance(params, dict) else self.unpack(params)
-        return REGISTRY[term].avar(m_array(m), {k: np.asarray(v, float) for k, v in params.items()}, self.dt)
+        return REGISTRY[term].avar(
+            m_array(m), {k: np.asarray(v, float) for k, v in params.items()}, self.dt
+        )
 
     def avar(self, m, params):
-        """Model Allan variance ``(..., n_tau)`` for parameters given as a dict or ``(..., n_par)``."""
+        """Model Allan variance ``(..., n_tau)`` for parameters given as a dict or ``(...,
+        n_par)``."""
         return self.avar_evaluator(m)(params)
 
     def avar_evaluator(self, m):
-        """A function ``params -> (..., n_tau)`` for fixed cluster sizes ``m`` (validated once; picklable)."""
+        """A function ``params -> (..., n_tau)`` for fixed cluster sizes ``m`` (validated once;
+        picklable)."""
         return AvarEvaluator(self, m_array(m))
 
     def structure_function(self, k, params):

@@ -96,14 +96,14 @@ def quantity(name):
 
 
 def sensor_of_si_unit(unit):
-    """Sensor kind name of an SI rate unit (``"rad/s"`` -> ``"gyro"``, ``"m/s^2"`` -> ``"accel"``), else ``None``:
-    what a result fitted in ``unit`` is, when it does not carry its sensor kind."""
+    """Sensor kind name of an SI rate unit (``"rad/s"`` -> ``"gyro"``, ``"m/s^2"`` -> ``"accel"``),
+    else ``None``: what a result fitted in ``unit`` is, when it does not carry its sensor kind."""
     return next((name for name, s in SENSORS.items() if s.si_unit == unit), None)
 
 
 def si_sensor(sensor, unit):
-    """The sensor kind of a result in ``unit`` whose own kind is ``sensor`` (or ``None``), when ``unit`` is
-    that kind's SI unit (what datasheet units are converted from), else ``None``.
+    """The sensor kind of a result in ``unit`` whose own kind is ``sensor`` (or ``None``), when
+    ``unit`` is that kind's SI unit (what datasheet units are converted from), else ``None``.
 
     Raises
     ------
@@ -120,7 +120,8 @@ def si_sensor(sensor, unit):
 
 
 def sensor_of_unit(unit):
-    """Sensor kind name of a rate unit (``"deg/s"`` -> ``"gyro"``), or ``None`` for a unit of no known kind."""
+    """Sensor kind name of a rate unit (``"deg/s"`` -> ``"gyro"``), or ``None`` for a unit of no
+    known kind."""
     entry = UNITS.get(unit)
     return None if entry is None else entry[0]
 

@@ -62,7 +62,15 @@ class _Quantization(Term):
         return nav_system([[0.0]], [[q]], [-1.0 / dt], [q / dt], [[q * q]])
 
 
-QUANTIZATION = _Quantization("quantization", ("quantization",), {"quantization": "{u} s"}, "quantization noise",
-                             "short_term", selection=("optional",), kalibr="none",
-                             short_label="quantization", worst_axis=("quantization",),
-                             parameter_labels={"quantization": "quantization"})
+QUANTIZATION = _Quantization(
+    "quantization",
+    ("quantization",),
+    {"quantization": "{u} s"},
+    "quantization noise",
+    "short_term",
+    selection=("optional",),
+    kalibr="none",
+    short_label="quantization",
+    worst_axis=("quantization",),
+    parameter_labels={"quantization": "quantization"},
+)

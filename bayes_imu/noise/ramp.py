@@ -49,7 +49,11 @@ class _Ramp(Term):
     def unit_drift(self, order, k, dt, bias_start, n_cal):
         if bias_start == "calibrated":
             n = np.asarray(n_cal, float)
-            err = k * (k + n) / 2.0 if order == 1 else k * (k - 1.0) * (k - 2.0) / 6.0 + (n + 1.0) * k * (k - 1.0) / 4.0
+            err = (
+                k * (k + n) / 2.0
+                if order == 1
+                else k * (k - 1.0) * (k - 2.0) / 6.0 + (n + 1.0) * k * (k - 1.0) / 4.0
+            )
         else:
             err = k * (k - 1.0) / 2.0 if order == 1 else k * (k - 1.0) * (k - 2.0) / 6.0
         return (dt ** (order + 1) * err) ** 2

@@ -3,8 +3,8 @@
 AVAR ``K^2 dt (2 m^2 + 1) / (6 m)`` (exact; ``K^2 tau / 3`` for large ``m``);
 ``D(k) = K^2 dt (k - k^3) / 6`` (a generalised covariance of order 2).
 Drift: from a zero start (the walk is at 0 when the outage starts; ``"stationary"`` is the
-same, a walk has no stationary state) ``K^2 dt^(2r+1) V_r(k, 0)`` (:mod:`bayes_imu.noise.euler_sums`);
-calibrated start from the contrast of :mod:`._base`.
+same, a walk has no stationary state) ``K^2 dt^(2r+1) V_r(k, 0)``
+(:mod:`bayes_imu.noise.euler_sums`); calibrated start from the contrast of :mod:`._base`.
 """
 
 from fractions import Fraction

@@ -1,4 +1,5 @@
-"""Simulated static sensor logs from a :class:`~bayes_imu.noise.avar_forms.NoiseModel`, exactly discretised.
+"""Simulated static sensor logs from a :class:`~bayes_imu.noise.avar_forms.NoiseModel`, exactly
+discretised.
 
 Every term is drawn from the discrete process whose Allan variance
 :mod:`bayes_imu.noise.avar_forms` gives, so the expected AVAR of a simulated log equals the model's
@@ -65,7 +66,8 @@ def simulate_log(model, params, n_samples, *, rng=None, offset=0.0):
 
 
 def flicker_difference_acov(n, bias_instability):
-    """Autocovariance of first differences of flicker rate noise (:mod:`bayes_imu.noise.bias_instability`)."""
+    """Autocovariance of first differences of flicker rate noise
+    (:mod:`bayes_imu.noise.bias_instability`)."""
     from .bias_instability import flicker_difference_acov as acov
 
     return acov(n, bias_instability)

@@ -1,4 +1,5 @@
-"""Vibration line: a sinusoid of random phase, ``y_k = A sin(2 pi f k dt + phi)``, ``phi ~ U(0, 2 pi)``.
+"""Vibration line: a sinusoid of random phase, ``y_k = A sin(2 pi f k dt + phi)``, ``phi ~ U(0, 2
+pi)``.
 
 Parameters ``vibration_frequency`` ``f`` [Hz] (between one cycle per record and the Nyquist
 frequency ``1/(2 dt)``) and ``vibration_amplitude`` ``A`` [u]: a mechanical or electrical line
@@ -48,7 +49,8 @@ from .quantities import DEG, G
 
 __all__ = ["VIBRATION", "sinc_complement"]
 
-#: max over u of sin(u)^4 / u^2 (at tan u = 2u, u = 1.1656): the AVAR peak of a line is about this times A^2
+#: max over u of sin(u)^4 / u^2 (at tan u = 2u, u = 1.1656): the AVAR peak of a line is about this
+#: times A^2
 AVAR_PEAK = 0.5251
 _SWITCH = 0.5  # |u| below which C(u) = 1 - sin(u)/u is summed from its series
 _TERMS = 10  # 0.5^20 / 21! ~ 2e-26
@@ -94,7 +96,10 @@ class _Vibration(Term):
         return params["vibration_amplitude"] * np.sin(omega * np.arange(n, dtype=float) + phase)
 
     def bounds(self, scale):
-        return [(np.log(1.0 / scale.record_s), np.log(0.5 / scale.dt)), scale.amplitude(-np.log(AVAR_PEAK), 0.5)]
+        return [
+            (np.log(1.0 / scale.record_s), np.log(0.5 / scale.dt)),
+            scale.amplitude(-np.log(AVAR_PEAK), 0.5),
+        ]
 
     def starting_guess(self, tau, avar, m, dt):
         # the strongest hump: a point of ``avar m`` (flat for white noise) above the level it falls
@@ -102,19 +107,41 @@ class _Vibration(Term):
         # while bias terms only rise); the line peaks at tau = 0.371 / f with 0.5251 A^2
         g = avar * m
         n = g.size
-        floor = np.array([max(g[0], g[i + 1:i + 4].min()) if i + 1 < n else np.inf for i in range(n)])
+        floor = np.array(
+            [max(g[0], g[i + 1 : i + 4].min()) if i + 1 < n else np.inf for i in range(n)]
+        )
         i = int(np.argmax(g / floor))
         excess = avar[i] - floor[i] / m[i]
         amplitude = np.sqrt(excess / AVAR_PEAK) if excess > 0 else 0.1 * np.sqrt(avar.min())
-        return {"vibration_frequency": min(0.371 / tau[i], 0.45 / dt), "vibration_amplitude": amplitude}
+        return {
+            "vibration_frequency": min(0.371 / tau[i], 0.45 / dt),
+            "vibration_amplitude": amplitude,
+        }
 
     def datasheet_rows(self, sensor):
         if sensor == "gyro":
-            amplitude = ("vibration_amplitude", lambda v: v * DEG, "deg/s", "vibration line amplitude")
+            amplitude = (
+                "vibration_amplitude",
+                lambda v: v * DEG,
+                "deg/s",
+                "vibration line amplitude",
+            )
         else:
-            amplitude = ("vibration_amplitude", lambda v: v / (G * 1e-3), "mg", "vibration line amplitude")
-        return {"vibration_frequency": ("vibration_frequency", lambda v: v, "Hz", "vibration line frequency"),
-                "vibration_amplitude": amplitude}
+            amplitude = (
+                "vibration_amplitude",
+                lambda v: v / (G * 1e-3),
+                "mg",
+                "vibration line amplitude",
+            )
+        return {
+            "vibration_frequency": (
+                "vibration_frequency",
+                lambda v: v,
+                "Hz",
+                "vibration line frequency",
+            ),
+            "vibration_amplitude": amplitude,
+        }
 
     def _drift_variance(self, order, k, params, dt, bias_start, n_cal):
         x = _half_phase(params, dt)[..., None]
@@ -142,14 +169,19 @@ class _Vibration(Term):
         if calibrated:
             c = n * (n + 1.0) / (2.0 * big_n)
             re = re + 2.0 * c * np.sin(big_n * x) ** 2
-            ca, cc, cd = sinc_complement(2.0 * big_n * x), sinc_complement(n * x), sinc_complement((n + 1.0) * x)
+            ca, cc, cd = (
+                sinc_complement(2.0 * big_n * x),
+                sinc_complement(n * x),
+                sinc_complement((n + 1.0) * x),
+            )
             im = n * (n + 1.0) * x * ((cc + cd - cc * cd) - (ca + cx - ca * cx)) / (1.0 - cx)
         return np.where(k >= 2, a2 * dt**4 * (re * re + im * im) / (4.0 * sx * sx), 0.0)
 
     def nav_filter(self, params, dt, *, n_cal=None):
         """State ``A (sin theta_i, cos theta_i)``, ``theta_i = omega i + phi``, turned by ``omega``
         each sample, undriven; ``y_i`` its first component. Random phase: the state covariance is
-        ``(A^2/2) I`` at every start (a line is not switched on by the outage), batched over draws."""
+        ``(A^2/2) I`` at every start (a line is not switched on by the outage), batched over
+        draws."""
         omega = 2.0 * np.pi * np.asarray(params["vibration_frequency"], float) * dt
         a2 = 0.5 * np.asarray(params["vibration_amplitude"], float) ** 2
         omega, a2 = np.broadcast_arrays(omega, a2)
@@ -157,15 +189,27 @@ class _Vibration(Term):
         turn = np.stack([np.stack([c, s], -1), np.stack([-s, c], -1)], -2)
         cov = a2[..., None, None] * np.eye(2)
         h = np.broadcast_to(np.array([1.0, 0.0]), omega.shape + (2,))
-        return nav_system(turn, np.zeros(omega.shape + (2, 1)), h, np.zeros(omega.shape + (1,)), cov)
+        return nav_system(
+            turn, np.zeros(omega.shape + (2, 1)), h, np.zeros(omega.shape + (1,)), cov
+        )
 
     def nav_variance(self, loop, k, params, dt, *, bias_start="calibrated", n_cal=None):
         """Exact propagation of :meth:`nav_filter` for every draw at once."""
-        return loop.linear_variance(self.nav_filter(params, dt), k, dt, bias_start=bias_start, n_cal=n_cal)
+        return loop.linear_variance(
+            self.nav_filter(params, dt), k, dt, bias_start=bias_start, n_cal=n_cal
+        )
 
 
-VIBRATION = _Vibration("vibration", ("vibration_frequency", "vibration_amplitude"),
-                       {"vibration_frequency": "Hz", "vibration_amplitude": "{u}"}, "vibration line (sinusoid)",
-                       "short_term", selection=("extension",), kalibr="none",
-                       parameter_labels={"vibration_frequency": "vibration frequency",
-                                         "vibration_amplitude": "vibration amplitude"})
+VIBRATION = _Vibration(
+    "vibration",
+    ("vibration_frequency", "vibration_amplitude"),
+    {"vibration_frequency": "Hz", "vibration_amplitude": "{u}"},
+    "vibration line (sinusoid)",
+    "short_term",
+    selection=("extension",),
+    kalibr="none",
+    parameter_labels={
+        "vibration_frequency": "vibration frequency",
+        "vibration_amplitude": "vibration amplitude",
+    },
+)

@@ -43,8 +43,8 @@ class BatchJob:
 
 @dataclass(frozen=True)
 class JobResult:
-    """Outcome of one log: exit status (0, 2 user error, 1 internal error, 3 a picture not drawn), the
-    error line, wall time (s)."""
+    """Outcome of one log: exit status (0, 2 user error, 1 internal error, 3 a picture not drawn),
+    the error line, wall time (s)."""
 
     name: str
     status: int
@@ -81,18 +81,32 @@ def run_job(task, job):
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
         try:
             returned = task(job)
-            if isinstance(returned, int) and not isinstance(returned, bool) and returned:  # pictures not drawn
-                status, error = returned, "bayes-imu: warning: a picture was not drawn; the numbers were written"
+            # pictures not drawn
+            if isinstance(returned, int) and not isinstance(returned, bool) and returned:
+                status, error = (
+                    returned,
+                    "bayes-imu: warning: a picture was not drawn; the numbers were written",
+                )
         except BayesIMUError as exc:
             status, error = 2, f"bayes-imu: error: {exc}"
         except BaseException as exc:  # noqa: BLE001 - a worker must report, not die
             text = str(exc).strip().splitlines()
-            status, error = 1, f"bayes-imu: internal error: {type(exc).__name__}: {text[0] if text else ''}"
-    return JobResult(job.name, status, error, time.perf_counter() - start, f"{socket.gethostname()}:{os.getpid()}")
+            status, error = (
+                1,
+                f"bayes-imu: internal error: {type(exc).__name__}: {text[0] if text else ''}",
+            )
+    return JobResult(
+        job.name,
+        status,
+        error,
+        time.perf_counter() - start,
+        f"{socket.gethostname()}:{os.getpid()}",
+    )
 
 
 def run_batch(jobs, task, *, scheduler=None, n_workers=None, progress=False):
-    """Run ``task`` on every job of ``jobs`` (sequence of :class:`BatchJob`); their :class:`JobResult` in job order.
+    """Run ``task`` on every job of ``jobs`` (sequence of :class:`BatchJob`); their
+    :class:`JobResult` in job order.
 
     Parameters
     ----------
@@ -119,15 +133,25 @@ def run_batch(jobs, task, *, scheduler=None, n_workers=None, progress=False):
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError:
-        raise InputError("parallel batches need Dask: pip install 'bayes_imu[fleet]' (or scheduler='serial')") from None
+        raise InputError(
+            "parallel batches need Dask: pip install 'bayes_imu[fleet]' (or scheduler='serial')"
+        ) from None
     import logging
 
-    for name in ("distributed", "tornado"):  # Dask's INFO chatter would drown the command's own lines
+    # Dask's INFO chatter would drown the command's own lines
+    for name in ("distributed", "tornado"):
         logging.getLogger(name).setLevel(logging.ERROR)
     with contextlib.ExitStack() as stack:
         if scheduler is None:
-            cluster = stack.enter_context(LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                                                       dashboard_address=None, silence_logs=logging.ERROR))
+            cluster = stack.enter_context(
+                LocalCluster(
+                    n_workers=n_workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                    silence_logs=logging.ERROR,
+                )
+            )
             client = stack.enter_context(Client(cluster))
         else:
             try:
@@ -143,6 +167,8 @@ def run_batch(jobs, task, *, scheduler=None, n_workers=None, progress=False):
                 try:
                     results[index] = future.result()
                 except Exception as exc:  # the worker itself died (memory, killed)
-                    results[index] = JobResult(jobs[index].name, 1, f"bayes-imu: worker failed: {exc}", 0.0, "")
+                    results[index] = JobResult(
+                        jobs[index].name, 1, f"bayes-imu: worker failed: {exc}", 0.0, ""
+                    )
                 bar.update()
     return [results[i] for i in range(len(jobs))]

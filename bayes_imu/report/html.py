@@ -1,4 +1,5 @@
-"""Writing a :class:`~bayes_imu.report.scene.Report`: ``report.json`` and a self-contained ``report.html``.
+"""Writing a :class:`~bayes_imu.report.scene.Report`: ``report.json`` and a self-contained
+``report.html``.
 
 The HTML page embeds every figure as a base64 PNG (the comparison chart is also written
 as ``comparison.png``) (no external files, no scripts) so it
@@ -26,24 +27,29 @@ from .scene_nav import navigation_section
 __all__ = ["write_report", "report_html"]
 
 ASSUMPTIONS = (
-    "Each bound is the {cred:.0%} posterior quantile of the 1-sigma drift sigma(t) of the integrated sensor noise: "
-    "given the static log, the sensor's true 1-sigma drift is below it with {cred:.0%} probability. It is a bound on "
-    "a standard deviation, not on the error itself; a 3-sigma error budget multiplies it by three.",
+    "Each bound is the {cred:.0%} posterior quantile of the 1-sigma drift sigma(t) of the "
+    "integrated sensor noise: given the static log, the sensor's true 1-sigma drift is below it "
+    "with {cred:.0%} probability. It is a bound on a standard deviation, not on the error itself; "
+    "a 3-sigma error budget multiplies it by three.",
     "Noise terms modelled: {terms}, each only when the data support it "
-    "(Bayesian evidence). Bounds average over the candidate models, weighted by their posterior probabilities. A fit "
-    "that fails its goodness-of-fit check is flagged and its intervals are widened by a fitted model discrepancy.",
-    "Bias at the start of the outage: {start} ('calibrated', the default: the bias is estimated as the mean of the "
-    "samples over the calibration window just before GPS drops, and its estimation error is included; 'zero' is "
-    "the paper's convention, the bias known exactly; 'stationary' draws it from its stationary distribution).",
+    "(Bayesian evidence). Bounds average over the candidate models, weighted by their posterior "
+    "probabilities. A fit that fails its goodness-of-fit check is flagged and its intervals are "
+    "widened by a fitted model discrepancy.",
+    "Bias at the start of the outage: {start} ('calibrated', the default: the bias is estimated as "
+    "the mean of the samples over the calibration window just before GPS drops, and its estimation "
+    "error is included; 'zero' is the paper's convention, the bias known exactly; 'stationary' "
+    "draws it from its stationary distribution).",
     "Not modelled: temperature dependence, scale-factor and misalignment errors, vibration "
     "rectification and g-sensitivity, "
-    "turn-on bias repeatability, and the navigation filter itself (no gravity, Schuler or attitude coupling). "
-    "The log must be static and representative of the operating conditions.",
-    "Unit-to-unit spread: a sensor given by one log (or fit folder) is bounded for that unit only; a sensor given by "
-    "several units' logs is bounded for a new unit of the model (hierarchical fit, each section says which).",
-    "A bound at an outage longer than the sensor's log extrapolates its fitted model: noise slower than the record "
-    "(a long bias time constant, a random walk) is not identified there, so such bounds (marked * in the table) can be "
-    "optimistic; record logs several times longer than the longest outage.",
+    "turn-on bias repeatability, and the navigation filter itself (no gravity, Schuler or attitude "
+    "coupling). The log must be static and representative of the operating conditions.",
+    "Unit-to-unit spread: a sensor given by one log (or fit folder) is bounded for that unit only; "
+    "a sensor given by several units' logs is bounded for a new unit of the model (hierarchical "
+    "fit, each section says which).",
+    "A bound at an outage longer than the sensor's log extrapolates its fitted model: noise slower "
+    "than the record (a long bias time constant, a random walk) is not identified there, so such "
+    "bounds (marked * in the table) can be optimistic; record logs several times longer than the "
+    "longest outage.",
 )
 
 
@@ -86,7 +92,9 @@ def _comparison_figure(report, target):
     from .plots import plain_text, pyplot
 
     plt = pyplot()
-    quantities = [q for q in OUTPUT_UNITS if any(q in SENSOR_QUANTITIES[s.spec.kind] for s in report.sensors)]
+    quantities = [
+        q for q in OUTPUT_UNITS if any(q in SENSOR_QUANTITIES[s.spec.kind] for s in report.sensors)
+    ]
     rows, cols = (2, max(len(quantities), 3)) if report.imus else (1, len(quantities))
     height = 4.3 * rows + (1.2 if report.imus else 0)
     fig, axes = plt.subplots(rows, cols, figsize=(6 * cols, height), squeeze=False)
@@ -106,12 +114,25 @@ def _comparison_figure(report, target):
                 continue
             band = band.scaled(factor) if factor != 1.0 else band
             keep = band.total[-1] > 0
-            ax.plot(band.t_s[keep], band.total[-1][keep], color=f"C{i}", label=f"{plain_text(s.spec.name)} ({band.quantiles[-1]:.0%} bound)")
+            ax.plot(
+                band.t_s[keep],
+                band.total[-1][keep],
+                color=f"C{i}",
+                label=f"{plain_text(s.spec.name)} ({band.quantiles[-1]:.0%} bound)",
+            )
             ax.plot(band.t_s[keep], band.total[1][keep], color=f"C{i}", ls=":", lw=1)
         for t in report.scene.outages_s:
             ax.axvline(t, color="gray", lw=0.8, ls="--")
-            ax.annotate(f"outage {t:g} s", (t, 0.02), xycoords=("data", "axes fraction"), rotation=90, fontsize=7,
-                        color="dimgray", ha="right", va="bottom")
+            ax.annotate(
+                f"outage {t:g} s",
+                (t, 0.02),
+                xycoords=("data", "axes fraction"),
+                rotation=90,
+                fontsize=7,
+                color="dimgray",
+                ha="right",
+                va="bottom",
+            )
         req = report.scene.requirement
         if req and req["quantity"] == quantity:
             given = f" ({req['given']})" if req.get("given") else ""
@@ -140,14 +161,22 @@ def _comparison_figure(report, target):
 def _source_text(s):
     spec = s.spec
     if spec.source in ("fit", "fits"):
-        where = "fit folder" + ("s " if spec.population else " ") + ", ".join(p.name for p in spec.paths)
+        where = (
+            "fit folder"
+            + ("s " if spec.population else " ")
+            + ", ".join(p.name for p in spec.paths)
+        )
     else:
         where = ("logs " if spec.population else "log ") + ", ".join(p.name for p in spec.paths)
         axis = s.axes[s.worst]
         fitted = axis.fit if axis.fit is not None else axis.population.unit_fits[0]
         rate = spec.rate_hz if spec.rate_hz is not None else fitted.allan.rate_hz  # from stamps
         where += f", column {spec.column}, input {spec.units}, {rate:g} Hz"
-    axes = f"; worst of axes {', '.join(a.axis for a in s.axes)}: {s.axes[s.worst].axis}" if len(s.axes) > 1 else ""
+    axes = (
+        f"; worst of axes {', '.join(a.axis for a in s.axes)}: {s.axes[s.worst].axis}"
+        if len(s.axes) > 1
+        else ""
+    )
     return f"{spec.kind}, {where}{axes}"
 
 
@@ -169,8 +198,10 @@ def _parameter_rows(quantiles, kind, display, digits=".4g"):
         arw = "".join(f"<td>{v:{digits}}</td>" for v in quantiles["noise_density"])
         arw += "".join(f"<td>{shown['noise_density'][k] * _PER_SQRT_HOUR:{digits}}</td>"
                        for k in ("q05", "median", "q95"))
-        rows.append(f"<tr><td>angle random walk (noise_density)</td>{arw}"
-                    f"<td>{html.escape(shown['noise_density']['unit'].split('/')[0])}/sqrt(h)</td></tr>")
+        rows.append(
+            f"<tr><td>angle random walk (noise_density)</td>{arw}"
+            f"<td>{html.escape(shown['noise_density']['unit'].split('/')[0])}/sqrt(h)</td></tr>"
+        )
     return "".join(rows)
 
 
@@ -197,7 +228,10 @@ def _sensor_section(s, cred, failures=None, display="si"):
     runner = next((c for c in cands if c.terms != chosen.terms), None)
     why = f"log evidence {chosen.log_evidence:.2f}"
     if runner is not None:
-        why += f"; best alternative {' + '.join(runner.terms)} at {runner.log_evidence:.2f} ({chosen.log_evidence - runner.log_evidence:+.2f} nats)"
+        why += (
+            f"; best alternative {' + '.join(runner.terms)} at {runner.log_evidence:.2f} "
+            f"({chosen.log_evidence - runner.log_evidence:+.2f} nats)"
+        )
     d = fit.diagnostics
     # what summary.json parameters prints
     rows = _parameter_rows(fit.repeatability_quantiles(), s.spec.kind, display)
@@ -213,18 +247,24 @@ def _sensor_section(s, cred, failures=None, display="si"):
                      failures=failures, name=f"report.html: the drift bands of {s.spec.name[:40]}")
     conv = "converged" if d["converged"] else "NOT CONVERGED: treat with caution"
     a = fit.adequacy
-    fit_check = ("adequate" if a.adequate else "INADEQUATE: the model does not describe this log"
-                 + ("; intervals widened by a fitted model discrepancy" if fit.widened else "")
-                 + (f"; at a prior bound: {', '.join(a.at_prior_bound)}" if a.at_prior_bound else ""))
+    fit_check = (
+        "adequate"
+        if a.adequate
+        else "INADEQUATE: the model does not describe this log"
+        + ("; intervals widened by a fitted model discrepancy" if fit.widened else "")
+        + (f"; at a prior bound: {', '.join(a.at_prior_bound)}" if a.at_prior_bound else "")
+    )
     rhat = (f"R-hat max {d['rhat_max']:.4f}, bulk ESS min {d['ess_bulk_min']:.0f}, tail ESS min "
             f"{d['ess_tail_min']:.0f}, " if "rhat_max" in d else "")
     return f"""
 <section class="sensor" id="sensor-{html.escape(s.spec.name)}">
 <h3>{html.escape(s.spec.name)} ({html.escape(_source_text(s))})</h3>
-<p class="spread">Unit-to-unit spread: NOT included. These bounds are for the tested unit; another unit of the same
+<p class="spread">Unit-to-unit spread: NOT included. These bounds are for the tested unit; another \
+unit of the same
 model may be worse (list several units' logs to bound a new unit).</p>
 <p class="model">Model needed: <b>{html.escape(' + '.join(fit.model.terms))}</b> ({why}).</p>
-<p class="adequacy">Goodness of fit: p = {a.p_value:.2g}, worst at tau = {a.worst_tau_s:g} s: {html.escape(fit_check)}.</p>
+<p class="adequacy">Goodness of fit: p = {a.p_value:.2g}, worst at tau = {a.worst_tau_s:g} s: \
+{html.escape(fit_check)}.</p>
 {_drift_check_text(s.bands)}
 <p class="diagnostics">Sampler: {conv}; {rhat}{d['n_steps']} steps x {d['n_walkers']} walkers.</p>
 <table>{head}{rows}</table>{sheet}
@@ -244,11 +284,21 @@ def _drift_check_text(bands):
     """The drift-space check (drift.direct): the drift the log itself shows against the bands."""
     check = next((b.check for b in bands if getattr(b, "check", None) is not None), None)
     if check is None:
-        return '<p class="drift-check">Drift measured on the log itself: not available for these bands.</p>'
-    verdict = ("agrees with the model" if check.adequate else
-               f"DISAGREES with the model (worst at {check.worst_t_s:g} s): the bands include the log's own interval")
-    return (f'<p class="drift-check">Drift measured on the log itself (up to {check.t_s[-1]:g} s; beyond, the bands '
-            f'extrapolate the model): p = {check.p_combined:.2g}, {html.escape(verdict)}.</p>')
+        return (
+            '<p class="drift-check">Drift measured on the log itself: not available for these '
+            "bands.</p>"
+        )
+    verdict = (
+        "agrees with the model"
+        if check.adequate
+        else f"DISAGREES with the model (worst at {check.worst_t_s:g} s): the bands include the "
+             "log's own interval"
+    )
+    return (
+        f'<p class="drift-check">Drift measured on the log itself (up to {check.t_s[-1]:g} s; '
+        'beyond, the bands '
+        f"extrapolate the model): p = {check.p_combined:.2g}, {html.escape(verdict)}.</p>"
+    )
 def _datasheet_table(s):
     """A sensor's datasheet check (scene ``datasheet``): spec, posterior median, P(within spec)."""
     check = s.datasheet_check
@@ -258,8 +308,10 @@ def _datasheet_table(s):
     for n, v in check["values"].items():
         cells = (f"<td>{v['median']:.4g}</td><td>{v['probability']:.2f}</td>"
                  if v["probability"] is not None else "<td>not in the model</td><td></td>")
-        rows.append(f"<tr><td>{html.escape(n)}</td><td>{v['spec']:.4g} {html.escape(v['unit'])}</td>"
-                    f"{cells}</tr>")
+        rows.append(
+            f"<tr><td>{html.escape(n)}</td><td>{v['spec']:.4g} {html.escape(v['unit'])}</td>"
+            f"{cells}</tr>"
+        )
     head = ("<tr><th>datasheet value</th><th>spec</th><th>posterior median</th>"
             "<th>P(within spec)</th></tr>")
     verdict = html.escape(check["verdict"])
@@ -274,11 +326,17 @@ def _population_section(s, failures=None, display="si"):
     rows = _parameter_rows(pop.new_unit.quantiles(), s.spec.kind, display)
     head = _parameter_head("new unit (SI)", s.spec.kind, display)
     spread = "".join(
-        f"<tr><td>{html.escape(n)}</td><td>{q[0]:.3g}</td><td>{q[1]:.3g}</td><td>{q[2]:.3g}</td></tr>"
-        for n, q in pop.spread_quantiles().items())
+        f"<tr><td>{html.escape(n)}</td><td>{q[0]:.3g}</td><td>{q[1]:.3g}</td><td>{q[2]:.3g}</td></"
+        "tr>"
+        for n, q in pop.spread_quantiles().items()
+    )
     inadequate = [label for label, f in zip(pop.labels, pop.unit_fits) if not f.adequacy.adequate]
-    check = ("every unit's fit adequate" if not inadequate else
-             "INADEQUATE fits (intervals widened where a discrepancy was fitted): " + ", ".join(inadequate))
+    check = (
+        "every unit's fit adequate"
+        if not inadequate
+        else "INADEQUATE fits (intervals widened where a discrepancy was fitted): "
+        + ", ".join(inadequate)
+    )
     sheet = _datasheet_table(s)
     rate_unit, scale = rate_display(UNITS_SI[s.spec.kind], display)
     pop_png = _png(lambda target: plot_population(pop, target, unit=rate_unit, rng=0, scale=scale),
@@ -290,12 +348,16 @@ def _population_section(s, failures=None, display="si"):
     return f"""
 <section class="sensor" id="sensor-{html.escape(s.spec.name)}">
 <h3>{html.escape(s.spec.name)} ({html.escape(_source_text(s))})</h3>
-<p class="spread">Unit-to-unit spread: included. These bounds are for a NEW unit of this model: the posterior
+<p class="spread">Unit-to-unit spread: included. These bounds are for a NEW unit of this model: \
+the posterior
 predictive of a hierarchical fit of {len(pop.labels)} units.</p>
-<p class="model">Common model: <b>{html.escape(' + '.join(pop.model.terms))}</b> (summed evidence over the units);
-{html.escape(check)}; population sampler {'converged' if pop.diagnostics['converged'] else 'NOT CONVERGED'}.</p>
+<p class="model">Common model: <b>{html.escape(' + '.join(pop.model.terms))}</b> (summed evidence \
+over the units);
+{html.escape(check)}; population sampler \
+{'converged' if pop.diagnostics['converged'] else 'NOT CONVERGED'}.</p>
 <table>{head}{rows}</table>{sheet}
-<table><tr><th>unit-to-unit spread (ln units)</th><th>5%</th><th>median</th><th>95%</th></tr>{spread}</table>
+<table><tr><th>unit-to-unit spread (ln \
+units)</th><th>5%</th><th>median</th><th>95%</th></tr>{spread}</table>
 {_img(f"population of {s.spec.name}", pop_png)}
 {_img(f"drift bands of {s.spec.name}", drift_png)}
 </section>"""
@@ -331,19 +393,30 @@ def report_html(report, comparison_png=None, *, failures=None):
                 unit, factor = _shown(report, b["quantity"])
                 shown = (f"<td>{b['median'] * factor:.4g}</td><td>{b['bound'] * factor:.4g}</td>"
                          f"<td>{unit}</td>")
-            bound_rows.append(f"<tr><td>{html.escape(s.spec.name)}</td><td>{b['quantity']}</td><td>{b['outage_s']:g}{star}</td>"
-                              f"<td>{b['median']:.4g}</td><td>{b['bound']:.4g}</td>"
-                              f"<td>{b['unit']}</td>"
-                              f"{shown}</tr>")
+            bound_rows.append(
+                f"<tr><td>{html.escape(s.spec.name)}</td><td>{b['quantity']}</td><td>"
+                f"{b['outage_s']:g}{star}</td><td>{b['median']:.4g}</td><td>{b['bound']:.4g}</td>"
+                f"<td>{b['unit']}</td>"
+                f"{shown}</tr>"
+            )
     rank_rows = "".join(
-        f"<li>{html.escape(name)}" + (f": longest outage within the requirement {_fmt_time(s.max_outage_s)}"
-                                        + _beyond_log(s)
-                                        if s.max_outage_s is not None else (": cannot provide the required quantity" if req else ""))
+        f"<li>{html.escape(name)}"
+        + (
+            f": longest outage within the requirement {_fmt_time(s.max_outage_s)}" + _beyond_log(s)
+            if s.max_outage_s is not None
+            else (": cannot provide the required quantity" if req else "")
+        )
         + "</li>"
-        for name in report.ranking for s in report.sensors if s.spec.name == name
+        for name in report.ranking
+        for s in report.sensors
+        if s.spec.name == name
     )
     bound_rows = "".join(bound_rows)
-    start = (f"calibrated over {scene.calibration_s:g} s" if scene.bias_start == "calibrated" else scene.bias_start)
+    start = (
+        f"calibrated over {scene.calibration_s:g} s"
+        if scene.bias_start == "calibrated"
+        else scene.bias_start
+    )
     terms = ", ".join(t.plot_label for t in REGISTRY.values())  # each term's own name (noise.model)
     assumptions = "".join(f"<li>{html.escape(a.format(cred=cred, start=start, terms=terms))}</li>"
                           for a in ASSUMPTIONS)
@@ -352,17 +425,22 @@ def report_html(report, comparison_png=None, *, failures=None):
 
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>IMU selection: {html.escape(scene.name)}</title>
-<style>body{{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}}table{{border-collapse:collapse}}
+<style>body{{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}}table{{border-\
+collapse:collapse}}
 td,th{{border:1px solid #bbb;padding:2px 8px;text-align:right}}img{{max-width:100%}}</style></head>
 <body>
 <h1>IMU selection report: {html.escape(scene.name)}</h1>
-<section id="scene"><h2>Scene</h2><p>GPS outages: {', '.join(f'{t:g} s' for t in scene.outages_s)}; credibility {cred:.0%};
-requirement: {html.escape(req_text)}; bias start: {scene.bias_start}; sensors: {len(report.sensors)}.</p></section>
-<section id="ranking"><h2>Ranking</h2><ol>{rank_rows}</ol><p class="reason">{html.escape(report.reason)}.</p></section>
+<section id="scene"><h2>Scene</h2><p>GPS outages: \
+{', '.join(f'{t:g} s' for t in scene.outages_s)}; credibility {cred:.0%};
+requirement: {html.escape(req_text)}; bias start: {scene.bias_start}; sensors: \
+{len(report.sensors)}.</p></section>
+<section id="ranking"><h2>Ranking</h2><ol>{rank_rows}</ol><p \
+class="reason">{html.escape(report.reason)}.</p></section>
 <section id="comparison"><h2>Bounds versus outage</h2>
 {_img("comparison chart", comparison)}</section>
 {navigation_section(report)}
-<section id="bounds"><h2>Table of bounds</h2><table><tr><th>sensor</th><th>quantity</th><th>outage (s)</th>
+<section id="bounds"><h2>Table of bounds</h2><table><tr><th>sensor</th><th>quantity</th><th>outage \
+(s)</th>
 <th>median</th><th>{cred:.0%} bound</th><th>unit</th>{shown_head}</tr>{bound_rows}</table></section>
 <section id="meaning"><h2>What the bound means and assumes</h2><ul>{assumptions}</ul></section>
 <section id="sensors"><h2>Sensors</h2>{sections}</section>
@@ -373,7 +451,11 @@ requirement: {html.escape(req_text)}; bias start: {scene.bias_start}; sensors: {
 
 def _beyond_log(sensor):
     record = sensor.record_s
-    return f" (beyond its {_fmt_time(record)} log: extrapolated)" if sensor.max_outage_s > record else ""
+    return (
+        f" (beyond its {_fmt_time(record)} log: extrapolated)"
+        if sensor.max_outage_s > record
+        else ""
+    )
 
 
 def _fmt_time(t):

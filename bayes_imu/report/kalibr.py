@@ -42,8 +42,17 @@ from ..inference.repeatability import kalibr_group, widen
 from ..io.readers import UNITS, read_json_object
 from ..noise.quantities import SENSORS
 
-__all__ = ["KalibrAxis", "KalibrValues", "kalibr_values", "kalibr_values_from_folders", "write_kalibr_yaml",
-           "axis_densities", "fit_folders", "comment_text", "rate_of"]
+__all__ = [
+    "KalibrAxis",
+    "KalibrValues",
+    "kalibr_values",
+    "kalibr_values_from_folders",
+    "write_kalibr_yaml",
+    "axis_densities",
+    "fit_folders",
+    "comment_text",
+    "rate_of",
+]
 
 _KINDS = {name: s.long_name for name, s in SENSORS.items()}
 
@@ -106,7 +115,8 @@ def axis_densities(fit, factor=1.0):
 
 
 def kalibr_values(gyro=(), accel=(), *, credibility=None):
-    """Kalibr fields from the :class:`KalibrAxis` of each sensor's axes (either sensor may be empty)."""
+    """Kalibr fields from the :class:`KalibrAxis` of each sensor's axes (either sensor may be
+    empty)."""
     if credibility is not None and not 0.5 <= credibility < 1:
         raise InputError(f"credibility={credibility!r}: expected a number in [0.5, 1)")
     if not gyro and not accel:
@@ -120,19 +130,26 @@ def kalibr_values(gyro=(), accel=(), *, credibility=None):
             if check is not None and not check.adequate:
                 inadequate.append(axis.label)
             for key, draws in (("noise_density", d), ("random_walk", w)):
-                per_axis.setdefault(f"{_KINDS[kind]}_{key}", []).append((axis.label, float(np.quantile(draws, q))))
+                per_axis.setdefault(f"{_KINDS[kind]}_{key}", []).append(
+                    (axis.label, float(np.quantile(draws, q)))
+                )
             rates.add(rate_of(axis.fit))
     for key, rows in per_axis.items():
         values[key] = max(v for _, v in rows)
     if len(rates) != 1:
         raise InputError(f"fits have different rates {sorted(rates)} Hz: expected one IMU rate")
     values["update_rate"] = rates.pop()
-    mode = "posterior medians" if credibility is None else f"upper {credibility:.0%} posterior quantiles"
+    mode = (
+        "posterior medians"
+        if credibility is None
+        else f"upper {credibility:.0%} posterior quantiles"
+    )
     return KalibrValues(values, per_axis, mode, tuple(inadequate))
 
 
 def fit_folders(folders, kind):
-    """:class:`KalibrAxis` of every axis in ``bayes-imu fit`` folders (several-column fits expand)."""
+    """:class:`KalibrAxis` of every axis in ``bayes-imu fit`` folders (several-column fits
+    expand)."""
     from ..inference.archive import fit_axes, load_fit
     from ..inference.population_archive import is_population_folder, load_population
 
@@ -146,8 +163,10 @@ def fit_folders(folders, kind):
         for place, s in places:
             unit = s.get("unit")
             if unit not in UNITS:
-                raise InputError(f"{place / 'summary.json'}: unit {unit!r}: expected one of {', '.join(UNITS)} "
-                                 "(rerun fit with --units)")
+                raise InputError(
+                    f"{place / 'summary.json'}: unit {unit!r}: expected one of {', '.join(UNITS)} "
+                    "(rerun fit with --units)"
+                )
             unit_kind, factor = UNITS[unit]
             if unit_kind != kind:
                 names = {"gyro": ("a gyro", "--gyro"), "accel": ("an accelerometer", "--accel")}
@@ -171,7 +190,9 @@ def rate_of(fit):
 
 def kalibr_values_from_folders(gyro_dirs=(), accel_dirs=(), *, credibility=None):
     """:func:`kalibr_values` of fit folders."""
-    return kalibr_values(fit_folders(gyro_dirs, "gyro"), fit_folders(accel_dirs, "accel"), credibility=credibility)
+    return kalibr_values(
+        fit_folders(gyro_dirs, "gyro"), fit_folders(accel_dirs, "accel"), credibility=credibility
+    )
 
 
 def comment_text(text):
@@ -197,12 +218,21 @@ def write_kalibr_yaml(result, path, *, topic="/imu0"):
         lines.append("# WARNING: the noise model failed its goodness-of-fit check for "
                      + ", ".join(comment_text(a) for a in result.inadequate)
                      + " (intervals widened; values less certain than stated)")
-    for key in ("accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density",
-                "gyroscope_random_walk"):
+    for key in (
+        "accelerometer_noise_density",
+        "accelerometer_random_walk",
+        "gyroscope_noise_density",
+        "gyroscope_random_walk",
+    ):
         if key in v:
             if several:
-                lines.append(f"# {key} per axis: " + ", ".join(f"{comment_text(label)} {value:.6e}"
-                                                                for label, value in result.per_axis[key]))
+                lines.append(
+                    f"# {key} per axis: "
+                    + ", ".join(
+                        f"{comment_text(label)} {value:.6e}"
+                        for label, value in result.per_axis[key]
+                    )
+                )
             lines.append(f"{key}: {v[key]:.6e}")
     lines.append(f"rostopic: {topic}")
     lines.append(f"update_rate: {v['update_rate']:g}")

@@ -1,4 +1,5 @@
-"""Safe outputs: claimed atomically, staged beside the target, never destroying what the run did not create.
+"""Safe outputs: claimed atomically, staged beside the target, never destroying what the run did not
+create.
 
 Rules (the README's "Exit status and outputs" section states them for users):
 
@@ -40,8 +41,17 @@ from pathlib import Path
 
 from ..errors import InputError
 
-__all__ = ["staged_folder", "staged_file", "safe_folder_name", "file_hashes", "user_os_error", "MARKER",
-           "FILE_MARKER_SUFFIX", "MIN_FREE_BYTES", "USER_ERRNOS"]
+__all__ = [
+    "staged_folder",
+    "staged_file",
+    "safe_folder_name",
+    "file_hashes",
+    "user_os_error",
+    "MARKER",
+    "FILE_MARKER_SUFFIX",
+    "MIN_FREE_BYTES",
+    "USER_ERRNOS",
+]
 
 #: marker file of a bayes_imu result folder: JSON ``{"bayes_imu": version, "entries": [top-level
 #: names],
@@ -59,16 +69,32 @@ MIN_FREE_BYTES = 64 * 2**20
 
 #: system errors that are the user's to fix (a path, a permission, a full disk), never a bug: exit
 #: status 2
-USER_ERRNOS = frozenset({errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOTDIR, errno.EISDIR, errno.ENAMETOOLONG,
-                         errno.ELOOP, errno.ENOSPC, errno.EDQUOT, errno.ENOENT, errno.EXDEV,
-                         errno.EMLINK, errno.ETXTBSY})
+USER_ERRNOS = frozenset(
+    {
+        errno.EACCES,
+        errno.EPERM,
+        errno.EROFS,
+        errno.ENOTDIR,
+        errno.EISDIR,
+        errno.ENAMETOOLONG,
+        errno.ELOOP,
+        errno.ENOSPC,
+        errno.EDQUOT,
+        errno.ENOENT,
+        errno.EXDEV,
+        errno.EMLINK,
+        errno.ETXTBSY,
+    }
+)
 
 
 def user_os_error(exc):
     """One line for a system error the user can fix (:data:`USER_ERRNOS`, a symbolic link loop),
     else None."""
     if isinstance(exc, RuntimeError) and "Symlink loop" in str(exc):
-        return f"{_short(str(exc).removeprefix('Symlink loop from '), 160)}: a loop of symbolic links"
+        return (
+            f"{_short(str(exc).removeprefix('Symlink loop from '), 160)}: a loop of symbolic links"
+        )
     if not isinstance(exc, OSError) or exc.errno not in USER_ERRNOS:
         return None
     where = exc.filename if exc.filename is not None else "a file"
@@ -96,8 +122,10 @@ def _check_inputs(target, inputs):
     for item in inputs:
         item = Path(item).resolve()
         if item == resolved or resolved in item.parents:
-            raise InputError(f"out={target}: it is or contains the input {item}; choose an output that holds "
-                             "no input file")
+            raise InputError(
+                f"out={target}: it is or contains the input {item}; choose an output that holds "
+                "no input file"
+            )
 
 
 def _umask_mode(path, mode):
@@ -136,8 +164,10 @@ def _check_space(folder, target):
     except OSError:
         return
     if free < MIN_FREE_BYTES:
-        raise InputError(f"out={target}: only {free / 2**20:.0f} MiB free on its file system; need at least "
-                         f"{MIN_FREE_BYTES / 2**20:.0f} MiB (nothing was written)")
+        raise InputError(
+            f"out={target}: only {free / 2**20:.0f} MiB free on its file system; need at least "
+            f"{MIN_FREE_BYTES / 2**20:.0f} MiB (nothing was written)"
+        )
 
 
 def _sha256(path):
@@ -167,7 +197,9 @@ def file_hashes(folder):
         for name in names:
             full = os.path.join(root, name)
             rel = (base / name).as_posix()
-            files[rel] = _sha256(full) if (not os.path.islink(full) and os.path.isfile(full)) else None
+            files[rel] = (
+                _sha256(full) if (not os.path.islink(full) and os.path.isfile(full)) else None
+            )
     return files, sorted(folders)
 
 
@@ -212,15 +244,19 @@ def _claim_folder(target, force):
     ``(recorded, files,
     folders)`` of the result being replaced; raises InputError if it is not ours to write."""
     if target.exists() and not target.is_dir():
-        raise InputError(f"out={target}: exists and is not a folder; expected a folder to write into")
+        raise InputError(
+            f"out={target}: exists and is not a folder; expected a folder to write into"
+        )
     try:
         target.mkdir()
         made = True
     except FileExistsError:
         made = False
     previous = None
-    busy = InputError(f"out={target}: another bayes-imu run is writing there ({_CLAIM} exists); wait for it, "
-                      "or remove that file if no run is active")
+    busy = InputError(
+        f"out={target}: another bayes-imu run is writing there ({_CLAIM} exists); wait for it, "
+        "or remove that file if no run is active"
+    )
     if not made:
         if (target / _CLAIM).exists():
             raise busy
@@ -228,18 +264,24 @@ def _claim_folder(target, force):
         if present:
             recorded = previous_result(target)
             if not force:
-                raise InputError(f"out={target}: folder exists and is not empty ({_names(present)}); use a new "
-                                 "folder, or force=True to replace a previous bayes_imu result there")
+                raise InputError(
+                    f"out={target}: folder exists and is not empty ({_names(present)}); use a new "
+                    "folder, or force=True to replace a previous bayes_imu result there"
+                )
             if recorded is None:
-                raise InputError(f"out={target}: force=True replaces only a previous bayes_imu result, and this folder "
-                                 f"holds {_names(present)} with no {MARKER} marker with file "
-                                 "hashes (none, damaged, "
-                                 "or an older bayes_imu's); choose another folder")
+                raise InputError(
+                    f"out={target}: force=True replaces only a previous bayes_imu result, and this "
+                    f"folder holds {_names(present)} with no {MARKER} marker with file "
+                    "hashes (none, damaged, "
+                    "or an older bayes_imu's); choose another folder"
+                )
             foreign, ours, folders = _foreign(target, recorded)
             if foreign:
-                raise InputError(f"out={target}: force=True would leave {_names(foreign)}, which no bayes_imu run "
-                                 "wrote there (or changed since); move them away or choose "
-                                 "another folder")
+                raise InputError(
+                    f"out={target}: force=True would leave {_names(foreign)}, which no bayes_imu "
+                    "run wrote there (or changed since); move them away or choose "
+                    "another folder"
+                )
             previous = (recorded, ours, folders)
     try:
         os.close(os.open(target / _CLAIM, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644))
@@ -255,7 +297,8 @@ def _names(names, limit=5):
 
 @contextmanager
 def staged_folder(target, *, force=False, inputs=()):
-    """Yield a temporary folder whose entries move into ``target`` when the block succeeds (rules above).
+    """Yield a temporary folder whose entries move into ``target`` when the block succeeds (rules
+    above).
 
     Raises
     ------
@@ -284,10 +327,22 @@ def staged_folder(target, *, force=False, inputs=()):
         yield tmp
         entries = sorted(p.name for p in tmp.iterdir())
         files, folders = file_hashes(tmp)
-        (tmp / MARKER).write_text(json.dumps({"bayes_imu": __version__, "format": _MARKER_FORMAT, "entries": entries,
-                                              "files": files, "folders": folders}, indent=1) + "\n",
-                                  encoding="utf-8")
-        if previous is not None:  # checked again now: a file saved below --out during the run stops the run
+        (tmp / MARKER).write_text(
+            json.dumps(
+                {
+                    "bayes_imu": __version__,
+                    "format": _MARKER_FORMAT,
+                    "entries": entries,
+                    "files": files,
+                    "folders": folders,
+                },
+                indent=1,
+            )
+            + "\n",
+            encoding="utf-8",
+        )
+        # checked again now: a file saved below --out during the run stops the run
+        if previous is not None:
             foreign, ours, old_folders = _foreign(target, previous[0])
             if foreign:
                 raise InputError(f"out={target}: {_names(foreign)} appeared there during the run; "
@@ -295,22 +350,27 @@ def staged_folder(target, *, force=False, inputs=()):
                                  "replaced (the new results were not kept)")
             for rel in ours:  # only files whose content is what the previous run wrote
                 (target / rel).unlink(missing_ok=True)
-            for rel in sorted(old_folders, key=lambda r: -r.count("/")):  # its folders, innermost first, if empty
+            # its folders, innermost first, if empty
+            for rel in sorted(old_folders, key=lambda r: -r.count("/")):
                 try:
                     (target / rel).rmdir()
                 except OSError:
                     pass
         clash = [n for n in entries if os.path.lexists(target / n)]
         if clash:
-            raise InputError(f"out={target}: {_names(clash)} appeared there during the run; nothing was replaced "
-                             "(the new results were not kept)")
+            raise InputError(
+                f"out={target}: {_names(clash)} appeared there during the run; nothing was "
+                "replaced (the new results were not kept)"
+            )
         for name in entries + [MARKER]:
             os.replace(tmp / name, target / name)
     except BaseException as exc:
         _cleanup_folder(target, tmp, made, created)
         if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
-            raise InputError(f"out={target}: the disk is full ({exc.strerror}); nothing was kept from this run"
-                             + (" and the previous results are unchanged" if previous else "")) from None
+            raise InputError(
+                f"out={target}: the disk is full ({exc.strerror}); nothing was kept from this run"
+                + (" and the previous results are unchanged" if previous else "")
+            ) from None
         raise
     (target / _CLAIM).unlink(missing_ok=True)
     tmp.rmdir()
@@ -367,8 +427,10 @@ def staged_file(target, *, force=False, inputs=()):
             made = True
         except FileExistsError:
             if not force:
-                raise InputError(f"out={target}: file exists; use force=True to replace a previous bayes_imu file") \
-                    from None
+                raise InputError(
+                    f"out={target}: file exists; use force=True to replace a previous bayes_imu "
+                    "file"
+                ) from None
             if not _is_ours(target):
                 raise InputError(f"out={target}: force=True replaces only a file a bayes_imu run "
                                  "wrote there (its "
@@ -386,8 +448,11 @@ def staged_file(target, *, force=False, inputs=()):
         _umask_mode(tmp, 0o666)
         yield tmp
         marker = Path(f"{tmp}.marker")
-        marker.write_text(json.dumps({"bayes_imu": __version__, "file": target.name, "sha256": _sha256(tmp)}) + "\n",
-                          encoding="utf-8")
+        marker.write_text(
+            json.dumps({"bayes_imu": __version__, "file": target.name, "sha256": _sha256(tmp)})
+            + "\n",
+            encoding="utf-8",
+        )
         os.replace(marker, _file_marker(target))
         os.replace(tmp, target)
     except BaseException as exc:
@@ -398,7 +463,9 @@ def staged_file(target, *, force=False, inputs=()):
             target.unlink()
         _remove_created(created)
         if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
-            raise InputError(f"out={target}: the disk is full ({exc.strerror}); nothing was written") from None
+            raise InputError(
+                f"out={target}: the disk is full ({exc.strerror}); nothing was written"
+            ) from None
         raise
 
 

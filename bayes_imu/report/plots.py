@@ -4,8 +4,15 @@ import contextlib
 
 import numpy as np
 
-__all__ = ["plot_allan", "plot_allan_fit", "plot_corner", "plot_drift", "plot_population", "plain_log_formatter",
-           "plain_text"]
+__all__ = [
+    "plot_allan",
+    "plot_allan_fit",
+    "plot_corner",
+    "plot_drift",
+    "plot_population",
+    "plain_log_formatter",
+    "plain_text",
+]
 
 
 def plain_text(text):
@@ -28,9 +35,9 @@ def pyplot():
 
 
 def import_plotting():
-    """Import what the figures need (pyplot, corner) and draw a small log-log figure in memory (fonts,
-    text layout and the PNG writer loaded): a worker's warm-up (:mod:`bayes_imu.report.worker`), so that
-    its first real figure costs what later ones do."""
+    """Import what the figures need (pyplot, corner) and draw a small log-log figure in memory
+    (fonts, text layout and the PNG writer loaded): a worker's warm-up
+    (:mod:`bayes_imu.report.worker`), so that its first real figure costs what later ones do."""
     import io
 
     plt = pyplot()
@@ -67,8 +74,8 @@ def import_corner():
 
 
 def _arviz_corner(*args, **kwargs):
-    """corner's ``InferenceData`` entry point, imported (with ArviZ) on first call: :func:`import_corner`
-    imported corner without it."""
+    """corner's ``InferenceData`` entry point, imported (with ArviZ) on first call:
+    :func:`import_corner` imported corner without it."""
     import importlib
     import sys
 
@@ -82,9 +89,9 @@ def _arviz_corner(*args, **kwargs):
 
 @contextlib.contextmanager
 def _without_corner_notices():
-    """corner's notices on the root logger left out inside the block ("Too few points to create valid
-    contours": a panel whose draws are too concentrated for contours shows them as points), which a command
-    printed as ``WARNING:root:...`` lines that a user can do nothing about."""
+    """corner's notices on the root logger left out inside the block ("Too few points to create
+    valid contours": a panel whose draws are too concentrated for contours shows them as points),
+    which a command printed as ``WARNING:root:...`` lines that a user can do nothing about."""
     import logging
 
     def keep(record):
@@ -109,7 +116,15 @@ def plot_allan(result, path, *, label="", unit="u"):
     fig, ax = plt.subplots(figsize=(7, 5))
     tau, adev = result.tau, result.adev
     err = np.vstack([adev - result.adev_low, result.adev_high - adev])
-    ax.errorbar(tau, adev, yerr=err, fmt="o-", ms=3, capsize=2, label=plain_text(label) or "overlapping ADEV")
+    ax.errorbar(
+        tau,
+        adev,
+        yerr=err,
+        fmt="o-",
+        ms=3,
+        capsize=2,
+        label=plain_text(label) or "overlapping ADEV",
+    )
     i_min = int(np.argmin(adev))
     guides = (  # (label, slope, anchor index, span in decades before/after the anchor)
         ("ARW / VRW, slope -1/2", -0.5, 0, (0.0, 1.5), (8, 6)),
@@ -121,7 +136,14 @@ def plot_allan(result, path, *, label="", unit="u"):
         line = adev[i] * (span / tau[i]) ** slope
         ax.plot(span, line, "--", color="gray", lw=1)
         end = -1 if slope < 0 else 0  # label the free end of the guide
-        ax.annotate(text, (span[end], line[end]), textcoords="offset points", xytext=offset, fontsize=8, color="dimgray")
+        ax.annotate(
+            text,
+            (span[end], line[end]),
+            textcoords="offset points",
+            xytext=offset,
+            fontsize=8,
+            color="dimgray",
+        )
     ax.set_ylim(adev.min() / 4, adev.max() * 2)
     ax.set_xscale("log")
     ax.set_yscale("log")
@@ -166,23 +188,43 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None, scale=1.0):
     steady = getattr(fit, "stationarity", None)
     if steady is not None and not steady.stationary:  # the parts of a log whose noise changes
         for j, part in enumerate(steady.segment_adev):
-            ax.plot(steady.tau_s, scale * part, "-", color="0.45", lw=0.8, alpha=0.8,
-                    label=(_wrapped(f"its {steady.n_segments} parts: noise changes (p = {steady.p_value:.2g})")
-                           if j == 0 else None))
+            ax.plot(
+                steady.tau_s,
+                scale * part,
+                "-",
+                color="0.45",
+                lw=0.8,
+                alpha=0.8,
+                label=(
+                    _wrapped(
+                        f"its {steady.n_segments} parts: noise changes (p = {steady.p_value:.2g})"
+                    )
+                    if j == 0
+                    else None
+                ),
+            )
     pred = scale * np.sqrt(fit.predictive_avar(m_f, rng=rng))
     lo, med, hi = np.quantile(pred, [0.05, 0.5, 0.95], axis=0)
     ax.fill_between(tau_f, lo, hi, color="C0", alpha=0.3, label="posterior 90% band")
     ax.plot(tau_f, med, color="C0", lw=1.5, label=_wrapped("model: " + " + ".join(fit.model.terms)))
     for i, term in enumerate(fit.model.terms):
         part = scale * np.median(np.sqrt(fit.predictive_avar(m_f, rng=rng, term=term)), axis=0)
-        ax.plot(tau_f, part, "--", color=f"C{i + 1}", lw=1, label=_term_label(term, _is_accel(fit, unit)))
+        ax.plot(
+            tau_f,
+            part,
+            "--",
+            color=f"C{i + 1}",
+            lw=1,
+            label=_term_label(term, _is_accel(fit, unit)),
+        )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_ylim(adev.min() / 5, adev.max() * 2)
     ax.set_ylabel(f"Allan deviation ({plain_text(unit)})")
     ax.set_title("Allan deviation: data and posterior")
     ax.grid(True, which="both", alpha=0.3)
-    # beside the panel, not on it: inside, eight entries hid observed points wherever matplotlib put them
+    # beside the panel, not on it: inside, eight entries hid observed points wherever matplotlib put
+    # them
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     _residual_panel(ax_r, fit)
     for axis in (ax.xaxis, ax.yaxis, ax_r.xaxis):
@@ -191,36 +233,58 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None, scale=1.0):
     plt.close(fig)
 
 
-#: plot_allan_fit's layout (inches): the two panels' width and heights, the gap between them (the residual
-#: panel's title), and the margins: tick and axis labels (left, bottom), the title (top), the legend (right)
-_FIT_LAYOUT_IN = {"width": 5.6, "heights": (3.9, 1.3), "gap": 0.45, "left": 0.85, "right": 2.75, "bottom": 0.6,
-                  "top": 0.4}
+#: plot_allan_fit's layout (inches): the two panels' width and heights, the gap between them (the
+#: residual panel's title), and the margins: tick and axis labels (left, bottom), the title (top),
+#: the legend (right)
+_FIT_LAYOUT_IN = {
+    "width": 5.6,
+    "heights": (3.9, 1.3),
+    "gap": 0.45,
+    "left": 0.85,
+    "right": 2.75,
+    "bottom": 0.6,
+    "top": 0.4,
+}
 
 
 def _fixed_panels(plt, layout):
-    """A figure of panels stacked with a shared x axis, laid out at fixed sizes in inches (``layout``): the
-    same picture as a tight layout, without drawing the figure once more to measure it."""
+    """A figure of panels stacked with a shared x axis, laid out at fixed sizes in inches
+    (``layout``): the same picture as a tight layout, without drawing the figure once more to
+    measure it."""
     heights = layout["heights"]
     width = layout["left"] + layout["width"] + layout["right"]
     height = layout["bottom"] + sum(heights) + layout["gap"] * (len(heights) - 1) + layout["top"]
-    return plt.subplots(len(heights), 1, figsize=(width, height), sharex=True,
-                        gridspec_kw={"height_ratios": heights, "left": layout["left"] / width,
-                                     "right": 1.0 - layout["right"] / width, "bottom": layout["bottom"] / height,
-                                     "top": 1.0 - layout["top"] / height,
-                                     "hspace": layout["gap"] / np.mean(heights)})
+    return plt.subplots(
+        len(heights),
+        1,
+        figsize=(width, height),
+        sharex=True,
+        gridspec_kw={
+            "height_ratios": heights,
+            "left": layout["left"] / width,
+            "right": 1.0 - layout["right"] / width,
+            "bottom": layout["bottom"] / height,
+            "top": 1.0 - layout["top"] / height,
+            "hspace": layout["gap"] / np.mean(heights),
+        },
+    )
 
 
 def _wrapped(text, width=34):
-    """``text`` on lines of at most ``width`` characters, broken at spaces (a word longer than that, such as
-    a long file name, across lines): a legend entry beside a panel stays inside the figure."""
+    """``text`` on lines of at most ``width`` characters, broken at spaces (a word longer than that,
+    such as a long file name, across lines): a legend entry beside a panel stays inside the
+    figure."""
     import textwrap
 
-    return "\n".join(textwrap.wrap(text, width, subsequent_indent="  ", break_on_hyphens=False)) or text
+    return (
+        "\n".join(textwrap.wrap(text, width, subsequent_indent="  ", break_on_hyphens=False))
+        or text
+    )
 
 
 def _plain_log_labels(axis):
-    """The labels matplotlib gives a log axis (:class:`~matplotlib.ticker.LogFormatterSciNotation`, major and
-    minor), in plain text (:func:`plain_log_formatter`): no mathtext to parse."""
+    """The labels matplotlib gives a log axis (:class:`~matplotlib.ticker.LogFormatterSciNotation`,
+    major and minor), in plain text (:func:`plain_log_formatter`): no mathtext to parse."""
     axis.set_major_formatter(plain_log_formatter())
     axis.set_minor_formatter(plain_log_formatter(labelOnlyBase=False))
 
@@ -240,7 +304,11 @@ def _residual_panel(ax, fit):
     ax.plot(fit.allan.tau, r, "o", ms=3, color="k")
     ax.plot(fit.allan.tau[bad], r[bad], "o", ms=4, color="C3")
     ax.set_ylabel("whitened\nresidual")
-    verdict = "adequate" if check.adequate else ("INADEQUATE, intervals widened" if fit.widened else "INADEQUATE")
+    verdict = (
+        "adequate"
+        if check.adequate
+        else ("INADEQUATE, intervals widened" if fit.widened else "INADEQUATE")
+    )
     ax.set_title(f"goodness of fit: p = {check.p_value:.2g} ({verdict}); shaded: +-2", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
 
@@ -267,7 +335,11 @@ def plot_corner(fit, path, *, unit="u", scale=1.0):
         data = data * np.array([scale ** unit_power(PARAMETER_UNITS.get(n, "1")) for n in names])
     if data.shape[1] == 1:
         fig, ax = plt.subplots(figsize=(4.5, 3.2))
-        ax.hist(data[:, 0], bins=np.geomspace(data[:, 0].min(), data[:, 0].max() * (1 + 1e-12), 41), color="C0")
+        ax.hist(
+            data[:, 0],
+            bins=np.geomspace(data[:, 0].min(), data[:, 0].max() * (1 + 1e-12), 41),
+            color="C0",
+        )
         ax.set_xscale("log")
         ax.set_xlabel(labels[0].replace("\n", " "))
         q = np.quantile(data[:, 0], [0.05, 0.5, 0.95])
@@ -286,17 +358,17 @@ _PANEL_IN, _GAP_IN, _MARGINS_IN = 1.9, 0.1, {"left": 1.15, "bottom": 1.1, "right
 
 
 def _corner_grid(plt, data, labels, bins=20):
-    """The lower triangle of a corner plot of ``data`` ``(draws, k)`` on log axes: a histogram of each
-    parameter on the diagonal (5%, 50%, 95% quantiles dashed, as corner.py draws them) and
+    """The lower triangle of a corner plot of ``data`` ``(draws, k)`` on log axes: a histogram of
+    each parameter on the diagonal (5%, 50%, 95% quantiles dashed, as corner.py draws them) and
     :func:`corner.hist2d` below it; tick labels on the bottom row and left column only.
 
-    corner.py's ``corner`` draws the same panels in a full k x k grid and blanks the tick labels of inner
-    panels by giving them empty label lists, which creates a tick object for every minor tick of every
-    log axis (about 1300 for seven parameters, half its drawing time); here the inner panels' labels are
-    switched off (no tick created), each parameter's ticks are computed once for its column and row, the
-    unlabelled ticks are drawn on the edge panels only, and the layout is fixed (no tight bounding box,
-    which draws the figure twice): faster than ``corner``'s, the more so the more parameters
-    (timings:
+    corner.py's ``corner`` draws the same panels in a full k x k grid and blanks the tick labels of
+    inner panels by giving them empty label lists, which creates a tick object for every minor tick
+    of every log axis (about 1300 for seven parameters, half its drawing time); here the inner
+    panels' labels are switched off (no tick created), each parameter's ticks are computed once for
+    its column and row, the unlabelled ticks are drawn on the edge panels only, and the layout is
+    fixed (no tight bounding box, which draws the figure twice): faster than ``corner``'s, the more
+    so the more parameters (timings:
     docs/speed_under_load.md#figures).
     """
     corner = import_corner()
@@ -304,11 +376,21 @@ def _corner_grid(plt, data, labels, bins=20):
     ranges = [_draw_range(data[:, j]) for j in range(k)]
     ticks = [_log_ticks(*r) for r in ranges]
     size = k * _PANEL_IN + (k - 1) * _GAP_IN
-    width, height = size + _MARGINS_IN["left"] + _MARGINS_IN["right"], size + _MARGINS_IN["bottom"] + _MARGINS_IN["top"]
+    width, height = (
+        size + _MARGINS_IN["left"] + _MARGINS_IN["right"],
+        size + _MARGINS_IN["bottom"] + _MARGINS_IN["top"],
+    )
     fig = plt.figure(figsize=(width, height))
-    grid = fig.add_gridspec(k, k, left=_MARGINS_IN["left"] / width, right=1.0 - _MARGINS_IN["right"] / width,
-                            bottom=_MARGINS_IN["bottom"] / height, top=1.0 - _MARGINS_IN["top"] / height,
-                            wspace=_GAP_IN / _PANEL_IN, hspace=_GAP_IN / _PANEL_IN)
+    grid = fig.add_gridspec(
+        k,
+        k,
+        left=_MARGINS_IN["left"] / width,
+        right=1.0 - _MARGINS_IN["right"] / width,
+        bottom=_MARGINS_IN["bottom"] / height,
+        top=1.0 - _MARGINS_IN["top"] / height,
+        wspace=_GAP_IN / _PANEL_IN,
+        hspace=_GAP_IN / _PANEL_IN,
+    )
     with _without_corner_notices():
         for i in range(k):
             for j in range(i + 1):
@@ -325,14 +407,15 @@ def _corner_grid(plt, data, labels, bins=20):
 
 
 def _draw_range(x):
-    """``(low, high)`` of positive draws ``x``; a parameter pinned to one value gets +-10% around it."""
+    """``(low, high)`` of positive draws ``x``; a parameter pinned to one value gets +-10% around
+    it."""
     low, high = float(np.min(x)), float(np.max(x))
     return (low, high) if high > low else (low / 1.1, high * 1.1)
 
 
-#: the corner grid's tick labels: none nearer than LABEL_END of the axis's log length to its ends (where two
-#: others can be labelled), none nearer than LABEL_GAP to one another (45-degree labels of
-#: CORNER_FONT points on a 1.9-inch panel: a label reaches a fifth of the panel beyond its tick)
+#: the corner grid's tick labels: none nearer than LABEL_END of the axis's log length to its ends
+#: (where two others can be labelled), none nearer than LABEL_GAP to one another (45-degree labels
+#: of CORNER_FONT points on a 1.9-inch panel: a label reaches a fifth of the panel beyond its tick)
 LABEL_END, LABEL_GAP = 0.1, 0.22
 #: the corner grid's font size (points) of tick labels, axis labels and titles: 7 read as tiny
 #: at full size (a new user's finding)
@@ -340,40 +423,50 @@ CORNER_FONT = 9
 
 
 def _log_ticks(low, high, max_labels=4):
-    """``(labelled, unlabelled)`` tick positions of a log axis from ``low`` to ``high``: matplotlib's log
-    tick positions inside the range (its linear ones where the range is narrower than those; where two or
-    more powers of ten lie inside, only 1, 2 and 5 times a power of ten), at most ``max_labels`` of them
-    labelled (those powers of ten, else ticks spread over the axis, the round ones first: :func:`_spaced`;
-    those near the axis's ends left unlabelled where two others can be: :func:`_inside_ends`), so that
-    rotated labels do not overlap."""
+    """``(labelled, unlabelled)`` tick positions of a log axis from ``low`` to ``high``:
+    matplotlib's log tick positions inside the range (its linear ones where the range is narrower
+    than those; where two or more powers of ten lie inside, only 1, 2 and 5 times a power of ten),
+    at most ``max_labels`` of them labelled (those powers of ten, else ticks spread over the axis,
+    the round ones first: :func:`_spaced`; those near the axis's ends left unlabelled where two
+    others can be: :func:`_inside_ends`), so that rotated labels do not overlap."""
     from matplotlib.ticker import LogLocator
 
     powers = 10.0 ** np.arange(np.ceil(np.log10(low) - 1e-9), np.floor(np.log10(high) + 1e-9) + 1)
-    both = np.concatenate([LogLocator(numticks=3).tick_values(low, high), LogLocator(subs="auto").tick_values(low, high),
-                           powers])  # every power of ten inside (over many decades matplotlib skips some)
+    both = np.concatenate(
+        [
+            LogLocator(numticks=3).tick_values(low, high),
+            LogLocator(subs="auto").tick_values(low, high),
+            # every power of ten inside (over many decades matplotlib skips some)
+            powers,
+        ]
+    )
     ticks = np.unique(both[(both >= low * (1 - 1e-9)) & (both <= high * (1 + 1e-9))])
     if ticks.size == 0:
         return ticks, ticks
     exponent = np.log10(ticks)
     decades = np.isclose(exponent, np.round(exponent), rtol=0.0, atol=1e-9)
     if np.count_nonzero(decades) >= 2:
-        # only 1, 2 and 5 times a power of ten between them (every tick drawn costs), the powers labelled
+        # only 1, 2 and 5 times a power of ten between them (every tick drawn costs), the powers
+        # labelled
         keep = np.isin(_coefficient(ticks), (1.0, 2.0, 5.0))
         ticks, decades = ticks[keep], decades[keep]
         candidates = _inside_ends(ticks, low, high, np.flatnonzero(decades))
         chosen = candidates[::-(-candidates.size // max_labels)]
     else:
-        chosen = _spaced(ticks, _inside_ends(ticks, low, high, np.arange(ticks.size)), low, high, max_labels)
+        chosen = _spaced(
+            ticks, _inside_ends(ticks, low, high, np.arange(ticks.size)), low, high, max_labels
+        )
     labelled = np.zeros(ticks.size, bool)
     labelled[chosen] = True
     return ticks[labelled], ticks[~labelled]
 
 
 def _spaced(ticks, candidates, low, high, max_labels, gap=LABEL_GAP):
-    """At most ``max_labels`` of the ``candidates`` (indices into ``ticks``), at least ``gap`` of the axis's
-    log length apart: a power of ten first, then 2 and 5 times one, then the others, each group from the
-    axis's middle out, a tick kept where no kept one is nearer. On a log axis the ticks are not evenly spaced
-    (8, 9, 10, 20, 30 x 10^-5), so every k-th one could put two labels nearly on one another."""
+    """At most ``max_labels`` of the ``candidates`` (indices into ``ticks``), at least ``gap`` of
+    the axis's log length apart: a power of ten first, then 2 and 5 times one, then the others, each
+    group from the axis's middle out, a tick kept where no kept one is nearer. On a log axis the
+    ticks are not evenly spaced (8, 9, 10, 20, 30 x 10^-5), so every k-th one could put two labels
+    nearly on one another."""
     where, coefficient = _axis_fraction(ticks, low, high), _coefficient(ticks)
     rank = np.where(coefficient == 1.0, 0, np.where(np.isin(coefficient, (2.0, 5.0)), 1, 2))
     kept = []
@@ -394,9 +487,9 @@ def _coefficient(ticks):
 
 
 def _inside_ends(ticks, low, high, candidates, margin=LABEL_END):
-    """The ``candidates`` (indices into ``ticks``) farther than ``margin`` of the axis's log length from both
-    ends, where two or more are (a label at a panel's edge runs into the next panel's), else those farther
-    than half that, else all of them."""
+    """The ``candidates`` (indices into ``ticks``) farther than ``margin`` of the axis's log length
+    from both ends, where two or more are (a label at a panel's edge runs into the next panel's),
+    else those farther than half that, else all of them."""
     where = _axis_fraction(ticks[candidates], low, high)
     for edge in (margin, margin / 2):
         inside = candidates[(where > edge) & (where < 1.0 - edge)]
@@ -406,28 +499,34 @@ def _inside_ends(ticks, low, high, candidates, margin=LABEL_END):
 
 
 def _set_ticks(axis, ticks, *, labelled, label):
-    """Fixed ticks on ``axis`` (:func:`_log_ticks`: the labelled ones major, the rest minor); on an edge
-    (``labelled``) plain tick labels rotated 45 degrees and the axis label, elsewhere no labels."""
+    """Fixed ticks on ``axis`` (:func:`_log_ticks`: the labelled ones major, the rest minor); on an
+    edge (``labelled``) plain tick labels rotated 45 degrees and the axis label, elsewhere no
+    labels."""
     from matplotlib.ticker import FixedLocator, NullFormatter, NullLocator
 
     major, minor = ticks
     axis.set_major_locator(FixedLocator(major))
-    # the unlabelled ticks on the edges only, where they help read the labelled ones: an inner panel lines up
-    # with its edge panels (each tick drawn is an object of five artists)
+    # the unlabelled ticks on the edges only, where they help read the labelled ones: an inner panel
+    # lines up with its edge panels (each tick drawn is an object of five artists)
     axis.set_minor_locator(FixedLocator(minor) if labelled else NullLocator())
     axis.set_minor_formatter(NullFormatter())
     name = axis.axis_name
     if labelled:
-        axis.set_major_formatter(plain_log_formatter(labelOnlyBase=False, minor_thresholds=(np.inf, np.inf)))
+        axis.set_major_formatter(
+            plain_log_formatter(labelOnlyBase=False, minor_thresholds=(np.inf, np.inf))
+        )
         axis.axes.tick_params(axis=name, which="major", labelrotation=45)
         axis.set_label_text(label, fontsize=CORNER_FONT)
     else:
         axis.set_major_formatter(NullFormatter())
-        axis.axes.tick_params(axis=name, which="both", **{"labelbottom" if name == "x" else "labelleft": False})
+        axis.axes.tick_params(
+            axis=name, which="both", **{"labelbottom" if name == "x" else "labelleft": False}
+        )
 
 
 def _diagonal_panel(ax, x, limits, bins):
-    """One parameter's histogram on log bins, its 5%, 50%, 95% quantiles dashed and given in the title."""
+    """One parameter's histogram on log bins, its 5%, 50%, 95% quantiles dashed and given in the
+    title."""
     from matplotlib.ticker import NullLocator
 
     counts, edges = np.histogram(x, bins=np.geomspace(limits[0], limits[1], bins + 1))
@@ -443,25 +542,31 @@ def _diagonal_panel(ax, x, limits, bins):
     ax.set_title(f"{q[1]:.4g}\n[{q[0]:.3g}, {q[2]:.3g}]", fontsize=CORNER_FONT)
 
 
-_SUPERSCRIPT = str.maketrans("-0123456789", "\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079")
+_SUPERSCRIPT = str.maketrans(
+    "-0123456789", "\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079"
+)
 
 
 def plain_log_formatter(**kwargs):
-    """``matplotlib.ticker.LogFormatterSciNotation(**kwargs)`` whose labels are plain text (``2\u00d710\u207b\u00b3``,
-    Unicode superscripts) instead of mathtext (``$\\mathdefault{2\\times10^{-3}}$``): the same ticks labelled, the
-    same numbers. Every mathtext label is parsed when drawn (matplotlib's cache holds 50), which
-    makes a corner plot slower (timings: docs/speed_under_load.md#figures)."""
+    """``matplotlib.ticker.LogFormatterSciNotation(**kwargs)`` whose labels are plain text
+    (``2\u00d710\u207b\u00b3``, Unicode superscripts) instead of mathtext
+    (``$\\mathdefault{2\\times10^{-3}}$``): the same ticks labelled, the same numbers. Every
+    mathtext label is parsed when drawn (matplotlib's cache holds 50), which makes a corner plot
+    slower (timings: docs/speed_under_load.md#figures)."""
     import re
 
     from matplotlib.ticker import LogFormatterSciNotation
 
-    pattern = re.compile(r"^\$\\mathdefault\{(-?)(?:([0-9.]+)\\times\s*)?([0-9]+)(?:\^\{(-?[0-9]+)\})?\}\$$")
+    pattern = re.compile(
+        r"^\$\\mathdefault\{(-?)(?:([0-9.]+)\\times\s*)?([0-9]+)(?:\^\{(-?[0-9]+)\})?\}\$$"
+    )
 
     class PlainLogFormatter(LogFormatterSciNotation):
         def __call__(self, x, pos=None):
             label = super().__call__(x, pos)
             match = pattern.match(label)
-            if match is None:  # anything else (an empty label, another notation) as matplotlib writes it
+            # anything else (an empty label, another notation) as matplotlib writes it
+            if match is None:
                 return label
             sign, coefficient, base, exponent = match.groups()
             text = base + (exponent.translate(_SUPERSCRIPT) if exponent is not None else "")
@@ -485,11 +590,16 @@ def _is_accel(fit, unit):
     return sensor == "accel" or str(unit) in ("m/s^2", "g", "mg", "ug")
 
 
-_QUANTITY_LABEL = {"attitude": "attitude error", "velocity": "velocity error", "position": "position error"}
+_QUANTITY_LABEL = {
+    "attitude": "attitude error",
+    "velocity": "velocity error",
+    "position": "position error",
+}
 
 
 def plot_drift(bands_list, path, *, units, title="", min_probability=0.1):
-    """Drift credible bands (log-log), white and bias parts separately, crossover marked (paper Figs 8, 11).
+    """Drift credible bands (log-log), white and bias parts separately, crossover marked (paper Figs
+    8, 11).
 
     Parameters
     ----------
@@ -501,14 +611,28 @@ def plot_drift(bands_list, path, *, units, title="", min_probability=0.1):
         Terms whose posterior probability (model averaging) is lower are not drawn (listed).
     """
     plt = pyplot()
-    fig, axes = plt.subplots(1, len(bands_list), figsize=(6.5 * len(bands_list), 6.6), squeeze=False)
+    fig, axes = plt.subplots(
+        1, len(bands_list), figsize=(6.5 * len(bands_list), 6.6), squeeze=False
+    )
     for ax, bands, unit in zip(axes[0], bands_list, units):
         keep = bands.total[0] > 0  # the double integral is exactly 0 after one sample
         t = bands.t_s[keep]
         lo, hi = bands.total[0][keep], bands.total[-1][keep]
-        ax.fill_between(t, lo, hi, color="C0", alpha=0.3,
-                        label=f"total, {bands.quantiles[0]:.0%}-{bands.quantiles[-1]:.0%} credible band")
-        ax.plot(t, bands.total[len(bands.quantiles) // 2][keep], color="C0", lw=1.5, label="total, median")
+        ax.fill_between(
+            t,
+            lo,
+            hi,
+            color="C0",
+            alpha=0.3,
+            label=f"total, {bands.quantiles[0]:.0%}-{bands.quantiles[-1]:.0%} credible band",
+        )
+        ax.plot(
+            t,
+            bands.total[len(bands.quantiles) // 2][keep],
+            color="C0",
+            lw=1.5,
+            label="total, median",
+        )
         hidden = []
         for i, (name, part) in enumerate(bands.terms.items()):
             positive = part[keep] > 0
@@ -524,23 +648,42 @@ def plot_drift(bands_list, path, *, units, title="", min_probability=0.1):
         if hidden:
             import textwrap
 
-            ax.plot([], [], " ", label=textwrap.fill(f"not drawn (P < {min_probability:g}): " + ", ".join(hidden), 60))
+            ax.plot(
+                [],
+                [],
+                " ",
+                label=textwrap.fill(
+                    f"not drawn (P < {min_probability:g}): " + ", ".join(hidden), 60
+                ),
+            )
         if np.isfinite(bands.crossover_s):
             ax.axvline(bands.crossover_s, color="gray", lw=1, ls=":")
-            ax.annotate(f"biases and slow terms\nexceed short-term noise\nafter {bands.crossover_s:.3g} s",
-                        (bands.crossover_s, 0.02), xycoords=("data", "axes fraction"), textcoords="offset points",
-                        xytext=(4, 4), fontsize=7, color="dimgray", va="bottom",
-                        ha="left" if bands.crossover_s < np.sqrt(t[0] * t[-1]) else "right")
+            ax.annotate(
+                f"biases and slow terms\nexceed short-term noise\nafter {bands.crossover_s:.3g} s",
+                (bands.crossover_s, 0.02),
+                xycoords=("data", "axes fraction"),
+                textcoords="offset points",
+                xytext=(4, 4),
+                fontsize=7,
+                color="dimgray",
+                va="bottom",
+                ha="left" if bands.crossover_s < np.sqrt(t[0] * t[-1]) else "right",
+            )
         _draw_measured(ax, bands, t)
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("time since GPS loss (s)")
         ax.set_ylabel(f"1-sigma {_QUANTITY_LABEL[bands.quantity]} ({plain_text(unit)})")
-        start = (f"bias calibrated over {bands.calibration_s:g} s" if bands.bias_start == "calibrated"
-                 else f"bias start: {bands.bias_start}")
+        start = (
+            f"bias calibrated over {bands.calibration_s:g} s"
+            if bands.bias_start == "calibrated"
+            else f"bias start: {bands.bias_start}"
+        )
         ax.set_title(f"{bands.quantity} drift, {start}, {bands.models} models", fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=1, frameon=False)
+        ax.legend(
+            fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=1, frameon=False
+        )
     if title:
         fig.suptitle(plain_text(title))
     fig.tight_layout()
@@ -549,24 +692,42 @@ def plot_drift(bands_list, path, *, units, title="", min_probability=0.1):
 
 
 def _draw_measured(ax, bands, t):
-    """The record's own 1-sigma drift with its 90% interval (drift.direct) and the model's extrapolation
-    beyond what the record measures (or beyond the log) shaded."""
+    """The record's own 1-sigma drift with its 90% interval (drift.direct) and the model's
+    extrapolation beyond what the record measures (or beyond the log) shaded."""
     check = getattr(bands, "check", None)
     if check is not None and check.t_s.size:
-        i = np.unique(np.linspace(0, check.t_s.size - 1, min(check.t_s.size, 16)).round().astype(int))
-        ax.errorbar(check.t_s[i], check.direct[i],
-                    yerr=[check.direct[i] - check.direct_low[i], check.direct_high[i] - check.direct[i]],
-                    fmt="o", ms=2.5, lw=0.8, color="black", alpha=0.7,
-                    label=f"measured on the log itself, 90% interval (check p = {check.p_combined:.2g})")
+        i = np.unique(
+            np.linspace(0, check.t_s.size - 1, min(check.t_s.size, 16)).round().astype(int)
+        )
+        ax.errorbar(
+            check.t_s[i],
+            check.direct[i],
+            yerr=[check.direct[i] - check.direct_low[i], check.direct_high[i] - check.direct[i]],
+            fmt="o",
+            ms=2.5,
+            lw=0.8,
+            color="black",
+            alpha=0.7,
+            label=f"measured on the log itself, 90% interval (check p = {check.p_combined:.2g})",
+        )
     measured = getattr(bands, "measured_s", float("nan"))
     edge = measured if np.isfinite(measured) else bands.record_s
     if edge < t[-1]:
-        what = (f"beyond what the log measures ({edge:.4g} s): model extrapolation" if np.isfinite(measured)
-                else f"beyond the log ({edge:.4g} s): extrapolation")
+        what = (
+            f"beyond what the log measures ({edge:.4g} s): model extrapolation"
+            if np.isfinite(measured)
+            else f"beyond the log ({edge:.4g} s): extrapolation"
+        )
         if measured == 0.0:
             what, edge = "the log measured another calibration window: the model's alone", t[0]
-        ax.axvspan(edge, t[-1], color="gray", alpha=0.12, hatch="//" if np.isfinite(measured) else None,
-                   label=what)
+        ax.axvspan(
+            edge,
+            t[-1],
+            color="gray",
+            alpha=0.12,
+            hatch="//" if np.isfinite(measured) else None,
+            label=what,
+        )
 
 
 def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None, drift_unit=None,
@@ -595,14 +756,24 @@ def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None,
     first = pop.unit_fits[0].allan
     tau_lo = min(f.allan.tau[0] for f in pop.unit_fits)
     tau_hi = max(f.allan.tau[-1] for f in pop.unit_fits)
-    m_f = np.unique(np.maximum(1, np.round(np.geomspace(tau_lo, tau_hi, 80) * first.rate_hz)).astype(np.int64))
+    m_f = np.unique(
+        np.maximum(1, np.round(np.geomspace(tau_lo, tau_hi, 80) * first.rate_hz)).astype(np.int64)
+    )
     tau_f = m_f / first.rate_hz
     pred = scale * np.sqrt(pop.new_unit.predictive_avar(m_f, rng=rng))
     lo, med, hi = np.quantile(pred, [0.05, 0.5, 0.95], axis=0)
     ax.fill_between(tau_f, lo, hi, color="0.6", alpha=0.45, label="new unit, 90% predictive band")
     ax.plot(tau_f, med, color="k", lw=1.5, label="new unit, median")
     for i, (label, f) in enumerate(zip(pop.labels, pop.unit_fits)):
-        ax.plot(f.allan.tau, scale * f.allan.adev, "o-", ms=3, lw=0.8, color=f"C{i % 10}", label=plain_text(label))
+        ax.plot(
+            f.allan.tau,
+            scale * f.allan.adev,
+            "o-",
+            ms=3,
+            lw=0.8,
+            color=f"C{i % 10}",
+            label=plain_text(label),
+        )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("averaging time tau (s)")
@@ -616,9 +787,21 @@ def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None,
         t = bands.t_s[keep]
         ax.fill_between(t, bands.total[0][keep], bands.total[-1][keep], color="0.6", alpha=0.45,
                         label=f"new unit, {bands.quantiles[0]:.0%}-{bands.quantiles[-1]:.0%} band")
-        ax.plot(t, bands.total[len(bands.quantiles) // 2][keep], color="k", lw=1.5, label="new unit, median")
+        ax.plot(
+            t,
+            bands.total[len(bands.quantiles) // 2][keep],
+            color="k",
+            lw=1.5,
+            label="new unit, median",
+        )
         for i, (label, b) in enumerate(zip(pop.labels, unit_bands)):
-            ax.plot(t, b.total[len(b.quantiles) // 2][keep], lw=0.9, color=f"C{i % 10}", label=f"{plain_text(label)} alone, median")
+            ax.plot(
+                t,
+                b.total[len(b.quantiles) // 2][keep],
+                lw=0.9,
+                color=f"C{i % 10}",
+                label=f"{plain_text(label)} alone, median",
+            )
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("time since GPS loss (s)")
@@ -626,8 +809,11 @@ def plot_population(pop, path, *, unit="u", bands=None, unit_bands=(), rng=None,
 
         shown = drift_unit or integrated_unit(unit, bands.quantity)
         ax.set_ylabel(f"1-sigma {_QUANTITY_LABEL[bands.quantity]} ({plain_text(shown)})")
-        start = (f"bias calibrated over {bands.calibration_s:g} s" if bands.bias_start == "calibrated"
-                 else f"bias start: {bands.bias_start}")
+        start = (
+            f"bias calibrated over {bands.calibration_s:g} s"
+            if bands.bias_start == "calibrated"
+            else f"bias start: {bands.bias_start}"
+        )
         ax.set_title(f"{bands.quantity} drift of a new unit, {start}", fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7, loc="upper left")

@@ -44,8 +44,16 @@ from ..io.limits import RANGES, check_range
 from ..io.readers import INCREMENT_UNITS, SI_UNITS, UNITS, read_text
 from ..io.timebase import GAP_POLICIES, TIME_UNITS, check_rate
 
-__all__ = ["Scene", "SensorSpec", "SensorReport", "Report", "read_scene", "build_report", "distinct_units",
-           "OUTPUT_UNITS"]
+__all__ = [
+    "Scene",
+    "SensorSpec",
+    "SensorReport",
+    "Report",
+    "read_scene",
+    "build_report",
+    "distinct_units",
+    "OUTPUT_UNITS",
+]
 
 OUTPUT_UNITS = SI_OUTPUT_UNITS
 MAX_SEARCH_S = 1e6
@@ -59,7 +67,8 @@ class SensorSpec:
     ----------
     name, kind, units : str
     paths : tuple of Path
-        The log (``log``), the logs of several units (``logs``), or fit folders (``fit`` / ``fits``).
+        The log (``log``), the logs of several units (``logs``), or fit folders (``fit`` /
+        ``fits``).
     columns : tuple of str
         Axes to bound (the worst one counts); empty for fit folders (their axes are used).
     rate_hz : float or None
@@ -166,8 +175,9 @@ class SensorReport:
     @property
     def datasheet_check(self):
         """``{"file", "axis", "values", "verdict"}``: the worst axis's probability of each
-        datasheet value being within spec (:func:`~bayes_imu.noise.datasheet_check.check_datasheet`),
-        or ``None`` without a datasheet."""
+        datasheet value being within spec
+        (:func:`~bayes_imu.noise.datasheet_check.check_datasheet`), or ``None`` without a
+        datasheet."""
         if self.spec.datasheet is None:
             return None
         from ..noise.datasheet_check import check_datasheet, verdict
@@ -195,23 +205,51 @@ class Report:
         out = []
         for s in self.sensors:
             unit = _si_unit(s.spec.kind)
-            entry = {"name": s.spec.name, "kind": s.spec.kind, "source": s.spec.source,
-                     "log": str(s.spec.log), "paths": [str(p) for p in s.spec.paths], "column": s.spec.column,
-                     "input_units": s.spec.units, "axes": [a.axis for a in s.axes], "worst_axis": s.axes[s.worst].axis}
+            entry = {
+                "name": s.spec.name,
+                "kind": s.spec.kind,
+                "source": s.spec.source,
+                "log": str(s.spec.log),
+                "paths": [str(p) for p in s.spec.paths],
+                "column": s.spec.column,
+                "input_units": s.spec.units,
+                "axes": [a.axis for a in s.axes],
+                "worst_axis": s.axes[s.worst].axis,
+            }
             if s.fit is not None:
                 summary = s.fit.summary(unit=unit)
-                entry.update({k: summary[k] for k in ("model", "parameters", "diagnostics", "candidates", "adequacy",
-                                                       "model_averaging")})
-                entry["unit_to_unit"] = (f"NOT included: the bounds are for the tested unit ({s.spec.log.name}); "
-                                         "another unit of this model may be worse (give several logs to include it)")
+                entry.update(
+                    {
+                        k: summary[k]
+                        for k in (
+                            "model",
+                            "parameters",
+                            "diagnostics",
+                            "candidates",
+                            "adequacy",
+                            "model_averaging",
+                        )
+                    }
+                )
+                entry["unit_to_unit"] = (
+                    f"NOT included: the bounds are for the tested unit ({s.spec.log.name}); "
+                    "another unit of this model may be worse (give several logs to include it)"
+                )
             else:
                 summary = s.axes[s.worst].population.summary(unit=unit)
-                entry.update(model=summary["model"], parameters=summary["new_unit"], population=summary["population"],
-                             units=summary["units"], structures=summary["structures"],
-                             diagnostics=summary["diagnostics"])
+                entry.update(
+                    model=summary["model"],
+                    parameters=summary["new_unit"],
+                    population=summary["population"],
+                    units=summary["units"],
+                    structures=summary["structures"],
+                    diagnostics=summary["diagnostics"],
+                )
                 n_units = len(s.axes[s.worst].population.labels)
-                entry["unit_to_unit"] = (f"included: the bounds are for a NEW unit of this model (posterior "
-                                         f"predictive of a hierarchical fit of {n_units} units)")
+                entry["unit_to_unit"] = (
+                    f"included: the bounds are for a NEW unit of this model (posterior "
+                    f"predictive of a hierarchical fit of {n_units} units)"
+                )
             entry.update(bounds=list(s.bounds), max_outage_s=s.max_outage_s)
             if s.spec.datasheet is not None:
                 entry["datasheet_check"] = s.datasheet_check
@@ -275,7 +313,12 @@ def _get(table, key, kind, where, default=None, required=True):
         return default
     value = table[key]
     if kind is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not np.isfinite(value)
+            or value <= 0
+        ):
             raise InputError(f"{where}: {key}={_excerpt(value)}: expected a positive number")
         return float(value)
     if not isinstance(value, str) or not value:
@@ -308,8 +351,19 @@ def read_scene(path, *, allow_outside=False):
     scene = doc.get("scene")
     if not isinstance(scene, dict):
         raise InputError(f"{path}: missing [scene] table")
-    _known(scene, ("name", "outages_s", "credibility", "bias_start", "calibration_s", "allow_outside",
-                   "display_units"), f"{path}: [scene]")
+    _known(
+        scene,
+        (
+            "name",
+            "outages_s",
+            "credibility",
+            "bias_start",
+            "calibration_s",
+            "allow_outside",
+            "display_units",
+        ),
+        f"{path}: [scene]",
+    )
     display = scene.get("display_units", "si")
     if display not in DISPLAY_CHOICES:
         raise InputError(f"{path}: [scene] display_units={_excerpt(display)}: expected one of "
@@ -321,8 +375,14 @@ def read_scene(path, *, allow_outside=False):
     allow_outside = allow_outside or outside
     outages = scene.get("outages_s")
     low, high, _ = RANGES["time_s"]
-    if not isinstance(outages, list) or not outages or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and low <= v <= high for v in outages):
+    if (
+        not isinstance(outages, list)
+        or not outages
+        or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and low <= v <= high
+            for v in outages
+        )
+    ):
         raise InputError(f"{path}: [scene] outages_s={_excerpt(outages)}: expected a non-empty "
                          "list of seconds, each "
                          f"from {low:g} to {high:g}")
@@ -352,8 +412,12 @@ def read_scene(path, *, allow_outside=False):
         if "max_error" not in requirement:
             raise InputError(f"{where}: missing key 'max_error'")
         given = requirement["max_error"]
-        requirement = {"quantity": quantity, "max_error": parse_amount(given, quantity, f"{where} max_error"),
-                       "unit": OUTPUT_UNITS[quantity], "given": given if isinstance(given, str) else None}
+        requirement = {
+            "quantity": quantity,
+            "max_error": parse_amount(given, quantity, f"{where} max_error"),
+            "unit": OUTPUT_UNITS[quantity],
+            "given": given if isinstance(given, str) else None,
+        }
     sensors = doc.get("sensor")
     if not isinstance(sensors, list) or not sensors:
         raise InputError(f"{path}: no [[sensor]] entries")
@@ -362,7 +426,18 @@ def read_scene(path, *, allow_outside=False):
         where = f"{path}: [[sensor]] #{i}"
         if not isinstance(entry, dict):
             raise InputError(f"{where}: expected a table")
-        keys = ("name", "log", "logs", "fit", "fits", "column", "rate_hz", "kind", "units", "datasheet")
+        keys = (
+            "name",
+            "log",
+            "logs",
+            "fit",
+            "fits",
+            "column",
+            "rate_hz",
+            "kind",
+            "units",
+            "datasheet",
+        )
         _known(entry, keys + _READING, where)
         kind = _get(entry, "kind", str, where)
         if kind not in SENSOR_QUANTITIES:
@@ -370,18 +445,26 @@ def read_scene(path, *, allow_outside=False):
         sheet = _datasheet(entry, path, kind, where, allow_outside)
         sources = [k for k in ("log", "logs", "fit", "fits") if k in entry]
         if len(sources) != 1:
-            raise InputError(f"{where}: expected exactly one of log, logs (several units), fit or fits (fit folders); "
-                             f"got {', '.join(sources) or 'none'}")
+            raise InputError(
+                f"{where}: expected exactly one of log, logs (several units), fit or fits (fit "
+                f"folders); got {', '.join(sources) or 'none'}"
+            )
         source = sources[0]
-        paths = tuple(_confined(path, p, source, where, allow_outside) for p in _paths(entry, source, where))
+        paths = tuple(
+            _confined(path, p, source, where, allow_outside) for p in _paths(entry, source, where)
+        )
         if len(paths) > 1:
             distinct_units(paths, where=where)
         name = _get(entry, "name", str, where)
         if source in ("fit", "fits"):
             for key in ("column", "rate_hz", "units") + _READING:
                 if key in entry:
-                    raise InputError(f"{where}: {key} is taken from the fit folder; leave it out with {source}")
-            specs.append(SensorSpec(name, paths, (), None, kind, SI_UNITS[kind], source, datasheet=sheet))
+                    raise InputError(
+                        f"{where}: {key} is taken from the fit folder; leave it out with {source}"
+                    )
+            specs.append(
+                SensorSpec(name, paths, (), None, kind, SI_UNITS[kind], source, datasheet=sheet)
+            )
             continue
         reading = _reading(entry, kind, where)
         columns = _columns(entry, where)
@@ -394,9 +477,19 @@ def read_scene(path, *, allow_outside=False):
     from .scene_nav import read_navigation
 
     navigation, imus = read_navigation(doc, path, {s.name: s.kind for s in specs}, float(cred))
-    return Scene(str(scene.get("name", path.stem)), tuple(float(v) for v in outages), float(cred), tuple(specs),
-                 requirement, bias_start, str(path), float(calibration), navigation, imus,
-                 display)
+    return Scene(
+        str(scene.get("name", path.stem)),
+        tuple(float(v) for v in outages),
+        float(cred),
+        tuple(specs),
+        requirement,
+        bias_start,
+        str(path),
+        float(calibration),
+        navigation,
+        imus,
+        display,
+    )
 
 
 #: keys of a ``[[sensor]]`` with logs that say how to read them, beyond column, rate_hz and units
@@ -453,7 +546,9 @@ def _datasheet(entry, path, kind, where, allow_outside=False):
     if not isinstance(value, str) or not value:
         raise InputError(f"{where}: datasheet={value!r}: expected the path of a JSON or TOML "
                          "datasheet file")
-    sheet_kind, values = read_datasheet_spec(_confined(path, value, "datasheet", where, allow_outside))
+    sheet_kind, values = read_datasheet_spec(
+        _confined(path, value, "datasheet", where, allow_outside)
+    )
     if sheet_kind != kind:
         raise InputError(f"{where}: datasheet {value}: a {sheet_kind} datasheet for a {kind}")
     return path.parent / value, kind, values
@@ -478,7 +573,8 @@ def _confined(scene_path, given, key, where, allow_outside):
 
 
 def _tail(path, limit=80):
-    """A path for a message: its last ``limit`` characters (the file's name is what tells two apart), sanitised."""
+    """A path for a message: its last ``limit`` characters (the file's name is what tells two
+    apart), sanitised."""
     text = "".join(c if c.isprintable() else "?" for c in str(path))
     return repr(text if len(text) <= limit else "..." + text[3 - limit:])
 
@@ -508,7 +604,9 @@ def distinct_units(paths, *, where):
             continue  # reported when it is read
         for key in keys:
             if key in seen:
-                same = "the same file or folder" if key[0] == "path" else "files with the same content"
+                same = (
+                    "the same file or folder" if key[0] == "path" else "files with the same content"
+                )
                 raise InputError(f"{where}: {_tail(seen[key])} and {_tail(p)} are "
                                  f"{same}: one unit "
                                  "counted twice would make the unit-to-unit spread wrong; give "
@@ -519,7 +617,11 @@ def distinct_units(paths, *, where):
 def _paths(entry, key, where):
     value = entry[key]
     many = key in ("logs", "fits")
-    if many and (not isinstance(value, list) or len(value) < 2 or not all(isinstance(v, str) and v for v in value)):
+    if many and (
+        not isinstance(value, list)
+        or len(value) < 2
+        or not all(isinstance(v, str) and v for v in value)
+    ):
         raise InputError(f"{where}: {key}={_excerpt(value)}: expected a list of at least 2 paths "
                          "(one per unit)")
     if not many and (not isinstance(value, str) or not value):
@@ -538,14 +640,30 @@ def _columns(entry, where):
                      "the worst one is bounded)")
 
 
-def _bound(fit, t, quantity, credibility, bias_start, calibration_s=DEFAULT_CALIBRATION_S, rng=None):
-    d = drift_draws(fit, np.atleast_1d(t), quantity=quantity, bias_start=bias_start, calibration_s=calibration_s,
-                    rng=rng)["total"]
+def _bound(
+    fit, t, quantity, credibility, bias_start, calibration_s=DEFAULT_CALIBRATION_S, rng=None
+):
+    d = drift_draws(
+        fit,
+        np.atleast_1d(t),
+        quantity=quantity,
+        bias_start=bias_start,
+        calibration_s=calibration_s,
+        rng=rng,
+    )["total"]
     return np.quantile(d, credibility, axis=0), np.median(d, axis=0)
 
 
-def max_outage(fit, quantity, max_error, credibility, bias_start="calibrated", calibration_s=DEFAULT_CALIBRATION_S, *,
-               rng=None):
+def max_outage(
+    fit,
+    quantity,
+    max_error,
+    credibility,
+    bias_start="calibrated",
+    calibration_s=DEFAULT_CALIBRATION_S,
+    *,
+    rng=None,
+):
     """Longest time (s) whose ``credibility`` bound on ``quantity`` stays within ``max_error``.
 
     The bound is model-averaged, with the given bias semantics (default: the bias calibrated
@@ -582,40 +700,78 @@ def build_report(scene, *, rng=None, progress=None):
     """Fit (or read) every sensor of ``scene`` and compute its bounds (module docstring).
 
     A sensor with several logs or fit folders is a population of units: its bounds are for a
-    new unit of the model (:func:`bayes_imu.inference.population.fit_population`). Several axes: each
-    outage's bound is the worst axis's. Each sensor draws from its own stream spawned from ``rng``
-    (:meth:`numpy.random.Generator.spawn`): its numbers are the same whichever sensors are listed
-    beside it (tested). ``progress``, if given, is called as ``progress(done, total, name)`` after
-    each sensor (``done`` of ``total`` sensors finished, the last one's name).
+    new unit of the model (:func:`bayes_imu.inference.population.fit_population`). Several axes:
+    each outage's bound is the worst axis's. Each sensor draws from its own stream spawned from
+    ``rng`` (:meth:`numpy.random.Generator.spawn`): its numbers are the same whichever sensors are
+    listed beside it (tested). ``progress``, if given, is called as ``progress(done, total, name)``
+    after each sensor (``done`` of ``total`` sensors finished, the last one's name).
     """
     rng = np.random.default_rng(rng)
     reports = []
-    # each sensor its own stream, spawned from the report's: a sensor's fits and bounds do not depend on the
-    # sensors listed before it (one stream through all of them made them depend on the order and the company)
+    # each sensor its own stream, spawned from the report's: a sensor's fits and bounds do not
+    # depend on the sensors listed before it (one stream through all of them made them depend on the
+    # order and the company)
     for spec, sensor_rng in zip(scene.sensors, rng.spawn(len(scene.sensors))):
         axes = _axes(spec, sensor_rng)
         per_axis = []
         for a in axes:
             rows = []
             for quantity in SENSOR_QUANTITIES[spec.kind]:
-                bound, median = _bound(a.posterior, np.array(scene.outages_s), quantity, scene.credibility,
-                                       scene.bias_start, scene.calibration_s, rng=sensor_rng)
-                rows += [{"outage_s": t, "quantity": quantity, "bound": float(b), "median": float(m),
-                          "unit": OUTPUT_UNITS[quantity], "extrapolated": bool(t > a.posterior.record_s),
-                          "axis": a.axis} for t, b, m in zip(scene.outages_s, bound, median)]
+                bound, median = _bound(
+                    a.posterior,
+                    np.array(scene.outages_s),
+                    quantity,
+                    scene.credibility,
+                    scene.bias_start,
+                    scene.calibration_s,
+                    rng=sensor_rng,
+                )
+                rows += [
+                    {
+                        "outage_s": t,
+                        "quantity": quantity,
+                        "bound": float(b),
+                        "median": float(m),
+                        "unit": OUTPUT_UNITS[quantity],
+                        "extrapolated": bool(t > a.posterior.record_s),
+                        "axis": a.axis,
+                    }
+                    for t, b, m in zip(scene.outages_s, bound, median)
+                ]
             per_axis.append(rows)
-        bounds = tuple(max((rows[i] for rows in per_axis), key=lambda r: r["bound"]) for i in range(len(per_axis[0])))
+        bounds = tuple(
+            max((rows[i] for rows in per_axis), key=lambda r: r["bound"])
+            for i in range(len(per_axis[0]))
+        )
         last = [i for i, b in enumerate(bounds) if b["outage_s"] == max(scene.outages_s)][-1]
         worst = next(i for i, a in enumerate(axes) if a.axis == bounds[last]["axis"])
-        bands = tuple(drift_bands(axes[worst].posterior, quantity=quantity, bias_start=scene.bias_start,
-                                  horizon_s=max(scene.outages_s) * 2.0, calibration_s=scene.calibration_s,
-                                  quantiles=(1.0 - scene.credibility, 0.5, scene.credibility), rng=sensor_rng)
-                      for quantity in SENSOR_QUANTITIES[spec.kind])
+        bands = tuple(
+            drift_bands(
+                axes[worst].posterior,
+                quantity=quantity,
+                bias_start=scene.bias_start,
+                horizon_s=max(scene.outages_s) * 2.0,
+                calibration_s=scene.calibration_s,
+                quantiles=(1.0 - scene.credibility, 0.5, scene.credibility),
+                rng=sensor_rng,
+            )
+            for quantity in SENSOR_QUANTITIES[spec.kind]
+        )
         req = scene.requirement
         longest = None
         if req is not None and req["quantity"] in SENSOR_QUANTITIES[spec.kind]:
-            longest = min(max_outage(a.posterior, req["quantity"], req["max_error"], scene.credibility,
-                                     scene.bias_start, scene.calibration_s, rng=sensor_rng) for a in axes)
+            longest = min(
+                max_outage(
+                    a.posterior,
+                    req["quantity"],
+                    req["max_error"],
+                    scene.credibility,
+                    scene.bias_start,
+                    scene.calibration_s,
+                    rng=sensor_rng,
+                )
+                for a in axes
+            )
         reports.append(SensorReport(spec, tuple(axes), bounds, longest, bands, worst))
         if progress is not None:
             progress(len(reports), len(scene.sensors), spec.name)
@@ -627,7 +783,8 @@ def build_report(scene, *, rng=None, progress=None):
 
 
 def _axes(spec, rng):
-    """The :class:`AxisResult` of each axis of a sensor (fitting its logs or reading its fit folders)."""
+    """The :class:`AxisResult` of each axis of a sensor (fitting its logs or reading its fit
+    folders)."""
     from ..inference.population import fit_population
     from ..inference.population_archive import is_population_folder
 
@@ -638,8 +795,12 @@ def _axes(spec, rng):
         per_unit = [_saved_axes(p, spec, where) for p in spec.paths]
         names = [n for n, _ in per_unit[0]]
         if any([n for n, _ in u] != names for u in per_unit[1:]):
-            raise InputError(f"{where}the fit folders have different axes: "
-                             + "; ".join(f"{p}: {', '.join(n for n, _ in u)}" for p, u in zip(spec.paths, per_unit)))
+            raise InputError(
+                f"{where}the fit folders have different axes: "
+                + "; ".join(
+                    f"{p}: {', '.join(n for n, _ in u)}" for p, u in zip(spec.paths, per_unit)
+                )
+            )
         fits = {n: [dict(u)[n] for u in per_unit] for n in names}
         allans = {n: [f.allan for f in fs] for n, fs in fits.items()}
     else:
@@ -684,7 +845,8 @@ def _saved_population(folder, spec, where):
 
 
 def _saved_axes(folder, spec, where):
-    """``[(axis, FitResult)]`` of a fit folder (one axis, or each axis of a several-column fit), in SI."""
+    """``[(axis, FitResult)]`` of a fit folder (one axis, or each axis of a several-column fit), in
+    SI."""
     from ..inference.archive import fit_axes, load_fit
 
     out = []
@@ -708,18 +870,29 @@ def _rank(scene, reports):
     req = scene.requirement
 
     def last_bound(r):
-        q = req["quantity"] if req and req["quantity"] in SENSOR_QUANTITIES[r.spec.kind] else SENSOR_QUANTITIES[r.spec.kind][-1]
+        q = (
+            req["quantity"]
+            if req and req["quantity"] in SENSOR_QUANTITIES[r.spec.kind]
+            else SENSOR_QUANTITIES[r.spec.kind][-1]
+        )
         return next(b["bound"] for b in r.bounds if b["outage_s"] == t_max and b["quantity"] == q)
 
     if req is None:
         order = sorted(reports, key=last_bound)
-        reason = (f"no requirement: ranked by the {scene.credibility:.0%} bound at the longest outage ({t_max:g} s), "
-                  "smallest first (comparable within one sensor kind)")
+        reason = (
+            f"no requirement: ranked by the {scene.credibility:.0%} bound at the longest outage "
+            f"({t_max:g} s), "
+            "smallest first (comparable within one sensor kind)"
+        )
     else:
-        order = sorted(reports, key=lambda r: (r.max_outage_s is None, -(r.max_outage_s or 0.0), last_bound(r)))
+        order = sorted(
+            reports, key=lambda r: (r.max_outage_s is None, -(r.max_outage_s or 0.0), last_bound(r))
+        )
         limit = f"{req['max_error']:g} {req['unit']}"
         if req.get("given"):  # as the scene gave it ("1 deg"), SI beside it
             limit = f"{req['given']} ({limit})"
-        reason = (f"ranked by the longest outage whose {scene.credibility:.0%} bound on {req['quantity']} stays within "
-                  f"{limit}; ties by the bound at {t_max:g} s")
+        reason = (
+            f"ranked by the longest outage whose {scene.credibility:.0%} bound on "
+            f"{req['quantity']} stays within {limit}; ties by the bound at {t_max:g} s"
+        )
     return tuple(r.spec.name for r in order), reason

@@ -36,8 +36,17 @@ import os
 
 from ..errors import InputError
 
-__all__ = ["OutputWriter", "Computed", "PictureFailure", "draw_picture", "usable_cpus", "spare_cpus",
-           "background_default", "WORKERS_ENV", "PICTURE_FAILED_STATUS"]
+__all__ = [
+    "OutputWriter",
+    "Computed",
+    "PictureFailure",
+    "draw_picture",
+    "usable_cpus",
+    "spare_cpus",
+    "background_default",
+    "WORKERS_ENV",
+    "PICTURE_FAILED_STATUS",
+]
 
 #: environment variable: "0" writes outputs in the calling process, "1" in a worker process
 WORKERS_ENV = "BAYES_IMU_OUTPUT_PROCESS"
@@ -96,10 +105,10 @@ def usable_cpus():
 
 
 def background_default(automatic=True):
-    """Whether outputs go to a worker process: :data:`WORKERS_ENV` if set, else (``automatic``) a spare
-    CPU (:func:`spare_cpus` at least 1); never from a daemonic process (a Dask or multiprocessing worker),
-    which may not start one. ``automatic=False``: only where the variable asks (a Python caller of the
-    command, whose script a spawned process would run again)."""
+    """Whether outputs go to a worker process: :data:`WORKERS_ENV` if set, else (``automatic``) a
+    spare CPU (:func:`spare_cpus` at least 1); never from a daemonic process (a Dask or
+    multiprocessing worker), which may not start one. ``automatic=False``: only where the variable
+    asks (a Python caller of the command, whose script a spawned process would run again)."""
     import multiprocessing
 
     value = os.environ.get(WORKERS_ENV, "").strip()
@@ -129,7 +138,8 @@ def spare_cpus():
         load = 0.0
     try:
         with open("/proc/loadavg") as f:
-            running = int(f.read().split()[3].split("/")[0]) - 1  # "running/total": less this process
+            # "running/total": less this process
+            running = int(f.read().split()[3].split("/")[0]) - 1
     except (OSError, ValueError, IndexError):
         running = 0
     return usable_cpus() - max(load, running)
@@ -171,18 +181,27 @@ class OutputWriter:
             context = multiprocessing.get_context("spawn")
             job_out, job_in = context.Pipe(duplex=False)
             self._results, result_in = context.Pipe(duplex=False)
-            self._process = context.Process(target=_serve, args=(job_out, result_in, tuple(warm)), daemon=True,
-                                            name="bayes_imu-outputs")
+            self._process = context.Process(
+                target=_serve,
+                args=(job_out, result_in, tuple(warm)),
+                daemon=True,
+                name="bayes_imu-outputs",
+            )
             self._process.start()
             job_out.close()
             result_in.close()
             self._outbox = queue.SimpleQueue()
-            self._sender = threading.Thread(target=_send_all, args=(self._outbox, job_in), daemon=True,
-                                            name="bayes_imu-outputs-sender")
+            self._sender = threading.Thread(
+                target=_send_all,
+                args=(self._outbox, job_in),
+                daemon=True,
+                name="bayes_imu-outputs-sender",
+            )
             self._sender.start()
 
     def submit(self, fn, *args, **kwargs):
-        """Call ``fn(*args, **kwargs)``: at once here, or queued for the worker (arguments pickled)."""
+        """Call ``fn(*args, **kwargs)``: at once here, or queued for the worker (arguments
+        pickled)."""
         if not self.background:
             fn(*args, **kwargs)
             return
@@ -201,10 +220,11 @@ class OutputWriter:
         self.submit(draw_picture, fn, *args, **kwargs)
 
     def compute(self, fn, *args, **kwargs):
-        """``fn(*args, **kwargs)`` in the worker: a :class:`Computed` future. The worker runs such a call as it
-        arrives, ahead of the outputs queued and in its own process (no fork: it is meant to be short, a few
-        milliseconds, and the outputs wait for it); :meth:`wait` does not wait for it, and a call whose value is
-        not needed in the end is stopped with the worker. Here (no worker) the call runs at once."""
+        """``fn(*args, **kwargs)`` in the worker: a :class:`Computed` future. The worker runs such a
+        call as it arrives, ahead of the outputs queued and in its own process (no fork: it is meant
+        to be short, a few milliseconds, and the outputs wait for it); :meth:`wait` does not wait
+        for it, and a call whose value is not needed in the end is stopped with the worker. Here (no
+        worker) the call runs at once."""
         if not self.background:
             call = _Call(0, fn, args, kwargs)
             return Computed(None, 0, call())
@@ -213,13 +233,15 @@ class OutputWriter:
         return Computed(self, self._calls)
 
     def pool(self):
-        """This writer as an executor for :func:`~bayes_imu.inference.fit.fit_allan`'s ``pool`` (``submit`` is
+        """This writer as an executor for :func:`~bayes_imu.inference.fit.fit_allan`'s ``pool``
+        (``submit`` is
         :meth:`compute`)."""
         return _Pool(self)
 
     def _receive(self, block):
-        """Take one message from the worker (``block``: wait for it); False where none has come. A finished
-        output counts down :meth:`wait`'s calls, a computed value is kept, an output's error is raised."""
+        """Take one message from the worker (``block``: wait for it); False where none has come. A
+        finished output counts down :meth:`wait`'s calls, a computed value is kept, an output's
+        error is raised."""
         if self._process is None or (not block and not self._results.poll(0)):
             return False
         outcome = self._next_result()
@@ -247,14 +269,17 @@ class OutputWriter:
                 self._stopped_early()
         try:
             return self._results.recv()
-        except (EOFError, OSError):  # the worker died (its end of the pipe closed): poll saw the end, not a result
+        # the worker died (its end of the pipe closed): poll saw the end, not a result
+        except (EOFError, OSError):
             self._process.join(5.0)
             self._stopped_early()
 
     def _stopped_early(self):
         code = self._process.exitcode
         self.stop()
-        raise RuntimeError(f"the output process stopped (exit code {code}) before writing its outputs")
+        raise RuntimeError(
+            f"the output process stopped (exit code {code}) before writing its outputs"
+        )
 
     def stop(self):
         """Stop the worker at once (calls not yet done are dropped); it writes nothing more."""
@@ -286,9 +311,9 @@ class OutputWriter:
 
 
 class Computed:
-    """The future of :meth:`OutputWriter.compute`: ``done()`` (without waiting), ``exception()`` and ``result()``
-    (waiting), as :class:`concurrent.futures.Future` has them. A call whose worker was stopped before it finished
-    is never done."""
+    """The future of :meth:`OutputWriter.compute`: ``done()`` (without waiting), ``exception()`` and
+    ``result()`` (waiting), as :class:`concurrent.futures.Future` has them. A call whose worker was
+    stopped before it finished is never done."""
 
     def __init__(self, writer, number, value=None):
         self._writer, self._number, self._value = writer, number, value
@@ -317,7 +342,8 @@ class Computed:
 
 
 class _Pool:
-    """An :class:`OutputWriter` seen as an executor: ``submit(fn, *args, **kwargs)`` is its ``compute``."""
+    """An :class:`OutputWriter` seen as an executor: ``submit(fn, *args, **kwargs)`` is its
+    ``compute``."""
 
     def __init__(self, writer):
         self.submit = writer.compute
@@ -331,8 +357,8 @@ class _Value:
 
 
 class _Call:
-    """A computed call as the worker runs it: its value or its exception, returned (never raised: a computation
-    the caller can do itself stops no output)."""
+    """A computed call as the worker runs it: its value or its exception, returned (never raised: a
+    computation the caller can do itself stops no output)."""
 
     def __init__(self, number, fn, args, kwargs):
         self.number, self.fn, self.args, self.kwargs = number, fn, args, kwargs
@@ -364,14 +390,16 @@ def _serve(jobs, results, warm):
     Where the system forks (Linux), each call runs in a child forked from this warmed-up
     process (imports shared, nothing loaded again): one at a time while the caller is busy,
     as many as there are usable CPUs once it waits (:data:`_DRAIN`), so a fit's figures and
-    ArviZ file (when sent) are written side by side. Elsewhere the calls run here, one after the other.
+    ArviZ file (when sent) are written side by side. Elsewhere the calls run here, one after the
+    other.
     """
     import signal
     import sys
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the caller, which stops this process
-    # stopped (OutputWriter.stop) while warming up or writing: leave through SystemExit, so that temporary
-    # folders and open files are cleaned up as their `with` blocks end
+    # Ctrl-C reaches the caller, which stops this process
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # stopped (OutputWriter.stop) while warming up or writing: leave through SystemExit, so that
+    # temporary folders and open files are cleaned up as their `with` blocks end
     signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(1))
     for fn in warm:
         try:
@@ -381,7 +409,8 @@ def _serve(jobs, results, warm):
     if _can_fork():
         import gc
 
-        gc.freeze()  # the warmed-up objects: never collected, so children don't copy their pages to scan them
+        # the warmed-up objects: never collected, so children don't copy their pages to scan them
+        gc.freeze()
         _serve_forking(jobs, results)
         return
     while True:
@@ -393,7 +422,8 @@ def _serve(jobs, results, warm):
             continue
         outcome = _call(job)
         results.send(outcome)
-        if isinstance(outcome, BaseException):  # sent back, raised again by the caller; nothing more is run
+        # sent back, raised again by the caller; nothing more is run
+        if isinstance(outcome, BaseException):
             return
 
 
@@ -402,7 +432,8 @@ _DRAIN = "drain"
 
 
 def _call(job):
-    """Run one ``(fn, args, kwargs)``: ``None``, the exception it raised (picklable), or a computed call's
+    """Run one ``(fn, args, kwargs)``: ``None``, the exception it raised (picklable), or a computed
+    call's
     :class:`_Value`."""
     fn, args, kwargs = job
     try:
@@ -413,17 +444,17 @@ def _call(job):
 
 
 def _can_fork():
-    """Whether calls run in forked children: Linux only (macOS's system libraries are not fork-safe once
-    loaded; Windows has no fork)."""
+    """Whether calls run in forked children: Linux only (macOS's system libraries are not fork-safe
+    once loaded; Windows has no fork)."""
     import sys
 
     return hasattr(os, "fork") and sys.platform.startswith("linux")
 
 
 def _serve_forking(jobs, results):
-    """:func:`_serve`'s loop with each output in a forked child (at most one while the caller is busy); a computed
-    call (:meth:`OutputWriter.compute`) runs here at once, ahead of the outputs queued (it is short, and the
-    caller may be waiting for it)."""
+    """:func:`_serve`'s loop with each output in a forked child (at most one while the caller is
+    busy); a computed call (:meth:`OutputWriter.compute`) runs here at once, ahead of the outputs
+    queued (it is short, and the caller may be waiting for it)."""
     import collections
     import signal
     from multiprocessing.connection import wait
@@ -439,7 +470,8 @@ def _serve_forking(jobs, results):
                 pass
         running.clear()
 
-    def stopped(signum, frame):  # OutputWriter.stop terminates this process: its children go with it
+    # OutputWriter.stop terminates this process: its children go with it
+    def stopped(signum, frame):
         stop_children()
         os._exit(1)
 
@@ -453,7 +485,8 @@ def _serve_forking(jobs, results):
                 except EOFError:  # the caller is gone: nothing more to send results to
                     stop_children()
                     return
-                if isinstance(job, tuple) and isinstance(job[0], _Call):  # the caller may be waiting for it
+                # the caller may be waiting for it
+                if isinstance(job, tuple) and isinstance(job[0], _Call):
                     results.send(_call(job))
                     continue
                 caller_waits = job == _DRAIN
@@ -467,7 +500,8 @@ def _serve_forking(jobs, results):
             os.waitpid(running.pop(conn), 0)
             conn.close()
             results.send(outcome)
-            if isinstance(outcome, BaseException):  # raised again by the caller; nothing more is run
+            # raised again by the caller; nothing more is run
+            if isinstance(outcome, BaseException):
                 stop_children()
                 return
         while queued and len(running) < (cpus if caller_waits else max(1, cpus - 1)):

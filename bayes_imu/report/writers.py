@@ -209,7 +209,8 @@ def write_drift(drift, folder, *, submit=None):
     lines = ["t_s,quantity,q05,q50,q95,unit,extrapolated"]
     for b, u in zip(drift.bands, drift.units):
         lines += [
-            f"{ti:.10g},{b.quantity},{lo:.9g},{med:.9g},{hi:.9g},{u},{str(x).lower()}"  # whole samples: exact
+            # whole samples: exact
+            f"{ti:.10g},{b.quantity},{lo:.9g},{med:.9g},{hi:.9g},{u},{str(x).lower()}"
             for ti, lo, med, hi, x in zip(b.t_s, *b.total, b.extrapolated)
         ]
     (folder / "drift.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
