@@ -155,7 +155,8 @@ def fit_folders(folders, kind):
 
     out = []
     for folder in folders:
-        if is_population_folder(folder):  # fit-population: its new-unit predictive
+        population = is_population_folder(folder)  # fit-population: its new-unit predictive
+        if population:
             places = [(Path(folder), read_json_object(Path(folder) / "summary.json",
                                                       "a bayes-imu fit-population summary"))]
         else:
@@ -173,7 +174,7 @@ def fit_folders(folders, kind):
                 raise InputError(f"{place}: fitted in {unit!r}, {names[unit_kind][0]} unit; "
                                  f"expected {names[kind][0]} fit (give this folder with "
                                  f"{names[unit_kind][1]})")
-            if is_population_folder(place):
+            if population:
                 new_unit = load_population(place).new_unit
                 out.append(KalibrAxis(f"{place} (new unit)", new_unit, factor))
             else:
