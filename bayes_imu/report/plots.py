@@ -408,9 +408,13 @@ def _corner_grid(plt, data, labels, bins=20):
 
 def _draw_range(x):
     """``(low, high)`` of positive draws ``x``; a parameter pinned to one value gets +-10% around
-    it."""
+    it. The ends are widened by a relative 1e-9: corner's log-spaced bins (``logspace`` of the
+    ends' logarithms) round the first and last edge inwards by an ulp or so, and draws exactly at
+    an end would otherwise fall outside every bin (an empty histogram, which corner refuses)."""
     low, high = float(np.min(x)), float(np.max(x))
-    return (low, high) if high > low else (low / 1.1, high * 1.1)
+    if not high > low:
+        low, high = low / 1.1, high * 1.1
+    return low * (1.0 - 1e-9), high * (1.0 + 1e-9)
 
 
 #: the corner grid's tick labels: none nearer than LABEL_END of the axis's log length to its ends
