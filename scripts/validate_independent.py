@@ -57,8 +57,10 @@ import navtruth as nt  # noqa: E402
 import scenegen as sg  # noqa: E402
 
 HELD_OUT_START = 1_000_000
-#: a second held-out range (the first was seen in the session that fixed what it found)
-HELD_OUT_RANGES = {"1": HELD_OUT_START, "2": 3_000_000}
+#: a second held-out range (the first was seen in the session that fixed what it found), and a
+#: third (the second was seen by the session that measured position bands on it: issue 35's third
+#: session runs range 3 once, at its end)
+HELD_OUT_RANGES = {"1": HELD_OUT_START, "2": 3_000_000, "3": 5_000_000}
 NAV_TIMES = (10.0, 30.0, 60.0, 120.0, 300.0, 600.0, 1200.0)
 
 
@@ -421,7 +423,8 @@ def main(argv=None):
     ap.add_argument("--families", default=",".join(sg.FAMILIES))
     ap.add_argument("--held-out", action="store_true", help="the held-out seed range (lead only)")
     ap.add_argument("--held-out-range", choices=sorted(HELD_OUT_RANGES), default="1",
-                    help="which held-out range: 1 (seeds 1,000,000..) or 2 (3,000,000..)")
+                    help="which held-out range: 1 (seeds 1,000,000..), 2 (3,000,000..) or 3 "
+                    "(5,000,000..)")
     ap.add_argument("--seed-start", type=int, default=0, help="first development seed")
     ap.add_argument("--horizons", type=int, default=8, help="horizons per scene")
     ap.add_argument("--max-log2n", type=float, default=20.0, help="record length up to 2^this")
