@@ -79,15 +79,23 @@ def reserved_backend(emcee, capacity):
     emcee's backend grows its chain at each ``run_mcmc`` by ``numpy.concatenate``: a fit that
     checks its chain every few hundred steps copies all of it each time, and holds the old and the
     new chain at once (issue 39). This one reserves ``capacity`` steps with ``numpy.empty`` on the
-    first run (memory pages are committed only as the steps are written) and grows only past them,
-    as emcee does. The stored steps are the same.
+    first run, allocated directly (memory pages are committed only as the steps are written:
+    tests/test_sampling.py measures it) and grows only past them, as emcee does. The stored steps
+    are the same.
     """
     class Reserved(emcee.backends.Backend):
         def grow(self, ngrow, blobs):
             if blobs is None and self.iteration + ngrow <= len(self.chain):
                 return
             if blobs is None and len(self.chain) == 0:
-                ngrow = max(ngrow, int(capacity))
+                # allocated directly, not concatenated onto emcee's empty arrays as its own grow
+                # does: a concatenation copies the whole reservation, committing every page of it
+                # (82 MB for 40 000 steps of 32 walkers x 8 parameters) before a step is written
+                self._check_blobs(blobs)
+                steps = max(ngrow, int(capacity))
+                self.chain = np.empty((steps, self.nwalkers, self.ndim), dtype=self.dtype)
+                self.log_prob = np.empty((steps, self.nwalkers), dtype=self.dtype)
+                return
             super().grow(ngrow, blobs)
 
     return Reserved()
