@@ -1,14 +1,15 @@
 """Build of bayes_imu: the metadata is in setup.cfg; this file adds the precompiled kernels.
 
 ``bayes_imu._compiled`` is the ahead-of-time build (numba's AOT compiler, ``numba.pycc``) of the
-kernels in ``bayes_imu/allan/_sources.py`` and ``bayes_imu/noise/_sources.py``: the same Python
-functions that numba JIT-compiles at run time for long records (and everywhere, where the build
-had no AOT compiler). The drift grid is among them, so a fit with drift bands compiles nothing
-either. A command that fits an ordinary log then never imports numba nor loads its compiler
-(timings: docs/speed_under_load.md#imports). The code targets
-any x86-64 (or the build machine's architecture family), not the build CPU, so a wheel runs
-wherever it is installed. Where numba has no AOT compiler the package is built without the
-extension and every kernel is JIT-compiled on first use, as before (a warning says so).
+kernels in ``bayes_imu/allan/_sources.py``, ``bayes_imu/noise/_sources.py`` and
+``bayes_imu/io/_sources.py`` (the parser, never JIT-compiled: without it logs are read by numpy):
+the same Python functions that numba JIT-compiles at run time for long records (and everywhere,
+where the build had no AOT compiler). The drift grid is among them, so a fit with drift bands
+compiles nothing either. A command that fits an ordinary log then never imports numba nor loads its
+compiler (timings: docs/speed_under_load.md#imports). The code targets any x86-64 (or the build
+machine's architecture family), not the build CPU, so a wheel runs wherever it is installed. Where
+numba has no AOT compiler the package is built without the extension and every kernel is
+JIT-compiled on first use, as before (a warning says so).
 """
 
 import atexit
@@ -35,6 +36,7 @@ KERNELS = {
         "noise",
         "void(f8[::1], f8[:, ::1], f8[::1], f8[::1], f8[::1], f8[::1], f8[:, ::1], f8, f8[:, ::1])",
     ),
+    "parse_table": ("io", "i8(u1[::1], i8, i8, i8, i8[::1], f8[:, ::1])"),
     "drift_rows": (
         "noise",
         "void(i8, f8[::1], f8[::1], f8[::1], f8[:, ::1], f8[::1], f8, f8[::1], f8[::1], f8[:, "
@@ -100,7 +102,7 @@ def precompiled_kernels():
         )
         return None
     _check_compiler_hook(pycc_compiler)
-    sources = {stage: _load(stage) for stage in ("allan", "noise")}
+    sources = {stage: _load(stage) for stage in ("allan", "noise", "io")}
     fastmath = sources["allan"].FASTMATH
     plain = pycc_compiler.compile_extra
 

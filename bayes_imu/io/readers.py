@@ -6,15 +6,17 @@ a UTF-8 byte-order mark, CRLF line ends, spaces around fields, blank lines, ``#`
 comment lines and trailing ``# ...`` comments, gzip compression (detected from the
 content, not the file name). Columns are chosen by header name or by 0-based index.
 
-Parsing runs in numpy's C reader where the file is a plain table whose converted columns are numbers
-(every column of a log of one or two, the wanted ones and the last of a wider delimited log whose
-delimiters are counted: :func:`_parse_plain`), else in pandas' C reader (quoted fields, ragged rows,
-text in a converted column, whitespace-separated wide logs; hundreds of MB/s,
-``scripts/bench_io.py``); when that meets anything wrong, a
-line-by-line pass in Python finds the first offending line and the error names the file,
-the line (1-based, counting every line of the file), the column, what was found and what
-was expected. All conversion to float64 and all validation of
-the numbers happens here: later modules can trust finite 1-D float64 arrays.
+A plain table of decimals (one-character delimiter, no spaces, quotes or comments, every row of the
+header's length, at most 64 MiB of text) is parsed by the compiled exact parser of
+:mod:`bayes_imu.io.fastcsv` (the correctly rounded value of each field, as numpy and pandas give).
+Otherwise parsing runs in numpy's C reader where the file is a plain table whose converted columns
+are numbers (every column of a log of one or two, the wanted ones and the last of a wider delimited
+log whose delimiters are counted: :func:`_parse_plain`), else in pandas' C reader (quoted fields,
+ragged rows, text in a converted column, whitespace-separated wide logs; hundreds of MB/s,
+``scripts/bench_io.py``); when that meets anything wrong, a line-by-line pass in Python finds the
+first offending line and the error names the file, the line (1-based, counting every line of the
+file), the column, what was found and what was expected. All conversion to float64 and all
+validation of the numbers happens here: later modules can trust finite 1-D float64 arrays.
 """
 
 import gzip
@@ -641,10 +643,17 @@ PLAIN_COLUMNS = 2
 
 
 def _parse(path, fmt, usecols, progress):
-    """The columns ``usecols`` of the data rows: :func:`_parse_plain`, else pandas' C reader on the
-    selected columns; anything odd goes to :func:`diagnose_text`."""
-    table = None
-    if _numpy_first(fmt, usecols):
+    """The columns ``usecols`` of the data rows: the exact fast path of plain decimal tables
+    (:func:`bayes_imu.io.fastcsv.read_plain_fast`), else :func:`_parse_plain`, else pandas' C reader
+    on the selected columns; anything odd goes to :func:`diagnose_text`."""
+    from .fastcsv import read_plain_fast
+
+    table = read_plain_fast(path, fmt, usecols, open_binary)
+    if table is not None and progress:
+        with progress_bar(total=path.stat().st_size, desc=f"reading {path.name}", unit="B",
+                          enabled=progress) as bar:
+            bar.update(path.stat().st_size)
+    if table is None and _numpy_first(fmt, usecols):
         with progress_bar(
             total=path.stat().st_size, desc=f"reading {path.name}", unit="B", enabled=progress
         ) as bar:
