@@ -3,7 +3,8 @@
 Writes, in a temporary folder, an IMU-like log (a time column and six channels, 8
 significant digits, about 70 bytes per row) as plain CSV, gzip CSV and whitespace-separated
 text, then times reading one column and three columns (best of ``--repeat``), naming the path
-that read them: numpy's reader (the fast path of ``bayes_imu.io.readers``: the wanted columns
+that read them: the exact compiled parser of plain decimal tables (``bayes_imu.io.fastcsv``), else
+numpy's reader (the wanted columns
 and the last one converted, the delimiters counted) or pandas' C reader (whitespace-separated
 wide logs); then pandas' path alone on the same CSV, and ``numpy.loadtxt`` (a common baseline,
 which checks no row); then a log of one channel with its time stamps; last, one column of the
@@ -127,13 +128,17 @@ def main(argv=None):
 
 
 def _path_taken(path, n_columns):
-    """Which reader takes ``n_columns`` of ``path`` in this process now: numpy's (the fast path) or
-    pandas' (where numpy's is not tried, :func:`~bayes_imu.io.readers._numpy_first`, or leaves the
-    file to pandas)."""
+    """Which reader takes ``n_columns`` of ``path`` in this process now: the exact compiled parser
+    (``exact``, :mod:`bayes_imu.io.fastcsv`), numpy's (where that one refuses the file) or pandas'
+    (where numpy's is not tried, :func:`~bayes_imu.io.readers._numpy_first`, or leaves the file to
+    pandas)."""
     from bayes_imu._progress import progress_bar
-    from bayes_imu.io.readers import _numpy_first, _parse_plain, sniff_file
+    from bayes_imu.io.fastcsv import read_plain_fast
+    from bayes_imu.io.readers import _numpy_first, _parse_plain, open_binary, sniff_file
 
     fmt, columns = sniff_file(path), list(range(1, 1 + n_columns))
+    if read_plain_fast(path, fmt, columns, open_binary) is not None:
+        return "exact"
     if not _numpy_first(fmt, columns):
         return "pandas"
     with progress_bar(total=1, enabled=False) as bar:

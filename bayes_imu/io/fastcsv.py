@@ -18,10 +18,9 @@ import numpy as np
 
 __all__ = ["read_plain_fast", "FAST_MAX_BYTES"]
 
-#: largest decompressed text (bytes) read whole by the fast path (its peak memory is about twice
-#: this, the chunks and their join); a longer log streams through numpy's reader in bounded memory
-#: as before
-FAST_MAX_BYTES = 64 << 20
+#: largest decompressed text (bytes) read whole by the fast path (its peak memory is the text once
+#: and a chunk); a longer log streams through numpy's reader in bounded memory as before
+FAST_MAX_BYTES = 256 << 20
 #: bytes read at a time
 _CHUNK = 4 << 20
 
@@ -50,11 +49,12 @@ def read_plain_fast(path, fmt, usecols, open_binary):
     delimiter = fmt.get("delimiter")
     if kernel is None or delimiter is None or len(delimiter) != 1 or ord(delimiter) > 127:
         return None
-    text = _whole_text(path, open_binary)
-    if text is None:
+    buf = _whole_text(path, open_binary)
+    if buf is None:
         return None
-    buf = np.frombuffer(text, dtype=np.uint8)
-    max_rows = int(np.count_nonzero(buf == 10)) + 1
+    # a row takes at least two bytes (a digit and its line end): an upper bound that needs no pass
+    # over the text; the pages of ``out`` are committed only as rows are written
+    max_rows = buf.size // 2 + 1
     wanted = np.asarray(usecols, dtype=np.int64)
     if wanted.size == 0 or len(set(usecols)) != wanted.size:
         return None
@@ -66,8 +66,10 @@ def read_plain_fast(path, fmt, usecols, open_binary):
 
 
 def _whole_text(path, open_binary):
-    """The decompressed bytes of ``path``, or ``None`` beyond :data:`FAST_MAX_BYTES` or where
-    reading fails (the streaming reader then reads, and reports, it)."""
+    """The decompressed bytes of ``path`` as a uint8 array, or ``None`` beyond
+    :data:`FAST_MAX_BYTES` or where reading fails (the streaming reader then reads, and reports,
+    it). The chunks are copied into one array and each freed as it is copied: the peak is the text
+    once and a chunk."""
     chunks, total = [], 0
     stream, raw = open_binary(path)
     try:
@@ -79,4 +81,11 @@ def _whole_text(path, open_binary):
                 chunks.append(chunk)
     except (OSError, EOFError, zlib.error):
         return None
-    return b"".join(chunks)
+    text = np.empty(total, dtype=np.uint8)
+    chunks.reverse()
+    start = 0
+    while chunks:
+        chunk = chunks.pop()
+        text[start:start + len(chunk)] = np.frombuffer(chunk, dtype=np.uint8)
+        start += len(chunk)
+    return text

@@ -7,7 +7,7 @@ comment lines and trailing ``# ...`` comments, gzip compression (detected from t
 content, not the file name). Columns are chosen by header name or by 0-based index.
 
 A plain table of decimals (one-character delimiter, no spaces, quotes or comments, every row of the
-header's length, at most 64 MiB of text) is parsed by the compiled exact parser of
+header's length, at most 256 MiB of text) is parsed by the compiled exact parser of
 :mod:`bayes_imu.io.fastcsv` (the correctly rounded value of each field, as numpy and pandas give).
 Otherwise parsing runs in numpy's C reader where the file is a plain table whose converted columns
 are numbers (every column of a log of one or two, the wanted ones and the last of a wider delimited
