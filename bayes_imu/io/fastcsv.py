@@ -52,9 +52,9 @@ def read_plain_fast(path, fmt, usecols, open_binary):
     buf = _whole_text(path, open_binary)
     if buf is None:
         return None
-    # a row takes at least two bytes (a digit and its line end): an upper bound that needs no pass
-    # over the text; the pages of ``out`` are committed only as rows are written
-    max_rows = buf.size // 2 + 1
+    # rows <= line ends + 1, counted a chunk at a time (no temporary the size of the text)
+    max_rows = 1 + sum(int(np.count_nonzero(buf[i:i + _CHUNK] == 10))
+                       for i in range(0, buf.size, _CHUNK))
     wanted = np.asarray(usecols, dtype=np.int64)
     if wanted.size == 0 or len(set(usecols)) != wanted.size:
         return None
