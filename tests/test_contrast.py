@@ -273,9 +273,14 @@ def test_record_drift_check_in_summary_and_reasons(rng):
     with pytest.warns(UnmeasuredWarning, match="10 s calibration window, not the 30 s"):
         other = drift_bands(fit, [0.5, 5.0, 50.0], quantity="attitude", calibration_s=30.0, rng=2)
     assert other.measured_s == 0.0 and other.extrapolated.all() and other.check is None
-    position = drift_bands(fit, [0.5, 5.0, 50.0], quantity="position", calibration_s=30.0, rng=2)
-    # order 2: never measured
-    assert np.isnan(position.measured_s) and not position.extrapolated.any()
+    # order 2 (position) is measured too, within the record and at the measured window only
+    position = drift_bands(fit, [0.5, 5.0, 50.0, 500.0], quantity="position", calibration_s=10.0,
+                           rng=2)
+    assert list(position.extrapolated) == [False, False, False, True]
+    assert position.check is not None and position.check.t_s.size == 3
+    with pytest.warns(UnmeasuredWarning, match="not the 30 s"):
+        other = drift_bands(fit, [0.5, 5.0], quantity="position", calibration_s=30.0, rng=2)
+    assert other.measured_s == 0.0 and other.extrapolated.all()
     fit_table = fit_allan(
         allan_variance(y, rate_hz=100.0, contrast_span_s=None), terms=("white",), rng=1
     )

@@ -23,6 +23,19 @@ distribution (the EDF) does depend on the noise and is computed from a model's s
 :func:`phase_contrasts` evaluates ``V_hat`` on a log-spaced grid of outage lengths (one vectorised
 strided pass each over the phase record the Allan variance already builds), up to spans ``k + N`` of
 half the record; :meth:`PhaseContrasts.at` interpolates between grid points in log-log.
+
+Position (order 2). The velocity error integrated once more (the Euler sums of
+:func:`bayes_imu.noise._base.calibrated_contrast`) is, with ``c = k (k - 1) / (2 N)``,
+
+    p_j / dt^2 = sum_{i=1}^{k-1} x_{j+i} - (k - 1 + c) x_j + c x_{j-N}
+               = S_{j+k} - S_{j+1} - (k - 1 + c) x_j + c x_{j-N},    S_m = sum_{i<m} x_i,
+
+a fixed contrast of the phase record and its running sum ``S`` (built once, ``O(n)``, about the
+phase's mean: the contrast annihilates constants and linear trends of ``x``, so neither the
+mean nor the offset of ``S`` changes it). Its overlapping mean square over the same strided starts,
+``V_hat_2(k) = dt^4 / M sum_j p_j^2``, is unbiased for the position bands' ``E p^2`` whatever the
+noise (:attr:`PhaseContrasts.mean_square_2`; :meth:`PhaseContrasts.of_order`). ``p = 0`` at
+``k = 1``, so position is measured from ``k = 2`` on.
 """
 
 from dataclasses import dataclass
@@ -34,7 +47,9 @@ from ..errors import InputError
 __all__ = [
     "PhaseContrasts",
     "phase_contrasts",
+    "running_phase_sum",
     "contrast_mean_square",
+    "position_mean_square",
     "contrast_stride",
     "DEFAULT_CONTRAST_SPAN_S",
     "CONTRASTS_PER_DECADE",
@@ -69,6 +84,11 @@ class PhaseContrasts:
         Starts averaged (every :func:`contrast_stride`-th of the ``n - N - k + 1``).
     rate_hz : float
     n_samples : int
+    mean_square_2 : (n_k,) ndarray or None
+        ``V_hat_2(k)`` [u^2 s^4], the position (order 2) error's mean square over the same starts
+        (0 at ``k = 1``; ``None`` where not computed, e.g. a fit saved before it was).
+    order : int
+        Integration order :attr:`mean_square` measures (1; 2 for :meth:`of_order`'s view).
     """
 
     k: np.ndarray
@@ -77,6 +97,8 @@ class PhaseContrasts:
     n_terms: np.ndarray
     rate_hz: float
     n_samples: int
+    mean_square_2: np.ndarray = None
+    order: int = 1
 
     @property
     def calibration_s(self):
@@ -90,7 +112,23 @@ class PhaseContrasts:
         """The contrasts of ``factor * y`` (a unit conversion)."""
         from dataclasses import replace
 
-        return replace(self, mean_square=self.mean_square * factor * factor)
+        f2 = factor * factor
+        second = None if self.mean_square_2 is None else self.mean_square_2 * f2
+        return replace(self, mean_square=self.mean_square * f2, mean_square_2=second)
+
+    def of_order(self, order):
+        """The contrasts of integration ``order`` as a :class:`PhaseContrasts` whose
+        :attr:`mean_square` is that order's (order 2: the outages ``k >= 2`` of
+        :attr:`mean_square_2`), or ``None`` where that order was not measured."""
+        from dataclasses import replace
+
+        if order == self.order:
+            return self
+        if order != 2 or self.order != 1 or self.mean_square_2 is None:
+            return None
+        keep = self.k >= 2
+        return replace(self, k=self.k[keep], mean_square=self.mean_square_2[keep],
+                       n_terms=self.n_terms[keep], mean_square_2=None, order=2)
 
     def covers(self, t):
         """``(n_t,)`` bool: outages ``t`` [s] within the measured grid."""
@@ -140,6 +178,39 @@ def contrast_mean_square(x, k, n_cal, stride=1):
     return float(np.dot(e, e)) / e.size
 
 
+def position_mean_square(x, k, n_cal, stride=1, *, s=None):
+    """``V_hat_2 / dt^4`` (module docstring, position) for outage ``k`` and window ``n_cal`` from a
+    phase record ``x`` ``(n + 1,)``, over the starts ``N, N + stride, ..., <= n - k`` (those of
+    :func:`contrast_mean_square`).
+
+    ``s`` ``(n + 2,)`` is the running sum of ``x`` about its mean with a leading 0
+    (:func:`running_phase_sum`), built once for every outage.
+    """
+    n = x.size - 1
+    k, n_cal, stride = int(k), int(n_cal), int(stride)
+    if k < 1 or n_cal < 1 or k + n_cal > n:
+        raise InputError(
+            f"outage {k} + calibration {n_cal} samples: expected 1 <= each, sum <= {n}"
+        )
+    s = running_phase_sum(x) if s is None else s
+    c = k * (k - 1) / (2.0 * n_cal)
+    mean = x.mean()  # the phase about the mean ``s`` is the running sum of
+    mid = x[n_cal:n + 1 - k:stride] - mean
+    m = mid.size
+    e = (
+        (s[n_cal + k:: stride][:m] - s[n_cal + 1:: stride][:m])
+        - (k - 1 + c) * mid
+        + c * (x[: n + 1 - n_cal - k : stride][:m] - mean)
+    )
+    return float(np.dot(e, e)) / m
+
+
+def running_phase_sum(x):
+    """``S_m = sum_{i<m} (x_i - mean x)`` ``(n + 2,)`` with ``S_0 = 0``: the running sum the
+    position contrast reads (the mean taken out first for precision)."""
+    return np.concatenate(([0.0], np.cumsum(x - x.mean())))
+
+
 def contrast_grid(
     n_samples, n_cal, per_decade=CONTRASTS_PER_DECADE, max_fraction=MAX_SPAN_FRACTION
 ):
@@ -170,7 +241,8 @@ def phase_contrasts(y=None, *, rate_hz, calibration_s=DEFAULT_CONTRAST_SPAN_S, x
     Returns
     -------
     PhaseContrasts
-        Empty (``k.size == 0``) when the window is longer than half the record.
+        Attitude / velocity (order 1) and position (order 2, :attr:`PhaseContrasts.mean_square_2`)
+        mean squares; empty (``k.size == 0``) when the window is longer than half the record.
     """
     if x is None:
         y = np.asarray(y, dtype=np.float64)
@@ -187,6 +259,12 @@ def phase_contrasts(y=None, *, rate_hz, calibration_s=DEFAULT_CONTRAST_SPAN_S, x
         np.array([contrast_mean_square(x, kk, n_cal, st) for kk, st in zip(ks, strides)])
         / rate_hz**2
     )
+    s = running_phase_sum(x) if ks.size else None
+    ms2 = (
+        np.array([position_mean_square(x, kk, n_cal, st, s=s) for kk, st in zip(ks, strides)])
+        / rate_hz**4
+    )
     return PhaseContrasts(
-        ks, n_cal, ms.reshape(ks.shape), (n - n_cal - ks) // strides + 1, float(rate_hz), int(n)
+        ks, n_cal, ms.reshape(ks.shape), (n - n_cal - ks) // strides + 1, float(rate_hz), int(n),
+        ms2.reshape(ks.shape),
     )

@@ -516,6 +516,11 @@ def _say_axis(args, axis):
         _warn(f"{column}: the drift the log itself shows disagrees with the model at t = "
               f"{check.worst_t_s:g} s (p = {check.p_combined:.2g}); the drift bands include the "
               f"log's own interval up to {check.t_s[-1]:g} s and extrapolate the model beyond")
+    position = ((summary.get("adequacy") or {}).get("drift") or {}).get("position")
+    if position is not None and not position["adequate"]:
+        _warn(f"{column}: the position drift the log itself shows disagrees with the model at "
+              f"t = {position['worst_t_s']:g} s (p = {position['p_value']:.2g}); the position "
+              "bands include the log's own interval where it measures it")
 
 
 def _warn_axis(axis):

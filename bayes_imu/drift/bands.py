@@ -81,7 +81,7 @@ class DriftBands:
         Term name -> posterior probability that the sensor has it (share of the draws whose
         model has it; 1 for every term of a selected model).
     measured_s : float
-        Longest horizon the record measures directly (calibrated attitude / velocity,
+        Longest horizon the record measures directly (calibrated attitude, velocity and position,
         :mod:`bayes_imu.drift.direct`): up to it ``total`` contains the record's own interval;
         beyond it the bands are the model's extrapolation. ``nan`` when nothing is measured;
         ``0`` when the record measured another calibration window than the one asked (the band
@@ -308,9 +308,9 @@ def drift_bands(
         Widen the bands of a log flagged non-stationary by the spread between its parts
         (module docstring).
     honest : bool
-        Where the record measures the drift (calibrated attitude / velocity, a fit of a log read
-        in memory: :mod:`bayes_imu.drift.direct`), widen the band to contain the record's own
-        interval and check the model against it (:attr:`DriftBands.check`).
+        Where the record measures the drift (calibrated attitude, velocity or position, a fit of
+        a log read in memory: :mod:`bayes_imu.drift.direct`), widen the band to contain the
+        record's own interval and check the model against it (:attr:`DriftBands.check`).
 
     Returns
     -------
@@ -369,14 +369,14 @@ def drift_bands(
 
 
 def _warn_other_window(fit, quantity, bias_start, calibration_s):
-    """Calibrated attitude / velocity bands at a window other than the one the record measured:
+    """Calibrated bands at a window other than the one the record measured:
     they are the model's alone (honest only within the model list), which the caller can mend.
     Returns whether it warned."""
     import warnings
 
     measured = getattr(getattr(fit, "allan", None), "contrasts", None)
-    if (measured is None or bias_start != "calibrated" or QUANTITY_ORDER[quantity] != 1
-            or same_window(measured, calibration_s)):
+    if (measured is None or bias_start != "calibrated" or same_window(measured, calibration_s)
+            or measured.of_order(QUANTITY_ORDER[quantity]) is None):
         return False
     warnings.warn(
         f"the record measured its own drift for a {measured.calibration_s:g} s calibration "

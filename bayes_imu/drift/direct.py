@@ -2,7 +2,8 @@
 record.
 
 For a calibrated outage (``bias_start="calibrated"``) of attitude or velocity the error is a
-fixed contrast of the phase record, whose mean square the log measures without a model
+fixed contrast of the phase record, and of position a fixed contrast of the phase record and its
+running sum, whose mean squares the log measures without a model
 (:mod:`bayes_imu.allan.contrast`, ``V_hat``; unbiased for any noise with stationary increments).
 Under a model, ``V_hat ~ V chi2_nu / nu`` with ``V`` the model's mean-square drift and ``nu`` the
 EDF of :func:`bayes_imu.noise.contrast_covariance.contrast_edf`.
@@ -147,12 +148,15 @@ def same_window(contrasts, calibration_s):
 
 
 def direct_contrasts(fit, quantity, bias_start, calibration_s):
-    """The fit's record contrasts when they answer these drift semantics, else ``None``."""
+    """The fit's record contrasts of ``quantity``'s integration order (attitude / velocity: 1,
+    position: 2, :meth:`~bayes_imu.allan.contrast.PhaseContrasts.of_order`) when they answer these
+    drift semantics, else ``None``."""
     contrasts = getattr(getattr(fit, "allan", None), "contrasts", None)
-    if (contrasts is None or bias_start != "calibrated" or QUANTITY_ORDER.get(quantity) != 1
+    if (contrasts is None or bias_start != "calibrated" or quantity not in QUANTITY_ORDER
             or contrasts.k.size == 0 or not same_window(contrasts, calibration_s)):
         return None
-    return contrasts
+    contrasts = contrasts.of_order(QUANTITY_ORDER[quantity])
+    return None if contrasts is None or contrasts.k.size == 0 else contrasts
 
 
 def _reference_point(fit):
@@ -169,25 +173,27 @@ def _reference_point(fit):
 def direct_edf(fit, contrasts, t):
     """EDF of the record's direct estimate at outages ``t`` [s] under the fit's reference point:
     exact at up to :data:`_EDF_PER_DECADE` outages per decade spanning ``t``, interpolated in
-    log-log between them (the EDF is smooth in the outage length)."""
+    log-log between them (the EDF is smooth in the outage length); the contrasts'
+    :attr:`~bayes_imu.allan.contrast.PhaseContrasts.order` says which contrast."""
     model, params = _reference_point(fit)
     k = np.round(np.asarray(t, dtype=float) * contrasts.rate_hz)
     lo, hi = k.min(), k.max()
     nodes = np.unique(
         np.round(np.geomspace(lo, hi, max(2, int(np.log10(hi / lo) * _EDF_PER_DECADE) + 2)))
     )
+    order = getattr(contrasts, "order", 1)
     if nodes.size >= k.size:
         return contrast_edf(model, params, k, contrasts.n_cal, contrasts.n_samples,
-                            contrast_stride(k, contrasts.n_cal))
+                            contrast_stride(k, contrasts.n_cal), order=order)
     edf = contrast_edf(model, params, nodes, contrasts.n_cal, contrasts.n_samples,
-                       contrast_stride(nodes, contrasts.n_cal))
+                       contrast_stride(nodes, contrasts.n_cal), order=order)
     return np.exp(np.interp(np.log(k), np.log(nodes), np.log(edf)))
 
 
 def record_edf_floor(contrasts, t):
     """The EDF the record supports without a model at outages ``t`` [s]: ``floor(n / (k + N))``,
     the number of disjoint contrasts (spans ``k + N`` samples) in the ``n``-sample record, at
-    least 1.
+    least 1 (either order: the position contrast's span ``k - 1 + N`` is shorter still).
 
     The overlapping average is the mean of the ``k + N`` disjoint-start averages (one per offset),
     which are identically distributed, so its variance is at most one of theirs (Cauchy-Schwarz);
@@ -250,8 +256,9 @@ def drift_check(fit, draws, contrasts, edf, edf_interval=None):
                       contrasts.calibration_s, nu_i)
 
 
-def unmeasured_reason(fit, bias_start, calibration_s):
-    """Why the record measures none of these drift semantics (``None`` where it does)."""
+def unmeasured_reason(fit, bias_start, calibration_s, quantity="attitude"):
+    """Why the record measures none of these drift semantics for ``quantity`` (``None`` where it
+    does)."""
     contrasts = getattr(getattr(fit, "allan", None), "contrasts", None)
     if bias_start != "calibrated":
         return f"the record measures calibrated outages only (bias start {bias_start!r})"
@@ -264,6 +271,8 @@ def unmeasured_reason(fit, bias_start, calibration_s):
         )
     if contrasts.k.size == 0:
         return f"the log is shorter than twice the {calibration_s:g} s calibration window"
+    if contrasts.of_order(QUANTITY_ORDER.get(quantity, 1)) is None:
+        return f"the saved fit holds no measured {quantity} drift (saved before it was measured)"
     return None
 
 
@@ -276,22 +285,24 @@ def record_drift_check(
     models="averaged",
     rng=None,
     max_draws=_CHECK_DRAWS,
+    quantity="attitude",
 ):
-    """The :class:`DriftCheck` of ``fit`` at horizons ``t`` [s] (attitude / velocity, order 1), or
-    ``None`` where the record measures nothing of these semantics (:func:`unmeasured_reason`);
-    ``max_draws`` posterior draws (a random subset, ``rng``)."""
+    """The :class:`DriftCheck` of ``fit`` at horizons ``t`` [s] of ``quantity`` (attitude /
+    velocity: order 1, position: order 2), or ``None`` where the record measures nothing of these
+    semantics (:func:`unmeasured_reason`); ``max_draws`` posterior draws (a random subset,
+    ``rng``)."""
     from .bands import drift_bands
 
-    if unmeasured_reason(fit, bias_start, calibration_s) is not None:
+    if unmeasured_reason(fit, bias_start, calibration_s, quantity) is not None:
         return None
     t = np.asarray(t, dtype=float)
-    inside = fit.allan.contrasts.covers(t)
+    inside = fit.allan.contrasts.of_order(QUANTITY_ORDER[quantity]).covers(t)
     if not inside.any():
         return None
     return drift_bands(
         fit,
         t[inside],
-        quantity="attitude",
+        quantity=quantity,
         bias_start=bias_start,
         calibration_s=calibration_s,
         models=models,

@@ -102,6 +102,8 @@ def save_fit(fit, path):
         arrays.update(segments_m=a.segments.m, segments_avar=a.segments.avar)
     if getattr(a, "contrasts", None) is not None:
         arrays.update(contrasts_k=a.contrasts.k, contrasts_mean_square=a.contrasts.mean_square)
+        if a.contrasts.mean_square_2 is not None:
+            arrays.update(contrasts_mean_square_2=a.contrasts.mean_square_2)
     if st is not None:
         arrays.update(
             stationarity_tau=st.tau_s,
@@ -175,6 +177,7 @@ def load_fit(path):
             n_all - con["n_cal"] - data["contrasts_k"] + 1,
             rate,
             n_all,
+            data["contrasts_mean_square_2"] if "contrasts_mean_square_2" in data else None,
         )
     )
     allan = AllanResult(

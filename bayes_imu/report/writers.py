@@ -115,15 +115,20 @@ def drift_check_summary(result, request, unit, drift=None):
     (:mod:`bayes_imu.drift.direct`), and the check itself (``None`` where nothing is measured).
 
     The check of the first band that has one when ``drift`` (a :class:`DriftOutput`) was computed,
-    else the attitude-unit check at the request's horizons.
+    else the attitude-unit check at the request's horizons. An accelerometer's position band
+    (integration order 2, measured by the record too) adds its own check as ``position``.
     """
     from ..drift.direct import record_drift_check, unmeasured_reason
 
     reason = unmeasured_reason(result, request.bias_start, request.calibration)
     check = shown = None
+    extra = {}
     if drift is not None:
-        found = [(b.check, u) for b, u in zip(drift.bands, drift.units) if b.check is not None]
-        check, shown = found[0] if found else (None, None)
+        found = [(b.check, u, b.quantity) for b, u in zip(drift.bands, drift.units)
+                 if b.check is not None]
+        check, shown = found[0][:2] if found else (None, None)
+        extra = {q: {"available": True, **c.to_dict(u)} for c, u, q in found[1:]
+                 if q == "position"}
     elif reason is None:
         t = (np.array(request.times) if request.times is not None
              else default_times(result.model.dt, request.horizon))
@@ -133,7 +138,7 @@ def drift_check_summary(result, request, unit, drift=None):
     if check is None:
         why = reason or "no requested horizon within the spans the log measures"
         return {"available": False, "reason": why}, None
-    return {"available": True, **check.to_dict(shown)}, check
+    return {"available": True, **check.to_dict(shown), **extra}, check
 
 
 def write_json(path, doc):

@@ -1,0 +1,278 @@
+"""The calibrated-outage position (order 2) error measured from the record: the estimator
+(allan.contrast.position_mean_square), its covariance and EDF (noise.contrast_covariance,
+``order=2``) and the position bands built on them (drift.direct, drift.bands).
+
+References, none of them the package's own formulas:
+
+* explicit loops over every outage start of the paper's Euler sums (``v_j = dt sum_{i<j} e_i``,
+  ``p = dt sum_{j<k} v_j``, ``e_i = y_i - mean of the N samples before the outage``) in exact
+  float sums (``math.fsum``);
+* the estimator's own quadratic form ``V_hat_2 = y' Q y`` (read off the estimator by
+  polarisation) against the rate samples' generalised covariance ``G`` built from the structure
+  function: ``E V_hat_2 = tr(Q G)``, which must equal the model's order-2 drift variance;
+* the covariance of two starts ``d`` apart as ``w' G w_d`` over explicit Euler weights;
+* Monte Carlo with the stated tolerance.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from bayes_imu.allan.contrast import contrast_stride, phase_contrasts
+from bayes_imu.allan.estimator import allan_variance
+from bayes_imu.noise.avar_forms import NoiseModel
+from bayes_imu.noise.contrast_covariance import contrast_edf, position_covariance
+from bayes_imu.noise.simulate import simulate_log
+
+DT = 0.1
+MODELS = [
+    (("white",), {"noise_variance": 1.0}),
+    (("white", "gauss_markov"), {"noise_variance": 1.0, "bias_variance": 0.05,
+                                 "time_constant": 3.0}),
+    (("white", "random_walk"), {"noise_variance": 1.0, "rate_random_walk": 0.05}),
+    (("white", "bias_instability"), {"noise_variance": 1.0, "bias_instability": 0.3}),
+    (("white", "quantization"), {"noise_variance": 1.0, "quantization": 0.5}),
+]
+
+
+def _euler_position(y, j, k, n_cal, dt):
+    """``p_k`` of the outage starting at sample ``j`` by the Euler sums (exact float sums)."""
+    bias = math.fsum(y[j - n_cal:j]) / n_cal
+    v = [dt * math.fsum(y[j + i] - bias for i in range(m)) for m in range(k)]
+    return dt * math.fsum(v)
+
+
+def _brute_force(y, k, n_cal, dt, stride=1):
+    """Mean square of ``p_k`` over the starts ``N, N + stride, ..., <= n - k``, and their count."""
+    squares = [_euler_position(y, j, k, n_cal, dt) ** 2
+               for j in range(n_cal, y.size - k + 1, stride)]
+    return math.fsum(squares) / len(squares), len(squares)
+
+
+@pytest.mark.parametrize("k,n_cal", [(2, 1), (2, 3), (3, 7), (7, 3), (5, 5), (20, 9), (9, 31)])
+def test_position_estimator_equals_the_euler_sums(rng, k, n_cal):
+    # a large offset (gravity) and a ramp in the rate: the contrast annihilates both of the
+    # phase's constant and linear parts, the ramp's quadratic part is the drift it leaves
+    y = 9810.0 + rng.standard_normal(90) + 0.05 * np.arange(90)
+    c = phase_contrasts(y, rate_hz=1 / DT, calibration_s=n_cal * DT, k=[k])
+    expected, count = _brute_force(y, k, n_cal, DT)
+    np.testing.assert_allclose(c.mean_square_2[0], expected, rtol=1e-9)
+    assert c.n_terms[0] == count
+
+
+def test_position_estimator_without_offset_to_1e_12(rng):
+    y = rng.standard_normal(120)
+    for k, n_cal in ((2, 3), (7, 3), (20, 9)):
+        c = phase_contrasts(y, rate_hz=1 / DT, calibration_s=n_cal * DT, k=[k])
+        np.testing.assert_allclose(c.mean_square_2[0], _brute_force(y, k, n_cal, DT)[0],
+                                   rtol=1e-12)
+
+
+def test_strided_position_estimator_and_the_first_outage(rng):
+    """Spans of 32 samples and more average every (k + N) // 32-th start (as order 1); at k = 1
+    the position error is exactly 0, and position is measured from k = 2 on."""
+    y = rng.standard_normal(700)
+    for k, n_cal in ((40, 30), (100, 64), (7, 90)):
+        stride = int(contrast_stride(k, n_cal))
+        c = phase_contrasts(y, rate_hz=2.0, calibration_s=n_cal / 2.0, k=[k])
+        expected, count = _brute_force(y, k, n_cal, 0.5, stride)
+        np.testing.assert_allclose(c.mean_square_2[0], expected, rtol=1e-10)
+        assert c.n_terms[0] == count
+    c = phase_contrasts(y, rate_hz=2.0, calibration_s=5.0, k=[1, 2, 4])
+    assert c.mean_square_2[0] == 0.0
+    second = c.of_order(2)
+    assert second.order == 2 and list(second.k) == [2, 4]
+    np.testing.assert_array_equal(second.mean_square, c.mean_square_2[1:])
+    assert c.of_order(1) is c and second.covers(np.array([0.5, 1.0, 2.0])).tolist() == [
+        False, True, True]
+    scaled = c.scaled(3.0)
+    np.testing.assert_allclose(scaled.mean_square_2, 9.0 * c.mean_square_2, rtol=1e-15)
+
+
+def _rate_covariance(model, params, n):
+    """``(n, n)`` generalised covariance of the rate samples from the structure function."""
+    lag = np.abs(np.arange(n)[:, None] - np.arange(n)[None, :]).astype(float)
+    d = lambda l: model.structure_function(l, params)  # noqa: E731
+    return 0.5 * (d(lag + 1.0) - 2.0 * d(lag) + d(np.abs(lag - 1.0)))
+
+
+def _quadratic_form(n, k, n_cal):
+    """``Q`` with ``V_hat_2 / dt^4 = y' Q y``, read off the estimator by polarisation."""
+    def v(y):
+        return phase_contrasts(y, rate_hz=1.0, calibration_s=float(n_cal), k=[k]).mean_square_2[0]
+
+    eye = np.eye(n)
+    diag = np.array([v(eye[i]) for i in range(n)])
+    q = np.diag(diag)
+    for i in range(n):
+        for j in range(i + 1, n):
+            q[i, j] = q[j, i] = 0.5 * (v(eye[i] + eye[j]) - diag[i] - diag[j])
+    return q
+
+
+@pytest.mark.parametrize("terms,params", MODELS)
+def test_position_estimator_is_unbiased_for_the_exact_quadratic_form(terms, params):
+    """``E V_hat_2 = tr(Q G)`` is the model's order-2 calibrated drift variance (any noise with
+    stationary increments: random walk and flicker included)."""
+    model = NoiseModel(terms, DT)
+    n = 36
+    g = _rate_covariance(model, params, n)
+    for k, n_cal in ((2, 5), (6, 4), (11, 9)):
+        q = _quadratic_form(n, k, n_cal)
+        expected = DT**4 * np.trace(q @ g)
+        drift = sum(t.drift_variance(2, np.array([float(k)]), params, DT,
+                                     bias_start="calibrated", n_cal=float(n_cal))[0]
+                    for t in model.components)
+        np.testing.assert_allclose(expected, drift, rtol=1e-9)
+
+
+def _euler_weights(k, n_cal):
+    """``p_k / dt^2 = w' y`` over ``y_{-N} .. y_{k-1}``."""
+    outage = k - 1 - np.arange(k, dtype=float)
+    return np.concatenate([-outage.sum() / n_cal * np.ones(n_cal), outage])
+
+
+@pytest.mark.parametrize("terms,params", MODELS)
+def test_position_covariance_against_every_pair(terms, params):
+    """``Cov(p_j, p_{j+d}) = w' G w_d`` (weights ``d`` samples apart): exact within 8 spans
+    ``k + N`` (1e-9), the far region's moment term within 3% of the largest far value (exactly 0
+    for a white, random-walk or quantization model)."""
+    model = NoiseModel(terms, 1.0)
+    for k, n_cal in ((2, 6), (5, 7), (12, 4)):
+        span = k + n_cal
+        d = np.array([0, 1, 2, 5, span - 1, span, span + 3, 4 * span, 8 * span, 9 * span,
+                      12 * span, 20 * span], dtype=float)
+        w = _euler_weights(k, n_cal)
+        g = _rate_covariance(model, params, w.size + int(d.max()))
+        ref = np.array([w @ g[: w.size, int(di): int(di) + w.size] @ w for di in d])
+        got = position_covariance(model, params, [k], n_cal, [d])[0]
+        near = d <= 8 * span
+        scale = np.abs(ref).max()
+        np.testing.assert_allclose(got[near], ref[near], rtol=1e-9, atol=1e-12 * scale)
+        far_scale = max(np.abs(ref[~near]).max(), 1e-9 * scale)
+        np.testing.assert_allclose(got[~near], ref[~near], atol=0.03 * far_scale)
+
+
+def _monte_carlo_edf(model, params, n, n_cal, ks, rng, count):
+    v = np.array([
+        phase_contrasts(simulate_log(model, params, n, rng=rng), rate_hz=1 / model.dt,
+                        calibration_s=n_cal * model.dt, k=ks).mean_square_2
+        for _ in range(count)
+    ])
+    return 2 * v.mean(0) ** 2 / v.var(0, ddof=1)
+
+
+def test_position_edf_of_white_noise_against_monte_carlo(rng):
+    """200 records: the Monte Carlo EDF's relative standard error is about 0.1-0.15; bound 35%."""
+    model, n, n_cal, ks = NoiseModel(("white",), DT), 2**11, 40, np.array([5, 40, 300])
+    edf = contrast_edf(model, {"noise_variance": 1.0}, ks, n_cal, n,
+                       contrast_stride(ks, n_cal), order=2)
+    mc = _monte_carlo_edf(model, {"noise_variance": 1.0}, n, n_cal, ks, rng, 200)
+    np.testing.assert_allclose(edf / mc, 1.0, atol=0.35)
+
+
+@pytest.mark.parametrize("terms,params", [
+    (("white", "gauss_markov"), {"noise_variance": 1.0, "bias_variance": 1e-2,
+                                 "time_constant": 20.0}),
+    (("white", "random_walk"), {"noise_variance": 1.0, "rate_random_walk": 3e-2}),
+    (("white", "bias_instability"), {"noise_variance": 1.0, "bias_instability": 0.05}),
+])
+def test_position_edf_against_monte_carlo(rng, terms, params):
+    """400 records each (relative standard error of the Monte Carlo EDF about 0.1, up to 0.15
+    with the kurtosis of slow terms; bound 30%); the model-free cap lies below the true EDF."""
+    from bayes_imu.drift.direct import record_edf_floor
+
+    model, n, n_cal = NoiseModel(terms, DT), 2**12, 60
+    ks = np.array([10, 60, 300, 1000])
+    edf = contrast_edf(model, params, ks, n_cal, n, contrast_stride(ks, n_cal), order=2)
+    mc = _monte_carlo_edf(model, params, n, n_cal, ks, rng, 400)
+    np.testing.assert_allclose(edf / mc, 1.0, atol=0.3)
+    contrasts = phase_contrasts(np.zeros(n), rate_hz=10.0, calibration_s=6.0, k=ks).of_order(2)
+    assert np.all(record_edf_floor(contrasts, ks * DT) <= mc / 1.3)
+
+
+def _white_fit_of_a_slow_bias(rng, n=2**15):
+    """A white-only fit of white noise plus a slow Gauss-Markov bias the model cannot carry."""
+    from bayes_imu.inference.fit import fit_allan
+
+    model = NoiseModel(("white", "gauss_markov"), 0.01)
+    y = simulate_log(model, {"noise_variance": 1e-4, "bias_variance": 4e-8,
+                             "time_constant": 100.0}, n, rng=rng)
+    return fit_allan(allan_variance(y, rate_hz=100.0, contrast_span_s=10.0), terms=("white",),
+                     rng=1)
+
+
+def test_position_band_contains_the_record_interval(rng):
+    """Within the record the position band contains the record's own 90% interval (the drift
+    check's ``direct_q05`` / ``direct_q95``) and is the model's beyond it, marked extrapolated;
+    the velocity band of the same fit is unchanged by the position measurement."""
+    from bayes_imu.drift.bands import drift_bands
+
+    fit = _white_fit_of_a_slow_bias(rng)
+    t = np.array([0.05, 0.5, 5.0, 50.0, 150.0, 1000.0])
+    b = drift_bands(fit, t, quantity="position", calibration_s=10.0, rng=2)
+    assert list(b.extrapolated) == [False] * 5 + [True]
+    assert 150.0 <= b.measured_s < 1000.0
+    inside = ~b.extrapolated
+    check = b.check
+    np.testing.assert_allclose(check.t_s, t[inside])
+    assert np.all(b.total[0, inside] <= check.direct_low * (1 + 1e-12))
+    assert np.all(b.total[-1, inside] >= check.direct_high * (1 - 1e-12))
+    # a slow bias a white model misses: the record's interval widens the upper band at long
+    # outages, and the check sees the misfit there
+    assert b.total[-1, 4] > 1.5 * b.model_total[-1, 4]
+    np.testing.assert_array_equal(b.total[:, ~inside], b.model_total[:, ~inside])
+    assert np.all(check.edf_interval <= check.edf)
+    v = drift_bands(fit, t, quantity="velocity", calibration_s=10.0, rng=2)
+    a = drift_bands(fit, t, quantity="attitude", calibration_s=10.0, rng=2)
+    np.testing.assert_array_equal(v.total, a.total)
+
+
+def test_saved_fit_keeps_the_position_contrasts(rng, tmp_path):
+    from bayes_imu.drift.direct import unmeasured_reason
+    from bayes_imu.inference.archive import load_fit, save_fit
+
+    fit = _white_fit_of_a_slow_bias(rng, n=2**13)
+    save_fit(fit, tmp_path / "fit.npz")
+    back = load_fit(tmp_path / "fit.npz")
+    np.testing.assert_array_equal(back.allan.contrasts.mean_square_2,
+                                  fit.allan.contrasts.mean_square_2)
+    assert unmeasured_reason(back, "calibrated", 10.0, "position") is None
+
+
+def test_summary_drift_check_covers_position_and_drift_csv_marks_it_measured(rng):
+    """An accelerometer's ``adequacy.drift`` gains the position check (the velocity check stays
+    the top level), and ``drift.csv``'s ``extrapolated`` is false for position within the
+    record."""
+    from pathlib import Path
+
+    from bayes_imu.allan.pipeline import LogSource
+    from bayes_imu.report.writers import FitRequest, drift_check_summary, drift_outputs
+
+    fit = _white_fit_of_a_slow_bias(rng, n=2**13)
+    request = FitRequest(source=LogSource(log=Path("a.csv")), terms=("white",), sensor="accel",
+                         calibration=10.0, times=(0.5, 5.0, 30.0, 500.0))
+    drift = drift_outputs(fit, request, "m/s^2")
+    doc, check = drift_check_summary(fit, request, "m/s^2", drift)
+    assert doc["available"] and doc["unit"] == "m/s" and check is drift.bands[0].check
+    position = doc["position"]
+    assert position["available"] and position["unit"] == "m"
+    assert [h["t_s"] for h in position["horizons"]] == [0.5, 5.0, 30.0]
+    assert [b.quantity for b in drift.bands] == ["velocity", "position"]
+    assert drift.bands[1].extrapolated.tolist() == [False, False, False, True]
+
+
+def test_position_covariance_of_long_tables_in_blocks(monkeypatch):
+    """Beyond ``TABLE_MAX`` lags the sums are accumulated in blocks (bounded memory): the same
+    covariance to rounding."""
+    from bayes_imu.noise import contrast_covariance as cc
+
+    model, params = MODELS[1][0], MODELS[1][1]
+    model = NoiseModel(model, 1.0)
+    d = np.array([0.0, 3.0, 40.0, 90.0, 200.0, 400.0])
+    whole = position_covariance(model, params, [9, 30], 11, [d, d])
+    monkeypatch.setattr(cc, "TABLE_MAX", 64)
+    blocked = position_covariance(model, params, [9, 30], 11, [d, d])
+    for a, b in zip(whole, blocked):
+        np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12 * np.abs(a).max())
