@@ -89,7 +89,7 @@ def run_api(y, scene, times, window=False):
         extra = {"contrast_span_s": scene.calibration_s} if window else {}
         allan = bi.allan_variance(y, rate_hz=scene.rate_hz, **extra)
         fit = bi.fit_allan(allan, rng=scene.seed)
-        bands, b_att = {}, None
+        bands, b_att, b_pos = {}, None, None
         for q in ("attitude", "position"):
             b = bi.drift_bands(fit, times, quantity=q, bias_start="calibrated",
                                calibration_s=scene.calibration_s, rng=scene.seed)
@@ -99,6 +99,7 @@ def run_api(y, scene, times, window=False):
             i50 = int(np.argmin(np.abs(np.asarray(b.quantiles) - 0.5)))
             bands[q] = b.total[[i05, i50, i95]]
             b_att = b if q == "attitude" else b_att
+            b_pos = b if q == "position" else b_pos
     stat = getattr(fit, "stationarity", None)
     drift_check = getattr(fit.adequacy, "drift", None)
     if drift_check is None:
@@ -111,6 +112,9 @@ def run_api(y, scene, times, window=False):
         "widened": bool(getattr(fit, "widened", False)),
         "drift_check": _drift_flag(drift_check),
         "drift_p": float(getattr(drift_check, "p_combined", float("nan"))),
+        # the position band's own check (order 2), beside the attitude one
+        "position_check": _drift_flag(getattr(b_pos, "check", None)),
+        "position_p": float(getattr(getattr(b_pos, "check", None), "p_combined", float("nan"))),
         "warnings": len(caught),
     }
     return bands, info
@@ -262,9 +266,18 @@ def drift_alarms(logs):
     k, n = sum(x["drift_check"] == "flagged" for x in checked), len(checked)
     upper = stats.beta.ppf(0.95, k + 1, n - k) if k < n else 1.0
     ps = np.array([float(x["drift_p"]) for x in checked])
-    return (f"Drift-space check (`adequacy.drift`, alpha 0.05): {k}/{n} logs rejected "
+    line = (f"Drift-space check (`adequacy.drift`, alpha 0.05): {k}/{n} logs rejected "
             f"({100 * k / n:.1f}%, one-sided 95% upper bound {100 * upper:.1f}%); "
             f"p < 0.10 on {int(np.sum(ps < 0.1))}, median p {np.median(ps):.2f}.")
+    position = [x for x in logs if x.get("position_check") in ("ok", "flagged")]
+    if position:
+        k2, n2 = sum(x["position_check"] == "flagged" for x in position), len(position)
+        upper2 = stats.beta.ppf(0.95, k2 + 1, n2 - k2) if k2 < n2 else 1.0
+        p2 = np.array([float(x["position_p"]) for x in position])
+        line += (f" Position check (order 2, the position band's): {k2}/{n2} rejected "
+                 f"({100 * k2 / n2:.1f}%, upper bound {100 * upper2:.1f}%); median p "
+                 f"{np.median(p2):.2f}.")
+    return line
 
 
 def _fmt(p, se_b, se_l):
