@@ -31,6 +31,7 @@ __all__ = [
     "phase_and_sums",
     "residue_sums",
     "tile_sums",
+    "span_sums",
     "sums_all",
     "block_totals",
     "FASTMATH",
@@ -44,6 +45,7 @@ FASTMATH = {
     "sums_all": _SQUARES,
     "phase_and_sums": _SQUARES,
     "residue_sums": _SQUARES,
+    "span_sums": _SQUARES,
 }
 #: kernels whose ``prange`` loops run on numba's threads when JIT-compiled
 PARALLEL = {
@@ -266,19 +268,20 @@ def phase_blocks(y, offset, bases, block, out):
     return out
 
 
-def phase_and_sums(y, offset, bases, block, x, ms, tile, lag, n_chunks):
+def phase_and_sums(y, offset, bases, block, x, ms, tile, lag, n_chunks, partial):
     # x[0] = 0 and x[1:] = phase_blocks' running sum, filled tile by tile (tile samples, a multiple
     # of block) on n_chunks runs of tiles, one per thread; each run sums the sizes ms over its tiles
     # of start indices (tile_sums) lag tiles behind its fill, while the tiles are in cache (lag
     # tiles cover the reach of the largest size, 2 max(ms)). A run's first tile (it reads the sample
     # the run before writes) and its last lag tiles are summed after every fill. Tile sums added in
-    # tile order: the same bits as sums_all(x, ms, tile), on any number of runs.
+    # tile order: the same bits as sums_all(x, ms, tile), on any number of runs. partial: zeros of
+    # shape ((len(x) - 2 min(ms) + tile - 1) // tile, len(ms)), left holding each tile's sums (the
+    # parts' sums are read off them: span_sums).
     x[0] = 0.0
     out = x[1:]
     per_tile = tile // block
     n_fill = (y.size + tile - 1) // tile
-    n_tiles = (x.size - 2 * ms.min() + tile - 1) // tile
-    partial = np.zeros((n_tiles, ms.size))
+    n_tiles = partial.shape[0]
     done = np.zeros(n_tiles, dtype=np.bool_)
     run = (n_fill + n_chunks - 1) // n_chunks
     for c in numba.prange(n_chunks):
@@ -432,6 +435,14 @@ def sums_all(x, ms, block):
     for b in numba.prange(n_blocks):
         tile_sums_compiled(x, ms, b * block, block, partial[b])
     return block_totals_compiled(x, ms, block, partial)
+
+
+def span_sums(x, ms, lo, count):
+    # the sums of every size over the start indices lo <= i < lo + count (and i < len(x) - 2 m):
+    # tile_sums over one span, for the ends of a part of the record that whole tiles do not cover
+    row = np.zeros(ms.size)
+    tile_sums_compiled(x, ms, lo, count, row)
+    return row
 
 
 def block_totals(x, ms, block, partial):

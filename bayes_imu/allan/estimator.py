@@ -25,7 +25,7 @@ from ..io.readers import SI_UNITS, positive_number
 
 __all__ = ["AllanResult", "SegmentAllan", "allan_variance", "check_sensor",
            "cluster_sizes", "greenhall_edf", "identify_noise",
-           "segment_allan", "DEFAULT_SEGMENTS"]
+           "segment_allan", "segment_plan", "DEFAULT_SEGMENTS"]
 
 #: consecutive equal segments whose Allan variances the stationarity check compares
 DEFAULT_SEGMENTS = 4
@@ -259,20 +259,52 @@ def allan_variance(
     AllanResult
     """
     check_sensor(sensor)
-    y = _as_samples(y)
-    rate_hz = check_options(rate_hz, confidence, interval)
-    ms = cluster_sizes(m, y.size)
+    y = _as_array(y)
+    try:
+        rate_hz = check_options(rate_hz, confidence, interval)
+        ms = cluster_sizes(m, y.size)
+    except InputError:
+        _check_finite(y)  # a non-finite sample is named first, as before the options
+        raise
+    plan = segment_plan(ms, y.size, segments)
     with progress_bar(total=ms.size, desc="Allan variance", unit="tau", enabled=progress) as bar:
-        # the running sum of y about its mean (precision) and the sums of every size, in one call
-        x, sums = allan_sums(y, ms, progress=bar.update)
+        # the running sum of y about its mean (precision), the sums of every size and those of
+        # the parts for the stationarity check, in one call
+        x, sums, *parts = allan_sums(
+            y, ms, progress=bar.update, parts=None if plan is None else (segments, plan[1])
+        )
+    if not (np.isfinite(x[-1]) and np.isfinite(sums).all()):
+        # a non-finite sample makes the mean, hence the whole running sum, non-finite: the
+        # samples are read again only then, to name it (no pass over every record for it)
+        _check_finite(y)
     alphas = identify_noise(x, ms) if alpha is None else alpha
     result = assemble_result(ms, sums, alphas, y.size, rate_hz, confidence, interval)
     contrasts = None
     if contrast_span_s is not None and contrast_span_s * rate_hz >= 1.0:
         contrasts = phase_contrasts(x=x, rate_hz=rate_hz, calibration_s=contrast_span_s)
-    return replace(
-        result, segments=segment_allan(y, ms, segments, x=x), contrasts=contrasts, sensor=sensor
-    )
+    segment = None
+    if plan is not None:
+        length, part_ms = plan
+        segment = SegmentAllan(
+            part_ms, np.array([avar_from_sums(row, part_ms, length) for row in parts[0]]), length
+        )
+    return replace(result, segments=segment, contrasts=contrasts, sensor=sensor)
+
+
+def segment_plan(m, n_samples, n_segments=DEFAULT_SEGMENTS):
+    """``(length, ms)``: the samples of each of ``n_segments`` parts of ``n_samples`` and the sizes
+    of ``m`` their Allan variances take (:func:`segment_allan`); ``None`` where there are none."""
+    n_segments = int(n_segments)
+    if n_segments < 2:
+        return None
+    length = n_samples // n_segments
+    ms = np.asarray(m, dtype=np.int64)
+    ms = ms[ms <= length // 4]
+    if ms.size == 0:
+        return None
+    if ms.size > _MAX_SEGMENT_TAUS:  # a dense grid ("all"): log-spaced sizes suffice for the check
+        ms = np.unique(ms[np.round(np.geomspace(1, ms.size, _MAX_SEGMENT_TAUS)).astype(int) - 1])
+    return length, ms
 
 
 def segment_allan(y, m, n_segments=DEFAULT_SEGMENTS, *, x=None):
@@ -284,21 +316,16 @@ def segment_allan(y, m, n_segments=DEFAULT_SEGMENTS, *, x=None):
     :func:`allan_variance` has built; ``y`` is then not read): each part's second differences are
     those of its slice of ``x`` (the constant cancels), so the parts cost their sums only, not
     another pass for their means and running sums (issue 39). The same values up to rounding (1e-15
-    relative on the tests' records)."""
-    n_segments = int(n_segments)
-    if n_segments < 2:
-        return None
+    relative on the tests' records). :func:`allan_variance` itself has the parts' sums from the
+    pass over the whole record (:func:`~bayes_imu.allan.kernels.allan_sums`' ``parts``)."""
     if x is None:
         y = _as_samples(y)
-    length = (y.size if x is None else x.size - 1) // n_segments
-    ms = np.asarray(m, dtype=np.int64)
-    ms = ms[ms <= length // 4]
-    if ms.size == 0:
+    plan = segment_plan(m, y.size if x is None else x.size - 1, n_segments)
+    if plan is None:
         return None
-    if ms.size > _MAX_SEGMENT_TAUS:  # a dense grid ("all"): log-spaced sizes suffice for the check
-        ms = np.unique(ms[np.round(np.geomspace(1, ms.size, _MAX_SEGMENT_TAUS)).astype(int) - 1])
-    avar = np.empty((n_segments, ms.size))
-    for k in range(n_segments):
+    length, ms = plan
+    avar = np.empty((int(n_segments), ms.size))
+    for k in range(int(n_segments)):
         if x is None:
             sums = allan_sums(y[k * length:(k + 1) * length], ms)[1]
         else:
@@ -349,15 +376,25 @@ def assemble_result(ms, sums, alpha, n_samples, rate_hz, confidence, interval):
 
 
 def _as_samples(y):
+    return _check_finite(_as_array(y))
+
+
+def _as_array(y):
+    """``y`` as a contiguous 1-D float array (not yet checked for finite values)."""
     y = np.asarray(y, dtype=np.float64)
     if y.ndim != 1:
         raise InputError(f"y: expected a 1-D array of rate samples, got shape {y.shape}")
+    return np.ascontiguousarray(y)
+
+
+def _check_finite(y):
+    """``y``, or :class:`InputError` naming its first non-finite sample."""
     bad = ~np.isfinite(y)
     if bad.any():
         raise InputError(
             f"y: sample {int(np.argmax(bad))} is {y[bad][0]!r}; expected finite numbers"
         )
-    return np.ascontiguousarray(y)
+    return y
 
 
 def _alpha_array(alpha, n):

@@ -91,6 +91,7 @@ def _compile():
         "phase_blocks",
         "phase_and_sums",
         "residue_sums",
+        "span_sums",
         "sums_all",
     ):
         _compiled[name] = numba.njit(
@@ -261,9 +262,9 @@ def _far_sums(x, ms):
     return sums
 
 
-def allan_sums(y, ms, progress=None):
+def allan_sums(y, ms, progress=None, *, parts=None):
     """The running sum ``x = phase_from_rate(y, record_mean(y))`` and its
-    ``second_difference_sums(x, ms)``.
+    ``second_difference_sums(x, ms)`` (and, with ``parts``, those of consecutive parts of ``x``).
 
     A record the precompiled kernels sum takes exactly those three calls. A longer one is read
     twice instead of four times: once on :func:`threads_for` threads for the block sums that give
@@ -282,23 +283,47 @@ def allan_sums(y, ms, progress=None):
         Cluster sizes, ``2 m <= n_samples``, increasing (octave runs are detected in this order).
     progress : callable or None
         Called with the number of sizes just summed (a progress bar's ``update``).
+    parts : (int, array_like of int) or None
+        ``(n_parts, part_ms)``: also the sums of each of ``n_parts`` consecutive parts of
+        ``length = n_samples // n_parts`` samples, ``second_difference_sums(x[k length:(k + 1)
+        length + 1], part_ms)`` (sizes of ``ms``, ``4 m <= length``). A record the precompiled
+        kernels sum takes those calls; a longer one reads the sizes below a block off the tiles
+        the whole record's sums were added from (:func:`_part_sums`): no further pass over the
+        record for them, the same values to about 1e-15 (the tiles are added in another order).
 
     Returns
     -------
     x : ndarray, shape (n_samples + 1,)
     sums : ndarray, shape (len(ms),)
+    part_sums : ndarray, shape (n_parts, len(part_ms))
+        Only with ``parts``.
     """
     y = np.ascontiguousarray(y, dtype=float)
     ms = np.ascontiguousarray(ms, dtype=np.int64)
     report = progress if progress is not None else (lambda done: None)
+    near = ms < _BLOCK_ALL
+    partial = None
     if _precompiled_for(y.size) is not None or ms.size == 0:
         x = phase_from_rate(y, record_mean(y))
         sums = second_difference_sums(x, ms)
         report(ms.size)
+    else:
+        x, sums, partial = _fused_sums(y, ms, near, report)
+    if parts is None:
         return x, sums
+    n_parts, part_ms = parts
+    part_ms = np.ascontiguousarray(part_ms, dtype=np.int64)
+    if partial is None:
+        return x, sums, _each_part(x, part_ms, int(n_parts), np.ones(part_ms.size, dtype=bool))
+    return x, sums, _part_sums(x, ms[near], partial, part_ms, int(n_parts))
+
+
+def _fused_sums(y, ms, near, report):
+    """:func:`allan_sums` of a record the JIT kernels sum: ``x``, the sums and the tile sums of the
+    sizes below a block (``(n_tiles, near.sum())``, ``None`` where there are none)."""
     kernels = _compile()
-    near = ms < _BLOCK_ALL
     sums = np.empty(ms.size)
+    partial = None
     with threads_for_pass(y.size):
         centred = kernels["centred_sums"](y, _PHASE_BLOCK)
         mean = kernels["centred_mean"](y, centred, _PHASE_BLOCK)
@@ -307,8 +332,11 @@ def allan_sums(y, ms, progress=None):
         if near.any():
             # tiles the largest size reaches ahead
             lag = (2 * int(ms[near].max()) + _BLOCK_ALL - 2) // _BLOCK_ALL
+            n_tiles = (x.size - 2 * int(ms[near].min()) + _BLOCK_ALL - 1) // _BLOCK_ALL
+            partial = np.zeros((n_tiles, int(near.sum())))
             sums[near] = kernels["phase_and_sums"](
-                y, mean, bases, _PHASE_BLOCK, x, ms[near], _BLOCK_ALL, lag, threads_for(y.size)
+                y, mean, bases, _PHASE_BLOCK, x, ms[near], _BLOCK_ALL, lag, threads_for(y.size),
+                partial,
             )
         else:
             x[0] = 0.0
@@ -317,7 +345,54 @@ def allan_sums(y, ms, progress=None):
         if not near.all():
             sums[~near] = _far_sums(x, ms[~near])
             report(int((~near).sum()))
-    return x, sums
+    return x, sums, partial
+
+
+def _each_part(x, ms, n_parts, which):
+    """``(n_parts, which.sum())`` sums of the sizes ``ms[which]`` of each part of ``x``, summed
+    part by part (:func:`second_difference_sums`)."""
+    length = (x.size - 1) // n_parts
+    return np.array(
+        [
+            second_difference_sums(x[k * length:(k + 1) * length + 1], ms[which])
+            for k in range(n_parts)
+        ]
+    ).reshape(n_parts, int(which.sum()))
+
+
+def _part_sums(x, near_ms, partial, part_ms, n_parts):
+    """The parts' sums (:func:`allan_sums`' ``parts``) of a record the JIT kernels sum, from the
+    tile sums ``partial`` of the whole record's sizes ``near_ms``: a part's starts
+    ``k L <= i <= (k + 1) L - 2 m`` are the whole tiles between its ends (their sums added, no
+    pass over the record), and two spans at its ends (``span_sums``: at most a tile at the start,
+    at most a tile plus the largest size's reach at the end, each size's last start cut by
+    reading a view of ``x`` that ends with the part). Sizes of the parts from a block up, and
+    parts too short for a whole tile between their spans, are summed part by part."""
+    length = (x.size - 1) // n_parts
+    column = np.searchsorted(near_ms, part_ms)
+    tiled = (column < near_ms.size) & (part_ms < _BLOCK_ALL)
+    tiled[tiled] = near_ms[column[tiled]] == part_ms[tiled]
+    out = np.empty((n_parts, part_ms.size))
+    if not tiled.all():
+        out[:, ~tiled] = _each_part(x, part_ms, n_parts, ~tiled)
+    if not tiled.any():
+        return out
+    ms = part_ms[tiled]
+    kernels = _compile()
+    reach = 2 * int(ms.max())
+    for k in range(n_parts):
+        start, stop = k * length, (k + 1) * length + 1  # the part's phase points x[start:stop]
+        first = -(-start // _BLOCK_ALL)  # its first whole tile
+        last = (stop - reach) // _BLOCK_ALL  # the tile where the end span begins
+        view = x[:stop]
+        if last <= first:
+            out[k, tiled] = second_difference_sums(x[start:stop], ms)
+            continue
+        head = kernels["span_sums"](view, ms, start, first * _BLOCK_ALL - start)
+        middle = partial[first:last, column[tiled]].sum(axis=0)
+        tail = kernels["span_sums"](view, ms, last * _BLOCK_ALL, stop - last * _BLOCK_ALL)
+        out[k, tiled] = head + middle + tail
+    return out
 
 
 def avar_pair_sums(table, ms, n, h, s2, x):
