@@ -34,6 +34,8 @@ __all__ = [
     "span_sums",
     "sums_all",
     "block_totals",
+    "contrast_sums",
+    "lag1_deltas",
     "FASTMATH",
     "PARALLEL",
 ]
@@ -46,6 +48,7 @@ FASTMATH = {
     "phase_and_sums": _SQUARES,
     "residue_sums": _SQUARES,
     "span_sums": _SQUARES,
+    "lag1_deltas": _SQUARES,
 }
 #: kernels whose ``prange`` loops run on numba's threads when JIT-compiled
 PARALLEL = {
@@ -56,6 +59,8 @@ PARALLEL = {
     "phase_and_sums",
     "residue_sums",
     "sums_all",
+    "contrast_sums",
+    "lag1_deltas",
 }
 
 
@@ -453,6 +458,89 @@ def block_totals(x, ms, block, partial):
         for b in range((x.size - 2 * ms[j] + block - 1) // block):
             total += partial[b, j]
         out[j] = total
+    return out
+
+
+def contrast_sums(x, ks, n_cal, strides, n_chunks):
+    # the mean square of the phase contrasts e_j = x[j + k] - (1 + r) x[j] + r x[j - n_cal],
+    # r = k / n_cal, over the starts j = n_cal, n_cal + s, ... <= len(x) - 1 - k, for each outage k
+    # and its stride s (allan/contrast.py's contrast_mean_square, the same e_j: strict IEEE, no
+    # contraction into fused multiply-adds); the outages dealt to n_chunks threads in turn (the
+    # short ones, with the most starts, on every thread)
+    n = x.size - 1
+    out = np.empty(ks.size)
+    for c in numba.prange(n_chunks):
+        for i in range(c, ks.size, n_chunks):
+            k = ks[i]
+            s = strides[i]
+            r = k / n_cal
+            count = (n - n_cal - k) // s + 1
+            total = 0.0
+            for q in range(count):
+                j = n_cal + q * s
+                e = x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
+                total += e * e
+            out[i] = total / count
+    return out
+
+
+def lag1_deltas(x, ms, starts, counts, max_differences, n_chunks):
+    # the lag-1 noise identification (allan/estimator.py's _lag1_delta, Riley & Greenhall 2004) of
+    # each size i: the counts[i] cluster means (x[start + (q + 1) m] - x[start + q m]) / m, their
+    # least-squares line removed, then differenced until delta = r1 / (1 + r1) < 0.25 or
+    # max_differences times; out[i] = (delta, d). The same steps as numpy's, the sums vectorised
+    # (fast-math: numpy's are pairwise, the deltas agree to about 1e-15). Sizes dealt to
+    # n_chunks threads in turn (the small ones, with the most means, on every thread).
+    out = np.zeros((ms.size, 2))
+    for c in numba.prange(n_chunks):
+        for i in range(c, ms.size, n_chunks):
+            n = counts[i]
+            if n < 2:
+                continue
+            m = ms[i]
+            start = starts[i]
+            z = np.empty(n)
+            for q in range(n):
+                z[q] = (x[start + (q + 1) * m] - x[start + q * m]) / m
+            centre = (n - 1) / 2.0
+            total = 0.0
+            for q in range(n):
+                total += z[q]
+            mean = total / n
+            tz = 0.0
+            tt = 0.0
+            for q in range(n):
+                z[q] -= mean
+                t = q - centre
+                tz += t * z[q]
+                tt += t * t
+            slope = tz / tt
+            for q in range(n):
+                z[q] -= slope * (q - centre)
+            d = 0
+            size = n
+            while True:
+                total = 0.0
+                for q in range(size):
+                    total += z[q]
+                mean = total / size
+                denom = 0.0
+                for q in range(size):
+                    z[q] -= mean
+                    denom += z[q] * z[q]
+                lag = 0.0
+                for q in range(size - 1):
+                    lag += z[q] * z[q + 1]
+                r1 = lag / denom if denom > 0 else 0.0
+                delta = r1 / (1.0 + r1)
+                if delta < 0.25 or d >= max_differences:
+                    out[i, 0] = delta
+                    out[i, 1] = d
+                    break
+                for q in range(size - 1):
+                    z[q] = z[q + 1] - z[q]
+                size -= 1
+                d += 1
     return out
 
 

@@ -18,7 +18,7 @@ from .._lazy import LazyModule
 special = LazyModule("scipy.special")  # chi-squared quantiles without importing scipy.stats
 
 from .contrast import DEFAULT_CONTRAST_SPAN_S, PhaseContrasts, phase_contrasts
-from .kernels import allan_sums, second_difference_sums
+from .kernels import allan_sums, lag1_deltas, second_difference_sums
 from .._progress import progress_bar
 from ..errors import InputError
 from ..io.readers import SI_UNITS, positive_number
@@ -442,13 +442,24 @@ def identify_noise(x, ms, *, max_differences=2):
     ``alpha = -round(2 delta) - 2 d`` (Riley & Greenhall 2004, eqs 2-4), clipped to
     [-2, 2]. With fewer than 30 averages the value of the previous cluster size is
     kept (0, white rate noise, if there is none). At most the central 2**18 averages
-    are used (bounded time and memory on long records).
+    are used (bounded time and memory on long records). A record the JIT kernels sum takes one
+    compiled call for every size (:func:`~bayes_imu.allan.kernels.lag1_deltas`, issue 39), whose
+    deltas agree with numpy's steps (:func:`noise_from_phase_samples`) to about 1e-15.
     """
-    samples = []
-    for m in ms:
-        start, stop = identification_span(int(m), x.size - 1)
-        samples.append(x[start:stop:int(m)])
-    return noise_from_phase_samples(samples, ms, max_differences=max_differences)
+    spans = np.array([identification_span(int(m), x.size - 1) for m in ms], dtype=np.int64)
+    spans = spans.reshape(len(ms), 2)
+    counts = (spans[:, 1] - 1 - spans[:, 0]) // np.asarray(ms, dtype=np.int64)
+    compiled = lag1_deltas(x, ms, spans[:, 0], counts, max_differences)  # a long record's
+    if compiled is None:
+        samples = [x[start:stop:int(m)] for m, (start, stop) in zip(ms, spans)]
+        return noise_from_phase_samples(samples, ms, max_differences=max_differences)
+    out = np.empty(len(ms), dtype=np.int64)
+    previous = 0
+    for i, (delta, d) in enumerate(compiled):
+        if counts[i] >= _MIN_ID_POINTS:
+            previous = _alpha_of(delta, d)
+        out[i] = previous
+    return out
 
 
 def identification_span(m, n_samples):
@@ -461,13 +472,25 @@ def identification_span(m, n_samples):
 
 
 def noise_from_phase_samples(samples, ms, *, max_differences=2):
-    """:func:`identify_noise` from the phase values at :func:`identification_span` of each ``m``."""
+    """:func:`identify_noise` from the phase values at :func:`identification_span` of each ``m``.
+
+    The cluster means and their detrended, differenced series are computed in two buffers of the
+    longest series, reused for every size (numpy's temporaries of 2**18 values, fresh pages each,
+    cost more than the arithmetic on them), and the time axis once per series length: the same
+    operations in the same order, the same numbers as a series at a time (issue 39)."""
     out = np.empty(len(ms), dtype=np.int64)
+    size = max([x_m.size - 1 for x_m in samples] + [0])
+    means, spare = np.empty(size), np.empty(size)
+    times = {}
     previous = 0
     for i, (m, x_m) in enumerate(zip(ms, samples)):
-        means = np.diff(x_m) / int(m)
-        if means.size >= _MIN_ID_POINTS:
-            previous = _lag1_alpha(means, max_differences)
+        n = x_m.size - 1
+        if n >= _MIN_ID_POINTS:
+            series = np.subtract(x_m[1:], x_m[:-1], out=means[:n])  # np.diff(x_m) / m
+            series /= int(m)
+            if n not in times:
+                times[n] = _centred_times(n)
+            previous = _lag1_alpha(series, max_differences, work=(times[n], spare[:n]))
         out[i] = previous
     return out
 
@@ -479,19 +502,43 @@ def _dot(a, b):
     return np.einsum("i,i->", a, b)
 
 
-def _lag1_alpha(series, max_differences):
-    t = np.arange(series.size, dtype=float) - (series.size - 1) / 2.0
-    z = series - series.mean()
-    z = z - (_dot(t, z) / _dot(t, t)) * t  # remove the least-squares line
+def _centred_times(n):
+    """``arange(n) - (n - 1) / 2``: the time axis of a series of ``n`` values about its middle."""
+    t = np.arange(n, dtype=float)
+    t -= (n - 1) / 2.0
+    return t
+
+
+def _lag1_alpha(series, max_differences, *, work=None):
+    """The exponent of one series (Riley & Greenhall 2004, eqs 2-4). ``work``: ``(t, spare)``, its
+    :func:`_centred_times` and a buffer of its length; ``series`` is then overwritten."""
+    return _alpha_of(*_lag1_delta(series, max_differences, work=work))
+
+
+def _alpha_of(delta, d):
+    """``alpha = -round(2 delta) - 2 d`` clipped to [-2, 2] (Riley & Greenhall 2004, eq 4)."""
+    return int(np.clip(-np.round(2.0 * delta) - 2 * int(d), -2, 2))
+
+
+def _lag1_delta(series, max_differences, *, work=None):
+    """``(delta, d)`` of :func:`_lag1_alpha`: ``r1 / (1 + r1)`` of the series differenced ``d``
+    times."""
+    if work is None:
+        series = np.array(series, dtype=float)
+        work = (_centred_times(series.size), np.empty(series.size))
+    t, spare = work
+    z = series
+    z -= z.mean()
+    z -= np.multiply(t, _dot(t, z) / _dot(t, t), out=spare)  # remove the least-squares line
     d = 0
     while True:
-        z = z - z.mean()
+        z -= z.mean()
         denom = _dot(z, z)
         r1 = _dot(z[:-1], z[1:]) / denom if denom > 0 else 0.0
         delta = r1 / (1.0 + r1)
         if delta < 0.25 or d >= max_differences:
-            return int(np.clip(-np.round(2.0 * delta) - 2 * d, -2, 2))
-        z = np.diff(z)
+            return delta, d
+        z, spare = np.subtract(z[1:], z[:-1], out=spare[:z.size - 1]), z  # np.diff(z)
         d += 1
 
 
