@@ -461,26 +461,46 @@ def block_totals(x, ms, block, partial):
     return out
 
 
-def contrast_sums(x, ks, n_cal, strides, n_chunks):
+def contrast_sums(x, ks, n_cal, strides, tile):
     # the mean square of the phase contrasts e_j = x[j + k] - (1 + r) x[j] + r x[j - n_cal],
     # r = k / n_cal, over the starts j = n_cal, n_cal + s, ... <= len(x) - 1 - k, for each outage k
     # and its stride s (allan/contrast.py's contrast_mean_square, the same e_j: strict IEEE, no
-    # contraction into fused multiply-adds); the outages dealt to n_chunks threads in turn (the
-    # short ones, with the most starts, on every thread)
+    # contraction into fused multiply-adds). The starts are taken tile by tile (tile starts, on the
+    # threads), every outage in a tile before the next, each tile after one read of the next
+    # tile's samples, a cache line at a time (the hardware prefetcher streams them in): the outages
+    # shorter than a tile then read x from cache, not each at scattered lines from memory (a
+    # stride of 187 samples is 1.5 kB; scattered, a long record's contrasts took 4x as long).
+    # Tile sums added in tile order.
     n = x.size - 1
-    out = np.empty(ks.size)
-    for c in numba.prange(n_chunks):
-        for i in range(c, ks.size, n_chunks):
+    nk = ks.size
+    n_tiles = (n + tile) // tile  # starts 0 <= j <= n
+    partial = np.zeros((n_tiles, nk + 1))
+    for t in numba.prange(n_tiles):
+        lo = t * tile
+        hi = min(lo + tile, n + 1)
+        warm = 0.0
+        for p in range(hi, min(hi + tile, n + 1), 8):
+            warm += x[p]
+        partial[t, nk] = warm  # kept, so that the read is not optimised away
+        for i in range(nk):
             k = ks[i]
             s = strides[i]
             r = k / n_cal
             count = (n - n_cal - k) // s + 1
+            q0 = 0 if lo <= n_cal else (lo - n_cal + s - 1) // s
+            q1 = min(count, (hi - n_cal + s - 1) // s) if hi > n_cal else 0
             total = 0.0
-            for q in range(count):
+            for q in range(q0, q1):
                 j = n_cal + q * s
                 e = x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
                 total += e * e
-            out[i] = total / count
+            partial[t, i] = total
+    out = np.empty(nk)
+    for i in range(nk):
+        total = 0.0
+        for t in range(n_tiles):
+            total += partial[t, i]
+        out[i] = total / ((n - n_cal - ks[i]) // strides[i] + 1)
     return out
 
 

@@ -422,10 +422,11 @@ def avar_pair_sums(table, ms, n, h, s2, x):
 def contrast_mean_squares(x, ks, n_cal, strides):
     """Mean squares of the phase contrasts of :func:`bayes_imu.allan.contrast.contrast_mean_square`
     (outages ``ks``, window ``n_cal``, strides ``strides``; all valid) of a phase record ``x`` that
-    the JIT kernels sum, in one compiled call on :func:`threads_for` threads (no temporaries, no
-    BLAS threads); ``None`` for a record the precompiled kernels sum (``len(x) - 1`` below
-    :data:`PRECOMPILED_BELOW`: numpy's products there, without importing numba). The same contrasts
-    as numpy's, their squares added in another order (about 1e-15 relative)."""
+    the JIT kernels sum, in one compiled call on :func:`threads_for` threads, tile by tile of
+    starts (each tile's window of ``x`` read once for every outage shorter than a tile; no
+    temporaries, no BLAS threads); ``None`` for a record the precompiled kernels sum (``len(x) -
+    1`` below :data:`PRECOMPILED_BELOW`: numpy's products there, without importing numba). The same
+    contrasts as numpy's, their squares added in another order (about 1e-15 relative)."""
     if _precompiled_for(x.size - 1) is not None:
         return None
     kernels = _compile()
@@ -435,7 +436,7 @@ def contrast_mean_squares(x, ks, n_cal, strides):
             np.ascontiguousarray(ks, dtype=np.int64),
             int(n_cal),
             np.ascontiguousarray(strides, dtype=np.int64),
-            threads_for(x.size),
+            _BLOCK_ALL,
         )
 
 
