@@ -346,7 +346,9 @@ def test_fused_fill_and_sums_on_any_number_of_runs(rng):
         for runs in (1, 2, 3, 7):
             x = np.full(y.size + 1, np.nan)
             partial = np.zeros((n_tiles, ms.size))
-            got = jit["phase_and_sums"](y, mean, bases, block, x, ms, tile, lag, runs, partial)
+            got = jit["phase_and_sums"](
+                y, mean, bases, block, x, ms, tile, lag, runs, partial, *kernels._gather_plan(None)
+            )
             np.testing.assert_array_equal(x, reference)
             np.testing.assert_array_equal(got, expected)
             # the tile sums it leaves are each tile's: their running total is the sums
@@ -414,7 +416,8 @@ def test_parts_sums_read_off_the_tiles_equal_each_part_s_own_sums(rng):
         part_ms = np.concatenate([ms[ms <= length // 4], [3]]) if n_parts == 3 else ms[
             ms <= length // 4]
         part_ms = np.sort(part_ms)
-        x, sums, parts = kernels.allan_sums(y, ms, parts=(n_parts, part_ms))
+        x, sums, parts, points = kernels.allan_sums(y, ms, parts=(n_parts, part_ms))
+        assert points is None
         np.testing.assert_array_equal(sums, kernels.allan_sums(y, ms)[1])
         expected = np.array([
             kernels.second_difference_sums(x[k * length:(k + 1) * length + 1], part_ms)
@@ -446,6 +449,36 @@ def test_allan_variance_s_segments_are_segment_allan_s(rng):
         else:
             np.testing.assert_allclose(got.avar, expected.avar, rtol=1e-13, atol=0)
         np.testing.assert_allclose(got.avar, segment_allan(y, ms, 4).avar, rtol=1e-12, atol=0)
+
+
+def test_identification_samples_gathered_in_the_fill_are_the_record_s(rng):
+    """allan_sums' gather (the noise identification's phase samples, copied from each tile as it is
+    filled) gives x at every requested index on a record the JIT kernels sum (sizes starting at 0,
+    whose x[0] the fill does not write, sizes of the 2**18 cap, the last sample of the record), so
+    that allan_variance's exponents are identify_noise's of the record, bit for bit (the same
+    deltas); nothing is gathered on a record the precompiled kernels sum."""
+    from bayes_imu.allan import estimator, kernels
+
+    n = kernels.PRECOMPILED_BELOW + 3_333
+    y = rng.standard_normal(n) + np.cumsum(rng.standard_normal(n)) * 1e-2
+    ms = cluster_sizes("octave", n)
+    starts, steps, counts = estimator._starts_steps(ms, n)
+    assert starts.min() == 0 and counts.max() == 2**18
+    x, sums, parts, (values, offsets) = kernels.allan_sums(y, ms, gather=(starts, steps, counts))
+    assert parts is None
+    for m, a, c, o in zip(ms, starts, counts, offsets):
+        np.testing.assert_array_equal(values[o:o + c + 1], x[a:a + c * m + 1:m])
+    assert values.size == int(np.sum(counts + 1))
+    deltas = kernels.lag1_deltas(x, ms, starts, counts, 2)
+    gathered = kernels.lag1_deltas(
+        values, ms, offsets, counts, 2, steps=np.ones_like(counts), n_samples=n
+    )
+    np.testing.assert_array_equal(gathered, deltas)
+    np.testing.assert_array_equal(
+        allan_variance(y, rate_hz=100.0).alpha, estimator.identify_noise(x, ms)
+    )
+    short = rng.standard_normal(10_000)
+    assert kernels.allan_sums(short, [1, 2], gather=([0, 0], [1, 2], [10, 5]))[3] is None
 
 
 @pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])

@@ -32,6 +32,7 @@ __all__ = [
     "residue_sums",
     "tile_sums",
     "span_sums",
+    "gather_points",
     "sums_all",
     "block_totals",
     "contrast_sums",
@@ -273,7 +274,10 @@ def phase_blocks(y, offset, bases, block, out):
     return out
 
 
-def phase_and_sums(y, offset, bases, block, x, ms, tile, lag, n_chunks, partial):
+def phase_and_sums(
+    y, offset, bases, block, x, ms, tile, lag, n_chunks, partial, starts, steps, counts, offsets,
+    points,
+):
     # x[0] = 0 and x[1:] = phase_blocks' running sum, filled tile by tile (tile samples, a multiple
     # of block) on n_chunks runs of tiles, one per thread; each run sums the sizes ms over its tiles
     # of start indices (tile_sums) lag tiles behind its fill, while the tiles are in cache (lag
@@ -281,7 +285,10 @@ def phase_and_sums(y, offset, bases, block, x, ms, tile, lag, n_chunks, partial)
     # the run before writes) and its last lag tiles are summed after every fill. Tile sums added in
     # tile order: the same bits as sums_all(x, ms, tile), on any number of runs. partial: zeros of
     # shape ((len(x) - 2 min(ms) + tile - 1) // tile, len(ms)), left holding each tile's sums (the
-    # parts' sums are read off them: span_sums).
+    # parts' sums are read off them: span_sums). Each tile just filled also gives gather_points its
+    # samples (starts, steps, counts, offsets, points: the noise identification's phase samples,
+    # read while the tile is in cache instead of at scattered lines of the record afterwards; x[0]
+    # is not gathered).
     x[0] = 0.0
     out = x[1:]
     per_tile = tile // block
@@ -294,6 +301,10 @@ def phase_and_sums(y, offset, bases, block, x, ms, tile, lag, n_chunks, partial)
         for t in range(first, min(first + run, n_fill)):
             fill_blocks_compiled(
                 y, offset, bases, block, t * per_tile, min(t * per_tile + per_tile, bases.size), out
+            )
+            gather_points_compiled(
+                x, t * tile + 1, min(t * tile + tile, y.size) + 1, starts, steps, counts, offsets,
+                points,
             )
             s = t - lag
             if first < s < n_tiles:
@@ -442,6 +453,20 @@ def sums_all(x, ms, block):
     return block_totals_compiled(x, ms, block, partial)
 
 
+def gather_points(x, lo, hi, starts, steps, counts, offsets, points):
+    # points[offsets[i] + q] = x[starts[i] + q steps[i]] for 0 <= q <= counts[i] where
+    # lo <= starts[i] + q steps[i] < hi: each size's phase samples that lie in x[lo:hi]
+    for i in range(starts.size):
+        s = starts[i]
+        m = steps[i]
+        if hi <= s:
+            continue
+        q0 = 0 if lo <= s else (lo - s + m - 1) // m
+        q1 = min(counts[i], (hi - 1 - s) // m)
+        for q in range(q0, q1 + 1):
+            points[offsets[i] + q] = x[s + q * m]
+
+
 def span_sums(x, ms, lo, count):
     # the sums of every size over the start indices lo <= i < lo + count (and i < len(x) - 2 m):
     # tile_sums over one span, for the ends of a part of the record that whole tiles do not cover
@@ -504,9 +529,10 @@ def contrast_sums(x, ks, n_cal, strides, tile):
     return out
 
 
-def lag1_deltas(x, ms, starts, counts, max_differences, n_chunks):
+def lag1_deltas(x, ms, starts, steps, counts, max_differences, n_chunks):
     # the lag-1 noise identification (allan/estimator.py's _lag1_delta, Riley & Greenhall 2004) of
-    # each size i: the counts[i] cluster means (x[start + (q + 1) m] - x[start + q m]) / m, their
+    # each size i: the counts[i] cluster means (x[start + (q + 1) step] - x[start + q step]) / m
+    # (step = m on the phase record, 1 on its samples gathered by gather_points), their
     # least-squares line removed, then differenced until delta = r1 / (1 + r1) < 0.25 or
     # max_differences times; out[i] = (delta, d). The same steps as numpy's, the sums vectorised
     # (fast-math: numpy's are pairwise, the deltas agree to about 1e-15). Sizes dealt to
@@ -519,9 +545,10 @@ def lag1_deltas(x, ms, starts, counts, max_differences, n_chunks):
                 continue
             m = ms[i]
             start = starts[i]
+            step = steps[i]
             z = np.empty(n)
             for q in range(n):
-                z[q] = (x[start + (q + 1) * m] - x[start + q * m]) / m
+                z[q] = (x[start + (q + 1) * step] - x[start + q * step]) / m
             centre = (n - 1) / 2.0
             total = 0.0
             for q in range(n):
@@ -571,3 +598,4 @@ tile_sums_compiled = numba.njit(inline="always")(tile_sums)
 block_totals_compiled = numba.njit(inline="always")(block_totals)
 compensated_add_compiled = numba.njit(inline="always")(compensated_add)
 fill_blocks_compiled = numba.njit(cache=True)(fill_blocks)
+gather_points_compiled = numba.njit(inline="always")(gather_points)

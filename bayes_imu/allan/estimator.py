@@ -268,16 +268,22 @@ def allan_variance(
         raise
     plan = segment_plan(ms, y.size, segments)
     with progress_bar(total=ms.size, desc="Allan variance", unit="tau", enabled=progress) as bar:
-        # the running sum of y about its mean (precision), the sums of every size and those of
-        # the parts for the stationarity check, in one call
-        x, sums, *parts = allan_sums(
-            y, ms, progress=bar.update, parts=None if plan is None else (segments, plan[1])
+        # the running sum of y about its mean (precision), the sums of every size, those of the
+        # parts for the stationarity check and the noise identification's phase samples, in one
+        # call
+        x, sums, *more = allan_sums(
+            y,
+            ms,
+            progress=bar.update,
+            parts=None if plan is None else (segments, plan[1]),
+            gather=None if alpha is not None else _starts_steps(ms, y.size),
         )
+    parts, points = more or (None, None)
     if not (np.isfinite(x[-1]) and np.isfinite(sums).all()):
         # a non-finite sample makes the mean, hence the whole running sum, non-finite: the
         # samples are read again only then, to name it (no pass over every record for it)
         _check_finite(y)
-    alphas = identify_noise(x, ms) if alpha is None else alpha
+    alphas = _identify(x, ms, y.size, points) if alpha is None else alpha
     result = assemble_result(ms, sums, alphas, y.size, rate_hz, confidence, interval)
     contrasts = None
     if contrast_span_s is not None and contrast_span_s * rate_hz >= 1.0:
@@ -286,9 +292,16 @@ def allan_variance(
     if plan is not None:
         length, part_ms = plan
         segment = SegmentAllan(
-            part_ms, np.array([avar_from_sums(row, part_ms, length) for row in parts[0]]), length
+            part_ms, np.array([avar_from_sums(row, part_ms, length) for row in parts]), length
         )
     return replace(result, segments=segment, contrasts=contrasts, sensor=sensor)
+
+
+def _starts_steps(ms, n_samples):
+    """``(starts, steps, counts)`` of the identification series' phase samples (``allan_sums``'
+    ``gather``)."""
+    starts, counts = identification_plan(ms, n_samples)
+    return starts, ms, counts
 
 
 def segment_plan(m, n_samples, n_segments=DEFAULT_SEGMENTS):
@@ -446,12 +459,31 @@ def identify_noise(x, ms, *, max_differences=2):
     compiled call for every size (:func:`~bayes_imu.allan.kernels.lag1_deltas`, issue 39), whose
     deltas agree with numpy's steps (:func:`noise_from_phase_samples`) to about 1e-15.
     """
-    spans = np.array([identification_span(int(m), x.size - 1) for m in ms], dtype=np.int64)
-    spans = spans.reshape(len(ms), 2)
-    counts = (spans[:, 1] - 1 - spans[:, 0]) // np.asarray(ms, dtype=np.int64)
-    compiled = lag1_deltas(x, ms, spans[:, 0], counts, max_differences)  # a long record's
+    return _identify(x, ms, x.size - 1, None, max_differences)
+
+
+def identification_plan(ms, n_samples):
+    """``(starts, counts)``: the first phase index and the number of averages of each size's
+    identification series (:func:`identification_span`)."""
+    ms = np.asarray(ms, dtype=np.int64)
+    spans = np.array([identification_span(int(m), n_samples) for m in ms], dtype=np.int64)
+    spans = spans.reshape(ms.size, 2)
+    return spans[:, 0], (spans[:, 1] - 1 - spans[:, 0]) // ms
+
+
+def _identify(x, ms, n_samples, points, max_differences=2):
+    """:func:`identify_noise` of the phase record ``x``, or of the samples ``points = (values,
+    offsets)`` that :func:`~bayes_imu.allan.kernels.allan_sums` gathered from it (the same bits)."""
+    starts, counts = identification_plan(ms, n_samples)
+    if points is None:
+        compiled = lag1_deltas(x, ms, starts, counts, max_differences)  # a long record's
+    else:
+        compiled = lag1_deltas(
+            points[0], ms, points[1], counts, max_differences, steps=np.ones_like(counts),
+            n_samples=n_samples,
+        )
     if compiled is None:
-        samples = [x[start:stop:int(m)] for m, (start, stop) in zip(ms, spans)]
+        samples = [x[a:a + c * int(m) + 1:int(m)] for m, a, c in zip(ms, starts, counts)]
         return noise_from_phase_samples(samples, ms, max_differences=max_differences)
     out = np.empty(len(ms), dtype=np.int64)
     previous = 0

@@ -266,7 +266,7 @@ def _far_sums(x, ms):
     return sums
 
 
-def allan_sums(y, ms, progress=None, *, parts=None):
+def allan_sums(y, ms, progress=None, *, parts=None, gather=None):
     """The running sum ``x = phase_from_rate(y, record_mean(y))`` and its
     ``second_difference_sums(x, ms)`` (and, with ``parts``, those of consecutive parts of ``x``).
 
@@ -294,40 +294,66 @@ def allan_sums(y, ms, progress=None, *, parts=None):
         kernels sum takes those calls; a longer one reads the sizes below a block off the tiles
         the whole record's sums were added from (:func:`_part_sums`): no further pass over the
         record for them, the same values to about 1e-15 (the tiles are added in another order).
+    gather : (array_like of int, array_like of int, array_like of int) or None
+        ``(starts, steps, counts)``: also the phase samples ``x[starts[i] + q steps[i]]``, ``0 <= q
+        <= counts[i]`` (the noise identification's, :func:`lag1_deltas`), gathered on a record the
+        JIT kernels sum from each tile of ``x`` as it is filled (in cache).
 
     Returns
     -------
     x : ndarray, shape (n_samples + 1,)
     sums : ndarray, shape (len(ms),)
-    part_sums : ndarray, shape (n_parts, len(part_ms))
-        Only with ``parts``.
+    part_sums : ndarray, shape (n_parts, len(part_ms)), or None
+        With ``parts`` or ``gather`` (``None`` without ``parts``).
+    points : (ndarray, ndarray of int) or None
+        With ``parts`` or ``gather``: the gathered samples, all sizes' in one array, and where each
+        size's begin; ``None`` without ``gather`` or where they were not gathered (a record the
+        precompiled kernels sum, or no size below a block: :func:`lag1_deltas` reads ``x`` then).
     """
     y = np.ascontiguousarray(y, dtype=float)
     ms = np.ascontiguousarray(ms, dtype=np.int64)
     report = progress if progress is not None else (lambda done: None)
     near = ms < _BLOCK_ALL
-    partial = None
+    partial = points = None
     if _precompiled_for(y.size) is not None or ms.size == 0:
         x = phase_from_rate(y, record_mean(y))
         sums = second_difference_sums(x, ms)
         report(ms.size)
     else:
-        x, sums, partial = _fused_sums(y, ms, near, report)
-    if parts is None:
+        x, sums, partial, points = _fused_sums(y, ms, near, report, gather)
+    if parts is None and gather is None:
         return x, sums
+    if parts is None:
+        return x, sums, None, points
     n_parts, part_ms = parts
     part_ms = np.ascontiguousarray(part_ms, dtype=np.int64)
     if partial is None:
-        return x, sums, _each_part(x, part_ms, int(n_parts), np.ones(part_ms.size, dtype=bool))
-    return x, sums, _part_sums(x, ms[near], partial, part_ms, int(n_parts))
+        every = np.ones(part_ms.size, dtype=bool)
+        return x, sums, _each_part(x, part_ms, int(n_parts), every), points
+    return x, sums, _part_sums(x, ms[near], partial, part_ms, int(n_parts)), points
 
 
-def _fused_sums(y, ms, near, report):
-    """:func:`allan_sums` of a record the JIT kernels sum: ``x``, the sums and the tile sums of the
-    sizes below a block (``(n_tiles, near.sum())``, ``None`` where there are none)."""
+def _gather_plan(gather):
+    """``(starts, steps, counts, offsets, points)`` for ``phase_and_sums``' gathering of
+    :func:`allan_sums`' ``gather`` (empty arrays without it); ``x[0]``, which it does not gather, is
+    0 where a size starts there."""
+    starts, steps, counts = (
+        np.ascontiguousarray(a, dtype=np.int64)
+        for a in (gather if gather is not None else ([], [], []))
+    )
+    offsets = np.concatenate(([0], np.cumsum(counts + 1)[:-1])).astype(np.int64)
+    points = np.empty(int(np.sum(counts + 1)))
+    points[offsets[starts == 0]] = 0.0
+    return starts, steps, counts, offsets, points
+
+
+def _fused_sums(y, ms, near, report, gather=None):
+    """:func:`allan_sums` of a record the JIT kernels sum: ``x``, the sums, the tile sums of the
+    sizes below a block (``(n_tiles, near.sum())``, ``None`` where there are none) and the gathered
+    ``(points, offsets)`` (``None`` without ``gather`` or sizes below a block)."""
     kernels = _compile()
     sums = np.empty(ms.size)
-    partial = None
+    partial = points = None
     with threads_for_pass(y.size):
         centred = kernels["centred_sums"](y, _PHASE_BLOCK)
         mean = kernels["centred_mean"](y, centred, _PHASE_BLOCK)
@@ -338,10 +364,13 @@ def _fused_sums(y, ms, near, report):
             lag = (2 * int(ms[near].max()) + _BLOCK_ALL - 2) // _BLOCK_ALL
             n_tiles = (x.size - 2 * int(ms[near].min()) + _BLOCK_ALL - 1) // _BLOCK_ALL
             partial = np.zeros((n_tiles, int(near.sum())))
+            plan = _gather_plan(gather)
             sums[near] = kernels["phase_and_sums"](
                 y, mean, bases, _PHASE_BLOCK, x, ms[near], _BLOCK_ALL, lag, threads_for(y.size),
-                partial,
+                partial, *plan,
             )
+            if gather is not None:
+                points = plan[4], plan[3]
         else:
             x[0] = 0.0
             kernels["phase_blocks"](y, mean, bases, _PHASE_BLOCK, x[1:])
@@ -349,7 +378,7 @@ def _fused_sums(y, ms, near, report):
         if not near.all():
             sums[~near] = _far_sums(x, ms[~near])
             report(int((~near).sum()))
-    return x, sums, partial
+    return x, sums, partial, points
 
 
 def _each_part(x, ms, n_parts, which):
@@ -440,23 +469,27 @@ def contrast_mean_squares(x, ks, n_cal, strides):
         )
 
 
-def lag1_deltas(x, ms, starts, counts, max_differences):
+def lag1_deltas(x, ms, starts, counts, max_differences, *, steps=None, n_samples=None):
     """``(n_sizes, 2)``: ``(delta, d)`` of the lag-1 noise identification of each size of a phase
     record ``x`` that the JIT kernels sum (:func:`bayes_imu.allan.estimator.identify_noise`'s, from
-    the ``counts[i]`` cluster means from ``x[starts[i]]`` on), in one compiled call on
-    :func:`threads_for` threads, the cluster means read from ``x`` as they are used (no strided
-    copies, no temporaries); ``None`` for a record the precompiled kernels sum (numpy's steps there,
-    without importing numba). The deltas agree with numpy's to about 1e-15 (sums added in another
-    order)."""
-    if _precompiled_for(x.size - 1) is not None:
+    the ``counts[i]`` cluster means from ``x[starts[i]]`` on, ``steps[i]`` apart: ``ms`` by default,
+    or 1 in the samples :func:`allan_sums` gathered, given as ``x`` with the record's
+    ``n_samples``), in one compiled call on :func:`threads_for` threads, the cluster means read as
+    they are used (no strided copies, no temporaries); ``None`` for a record the precompiled kernels
+    sum (numpy's steps there, without importing numba). The deltas agree with numpy's to about
+    1e-15 (sums added in another order), and are the same bits from the record or its gathered
+    samples."""
+    n_samples = x.size - 1 if n_samples is None else int(n_samples)
+    if _precompiled_for(n_samples) is not None:
         return None
     kernels = _compile()
-    with threads_for_pass(x.size):
+    with threads_for_pass(n_samples):
         return kernels["lag1_deltas"](
             np.ascontiguousarray(x, dtype=float),
             np.ascontiguousarray(ms, dtype=np.int64),
             np.ascontiguousarray(starts, dtype=np.int64),
+            np.ascontiguousarray(ms if steps is None else steps, dtype=np.int64),
             np.ascontiguousarray(counts, dtype=np.int64),
             int(max_differences),
-            threads_for(x.size),
+            threads_for(n_samples),
         )
