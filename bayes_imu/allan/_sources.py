@@ -1,17 +1,18 @@
 """Sources of the compiled Allan-variance kernels: plain Python that numba compiles twice.
 
 Imported only to compile (it imports numba): :mod:`bayes_imu.allan.kernels` JIT-compiles these
-functions on first use (``parallel=True`` where they use ``numba.prange``, cached on disk), and
-the package build compiles the same functions ahead of time, one thread each (``prange`` is
-``range`` there), into the extension ``bayes_imu._compiled`` (``setup.py``), which loads without
-numba. The precompiled build has the kernels of a record shorter than 2**21 samples (``setup.py``'s
-``KERNELS``); the kernels of longer records' parallel passes (``centred_sums`` to ``residue_sums``)
-are JIT-compiled only. :data:`FASTMATH` names the kernels compiled with reassociation (a vectorised
-sum of squares); the running sums never are (their Kahan-Babuska compensation would be optimised
-away): ``phase_and_sums`` fills through ``fill_blocks``, compiled apart with strict arithmetic.
-Helpers inlined into their callers (``inline="always"``: numba's IR, so they take the caller's
-fast-math flags and the precompiled ``sums_all`` compiles to the same code as before they were
-split out) are module globals, as a kernel's callees must be for numba's cache.
+functions on first use (``parallel=True`` where they use ``numba.prange``, cached on disk), and the
+package build compiles the same functions ahead of time, one thread each (``prange`` is ``range``
+there), into the extension ``bayes_imu._compiled`` (``setup.py``), which loads without numba. The
+precompiled build has the kernels of a record shorter than 2**21 samples (``setup.py``'s
+``KERNELS``); the kernels of longer records' parallel passes (``centred_sums`` to ``residue_sums``,
+``span_sums``, ``contrast_sums`` and ``lag1_deltas``: a shorter record takes numpy's steps for the
+last two) are JIT-compiled only. :data:`FASTMATH` names the kernels compiled with reassociation (a
+vectorised sum of squares); the running sums never are (their Kahan-Babuska compensation would be
+optimised away): ``phase_and_sums`` fills through ``fill_blocks``, compiled apart with strict
+arithmetic. Helpers inlined into their callers (``inline="always"``: numba's IR, so they take the
+caller's fast-math flags and the precompiled ``sums_all`` compiles to the same code as before they
+were split out) are module globals, as a kernel's callees must be for numba's cache.
 """
 
 import numba
