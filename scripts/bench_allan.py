@@ -1,22 +1,26 @@
 """Benchmark: bayes_imu.allan_variance vs allantools.oadev, side by side, and the memory-bandwidth
 floor.
 
-Same data (white + random-walk rate noise), same octave cluster sizes, same values
-(maximum relative difference printed). Prints one table row per record length:
-allantools time, bayes_imu time (``values_s``: the kernel ``allan_sums`` alone, mean, running
-sum and sums; ``full_s``: the public ``bayes_imu.allan_variance(y, rate_hz=..., m=...)`` with the
-defaults a fit uses: noise identification, EDF, exact intervals and the four parts' Allan
-variances for the stationarity check: what users call, and what claims of speed should quote),
-the speed-ups,
-the threads used, and peak memory of the bayes_imu call relative to the input array
-(tracemalloc, numpy allocations).
+Same data (white + random-walk rate noise), octave cluster sizes, same values (maximum relative
+difference printed over the sizes both compute). Prints the load average just before, then one table
+row per record length: allantools' time (``oadev_s``: ``allantools.oadev(y, rate=100.0,
+data_type="freq", taus="octave")``), bayes_imu's times (``allan_sums_s``: the values kernel
+``allan_sums`` alone, mean, running sum and sums at allantools' sizes; ``allan_variance_s``: the
+public ``bayes_imu.allan_variance(y, rate_hz=100.0)`` exactly as a fit calls it, its defaults:
+octave grid, noise identification, EDF, exact intervals, the four parts' Allan variances for the
+stationarity check and the phase contrasts for the drift-space check: what users call, and what
+claims of speed should quote), the speed-ups (``oadev/allan_sums``, ``oadev/allan_variance``), the
+CPU times (``time.process_time``, best of the repeats) of the two public calls and their ratio
+(``cpu_oadev/av``: on a busy machine the wall ratio moves with the load, the CPU ratio less), the
+threads used, and peak memory of the public call relative to the input array (tracemalloc, numpy
+allocations).
 
 The floor: the least memory traffic of this computation in one pass: read the samples once,
 write the running sum (a new array, as the Allan variance does) and read it back once, on the
-same threads, compiled (``floor_s``); ``values/floor`` is how far the Allan variance (every
+same threads, compiled (``floor_s``); ``sums/floor`` is how far the values kernel (every
 cluster size) is from it. ``per_size_s`` is one pass per cluster size instead (the running sum
 plus, for every size, the compiled sum of as many terms from one stream): what summing the
-sizes one by one would cost at best (``values/per_size``).
+sizes one by one would cost at best (``sums/per_size``).
 
 ``--stages`` adds a second table: where the values' time goes, each stage timed alone (best of
 ``--repeat``; use 7 or more, a stage takes milliseconds) and as a multiple of the floor: ``mean``
@@ -39,12 +43,25 @@ import numpy as np
 
 
 def best_time(func, repeat):
+    """Best wall time (s) of ``repeat`` calls, and the result of the last."""
     best = np.inf
     for _ in range(repeat):
         start = time.perf_counter()
         out = func()
         best = min(best, time.perf_counter() - start)
     return best, out
+
+
+def best_times(func, repeat):
+    """Best wall and best CPU time (s, ``time.process_time``: every thread of the process) of
+    ``repeat`` calls, and the result of the last."""
+    wall = cpu = np.inf
+    for _ in range(repeat):
+        start, start_cpu = time.perf_counter(), time.process_time()
+        out = func()
+        wall = min(wall, time.perf_counter() - start)
+        cpu = min(cpu, time.process_time() - start_cpu)
+    return wall, cpu, out
 
 
 def main(argv=None):
@@ -55,6 +72,8 @@ def main(argv=None):
         "--stages", action="store_true", help="also time each stage of the values alone"
     )
     args = parser.parse_args(argv)
+    import os
+
     import allantools
 
     from bayes_imu.allan.estimator import allan_variance
@@ -70,16 +89,22 @@ def main(argv=None):
 
     rng = np.random.default_rng(1)
     allan_variance(rng.standard_normal(1000), rate_hz=100.0)  # compile / load the numba cache
+    allan_variance(rng.standard_normal(1 << 21), rate_hz=100.0)  # and the JIT kernels
     print(
-        f"{'samples':>10s} {'threads':>7s} {'allantools_s':>12s} {'values_s':>9s} {'full_s':>7s} "
-        f"{'speedup_values':>14s} {'speedup_full':>12s} {'floor_s':>8s} {'values/floor':>12s} "
-        f"{'per_size_s':>10s} {'values/per_size':>15s} {'max_rel_diff':>12s} "
-        f"{'peak_mem_x_input':>16s}"
+        "load average (1, 5, 15 min) before: " + ", ".join(f"{v:.2f}" for v in os.getloadavg())
+        + "; allan_variance_s times bayes_imu.allan_variance(y, rate_hz=100.0), a fit's call"
+    )
+    print(
+        f"{'samples':>10s} {'threads':>7s} {'oadev_s':>8s} {'allan_sums_s':>12s} "
+        f"{'allan_variance_s':>16s} {'oadev/allan_sums':>16s} {'oadev/allan_variance':>20s} "
+        f"{'oadev_cpu_s':>11s} {'allan_variance_cpu_s':>20s} {'cpu_oadev/av':>12s} "
+        f"{'floor_s':>8s} {'sums/floor':>10s} {'per_size_s':>10s} {'sums/per_size':>13s} "
+        f"{'max_rel_diff':>12s} {'peak_mem_x_input':>16s}"
     )
     stages = []
     for n in (int(float(s)) for s in args.sizes.split(",")):
         y = rng.standard_normal(n) + np.cumsum(rng.standard_normal(n)) * 1e-3
-        t_at, (taus, adev_at, _, _) = best_time(
+        t_at, c_at, (taus, adev_at, _, _) = best_times(
             lambda: allantools.oadev(y, rate=100.0, data_type="freq", taus="octave"), args.repeat
         )
         ms = np.round(taus * 100).astype(np.int64)
@@ -117,19 +142,24 @@ def main(argv=None):
 
         t_floor, _ = best_time(floor, args.repeat)
         t_per_size, _ = best_time(per_size, args.repeat)
-        t_full, result = best_time(lambda: allan_variance(y, rate_hz=100.0, m=ms), args.repeat)
+        t_full, c_full, result = best_times(
+            lambda: allan_variance(y, rate_hz=100.0), args.repeat
+        )
         tracemalloc.start()
-        allan_variance(y, rate_hz=100.0, m=ms)
+        allan_variance(y, rate_hz=100.0)
         peak = tracemalloc.get_traced_memory()[1]
         tracemalloc.stop()
+        common = np.isin(ms, result.m)
         diff = max(
-            np.max(np.abs(np.sqrt(avar) / adev_at - 1)), np.max(np.abs(result.adev / adev_at - 1))
+            np.max(np.abs(np.sqrt(avar) / adev_at - 1)),
+            np.max(np.abs(result.adev / adev_at[common] - 1)),
         )
         print(
-            f"{n:10d} {threads_for(n):7d} {t_at:12.3f} {t_values:9.3f} {t_full:7.3f} "
-            f"{t_at / t_values:14.1f} {t_at / t_full:12.1f} {t_floor:8.3f} "
-            f"{t_values / t_floor:12.2f} {t_per_size:10.3f} {t_values / t_per_size:15.2f} "
-            f"{diff:12.1e} {peak / y.nbytes:16.2f}"
+            f"{n:10d} {threads_for(n):7d} {t_at:8.3f} {t_values:12.3f} {t_full:16.3f} "
+            f"{t_at / t_values:16.1f} {t_at / t_full:20.1f} {c_at:11.3f} {c_full:20.3f} "
+            f"{c_at / c_full:12.1f} {t_floor:8.3f} {t_values / t_floor:10.2f} "
+            f"{t_per_size:10.3f} {t_values / t_per_size:13.2f} {diff:12.1e} "
+            f"{peak / y.nbytes:16.2f}"
         )
         if args.stages:
             stages.append((n, _stage_times(y, ms, args.repeat), t_values, t_floor))

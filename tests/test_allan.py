@@ -342,11 +342,17 @@ def test_fused_fill_and_sums_on_any_number_of_runs(rng):
         expected = jit["sums_all"](reference, ms, tile)
         lag = (2 * int(ms.max()) + tile - 2) // tile
         assert lag == (1 if ms.max() <= tile // 2 else 2)
+        n_tiles = (y.size + 1 - 2 * int(ms.min()) + tile - 1) // tile
         for runs in (1, 2, 3, 7):
             x = np.full(y.size + 1, np.nan)
-            got = jit["phase_and_sums"](y, mean, bases, block, x, ms, tile, lag, runs)
+            partial = np.zeros((n_tiles, ms.size))
+            got = jit["phase_and_sums"](
+                y, mean, bases, block, x, ms, tile, lag, runs, partial, *kernels._gather_plan(None)
+            )
             np.testing.assert_array_equal(x, reference)
             np.testing.assert_array_equal(got, expected)
+            # the tile sums it leaves are each tile's: their running total is the sums
+            np.testing.assert_array_equal(np.cumsum(partial, axis=0)[-1], expected)
 
 
 @pytest.mark.parametrize("extra", [0, 1, 200, 65_535])
@@ -391,6 +397,99 @@ def test_allan_sums_is_the_running_sum_and_its_sums(rng):
         assert sum(done) == ms.size
         x, sums = kernels.allan_sums(y, [70_001])  # no size below a block, none a whole block
         np.testing.assert_array_equal(sums, kernels.second_difference_sums(x, [70_001]))
+
+
+def test_parts_sums_read_off_the_tiles_equal_each_part_s_own_sums(rng):
+    """allan_sums' parts (the stationarity check's segments) equal second_difference_sums of each
+    part's slice of the running sum: bit for bit on a record the precompiled kernels sum (the same
+    calls), to 1e-13 on a long one, whose sizes below a block are read off the whole record's tile
+    sums plus two spans at each part's ends (parts not aligned to tiles, an octave grid with sizes
+    from a block up summed part by part, sizes of the parts missing from the whole record's grid,
+    and parts too short for a whole tile between their spans)."""
+    from bayes_imu.allan import kernels
+
+    for n, n_parts in ((300_000, 4), (kernels.PRECOMPILED_BELOW + 12_345, 4),
+                       (kernels.PRECOMPILED_BELOW + 777, 3), (kernels.PRECOMPILED_BELOW + 5, 16)):
+        y = rng.standard_normal(n) * 0.01 + 9.81 + np.cumsum(rng.standard_normal(n)) * 1e-5
+        ms = 2 ** np.arange(int(np.log2(n // 4)) + 1)
+        length = n // n_parts
+        part_ms = np.concatenate([ms[ms <= length // 4], [3]]) if n_parts == 3 else ms[
+            ms <= length // 4]
+        part_ms = np.sort(part_ms)
+        x, sums, parts, points = kernels.allan_sums(y, ms, parts=(n_parts, part_ms))
+        assert points is None
+        np.testing.assert_array_equal(sums, kernels.allan_sums(y, ms)[1])
+        expected = np.array([
+            kernels.second_difference_sums(x[k * length:(k + 1) * length + 1], part_ms)
+            for k in range(n_parts)
+        ])
+        if n < kernels.PRECOMPILED_BELOW:
+            np.testing.assert_array_equal(parts, expected)
+        else:
+            np.testing.assert_allclose(parts, expected, rtol=1e-13, atol=0)
+
+
+def test_allan_variance_s_segments_are_segment_allan_s(rng):
+    """The segments allan_variance computes in its pass over the record equal segment_allan's from
+    the same running sum (the parts summed one by one, as allan_variance did before issue 39's
+    shared pass): bit for bit on a short record, to 1e-13 on a long one; and segment_allan's from
+    the samples (each part's own mean and running sum) to 1e-12."""
+    from bayes_imu.allan import kernels
+    from bayes_imu.allan.estimator import segment_allan
+
+    for n in (100_000, kernels.PRECOMPILED_BELOW + 54_321):
+        y = rng.standard_normal(n) + np.cumsum(rng.standard_normal(n)) * 1e-3
+        got = allan_variance(y, rate_hz=100.0, contrast_span_s=None).segments
+        ms = cluster_sizes("octave", n)
+        expected = segment_allan(y, ms, 4, x=kernels.allan_sums(y, ms)[0])
+        np.testing.assert_array_equal(got.m, expected.m)
+        assert got.n_samples == expected.n_samples
+        if n < kernels.PRECOMPILED_BELOW:
+            np.testing.assert_array_equal(got.avar, expected.avar)
+        else:
+            np.testing.assert_allclose(got.avar, expected.avar, rtol=1e-13, atol=0)
+        np.testing.assert_allclose(got.avar, segment_allan(y, ms, 4).avar, rtol=1e-12, atol=0)
+
+
+def test_identification_samples_gathered_in_the_fill_are_the_record_s(rng):
+    """allan_sums' gather (the noise identification's phase samples, copied from each tile as it is
+    filled) gives x at every requested index on a record the JIT kernels sum (sizes starting at 0,
+    whose x[0] the fill does not write, sizes of the 2**18 cap, the last sample of the record), so
+    that allan_variance's exponents are identify_noise's of the record, bit for bit (the same
+    deltas); nothing is gathered on a record the precompiled kernels sum."""
+    from bayes_imu.allan import estimator, kernels
+
+    n = kernels.PRECOMPILED_BELOW + 3_333
+    y = rng.standard_normal(n) + np.cumsum(rng.standard_normal(n)) * 1e-2
+    ms = cluster_sizes("octave", n)
+    starts, steps, counts = estimator._starts_steps(ms, n)
+    assert starts.min() == 0 and counts.max() == 2**18
+    x, sums, parts, (values, offsets) = kernels.allan_sums(y, ms, gather=(starts, steps, counts))
+    assert parts is None
+    for m, a, c, o in zip(ms, starts, counts, offsets):
+        np.testing.assert_array_equal(values[o:o + c + 1], x[a:a + c * m + 1:m])
+    assert values.size == int(np.sum(counts + 1))
+    deltas = kernels.lag1_deltas(x, ms, starts, counts, 2)
+    gathered = kernels.lag1_deltas(
+        values, ms, offsets, counts, 2, steps=np.ones_like(counts), n_samples=n
+    )
+    np.testing.assert_array_equal(gathered, deltas)
+    np.testing.assert_array_equal(
+        allan_variance(y, rate_hz=100.0).alpha, estimator.identify_noise(x, ms)
+    )
+    short = rng.standard_normal(10_000)
+    assert kernels.allan_sums(short, [1, 2], gather=([0, 0], [1, 2], [10, 5]))[3] is None
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+@pytest.mark.parametrize("n", [1_000, 2**21 + 3])
+def test_a_non_finite_sample_is_named_after_the_pass(bad, n):
+    """The samples are checked for non-finite values only where the running sum is not finite (a
+    non-finite sample makes the mean, hence all of it, non-finite): still named, on either build."""
+    y = np.ones(n)
+    y[n // 3] = bad
+    with pytest.raises(InputError, match=f"sample {n // 3} is"):
+        allan_variance(y, rate_hz=100.0)
 
 
 @pytest.mark.parametrize("extra", [0, 12_345])

@@ -307,3 +307,25 @@ def test_capped_edf_is_honest_where_the_model_misses_a_slow_term(rng):
     floor = record_edf_floor(grid, ks * dt)
     assert np.all(wrong > 2 * mc)
     assert np.all(floor <= mc / 1.3)
+
+
+def test_long_record_contrasts_in_one_compiled_call_equal_numpy_s(rng):
+    """On a record the JIT kernels sum (issue 39's speed-up of allan_variance), every outage's
+    mean square comes from one compiled call: the same contrasts as contrast_mean_square's numpy
+    products, added in another order (1e-13), on the default grid and on outages given (short
+    ones with stride 1 included); invalid outages still raise."""
+    from bayes_imu.allan import kernels
+    from bayes_imu.allan.contrast import contrast_mean_square, contrast_stride
+
+    n = kernels.PRECOMPILED_BELOW + 4_321
+    y = rng.standard_normal(n) + np.cumsum(rng.standard_normal(n)) * 1e-3
+    x = kernels.allan_sums(y, [1])[0]
+    for n_cal, ks in ((6_000, None), (20, np.array([1, 2, 5, 31, 700, n - 20]))):
+        got = phase_contrasts(x=x, rate_hz=100.0, calibration_s=n_cal / 100.0, k=ks)
+        assert got.k.size > 5
+        strides = contrast_stride(got.k, n_cal)
+        expected = [contrast_mean_square(x, k, n_cal, s) / 1e4 for k, s in zip(got.k, strides)]
+        np.testing.assert_allclose(got.mean_square, expected, rtol=1e-13, atol=0)
+        np.testing.assert_array_equal(got.n_terms, (n - n_cal - got.k) // strides + 1)
+    with pytest.raises(InputError, match="outage"):
+        phase_contrasts(x=x, rate_hz=100.0, calibration_s=0.2, k=[n])

@@ -1,17 +1,18 @@
 """Sources of the compiled Allan-variance kernels: plain Python that numba compiles twice.
 
 Imported only to compile (it imports numba): :mod:`bayes_imu.allan.kernels` JIT-compiles these
-functions on first use (``parallel=True`` where they use ``numba.prange``, cached on disk), and
-the package build compiles the same functions ahead of time, one thread each (``prange`` is
-``range`` there), into the extension ``bayes_imu._compiled`` (``setup.py``), which loads without
-numba. The precompiled build has the kernels of a record shorter than 2**21 samples (``setup.py``'s
-``KERNELS``); the kernels of longer records' parallel passes (``centred_sums`` to ``residue_sums``)
-are JIT-compiled only. :data:`FASTMATH` names the kernels compiled with reassociation (a vectorised
-sum of squares); the running sums never are (their Kahan-Babuska compensation would be optimised
-away): ``phase_and_sums`` fills through ``fill_blocks``, compiled apart with strict arithmetic.
-Helpers inlined into their callers (``inline="always"``: numba's IR, so they take the caller's
-fast-math flags and the precompiled ``sums_all`` compiles to the same code as before they were
-split out) are module globals, as a kernel's callees must be for numba's cache.
+functions on first use (``parallel=True`` where they use ``numba.prange``, cached on disk), and the
+package build compiles the same functions ahead of time, one thread each (``prange`` is ``range``
+there), into the extension ``bayes_imu._compiled`` (``setup.py``), which loads without numba. The
+precompiled build has the kernels of a record shorter than 2**21 samples (``setup.py``'s
+``KERNELS``); the kernels of longer records' parallel passes (``centred_sums`` to ``residue_sums``,
+``span_sums``, ``contrast_sums`` and ``lag1_deltas``: a shorter record takes numpy's steps for the
+last two) are JIT-compiled only. :data:`FASTMATH` names the kernels compiled with reassociation (a
+vectorised sum of squares); the running sums never are (their Kahan-Babuska compensation would be
+optimised away): ``phase_and_sums`` fills through ``fill_blocks``, compiled apart with strict
+arithmetic. Helpers inlined into their callers (``inline="always"``: numba's IR, so they take the
+caller's fast-math flags and the precompiled ``sums_all`` compiles to the same code as before they
+were split out) are module globals, as a kernel's callees must be for numba's cache.
 """
 
 import numba
@@ -31,8 +32,12 @@ __all__ = [
     "phase_and_sums",
     "residue_sums",
     "tile_sums",
+    "span_sums",
+    "gather_points",
     "sums_all",
     "block_totals",
+    "contrast_sums",
+    "lag1_deltas",
     "FASTMATH",
     "PARALLEL",
 ]
@@ -44,6 +49,8 @@ FASTMATH = {
     "sums_all": _SQUARES,
     "phase_and_sums": _SQUARES,
     "residue_sums": _SQUARES,
+    "span_sums": _SQUARES,
+    "lag1_deltas": _SQUARES,
 }
 #: kernels whose ``prange`` loops run on numba's threads when JIT-compiled
 PARALLEL = {
@@ -54,6 +61,8 @@ PARALLEL = {
     "phase_and_sums",
     "residue_sums",
     "sums_all",
+    "contrast_sums",
+    "lag1_deltas",
 }
 
 
@@ -266,19 +275,26 @@ def phase_blocks(y, offset, bases, block, out):
     return out
 
 
-def phase_and_sums(y, offset, bases, block, x, ms, tile, lag, n_chunks):
+def phase_and_sums(
+    y, offset, bases, block, x, ms, tile, lag, n_chunks, partial, starts, steps, counts, offsets,
+    points,
+):
     # x[0] = 0 and x[1:] = phase_blocks' running sum, filled tile by tile (tile samples, a multiple
     # of block) on n_chunks runs of tiles, one per thread; each run sums the sizes ms over its tiles
     # of start indices (tile_sums) lag tiles behind its fill, while the tiles are in cache (lag
     # tiles cover the reach of the largest size, 2 max(ms)). A run's first tile (it reads the sample
     # the run before writes) and its last lag tiles are summed after every fill. Tile sums added in
-    # tile order: the same bits as sums_all(x, ms, tile), on any number of runs.
+    # tile order: the same bits as sums_all(x, ms, tile), on any number of runs. partial: zeros of
+    # shape ((len(x) - 2 min(ms) + tile - 1) // tile, len(ms)), left holding each tile's sums (the
+    # parts' sums are read off them: span_sums). Each tile just filled also gives gather_points its
+    # samples (starts, steps, counts, offsets, points: the noise identification's phase samples,
+    # read while the tile is in cache instead of at scattered lines of the record afterwards; x[0]
+    # is not gathered).
     x[0] = 0.0
     out = x[1:]
     per_tile = tile // block
     n_fill = (y.size + tile - 1) // tile
-    n_tiles = (x.size - 2 * ms.min() + tile - 1) // tile
-    partial = np.zeros((n_tiles, ms.size))
+    n_tiles = partial.shape[0]
     done = np.zeros(n_tiles, dtype=np.bool_)
     run = (n_fill + n_chunks - 1) // n_chunks
     for c in numba.prange(n_chunks):
@@ -286,6 +302,10 @@ def phase_and_sums(y, offset, bases, block, x, ms, tile, lag, n_chunks):
         for t in range(first, min(first + run, n_fill)):
             fill_blocks_compiled(
                 y, offset, bases, block, t * per_tile, min(t * per_tile + per_tile, bases.size), out
+            )
+            gather_points_compiled(
+                x, t * tile + 1, min(t * tile + tile, y.size) + 1, starts, steps, counts, offsets,
+                points,
             )
             s = t - lag
             if first < s < n_tiles:
@@ -434,6 +454,28 @@ def sums_all(x, ms, block):
     return block_totals_compiled(x, ms, block, partial)
 
 
+def gather_points(x, lo, hi, starts, steps, counts, offsets, points):
+    # points[offsets[i] + q] = x[starts[i] + q steps[i]] for 0 <= q <= counts[i] where
+    # lo <= starts[i] + q steps[i] < hi: each size's phase samples that lie in x[lo:hi]
+    for i in range(starts.size):
+        s = starts[i]
+        m = steps[i]
+        if hi <= s:
+            continue
+        q0 = 0 if lo <= s else (lo - s + m - 1) // m
+        q1 = min(counts[i], (hi - 1 - s) // m)
+        for q in range(q0, q1 + 1):
+            points[offsets[i] + q] = x[s + q * m]
+
+
+def span_sums(x, ms, lo, count):
+    # the sums of every size over the start indices lo <= i < lo + count (and i < len(x) - 2 m):
+    # tile_sums over one span, for the ends of a part of the record that whole tiles do not cover
+    row = np.zeros(ms.size)
+    tile_sums_compiled(x, ms, lo, count, row)
+    return row
+
+
 def block_totals(x, ms, block, partial):
     # each size's sum of its blocks' sums, in block order
     out = np.empty(ms.size)
@@ -445,6 +487,111 @@ def block_totals(x, ms, block, partial):
     return out
 
 
+def contrast_sums(x, ks, n_cal, strides, tile):
+    # the mean square of the phase contrasts e_j = x[j + k] - (1 + r) x[j] + r x[j - n_cal],
+    # r = k / n_cal, over the starts j = n_cal, n_cal + s, ... <= len(x) - 1 - k, for each outage k
+    # and its stride s (allan/contrast.py's contrast_mean_square, the same e_j: strict IEEE, no
+    # contraction into fused multiply-adds). The starts are taken tile by tile (tile starts, on the
+    # threads), every outage in a tile before the next, each tile after one read of the next
+    # tile's samples, a cache line at a time (the hardware prefetcher streams them in): the outages
+    # shorter than a tile then read x from cache, not each at scattered lines from memory (a
+    # stride of 187 samples is 1.5 kB; scattered, a long record's contrasts took 4x as long).
+    # Tile sums added in tile order.
+    n = x.size - 1
+    nk = ks.size
+    n_tiles = (n + tile) // tile  # starts 0 <= j <= n
+    partial = np.zeros((n_tiles, nk + 1))
+    for t in numba.prange(n_tiles):
+        lo = t * tile
+        hi = min(lo + tile, n + 1)
+        warm = 0.0
+        for p in range(hi, min(hi + tile, n + 1), 8):
+            warm += x[p]
+        partial[t, nk] = warm  # kept, so that the read is not optimised away
+        for i in range(nk):
+            k = ks[i]
+            s = strides[i]
+            r = k / n_cal
+            count = (n - n_cal - k) // s + 1
+            q0 = 0 if lo <= n_cal else (lo - n_cal + s - 1) // s
+            q1 = min(count, (hi - n_cal + s - 1) // s) if hi > n_cal else 0
+            total = 0.0
+            for q in range(q0, q1):
+                j = n_cal + q * s
+                e = x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
+                total += e * e
+            partial[t, i] = total
+    out = np.empty(nk)
+    for i in range(nk):
+        total = 0.0
+        for t in range(n_tiles):
+            total += partial[t, i]
+        out[i] = total / ((n - n_cal - ks[i]) // strides[i] + 1)
+    return out
+
+
+def lag1_deltas(x, ms, starts, steps, counts, max_differences, n_chunks):
+    # the lag-1 noise identification (allan/estimator.py's _lag1_delta, Riley & Greenhall 2004) of
+    # each size i: the counts[i] cluster means (x[start + (q + 1) step] - x[start + q step]) / m
+    # (step = m on the phase record, 1 on its samples gathered by gather_points), their
+    # least-squares line removed, then differenced until delta = r1 / (1 + r1) < 0.25 or
+    # max_differences times; out[i] = (delta, d). The same steps as numpy's, the sums vectorised
+    # (fast-math: numpy's are pairwise, the deltas agree to about 1e-15). Sizes dealt to
+    # n_chunks threads in turn (the small ones, with the most means, on every thread).
+    out = np.zeros((ms.size, 2))
+    for c in numba.prange(n_chunks):
+        for i in range(c, ms.size, n_chunks):
+            n = counts[i]
+            if n < 2:
+                continue
+            m = ms[i]
+            start = starts[i]
+            step = steps[i]
+            z = np.empty(n)
+            for q in range(n):
+                z[q] = (x[start + (q + 1) * step] - x[start + q * step]) / m
+            centre = (n - 1) / 2.0
+            total = 0.0
+            for q in range(n):
+                total += z[q]
+            mean = total / n
+            tz = 0.0
+            tt = 0.0
+            for q in range(n):
+                z[q] -= mean
+                t = q - centre
+                tz += t * z[q]
+                tt += t * t
+            slope = tz / tt
+            for q in range(n):
+                z[q] -= slope * (q - centre)
+            d = 0
+            size = n
+            while True:
+                total = 0.0
+                for q in range(size):
+                    total += z[q]
+                mean = total / size
+                denom = 0.0
+                for q in range(size):
+                    z[q] -= mean
+                    denom += z[q] * z[q]
+                lag = 0.0
+                for q in range(size - 1):
+                    lag += z[q] * z[q + 1]
+                r1 = lag / denom if denom > 0 else 0.0
+                delta = r1 / (1.0 + r1)
+                if delta < 0.25 or d >= max_differences:
+                    out[i, 0] = delta
+                    out[i, 1] = d
+                    break
+                for q in range(size - 1):
+                    z[q] = z[q + 1] - z[q]
+                size -= 1
+                d += 1
+    return out
+
+
 # module globals, not closure variables: numba's cache keys a closure's captured dispatcher by
 # identity, so a kernel calling one would be recompiled in every process
 pair_sum_compiled = numba.njit(cache=True)(pair_sum)
@@ -452,3 +599,4 @@ tile_sums_compiled = numba.njit(inline="always")(tile_sums)
 block_totals_compiled = numba.njit(inline="always")(block_totals)
 compensated_add_compiled = numba.njit(inline="always")(compensated_add)
 fill_blocks_compiled = numba.njit(cache=True)(fill_blocks)
+gather_points_compiled = numba.njit(inline="always")(gather_points)

@@ -43,6 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from .kernels import contrast_mean_squares
 
 __all__ = [
     "PhaseContrasts",
@@ -211,6 +212,17 @@ def running_phase_sum(x):
     return np.concatenate(([0.0], np.cumsum(x - x.mean())))
 
 
+def _mean_squares(x, ks, n_cal, strides):
+    """``contrast_mean_square`` of each outage: one compiled call on a long record
+    (:func:`bayes_imu.allan.kernels.contrast_mean_squares`, issue 39), else one at a time."""
+    n = x.size - 1
+    if ks.size and ks.min() >= 1 and n_cal >= 1 and ks.max() + n_cal <= n:
+        compiled = contrast_mean_squares(x, ks, n_cal, strides)
+        if compiled is not None:
+            return compiled
+    return np.array([contrast_mean_square(x, kk, n_cal, st) for kk, st in zip(ks, strides)])
+
+
 def contrast_grid(
     n_samples, n_cal, per_decade=CONTRASTS_PER_DECADE, max_fraction=MAX_SPAN_FRACTION
 ):
@@ -255,10 +267,7 @@ def phase_contrasts(y=None, *, rate_hz, calibration_s=DEFAULT_CONTRAST_SPAN_S, x
         )
     ks = contrast_grid(n, n_cal) if k is None else np.asarray(k, dtype=np.int64)
     strides = contrast_stride(ks, n_cal)
-    ms = (
-        np.array([contrast_mean_square(x, kk, n_cal, st) for kk, st in zip(ks, strides)])
-        / rate_hz**2
-    )
+    ms = _mean_squares(x, ks, n_cal, strides) / rate_hz**2
     s = running_phase_sum(x) if ks.size else None
     ms2 = (
         np.array([position_mean_square(x, kk, n_cal, st, s=s) for kk, st in zip(ks, strides)])

@@ -18,14 +18,14 @@ from .._lazy import LazyModule
 special = LazyModule("scipy.special")  # chi-squared quantiles without importing scipy.stats
 
 from .contrast import DEFAULT_CONTRAST_SPAN_S, PhaseContrasts, phase_contrasts
-from .kernels import allan_sums, second_difference_sums
+from .kernels import allan_sums, lag1_deltas, second_difference_sums
 from .._progress import progress_bar
 from ..errors import InputError
 from ..io.readers import SI_UNITS, positive_number
 
 __all__ = ["AllanResult", "SegmentAllan", "allan_variance", "check_sensor",
            "cluster_sizes", "greenhall_edf", "identify_noise",
-           "segment_allan", "DEFAULT_SEGMENTS"]
+           "segment_allan", "segment_plan", "DEFAULT_SEGMENTS"]
 
 #: consecutive equal segments whose Allan variances the stationarity check compares
 DEFAULT_SEGMENTS = 4
@@ -259,20 +259,65 @@ def allan_variance(
     AllanResult
     """
     check_sensor(sensor)
-    y = _as_samples(y)
-    rate_hz = check_options(rate_hz, confidence, interval)
-    ms = cluster_sizes(m, y.size)
+    y = _as_array(y)
+    try:
+        rate_hz = check_options(rate_hz, confidence, interval)
+        ms = cluster_sizes(m, y.size)
+    except InputError:
+        _check_finite(y)  # a non-finite sample is named first, as before the options
+        raise
+    plan = segment_plan(ms, y.size, segments)
     with progress_bar(total=ms.size, desc="Allan variance", unit="tau", enabled=progress) as bar:
-        # the running sum of y about its mean (precision) and the sums of every size, in one call
-        x, sums = allan_sums(y, ms, progress=bar.update)
-    alphas = identify_noise(x, ms) if alpha is None else alpha
+        # the running sum of y about its mean (precision), the sums of every size, those of the
+        # parts for the stationarity check and the noise identification's phase samples, in one
+        # call
+        x, sums, *more = allan_sums(
+            y,
+            ms,
+            progress=bar.update,
+            parts=None if plan is None else (segments, plan[1]),
+            gather=None if alpha is not None else _starts_steps(ms, y.size),
+        )
+    parts, points = more or (None, None)
+    if not (np.isfinite(x[-1]) and np.isfinite(sums).all()):
+        # a non-finite sample makes the mean, hence the whole running sum, non-finite: the
+        # samples are read again only then, to name it (no pass over every record for it)
+        _check_finite(y)
+    alphas = _identify(x, ms, y.size, points) if alpha is None else alpha
     result = assemble_result(ms, sums, alphas, y.size, rate_hz, confidence, interval)
     contrasts = None
     if contrast_span_s is not None and contrast_span_s * rate_hz >= 1.0:
         contrasts = phase_contrasts(x=x, rate_hz=rate_hz, calibration_s=contrast_span_s)
-    return replace(
-        result, segments=segment_allan(y, ms, segments, x=x), contrasts=contrasts, sensor=sensor
-    )
+    segment = None
+    if plan is not None:
+        length, part_ms = plan
+        segment = SegmentAllan(
+            part_ms, np.array([avar_from_sums(row, part_ms, length) for row in parts]), length
+        )
+    return replace(result, segments=segment, contrasts=contrasts, sensor=sensor)
+
+
+def _starts_steps(ms, n_samples):
+    """``(starts, steps, counts)`` of the identification series' phase samples (``allan_sums``'
+    ``gather``)."""
+    starts, counts = identification_plan(ms, n_samples)
+    return starts, ms, counts
+
+
+def segment_plan(m, n_samples, n_segments=DEFAULT_SEGMENTS):
+    """``(length, ms)``: the samples of each of ``n_segments`` parts of ``n_samples`` and the sizes
+    of ``m`` their Allan variances take (:func:`segment_allan`); ``None`` where there are none."""
+    n_segments = int(n_segments)
+    if n_segments < 2:
+        return None
+    length = n_samples // n_segments
+    ms = np.asarray(m, dtype=np.int64)
+    ms = ms[ms <= length // 4]
+    if ms.size == 0:
+        return None
+    if ms.size > _MAX_SEGMENT_TAUS:  # a dense grid ("all"): log-spaced sizes suffice for the check
+        ms = np.unique(ms[np.round(np.geomspace(1, ms.size, _MAX_SEGMENT_TAUS)).astype(int) - 1])
+    return length, ms
 
 
 def segment_allan(y, m, n_segments=DEFAULT_SEGMENTS, *, x=None):
@@ -284,21 +329,16 @@ def segment_allan(y, m, n_segments=DEFAULT_SEGMENTS, *, x=None):
     :func:`allan_variance` has built; ``y`` is then not read): each part's second differences are
     those of its slice of ``x`` (the constant cancels), so the parts cost their sums only, not
     another pass for their means and running sums (issue 39). The same values up to rounding (1e-15
-    relative on the tests' records)."""
-    n_segments = int(n_segments)
-    if n_segments < 2:
-        return None
+    relative on the tests' records). :func:`allan_variance` itself has the parts' sums from the
+    pass over the whole record (:func:`~bayes_imu.allan.kernels.allan_sums`' ``parts``)."""
     if x is None:
         y = _as_samples(y)
-    length = (y.size if x is None else x.size - 1) // n_segments
-    ms = np.asarray(m, dtype=np.int64)
-    ms = ms[ms <= length // 4]
-    if ms.size == 0:
+    plan = segment_plan(m, y.size if x is None else x.size - 1, n_segments)
+    if plan is None:
         return None
-    if ms.size > _MAX_SEGMENT_TAUS:  # a dense grid ("all"): log-spaced sizes suffice for the check
-        ms = np.unique(ms[np.round(np.geomspace(1, ms.size, _MAX_SEGMENT_TAUS)).astype(int) - 1])
-    avar = np.empty((n_segments, ms.size))
-    for k in range(n_segments):
+    length, ms = plan
+    avar = np.empty((int(n_segments), ms.size))
+    for k in range(int(n_segments)):
         if x is None:
             sums = allan_sums(y[k * length:(k + 1) * length], ms)[1]
         else:
@@ -349,15 +389,25 @@ def assemble_result(ms, sums, alpha, n_samples, rate_hz, confidence, interval):
 
 
 def _as_samples(y):
+    return _check_finite(_as_array(y))
+
+
+def _as_array(y):
+    """``y`` as a contiguous 1-D float array (not yet checked for finite values)."""
     y = np.asarray(y, dtype=np.float64)
     if y.ndim != 1:
         raise InputError(f"y: expected a 1-D array of rate samples, got shape {y.shape}")
+    return np.ascontiguousarray(y)
+
+
+def _check_finite(y):
+    """``y``, or :class:`InputError` naming its first non-finite sample."""
     bad = ~np.isfinite(y)
     if bad.any():
         raise InputError(
             f"y: sample {int(np.argmax(bad))} is {y[bad][0]!r}; expected finite numbers"
         )
-    return np.ascontiguousarray(y)
+    return y
 
 
 def _alpha_array(alpha, n):
@@ -405,13 +455,43 @@ def identify_noise(x, ms, *, max_differences=2):
     ``alpha = -round(2 delta) - 2 d`` (Riley & Greenhall 2004, eqs 2-4), clipped to
     [-2, 2]. With fewer than 30 averages the value of the previous cluster size is
     kept (0, white rate noise, if there is none). At most the central 2**18 averages
-    are used (bounded time and memory on long records).
+    are used (bounded time and memory on long records). A record the JIT kernels sum takes one
+    compiled call for every size (:func:`~bayes_imu.allan.kernels.lag1_deltas`, issue 39), whose
+    deltas agree with numpy's steps (:func:`noise_from_phase_samples`) to about 1e-15.
     """
-    samples = []
-    for m in ms:
-        start, stop = identification_span(int(m), x.size - 1)
-        samples.append(x[start:stop:int(m)])
-    return noise_from_phase_samples(samples, ms, max_differences=max_differences)
+    return _identify(x, ms, x.size - 1, None, max_differences)
+
+
+def identification_plan(ms, n_samples):
+    """``(starts, counts)``: the first phase index and the number of averages of each size's
+    identification series (:func:`identification_span`)."""
+    ms = np.asarray(ms, dtype=np.int64)
+    spans = np.array([identification_span(int(m), n_samples) for m in ms], dtype=np.int64)
+    spans = spans.reshape(ms.size, 2)
+    return spans[:, 0], (spans[:, 1] - 1 - spans[:, 0]) // ms
+
+
+def _identify(x, ms, n_samples, points, max_differences=2):
+    """:func:`identify_noise` of the phase record ``x``, or of the samples ``points = (values,
+    offsets)`` that :func:`~bayes_imu.allan.kernels.allan_sums` gathered from it (the same bits)."""
+    starts, counts = identification_plan(ms, n_samples)
+    if points is None:
+        compiled = lag1_deltas(x, ms, starts, counts, max_differences)  # a long record's
+    else:
+        compiled = lag1_deltas(
+            points[0], ms, points[1], counts, max_differences, steps=np.ones_like(counts),
+            n_samples=n_samples,
+        )
+    if compiled is None:
+        samples = [x[a:a + c * int(m) + 1:int(m)] for m, a, c in zip(ms, starts, counts)]
+        return noise_from_phase_samples(samples, ms, max_differences=max_differences)
+    out = np.empty(len(ms), dtype=np.int64)
+    previous = 0
+    for i, (delta, d) in enumerate(compiled):
+        if counts[i] >= _MIN_ID_POINTS:
+            previous = _alpha_of(delta, d)
+        out[i] = previous
+    return out
 
 
 def identification_span(m, n_samples):
@@ -424,13 +504,25 @@ def identification_span(m, n_samples):
 
 
 def noise_from_phase_samples(samples, ms, *, max_differences=2):
-    """:func:`identify_noise` from the phase values at :func:`identification_span` of each ``m``."""
+    """:func:`identify_noise` from the phase values at :func:`identification_span` of each ``m``.
+
+    The cluster means and their detrended, differenced series are computed in two buffers of the
+    longest series, reused for every size (numpy's temporaries of 2**18 values, fresh pages each,
+    cost more than the arithmetic on them), and the time axis once per series length: the same
+    operations in the same order, the same numbers as a series at a time (issue 39)."""
     out = np.empty(len(ms), dtype=np.int64)
+    size = max([x_m.size - 1 for x_m in samples] + [0])
+    means, spare = np.empty(size), np.empty(size)
+    times = {}
     previous = 0
     for i, (m, x_m) in enumerate(zip(ms, samples)):
-        means = np.diff(x_m) / int(m)
-        if means.size >= _MIN_ID_POINTS:
-            previous = _lag1_alpha(means, max_differences)
+        n = x_m.size - 1
+        if n >= _MIN_ID_POINTS:
+            series = np.subtract(x_m[1:], x_m[:-1], out=means[:n])  # np.diff(x_m) / m
+            series /= int(m)
+            if n not in times:
+                times[n] = _centred_times(n)
+            previous = _lag1_alpha(series, max_differences, work=(times[n], spare[:n]))
         out[i] = previous
     return out
 
@@ -442,19 +534,43 @@ def _dot(a, b):
     return np.einsum("i,i->", a, b)
 
 
-def _lag1_alpha(series, max_differences):
-    t = np.arange(series.size, dtype=float) - (series.size - 1) / 2.0
-    z = series - series.mean()
-    z = z - (_dot(t, z) / _dot(t, t)) * t  # remove the least-squares line
+def _centred_times(n):
+    """``arange(n) - (n - 1) / 2``: the time axis of a series of ``n`` values about its middle."""
+    t = np.arange(n, dtype=float)
+    t -= (n - 1) / 2.0
+    return t
+
+
+def _lag1_alpha(series, max_differences, *, work=None):
+    """The exponent of one series (Riley & Greenhall 2004, eqs 2-4). ``work``: ``(t, spare)``, its
+    :func:`_centred_times` and a buffer of its length; ``series`` is then overwritten."""
+    return _alpha_of(*_lag1_delta(series, max_differences, work=work))
+
+
+def _alpha_of(delta, d):
+    """``alpha = -round(2 delta) - 2 d`` clipped to [-2, 2] (Riley & Greenhall 2004, eq 4)."""
+    return int(np.clip(-np.round(2.0 * delta) - 2 * int(d), -2, 2))
+
+
+def _lag1_delta(series, max_differences, *, work=None):
+    """``(delta, d)`` of :func:`_lag1_alpha`: ``r1 / (1 + r1)`` of the series differenced ``d``
+    times."""
+    if work is None:
+        series = np.array(series, dtype=float)
+        work = (_centred_times(series.size), np.empty(series.size))
+    t, spare = work
+    z = series
+    z -= z.mean()
+    z -= np.multiply(t, _dot(t, z) / _dot(t, t), out=spare)  # remove the least-squares line
     d = 0
     while True:
-        z = z - z.mean()
+        z -= z.mean()
         denom = _dot(z, z)
         r1 = _dot(z[:-1], z[1:]) / denom if denom > 0 else 0.0
         delta = r1 / (1.0 + r1)
         if delta < 0.25 or d >= max_differences:
-            return int(np.clip(-np.round(2.0 * delta) - 2 * d, -2, 2))
-        z = np.diff(z)
+            return delta, d
+        z, spare = np.subtract(z[1:], z[:-1], out=spare[:z.size - 1]), z  # np.diff(z)
         d += 1
 
 

@@ -37,6 +37,8 @@ __all__ = [
     "second_difference_sum",
     "second_difference_sums",
     "avar_pair_sums",
+    "contrast_mean_squares",
+    "lag1_deltas",
     "threads_for",
     "threads_for_pass",
     "precompiled",
@@ -91,7 +93,10 @@ def _compile():
         "phase_blocks",
         "phase_and_sums",
         "residue_sums",
+        "span_sums",
         "sums_all",
+        "contrast_sums",
+        "lag1_deltas",
     ):
         _compiled[name] = numba.njit(
             parallel=name in _sources.PARALLEL,
@@ -261,9 +266,9 @@ def _far_sums(x, ms):
     return sums
 
 
-def allan_sums(y, ms, progress=None):
+def allan_sums(y, ms, progress=None, *, parts=None, gather=None):
     """The running sum ``x = phase_from_rate(y, record_mean(y))`` and its
-    ``second_difference_sums(x, ms)``.
+    ``second_difference_sums(x, ms)`` (and, with ``parts``, those of consecutive parts of ``x``).
 
     A record the precompiled kernels sum takes exactly those three calls. A longer one is read
     twice instead of four times: once on :func:`threads_for` threads for the block sums that give
@@ -282,23 +287,73 @@ def allan_sums(y, ms, progress=None):
         Cluster sizes, ``2 m <= n_samples``, increasing (octave runs are detected in this order).
     progress : callable or None
         Called with the number of sizes just summed (a progress bar's ``update``).
+    parts : (int, array_like of int) or None
+        ``(n_parts, part_ms)``: also the sums of each of ``n_parts`` consecutive parts of
+        ``length = n_samples // n_parts`` samples, ``second_difference_sums(x[k length:(k + 1)
+        length + 1], part_ms)`` (sizes of ``ms``, ``4 m <= length``). A record the precompiled
+        kernels sum takes those calls; a longer one reads the sizes below a block off the tiles
+        the whole record's sums were added from (:func:`_part_sums`): no further pass over the
+        record for them, the same values to about 1e-15 (the tiles are added in another order).
+    gather : (array_like of int, array_like of int, array_like of int) or None
+        ``(starts, steps, counts)``: also the phase samples ``x[starts[i] + q steps[i]]``, ``0 <= q
+        <= counts[i]`` (the noise identification's, :func:`lag1_deltas`), gathered on a record the
+        JIT kernels sum from each tile of ``x`` as it is filled (in cache).
 
     Returns
     -------
     x : ndarray, shape (n_samples + 1,)
     sums : ndarray, shape (len(ms),)
+    part_sums : ndarray, shape (n_parts, len(part_ms)), or None
+        With ``parts`` or ``gather`` (``None`` without ``parts``).
+    points : (ndarray, ndarray of int) or None
+        With ``parts`` or ``gather``: the gathered samples, all sizes' in one array, and where each
+        size's begin; ``None`` without ``gather`` or where they were not gathered (a record the
+        precompiled kernels sum, or no size below a block: :func:`lag1_deltas` reads ``x`` then).
     """
     y = np.ascontiguousarray(y, dtype=float)
     ms = np.ascontiguousarray(ms, dtype=np.int64)
     report = progress if progress is not None else (lambda done: None)
+    near = ms < _BLOCK_ALL
+    partial = points = None
     if _precompiled_for(y.size) is not None or ms.size == 0:
         x = phase_from_rate(y, record_mean(y))
         sums = second_difference_sums(x, ms)
         report(ms.size)
+    else:
+        x, sums, partial, points = _fused_sums(y, ms, near, report, gather)
+    if parts is None and gather is None:
         return x, sums
+    if parts is None:
+        return x, sums, None, points
+    n_parts, part_ms = parts
+    part_ms = np.ascontiguousarray(part_ms, dtype=np.int64)
+    if partial is None:
+        every = np.ones(part_ms.size, dtype=bool)
+        return x, sums, _each_part(x, part_ms, int(n_parts), every), points
+    return x, sums, _part_sums(x, ms[near], partial, part_ms, int(n_parts)), points
+
+
+def _gather_plan(gather):
+    """``(starts, steps, counts, offsets, points)`` for ``phase_and_sums``' gathering of
+    :func:`allan_sums`' ``gather`` (empty arrays without it); ``x[0]``, which it does not gather, is
+    0 where a size starts there."""
+    starts, steps, counts = (
+        np.ascontiguousarray(a, dtype=np.int64)
+        for a in (gather if gather is not None else ([], [], []))
+    )
+    offsets = np.concatenate(([0], np.cumsum(counts + 1)[:-1])).astype(np.int64)
+    points = np.empty(int(np.sum(counts + 1)))
+    points[offsets[starts == 0]] = 0.0
+    return starts, steps, counts, offsets, points
+
+
+def _fused_sums(y, ms, near, report, gather=None):
+    """:func:`allan_sums` of a record the JIT kernels sum: ``x``, the sums, the tile sums of the
+    sizes below a block (``(n_tiles, near.sum())``, ``None`` where there are none) and the gathered
+    ``(points, offsets)`` (``None`` without ``gather`` or sizes below a block)."""
     kernels = _compile()
-    near = ms < _BLOCK_ALL
     sums = np.empty(ms.size)
+    partial = points = None
     with threads_for_pass(y.size):
         centred = kernels["centred_sums"](y, _PHASE_BLOCK)
         mean = kernels["centred_mean"](y, centred, _PHASE_BLOCK)
@@ -307,9 +362,15 @@ def allan_sums(y, ms, progress=None):
         if near.any():
             # tiles the largest size reaches ahead
             lag = (2 * int(ms[near].max()) + _BLOCK_ALL - 2) // _BLOCK_ALL
+            n_tiles = (x.size - 2 * int(ms[near].min()) + _BLOCK_ALL - 1) // _BLOCK_ALL
+            partial = np.zeros((n_tiles, int(near.sum())))
+            plan = _gather_plan(gather)
             sums[near] = kernels["phase_and_sums"](
-                y, mean, bases, _PHASE_BLOCK, x, ms[near], _BLOCK_ALL, lag, threads_for(y.size)
+                y, mean, bases, _PHASE_BLOCK, x, ms[near], _BLOCK_ALL, lag, threads_for(y.size),
+                partial, *plan,
             )
+            if gather is not None:
+                points = plan[4], plan[3]
         else:
             x[0] = 0.0
             kernels["phase_blocks"](y, mean, bases, _PHASE_BLOCK, x[1:])
@@ -317,7 +378,54 @@ def allan_sums(y, ms, progress=None):
         if not near.all():
             sums[~near] = _far_sums(x, ms[~near])
             report(int((~near).sum()))
-    return x, sums
+    return x, sums, partial, points
+
+
+def _each_part(x, ms, n_parts, which):
+    """``(n_parts, which.sum())`` sums of the sizes ``ms[which]`` of each part of ``x``, summed
+    part by part (:func:`second_difference_sums`)."""
+    length = (x.size - 1) // n_parts
+    return np.array(
+        [
+            second_difference_sums(x[k * length:(k + 1) * length + 1], ms[which])
+            for k in range(n_parts)
+        ]
+    ).reshape(n_parts, int(which.sum()))
+
+
+def _part_sums(x, near_ms, partial, part_ms, n_parts):
+    """The parts' sums (:func:`allan_sums`' ``parts``) of a record the JIT kernels sum, from the
+    tile sums ``partial`` of the whole record's sizes ``near_ms``: a part's starts
+    ``k L <= i <= (k + 1) L - 2 m`` are the whole tiles between its ends (their sums added, no
+    pass over the record), and two spans at its ends (``span_sums``: at most a tile at the start,
+    at most a tile plus the largest size's reach at the end, each size's last start cut by
+    reading a view of ``x`` that ends with the part). Sizes of the parts from a block up, and
+    parts too short for a whole tile between their spans, are summed part by part."""
+    length = (x.size - 1) // n_parts
+    column = np.searchsorted(near_ms, part_ms)
+    tiled = (column < near_ms.size) & (part_ms < _BLOCK_ALL)
+    tiled[tiled] = near_ms[column[tiled]] == part_ms[tiled]
+    out = np.empty((n_parts, part_ms.size))
+    if not tiled.all():
+        out[:, ~tiled] = _each_part(x, part_ms, n_parts, ~tiled)
+    if not tiled.any():
+        return out
+    ms = part_ms[tiled]
+    kernels = _compile()
+    reach = 2 * int(ms.max())
+    for k in range(n_parts):
+        start, stop = k * length, (k + 1) * length + 1  # the part's phase points x[start:stop]
+        first = -(-start // _BLOCK_ALL)  # its first whole tile
+        last = (stop - reach) // _BLOCK_ALL  # the tile where the end span begins
+        view = x[:stop]
+        if last <= first:
+            out[k, tiled] = second_difference_sums(x[start:stop], ms)
+            continue
+        head = kernels["span_sums"](view, ms, start, first * _BLOCK_ALL - start)
+        middle = partial[first:last, column[tiled]].sum(axis=0)
+        tail = kernels["span_sums"](view, ms, last * _BLOCK_ALL, stop - last * _BLOCK_ALL)
+        out[k, tiled] = head + middle + tail
+    return out
 
 
 def avar_pair_sums(table, ms, n, h, s2, x):
@@ -338,3 +446,50 @@ def avar_pair_sums(table, ms, n, h, s2, x):
         np.ascontiguousarray(s2, dtype=float),
         np.ascontiguousarray(x, dtype=float),
     )
+
+
+def contrast_mean_squares(x, ks, n_cal, strides):
+    """Mean squares of the phase contrasts of :func:`bayes_imu.allan.contrast.contrast_mean_square`
+    (outages ``ks``, window ``n_cal``, strides ``strides``; all valid) of a phase record ``x`` that
+    the JIT kernels sum, in one compiled call on :func:`threads_for` threads, tile by tile of
+    starts (each tile's window of ``x`` read once for every outage shorter than a tile; no
+    temporaries, no BLAS threads); ``None`` for a record the precompiled kernels sum (``len(x) -
+    1`` below :data:`PRECOMPILED_BELOW`: numpy's products there, without importing numba). The same
+    contrasts as numpy's, their squares added in another order (about 1e-15 relative)."""
+    if _precompiled_for(x.size - 1) is not None:
+        return None
+    kernels = _compile()
+    with threads_for_pass(x.size):
+        return kernels["contrast_sums"](
+            np.ascontiguousarray(x, dtype=float),
+            np.ascontiguousarray(ks, dtype=np.int64),
+            int(n_cal),
+            np.ascontiguousarray(strides, dtype=np.int64),
+            _BLOCK_ALL,
+        )
+
+
+def lag1_deltas(x, ms, starts, counts, max_differences, *, steps=None, n_samples=None):
+    """``(n_sizes, 2)``: ``(delta, d)`` of the lag-1 noise identification of each size of a phase
+    record ``x`` that the JIT kernels sum (:func:`bayes_imu.allan.estimator.identify_noise`'s, from
+    the ``counts[i]`` cluster means from ``x[starts[i]]`` on, ``steps[i]`` apart: ``ms`` by default,
+    or 1 in the samples :func:`allan_sums` gathered, given as ``x`` with the record's
+    ``n_samples``), in one compiled call on :func:`threads_for` threads, the cluster means read as
+    they are used (no strided copies, no temporaries); ``None`` for a record the precompiled kernels
+    sum (numpy's steps there, without importing numba). The deltas agree with numpy's to about
+    1e-15 (sums added in another order), and are the same bits from the record or its gathered
+    samples."""
+    n_samples = x.size - 1 if n_samples is None else int(n_samples)
+    if _precompiled_for(n_samples) is not None:
+        return None
+    kernels = _compile()
+    with threads_for_pass(n_samples):
+        return kernels["lag1_deltas"](
+            np.ascontiguousarray(x, dtype=float),
+            np.ascontiguousarray(ms, dtype=np.int64),
+            np.ascontiguousarray(starts, dtype=np.int64),
+            np.ascontiguousarray(ms if steps is None else steps, dtype=np.int64),
+            np.ascontiguousarray(counts, dtype=np.int64),
+            int(max_differences),
+            threads_for(n_samples),
+        )
