@@ -69,6 +69,14 @@ def main(argv=None):
     parser.add_argument("--sizes", default="1e5,1e6,1e7", help="comma-separated record lengths")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument(
+        "--sensor",
+        choices=("none", "gyro", "accel"),
+        default="none",
+        help="the public call's sensor= (default none: a log of unknown kind, whose contrasts "
+        "measure attitude and position drift; gyro: a gyro fit's call (the CLI with --units "
+        "deg/s), attitude only)",
+    )
+    parser.add_argument(
         "--stages", action="store_true", help="also time each stage of the values alone"
     )
     args = parser.parse_args(argv)
@@ -88,11 +96,13 @@ def main(argv=None):
     one_pass = _one_pass_kernel()
 
     rng = np.random.default_rng(1)
+    sensor = None if args.sensor == "none" else args.sensor
     allan_variance(rng.standard_normal(1000), rate_hz=100.0)  # compile / load the numba cache
     allan_variance(rng.standard_normal(1 << 21), rate_hz=100.0)  # and the JIT kernels
     print(
         "load average (1, 5, 15 min) before: " + ", ".join(f"{v:.2f}" for v in os.getloadavg())
-        + "; allan_variance_s times bayes_imu.allan_variance(y, rate_hz=100.0), a fit's call"
+        + "; allan_variance_s times bayes_imu.allan_variance(y, rate_hz=100.0, "
+        + f"sensor={sensor!r}), a fit's call"
     )
     print(
         f"{'samples':>10s} {'threads':>7s} {'oadev_s':>8s} {'allan_sums_s':>12s} "
@@ -143,10 +153,10 @@ def main(argv=None):
         t_floor, _ = best_time(floor, args.repeat)
         t_per_size, _ = best_time(per_size, args.repeat)
         t_full, c_full, result = best_times(
-            lambda: allan_variance(y, rate_hz=100.0), args.repeat
+            lambda: allan_variance(y, rate_hz=100.0, sensor=sensor), args.repeat
         )
         tracemalloc.start()
-        allan_variance(y, rate_hz=100.0)
+        allan_variance(y, rate_hz=100.0, sensor=sensor)
         peak = tracemalloc.get_traced_memory()[1]
         tracemalloc.stop()
         common = np.isin(ms, result.m)

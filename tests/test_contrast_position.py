@@ -276,3 +276,18 @@ def test_position_covariance_of_long_tables_in_blocks(monkeypatch):
     blocked = position_covariance(model, params, [9, 30], 11, [d, d])
     for a, b in zip(whole, blocked):
         np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12 * np.abs(a).max())
+
+
+def test_a_gyro_record_measures_no_position_and_the_same_attitude(rng):
+    """A gyro has no position drift: ``allan_variance(..., sensor="gyro")`` leaves the order-2
+    contrasts out (``mean_square_2`` None, ``of_order(2)`` None), and its order-1 contrasts are
+    those of the same record of unknown kind, bit for bit; an accelerometer's (or an unknown
+    kind's) record measures both."""
+    y = rng.standard_normal(50_000)
+    gyro = allan_variance(y, rate_hz=100.0, contrast_span_s=10.0, sensor="gyro").contrasts
+    accel = allan_variance(y, rate_hz=100.0, contrast_span_s=10.0, sensor="accel").contrasts
+    unknown = allan_variance(y, rate_hz=100.0, contrast_span_s=10.0).contrasts
+    assert gyro.mean_square_2 is None and gyro.of_order(2) is None
+    np.testing.assert_array_equal(gyro.mean_square, unknown.mean_square)
+    np.testing.assert_array_equal(accel.mean_square_2, unknown.mean_square_2)
+    assert np.all(accel.mean_square_2[accel.k >= 2] > 0)

@@ -179,13 +179,14 @@ def contrast_mean_square(x, k, n_cal, stride=1):
     return float(np.dot(e, e)) / e.size
 
 
-def position_mean_square(x, k, n_cal, stride=1, *, s=None):
+def position_mean_square(x, k, n_cal, stride=1, *, s=None, mean=None):
     """``V_hat_2 / dt^4`` (module docstring, position) for outage ``k`` and window ``n_cal`` from a
     phase record ``x`` ``(n + 1,)``, over the starts ``N, N + stride, ..., <= n - k`` (those of
     :func:`contrast_mean_square`).
 
     ``s`` ``(n + 2,)`` is the running sum of ``x`` about its mean with a leading 0
-    (:func:`running_phase_sum`), built once for every outage.
+    (:func:`running_phase_sum`) and ``mean`` that mean (``x.mean()``), both computed once for every
+    outage (a pass over a long record each).
     """
     n = x.size - 1
     k, n_cal, stride = int(k), int(n_cal), int(stride)
@@ -193,9 +194,9 @@ def position_mean_square(x, k, n_cal, stride=1, *, s=None):
         raise InputError(
             f"outage {k} + calibration {n_cal} samples: expected 1 <= each, sum <= {n}"
         )
-    s = running_phase_sum(x) if s is None else s
+    mean = x.mean() if mean is None else mean  # the phase about the mean ``s`` is the sum of
+    s = running_phase_sum(x, mean) if s is None else s
     c = k * (k - 1) / (2.0 * n_cal)
-    mean = x.mean()  # the phase about the mean ``s`` is the running sum of
     mid = x[n_cal:n + 1 - k:stride] - mean
     m = mid.size
     e = (
@@ -206,10 +207,15 @@ def position_mean_square(x, k, n_cal, stride=1, *, s=None):
     return float(np.dot(e, e)) / m
 
 
-def running_phase_sum(x):
+def running_phase_sum(x, mean=None):
     """``S_m = sum_{i<m} (x_i - mean x)`` ``(n + 2,)`` with ``S_0 = 0``: the running sum the
-    position contrast reads (the mean taken out first for precision)."""
-    return np.concatenate(([0.0], np.cumsum(x - x.mean())))
+    position contrast reads (the mean taken out first for precision; ``mean``: ``x.mean()`` where
+    already computed). Summed into its own array (no copy of the sums)."""
+    mean = x.mean() if mean is None else mean
+    out = np.empty(x.size + 1)
+    out[0] = 0.0
+    np.cumsum(x - mean, out=out[1:])
+    return out
 
 
 def _mean_squares(x, ks, n_cal, strides):
@@ -234,7 +240,8 @@ def contrast_grid(
     return np.unique(np.round(np.geomspace(1.0, top, count))).astype(np.int64)
 
 
-def phase_contrasts(y=None, *, rate_hz, calibration_s=DEFAULT_CONTRAST_SPAN_S, x=None, k=None):
+def phase_contrasts(y=None, *, rate_hz, calibration_s=DEFAULT_CONTRAST_SPAN_S, x=None, k=None,
+                    position=True):
     """:class:`PhaseContrasts` of rate samples ``y`` (or of their phase record ``x``).
 
     Parameters
@@ -249,6 +256,9 @@ def phase_contrasts(y=None, *, rate_hz, calibration_s=DEFAULT_CONTRAST_SPAN_S, x
         variance builds); given instead of ``y``.
     k : array_like of int, optional
         Outage lengths [samples]; default :func:`contrast_grid`.
+    position : bool
+        Whether to measure the position (order 2) drift too (``False`` for a gyro: its
+        :attr:`~PhaseContrasts.mean_square_2` is then ``None``).
 
     Returns
     -------
@@ -268,12 +278,16 @@ def phase_contrasts(y=None, *, rate_hz, calibration_s=DEFAULT_CONTRAST_SPAN_S, x
     ks = contrast_grid(n, n_cal) if k is None else np.asarray(k, dtype=np.int64)
     strides = contrast_stride(ks, n_cal)
     ms = _mean_squares(x, ks, n_cal, strides) / rate_hz**2
-    s = running_phase_sum(x) if ks.size else None
-    ms2 = (
-        np.array([position_mean_square(x, kk, n_cal, st, s=s) for kk, st in zip(ks, strides)])
-        / rate_hz**4
-    )
+    ms2 = None
+    if position:
+        mean = x.mean() if ks.size else None
+        s = running_phase_sum(x, mean) if ks.size else None
+        ms2 = (
+            np.array([position_mean_square(x, kk, n_cal, st, s=s, mean=mean)
+                      for kk, st in zip(ks, strides)]).reshape(ks.shape)
+            / rate_hz**4
+        )
     return PhaseContrasts(
         ks, n_cal, ms.reshape(ks.shape), (n - n_cal - ks) // strides + 1, float(rate_hz), int(n),
-        ms2.reshape(ks.shape),
+        ms2,
     )

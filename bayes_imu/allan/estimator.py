@@ -252,7 +252,9 @@ def allan_variance(
         (:class:`~bayes_imu.allan.contrast.PhaseContrasts`, for the drift-space check); ``None``
         skips them.
     sensor : {"gyro", "accel"} or None
-        Sensor kind of the samples, recorded on the result (:attr:`AllanResult.sensor`).
+        Sensor kind of the samples, recorded on the result (:attr:`AllanResult.sensor`). A gyro's
+        contrasts leave out the position (order 2) drift, which only an accelerometer (or a log of
+        unknown kind) needs.
 
     Returns
     -------
@@ -287,7 +289,10 @@ def allan_variance(
     result = assemble_result(ms, sums, alphas, y.size, rate_hz, confidence, interval)
     contrasts = None
     if contrast_span_s is not None and contrast_span_s * rate_hz >= 1.0:
-        contrasts = phase_contrasts(x=x, rate_hz=rate_hz, calibration_s=contrast_span_s)
+        # a gyro has no position: its record's position drift is not measured (a pass over a long
+        # record and strided reads of two more arrays)
+        contrasts = phase_contrasts(x=x, rate_hz=rate_hz, calibration_s=contrast_span_s,
+                                    position=sensor != "gyro")
     segment = None
     if plan is not None:
         length, part_ms = plan

@@ -185,6 +185,13 @@ def allan_from_source(source, *, purpose="fit", grid="octave", progress=False):
     return SourceAllan(tuple(columns), tuple(results), unit, info)
 
 
+def _kind(opts, table):
+    """The sensor kind of a request (``sensor``, else its units' kind), or ``None``."""
+    if opts.sensor:
+        return opts.sensor
+    return table[opts.units][0] if opts.units in table else None
+
+
 def _allan(opts, purpose, grid, progress, increments, table):
     bag = is_bag(opts.log)
     if opts.rate is None and opts.time_column is None and not bag:
@@ -208,14 +215,14 @@ def _allan(opts, purpose, grid, progress, increments, table):
     if small is not None:  # held in memory: the record's own drift is measured too
         columns, values, rate, info = _npy_in_memory(opts, small, purpose)
         results = [allan_variance(values[:, 0], rate_hz=rate, m=grid, progress=progress,
-                                  contrast_span_s=opts.calibration)]
+                                  contrast_span_s=opts.calibration, sensor=_kind(opts, table))]
     elif not bag and (opts.stream or opts.log.suffix.lower() in BINARY_SUFFIXES):
         columns, results, info = _streamed(opts, purpose, grid, progress)
     else:
         columns, values, rate, info = _read(opts, purpose, progress)
         results = [
             allan_variance(values[:, j], rate_hz=rate, m=grid, progress=progress,
-                           contrast_span_s=opts.calibration)
+                           contrast_span_s=opts.calibration, sensor=_kind(opts, table))
             for j in range(values.shape[1])
         ]
     if (
