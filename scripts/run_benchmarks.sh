@@ -15,7 +15,7 @@
 #    2. bench_fit idle, --real (six ADIS16405 gyro x logs, 1 run each)  ~1.5 min
 #    3. bench_fit --load 2, synthetic 1e6, 3 runs                      ~1.5 min
 #    4. bench_fit --load 2, --real, CUT to units 1-3 (1 run each)      ~1.2 min
-#    5. bench_allan (1e5, 1e6, 1e7; best of 3)                         ~0.7 min
+#    5. bench_allan (1e5, 1e6, 1e7; best of 3), unknown kind and --sensor gyro ~1.4 min
 #    6. bench_report (accel, gyro, scene4, refit2; folders made first) ~5 min
 #    7. bench_nav (refits gyro y + accel x with bands, then nav; 1 run) ~1.5 min
 #    8. validate_population, CUT to accel_x (6 folds + the six-unit population, 8 parameters,
@@ -93,7 +93,10 @@ step "bench_fit idle, --real" python scripts/bench_fit.py --real --runs 1
 step "bench_fit --load 2, synthetic 1e6, 3 runs" python scripts/bench_fit.py --load 2 --runs 3
 step "bench_fit --load 2, --real (units 1-3)" python scripts/bench_fit.py --load 2 --real --runs 1 \
     --real-units 1,2,3
-step "bench_allan" python scripts/bench_allan.py --sizes 1e5,1e6,1e7 --repeat 3
+step "bench_allan (a log of unknown kind: attitude and position contrasts)" \
+    python scripts/bench_allan.py --sizes 1e5,1e6,1e7 --repeat 3
+step "bench_allan --sensor gyro (a gyro fit's call)" \
+    python scripts/bench_allan.py --sizes 1e5,1e6,1e7 --repeat 3 --sensor gyro
 step "bench_report" python scripts/bench_report.py --work "$WORK/report" --data "$SMAC"
 step "bench_nav" nav_bench
 AXES=${POPULATION_AXES:-accel_x}
