@@ -11,6 +11,7 @@
 #
 # Wall time of each step on the idle 2-core machine: the end of docs/benchmarks/2026-11-26.log
 # (12 min in all); the estimates below were made before that run:
+#    0. the README's quick-start fit, 6 runs                           ~0.2 min
 #    1. bench_fit idle, synthetic 1e6, 3 runs (+ in-process stages)   ~1 min
 #    2. bench_fit idle, --real (six ADIS16405 gyro x logs, 1 run each)  ~1.5 min
 #    3. bench_fit --load 2, synthetic 1e6, 3 runs                      ~1.5 min
@@ -77,6 +78,18 @@ suite_under_load() {
     return $rc
 }
 
+quick_start() {  # the README's first command's fit (installed as bayes-imu), six runs, wall times
+    local i t0 ms
+    for i in 1 2 3 4 5 6; do
+        rm -rf "$WORK/quickstart"
+        t0=$(date +%s%N)
+        bayes-imu fit data_synthetic/gyro_lowgrade.csv.gz --column gyro_x_dps --rate 100 \
+            --units deg/s --out "$WORK/quickstart" > /dev/null || return 1
+        ms=$(( ($(date +%s%N) - t0) / 1000000 ))
+        printf 'quick start fit, run %d: %d.%03d s\n' "$i" $((ms / 1000)) $((ms % 1000))
+    done
+}
+
 nav_bench() {  # bench_nav reads gyro_y/ and accel_x/ in its work folder: the folders its --refit writes
     mkdir -p "$WORK/nav"
     ln -sfn bench_gyro_y "$WORK/nav/gyro_y"
@@ -88,6 +101,7 @@ echo "bayes_imu benchmarks: $(git -C "$REPO" log --oneline -1)"
 echo "$(date -u)  load average $(cut -d' ' -f1-3 /proc/loadavg), $(nproc) cores"
 python -c "import allantools, allan_variance" 2>/dev/null || echo "WARNING: peers missing: pip install allantools allan-variance"
 
+step "quick start fit (README), 6 runs" quick_start
 step "bench_fit idle, synthetic 1e6, 3 runs" python scripts/bench_fit.py --runs 3
 step "bench_fit idle, --real" python scripts/bench_fit.py --real --runs 1
 step "bench_fit --load 2, synthetic 1e6, 3 runs" python scripts/bench_fit.py --load 2 --runs 3
