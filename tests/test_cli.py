@@ -360,3 +360,12 @@ def test_drift_of_a_non_stationary_log_is_the_same_with_the_same_seed(tmp_path):
     assert outs[0][0] != outs[2][0]
 
 
+
+
+def test_a_p_value_that_underflowed_is_not_printed_as_zero():
+    """A new user read "goodness of fit p = 0": a p-value below what doubles resolve is printed as
+    a bound."""
+    from bayes_imu.cli.main import _p_text
+
+    assert _p_text(0.0) == "< 1e-300"
+    assert _p_text(0.012) == "= 0.012"

@@ -249,3 +249,33 @@ def test_lengths_are_printed_for_people(metres, text):
     from bayes_imu.report.nav import format_length
 
     assert format_length(metres) == text
+
+
+def test_nav_says_and_records_an_input_fit_whose_checks_failed(capsys):
+    """A new user's finding: nav printed bounds from an accelerometer fit whose model did not
+    describe its log (p = 0) and whose noise changed through the log, without a word. Each input
+    fit's checks are recorded (summary.json ``inputs``) and a failed one is warned of."""
+    from types import SimpleNamespace
+
+    from bayes_imu.cli.nav import _warn_inputs
+    from bayes_imu.report.nav import input_checks
+
+    def fit(adequate, p, stationary):
+        return SimpleNamespace(adequacy=SimpleNamespace(adequate=adequate, p_value=p),
+                               stationarity=SimpleNamespace(stationary=stationary, p_value=1e-129))
+
+    checks = input_checks([fit(True, 0.4, True)], [fit(False, 0.0, False)])
+    assert checks == [
+        {"sensor": "gyro", "axis": 0, "adequate": True, "p_value": 0.4, "stationary": True,
+         "stationarity_p": 1e-129},
+        {"sensor": "accel", "axis": 0, "adequate": False, "p_value": 0.0, "stationary": False,
+         "stationarity_p": 1e-129},
+    ]
+    _warn_inputs(checks)
+    err = capsys.readouterr().err.splitlines()
+    assert err == [
+        "bayes-imu: warning: --accel fit: the noise model does not describe its log (goodness of "
+        "fit p < 1e-300): the bounds inherit its bands, too narrow where the model misses",
+        "bayes-imu: warning: --accel fit: the noise changes during its log (p = 1e-129): a unit's "
+        "noise on another day may differ",
+    ]

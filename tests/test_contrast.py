@@ -11,7 +11,7 @@ import pytest
 
 from bayes_imu.allan.contrast import contrast_grid, phase_contrasts
 from bayes_imu.allan.estimator import allan_variance
-from bayes_imu.drift.direct import honest_quantiles, record_edf_floor
+from bayes_imu.drift.direct import honest_quantiles, record_edf_floor, upper_envelope
 from bayes_imu.errors import InputError
 from bayes_imu.noise.avar_forms import NoiseModel
 from bayes_imu.noise.contrast_covariance import contrast_edf
@@ -169,6 +169,44 @@ def test_honest_quantiles_contain_the_direct_interval():
     lo, hi = np.sqrt(10 * 4.0 / stats.chi2.ppf([0.95, 0.05], 10))
     np.testing.assert_allclose(out[:, 0], [min(1.0, lo), 1.1, max(1.2, hi)], rtol=1e-12)
     np.testing.assert_array_equal(out[:, 1], total[:, 1])
+
+
+def test_upper_envelope_never_narrows_with_outage_time():
+    """The upper quantiles become their running maximum over outage time (in time order, whatever
+    the order given); the median and lower quantiles are untouched."""
+    q = np.array([0.05, 0.5, 0.95])
+    t = np.array([10.0, 1.0, 30.0, 20.0])  # not sorted
+    band = np.array([[0.5, 0.1, 0.9, 0.8], [1.0, 0.2, 1.5, 1.2], [4.0, 0.3, 2.0, 3.0]])
+    out = upper_envelope(q, band, t)
+    np.testing.assert_array_equal(out[:2], band[:2])
+    # in time order (1, 10, 20, 30 s) the upper edge 0.3, 4.0, 3.0, 2.0 becomes 0.3, 4, 4, 4
+    np.testing.assert_array_equal(out[2], [4.0, 0.3, 4.0, 4.0])
+
+
+def test_a_band_does_not_narrow_where_the_record_stops_measuring(rng):
+    """A new user's finding: where the record's interval widened the band at the last horizons it
+    measures, the model's band just beyond was narrower (the quick-start log's 95% edge: 98.5 deg at
+    1696 s, 40.4 deg at 1889 s). White noise fitted to a white + slow Gauss-Markov record (a model
+    the record contradicts, so the record's interval widens the band): the upper edge is
+    non-decreasing across the whole horizon and at least the model's."""
+    from bayes_imu.drift.bands import drift_bands
+    from bayes_imu.inference.fit import fit_allan
+
+    dt = 0.1
+    model = NoiseModel(("white", "gauss_markov"), dt)
+    y = simulate_log(model, {"noise_variance": 1.0, "bias_variance": 0.05, "time_constant": 20.0},
+                     2**15, rng=rng)
+    fit = fit_allan(allan_variance(y, rate_hz=10.0, contrast_span_s=10.0), terms=("white",),
+                    rng=rng, discrepancy="never")
+    t = np.geomspace(1.0, 2000.0, 40)
+    b = drift_bands(fit, t, quantity="attitude", calibration_s=10.0, rng=rng)
+    assert b.extrapolated.any() and not b.extrapolated.all()
+    upper = b.total[-1]
+    assert np.all(np.diff(upper) >= 0.0)
+    assert np.all(upper >= b.model_total[-1])
+    # the widening is carried past the last measured horizon (the check that this test can fail)
+    first_out = np.flatnonzero(b.extrapolated)[0]
+    assert upper[first_out] > b.model_total[-1][first_out]
 
 
 def _exact_contrast_sigma(q, s2, tc, dt, k, n_cal):

@@ -523,6 +523,12 @@ def _say_axis(args, axis):
               "bands include the log's own interval where it measures it")
 
 
+def _p_text(p):
+    """``= 0.012`` or, below what double precision resolves (a p-value that underflowed to 0),
+    ``< 1e-300``: never a p of exactly 0."""
+    return f"= {p:.2g}" if p >= 1e-300 else "< 1e-300"
+
+
 def _warn_axis(axis):
     """The warnings of one column's fit: a model that does not describe the log, noise that
     changes."""
@@ -530,8 +536,8 @@ def _warn_axis(axis):
     adequacy = result.adequacy
     if not adequacy.adequate:
         what = [
-            f"goodness of fit p = {adequacy.p_value:.2g} (worst at tau = {adequacy.worst_tau_s:g} "
-            "s)"
+            f"goodness of fit p {_p_text(adequacy.p_value)} (worst at tau = "
+            f"{adequacy.worst_tau_s:g} s)"
         ]
         if adequacy.at_prior_bound:
             what.append("at a prior bound: " + ", ".join(adequacy.at_prior_bound))
@@ -602,9 +608,14 @@ def _say_drift(args, drift):
         )
     first = drift.bands[0]
     if first.extrapolated[-1]:
-        _warn(f"the drift horizon ({first.t_s[-1]:g} s) is longer than the log "
-              f"({first.record_s:g} s): beyond the log the bands extrapolate the fitted model "
-              "(drift.csv column 'extrapolated')")
+        measured = first.measured_s
+        if np.isfinite(measured) and measured > 0:  # the record's own drift reaches half the log
+            where = (f"than the outages the record measures ({measured:.4g} s: outage plus "
+                     f"calibration within half the {first.record_s:.4g} s log)")
+        else:
+            where = f"than the log ({first.record_s:g} s)"
+        _warn(f"the drift horizon ({first.t_s[-1]:g} s) is longer {where}: beyond it the bands "
+              "extrapolate the fitted model (drift.csv column 'extrapolated')")
 
 
 def _cmd_report(args):

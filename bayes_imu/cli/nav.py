@@ -149,6 +149,24 @@ def add_nav_parser(sub):
     return nav
 
 
+def _warn_inputs(checks):
+    """One warning per input fit whose checks failed (a new user's finding: ``nav`` printed bounds
+    from an accelerometer fit whose model did not describe its log, without a word)."""
+    several = {k: sum(c["sensor"] == k for c in checks) > 1 for k in ("gyro", "accel")}
+    for c in checks:
+        name = f"--{c['sensor']} fit" + (f" (axis {c['axis'] + 1})" if several[c["sensor"]]
+                                         else "")
+        if not c["adequate"]:
+            p = c["p_value"]
+            print(f"bayes-imu: warning: {name}: the noise model does not describe its log "
+                  f"(goodness of fit p {'= %.2g' % p if p >= 1e-300 else '< 1e-300'}): the "
+                  "bounds inherit its bands, too narrow where the model misses", file=sys.stderr)
+        if c["stationary"] is False:
+            print(f"bayes-imu: warning: {name}: the noise changes during its log (p = "
+                  f"{c['stationarity_p']:.2g}): a unit's noise on another day may differ",
+                  file=sys.stderr)
+
+
 def _cmd_nav(args):
     from ..drift.display import parse_amount
     from ..errors import InputError
@@ -183,6 +201,7 @@ def _cmd_nav(args):
         raise InputError(
             text.replace("gyro and accel swapped?", "swap --gyro and --accel?")
         ) from None
+    _warn_inputs(summary["inputs"])
     radius = "position_x" in bands.quantities  # three-axis fits: the horizontal radius
     what = ("horizontal position error (radius)" if radius
             else "position error along the accelerometer's axis (one horizontal channel)")

@@ -26,8 +26,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .closed_forms import QUANTITY_ORDER
-from .direct import (direct_contrasts, direct_edf, drift_check, honest_quantiles, record_edf_floor,
-                     same_window)
+from .direct import (
+    direct_contrasts,
+    direct_edf,
+    drift_check,
+    honest_quantiles,
+    record_edf_floor,
+    same_window,
+    upper_envelope,
+)
 from ..errors import InputError, UnmeasuredWarning
 from ..noise import BIAS_STARTS, TERMS, NoiseModel
 from ..noise.quantities import SENSORS
@@ -407,5 +414,5 @@ def direct_part(fit, draws, quantity, bias_start, calibration_s, q, total):
     edf[inside] = direct_edf(fit, contrasts, t[inside])
     capped = np.minimum(edf, record_edf_floor(contrasts, t))
     check = drift_check(fit, draws, contrasts, edf, capped)
-    honest = honest_quantiles(q, total, contrasts.at(t), capped)
+    honest = upper_envelope(q, honest_quantiles(q, total, contrasts.at(t), capped), t)
     return honest, float(contrasts.t_s[-1]), total, check

@@ -43,6 +43,7 @@ __all__ = [
     "direct_contrasts",
     "direct_edf",
     "honest_quantiles",
+    "upper_envelope",
     "record_drift_check",
     "unmeasured_reason",
     "same_window",
@@ -229,6 +230,36 @@ def honest_quantiles(quantiles, total, mean_square, edf):
     lower = np.where(np.isfinite(direct), np.minimum(total, direct), total)
     upper = np.where(np.isfinite(direct), np.maximum(total, direct), total)
     return np.where(q < 0.5, lower, np.where(q > 0.5, upper, total))
+
+
+def upper_envelope(quantiles, band, t):
+    """The band with its upper quantiles (``q > 0.5``) made non-decreasing in outage time: each the
+    largest it is at ``t`` or any shorter outage.
+
+    The record's interval widens the band where the record measures the drift, most at the longest
+    horizons it measures (where it holds only a few disjoint spans); just beyond them the band is
+    the model's again, whose upper edge can lie below the widened one: a band that would claim
+    more certainty about a longer outage, which the record did not support about a shorter one.
+    The drift error of a longer outage is not smaller (its variance grows with the outage for
+    every noise term but a vibration line, whose ripple this covers): the upper edge is carried
+    forward until the model's overtakes it. Lower quantiles and the median are unchanged.
+
+    Parameters
+    ----------
+    quantiles : (n_q,) probabilities
+    band : (n_q, n_t) quantiles of the 1-sigma drift
+    t : (n_t,) outage times [s]
+
+    Returns
+    -------
+    (n_q, n_t) ndarray
+    """
+    out = np.array(band, dtype=float, copy=True)
+    up = np.flatnonzero(np.asarray(quantiles, dtype=float) > 0.5)
+    order = np.argsort(np.asarray(t, dtype=float), kind="stable")
+    for i in up:
+        out[i, order] = np.maximum.accumulate(out[i, order])
+    return out
 
 
 def drift_check(fit, draws, contrasts, edf, edf_interval=None):

@@ -248,9 +248,30 @@ def _summary(bands, request, rows, gyro, accel):
             "(for the horizontal radius of three-axis sets: P(radius <= bound95))",
         },
         "small_angle_valid_to_s": _small_angle_limit(bands),
+        "inputs": input_checks(gyro, accel),
         "rows": rows,
         "bayes_imu_version": __version__,
     }
+
+
+def input_checks(gyro, accel):
+    """The checks of each input fit, as its ``summary.json`` records them: ``sensor``, ``axis``
+    (0-based), ``adequate`` and ``p_value`` (does the noise model describe the log), ``stationary``
+    and ``stationarity_p`` (does the noise stay the same through the log; ``None`` where not
+    checked). The navigation bounds inherit what a failed check says of a fit's bands."""
+    out = []
+    for sensor, fits in (("gyro", gyro), ("accel", accel)):
+        for axis, fit in enumerate(fits):
+            steady = getattr(fit, "stationarity", None)
+            out.append({
+                "sensor": sensor,
+                "axis": axis,
+                "adequate": bool(fit.adequacy.adequate),
+                "p_value": float(fit.adequacy.p_value),
+                "stationary": None if steady is None else bool(steady.stationary),
+                "stationarity_p": None if steady is None else float(steady.p_value),
+            })
+    return out
 
 
 def _small_angle_limit(bands):
