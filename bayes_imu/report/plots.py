@@ -712,7 +712,8 @@ def _draw_measured(ax, bands, t):
             lw=0.8,
             color="black",
             alpha=0.7,
-            label=f"measured on the log itself, 90% interval (check p = {check.p_combined:.2g})",
+            label=("measured on the log itself, 90% interval (the model "
+                   f"{'agrees' if check.adequate else 'DISAGREES'}: p = {check.p_combined:.2g})"),
         )
     measured = getattr(bands, "measured_s", float("nan"))
     edge = measured if np.isfinite(measured) else bands.record_s
