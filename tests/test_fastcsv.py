@@ -181,3 +181,25 @@ def test_a_log_longer_than_the_fast_paths_limit_streams(tmp_path, monkeypatch):
     monkeypatch.setattr(fastcsv, "_CHUNK", 256)
     monkeypatch.setattr(fastcsv, "_KERNEL", [lambda *a: pytest.fail("the kernel was called")])
     np.testing.assert_array_equal(read_log(path, column="x").values, 0.5 * np.arange(5000))
+
+
+def test_a_one_column_log_is_read_exactly_and_spaces_send_it_to_numpy(tmp_path, monkeypatch, rng):
+    """A log of one column (sniffed as whitespace-separated) takes the fast path: numpy's values bit
+    for bit; a line with a space around its number is refused by the parser and read by numpy."""
+    values = rng.standard_normal(3000) * 0.02
+    path = tmp_path / "one.csv"
+    _write(path, "gyro_x_dps\n" + "\n".join(f"{v:.9g}" for v in values) + "\n", False)
+    real = fastcsv._kernel()
+    if real is None:
+        pytest.skip("the package was built without its compiled extension")
+    rows = []
+    monkeypatch.setattr(fastcsv, "_KERNEL", [lambda *a: rows.append(real(*a)) or rows[-1]])
+    fast = read_log(path, column="gyro_x_dps").values
+    assert rows == [3000]
+    monkeypatch.setattr(fastcsv, "_KERNEL", [None])
+    np.testing.assert_array_equal(_bits(fast), _bits(read_log(path, column="gyro_x_dps").values))
+    spaced = tmp_path / "spaced.csv"
+    _write(spaced, "x\n 1.5\n2.5 \n", False)
+    monkeypatch.setattr(fastcsv, "_KERNEL", [lambda *a: rows.append(real(*a)) or rows[-1]])
+    np.testing.assert_array_equal(read_log(spaced, column="x").values, [1.5, 2.5])
+    assert rows[-1] == -1

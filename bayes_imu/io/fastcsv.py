@@ -47,6 +47,10 @@ def read_plain_fast(path, fmt, usecols, open_binary):
     bounded: a decompression bomb raises its :class:`~bayes_imu.errors.InputError` here too)."""
     kernel = _kernel()
     delimiter = fmt.get("delimiter")
+    if delimiter is None and len(fmt["names"]) == 1:
+        # one column (sniffed as whitespace-separated): a line holds one number and nothing else;
+        # a comma in it would make a second field, which the parser refuses
+        delimiter = ","
     if kernel is None or delimiter is None or len(delimiter) != 1 or ord(delimiter) > 127:
         return None
     buf = _whole_text(path, open_binary)

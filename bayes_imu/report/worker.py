@@ -122,27 +122,29 @@ def background_default(automatic=True):
 
 
 def spare_cpus():
-    """Usable CPUs less the load: the cores that other work leaves free.
-
-    The load is the one-minute load average, or where it is larger (it lags a load that has just
-    started by about a minute) the processes running now other than this one (``/proc/loadavg``,
-    Linux).
+    """Usable CPUs less the processes running now other than this one (``/proc/loadavg``'s
+    running count, Linux; elsewhere the one-minute load average): the cores other work leaves
+    free for the next seconds, the fit's length.
 
     The output process pays where it has a core of its own: on a busy machine it only adds its
     imports (measured on 2 cores under a load of 19 from other jobs, 1e6-sample ``bayes-imu fit``,
     two runs each: 17.7 and 19.4 s wall, 3.5 and 3.8 s CPU with it; 15.2 and 15.3 s, 2.4 and 2.5 s
-    without; issue 39)."""
+    without; issue 39). The load average is not used where the running count is known: it lags
+    by about a minute both ways, and after a job that has just ended it declined the process on
+    an idle machine, where it saves 0.4-0.5 s of a 2.5-3 s fit (``BAYES_IMU_OUTPUT_PROCESS`` 1
+    against 0, two runs each of the synthetic 1e6-sample log and two ADIS16405 logs: 2.48-2.72 s
+    against 2.86-3.20 s; docs/speed_under_load.md)."""
+    try:
+        with open("/proc/loadavg") as f:
+            # "running/total": less this process
+            return usable_cpus() - (int(f.read().split()[3].split("/")[0]) - 1)
+    except (OSError, ValueError, IndexError):
+        pass
     try:
         load = os.getloadavg()[0]
     except OSError:  # not available on this platform: as if idle
         load = 0.0
-    try:
-        with open("/proc/loadavg") as f:
-            # "running/total": less this process
-            running = int(f.read().split()[3].split("/")[0]) - 1
-    except (OSError, ValueError, IndexError):
-        running = 0
-    return usable_cpus() - max(load, running)
+    return usable_cpus() - load
 
 
 class OutputWriter:
