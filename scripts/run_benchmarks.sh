@@ -9,8 +9,8 @@
 # (the scripts skip them cleanly when absent). Real data: ../shared/data_real beside the repository
 # (SHARED=...).
 #
-# Wall time of each step on the idle 2-core machine: the end of docs/benchmarks/2026-11-26.log
-# (12 min in all); the estimates below were made before that run:
+# Wall time of each step on the idle 2-core machine: the end of docs/benchmarks/2026-11-28.log
+# (17 min in all); the estimates below were made before that run:
 #    0. the README's quick-start fit, 6 runs                           ~0.2 min
 #    1. bench_fit idle, synthetic 1e6, 3 runs (+ in-process stages)   ~1 min
 #    2. bench_fit idle, --real (six ADIS16405 gyro x logs, 1 run each)  ~1.5 min
