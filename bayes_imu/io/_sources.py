@@ -81,27 +81,24 @@ def parse_table(buf, delimiter, n_columns, skip_first, wanted, out):
             significant = 0
             digits = 0
             exponent = 0
-            while i < n and 48 <= buf[i] <= 57:
+            point = False  # digits after the decimal point lower the exponent
+            while i < n:
+                if buf[i] == 46 and not point:
+                    point = True
+                    i += 1
+                    continue
+                if not 48 <= buf[i] <= 57:
+                    break
                 d = buf[i] - 48
                 if significant > 0 or d > 0:
                     significant += 1
                     if significant > 18:
                         return -1
                     mantissa = mantissa * 10 + d
+                if point:
+                    exponent -= 1
                 digits += 1
                 i += 1
-            if i < n and buf[i] == 46:
-                i += 1
-                while i < n and 48 <= buf[i] <= 57:
-                    d = buf[i] - 48
-                    if significant > 0 or d > 0:
-                        significant += 1
-                        if significant > 18:
-                            return -1
-                        mantissa = mantissa * 10 + d
-                    exponent -= 1
-                    digits += 1
-                    i += 1
             if digits == 0:
                 return -1
             if i < n and (buf[i] == 101 or buf[i] == 69):

@@ -53,15 +53,15 @@ def read_plain_fast(path, fmt, usecols, open_binary):
         delimiter = ","
     if kernel is None or delimiter is None or len(delimiter) != 1 or ord(delimiter) > 127:
         return None
+    wanted = np.asarray(usecols, dtype=np.int64)
+    if wanted.size == 0 or len(set(usecols)) != wanted.size:
+        return None
     buf = _whole_text(path, open_binary)
     if buf is None:
         return None
     # rows <= line ends + 1, counted a chunk at a time (no temporary the size of the text)
     max_rows = 1 + sum(int(np.count_nonzero(buf[i:i + _CHUNK] == 10))
                        for i in range(0, buf.size, _CHUNK))
-    wanted = np.asarray(usecols, dtype=np.int64)
-    if wanted.size == 0 or len(set(usecols)) != wanted.size:
-        return None
     out = np.empty((max_rows, wanted.size))
     rows = kernel(buf, ord(delimiter), len(fmt["names"]), int(bool(fmt["header"])), wanted, out)
     if rows <= 0:
