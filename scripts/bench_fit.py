@@ -145,8 +145,10 @@ def _compare(logs, runs):
                     ],
                     capture_output=True,
                     text=True,
-                    check=True,
                 )
+                if proc.returncode != 0:
+                    raise SystemExit(f"bayes-imu fit {log} {column} failed (exit "
+                                     f"{proc.returncode}):\n{proc.stderr}")
                 ours.append(time.perf_counter() - start)
                 our_cpu.append(_children_cpu() - cpu)
                 cpu = _children_cpu()

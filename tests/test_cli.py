@@ -369,3 +369,27 @@ def test_a_p_value_that_underflowed_is_not_printed_as_zero():
 
     assert _p_text(0.0) == "< 1e-300"
     assert _p_text(0.012) == "= 0.012"
+
+
+def test_degrees_for_an_accelerometer_are_refused_before_reading(tmp_path, capsys):
+    """``--sensor accel --display-units deg`` was accepted and ignored (a new user's report):
+    refused in one line, exit 2, before the log is read (a missing log is not reached) and with
+    nothing written; the library's request refuses it as well."""
+    from bayes_imu.allan.pipeline import LogSource
+    from bayes_imu.errors import InputError
+    from bayes_imu.report.writers import FitRequest
+
+    out = tmp_path / "o"
+    code = main(["fit", str(tmp_path / "missing.csv"), "--column", "a", "--rate", "100",
+                 "--sensor", "accel", "--display-units", "deg", "--out", str(out)])
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert "--display-units deg" in err[0] and "--sensor accel" in err[0]
+    assert "missing" not in err[0]
+    assert not out.exists()
+    with pytest.raises(InputError, match="accelerometer"):
+        FitRequest(LogSource(), sensor="accel", display_units="deg")
+    with pytest.raises(InputError, match="expected one of"):
+        FitRequest(LogSource(), display_units="degrees")
+    assert FitRequest(LogSource(), sensor="gyro", display_units="deg").display_units == "deg"

@@ -1028,6 +1028,8 @@ _FLAGS = (
     (re.compile(r"\bneeds a (column|topic) \("), r"needs --\1 ("),
     (re.compile(r"\bleave out column\b"), "leave out --column"),
     (re.compile(r"^display_units='deg'"), "--display-units deg"),
+    (re.compile(r"\(sensor='accel'\) has none: use 'si'"),
+     "(--sensor accel) has none: use --display-units si"),
     (re.compile(r"\(give units\)"), "(give --units)"),
     (re.compile(r"\ban Allan table needs rate_hz\b"), "--allan-table needs --rate HZ"),
     (

@@ -20,7 +20,7 @@ from .._version import __version__
 from ..allan.pipeline import LogSource
 from ..drift.bands import DEFAULT_CALIBRATION_S, SENSOR_QUANTITIES, default_times, drift_bands
 from ..drift.bands import integrated_unit
-from ..drift.display import display_unit
+from ..drift.display import DISPLAY_CHOICES, display_unit
 from ..errors import InputError
 from ..inference.likelihood import LIKELIHOODS
 from ..noise.model import WORST_AXIS
@@ -88,6 +88,15 @@ class FitRequest:
     times: tuple = None
     display_units: str = "si"
     datasheet: tuple = None
+
+    def __post_init__(self):
+        # before the log is read: degrees are a gyro's (an accelerometer's drift has no angle)
+        if self.display_units not in DISPLAY_CHOICES:
+            raise InputError(f"display_units={self.display_units!r}: expected one of "
+                             f"{', '.join(DISPLAY_CHOICES)}")
+        if self.display_units == "deg" and self.sensor == "accel":
+            raise InputError("display_units='deg' shows a gyro's rates and angles in degrees; an "
+                             "accelerometer (sensor='accel') has none: use 'si'")
 
 
 @dataclass(frozen=True)
