@@ -37,6 +37,8 @@ KERNELS = {
         "void(f8[::1], f8[:, ::1], f8[::1], f8[::1], f8[::1], f8[::1], f8[:, ::1], f8, f8[:, ::1])",
     ),
     "parse_table": ("io", "i8(u1[::1], i8, i8, i8, i8[::1], f8[:, ::1])"),
+    "pair_sum_lags": ("noise", "f8(f8[::1], f8[::1], f8[::1], i8, i8, i8, i8, i8, i8, i8)"),
+    "second_differences_into": ("noise", "void(f8[::1], i8, i8, f8[::1])"),
     "drift_rows": (
         "noise",
         "void(i8, f8[::1], f8[::1], f8[::1], f8[:, ::1], f8[::1], f8, f8[::1], f8[::1], f8[:, "

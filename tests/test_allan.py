@@ -595,6 +595,20 @@ def test_precompiled_kernels_agree_with_the_jit_build(rng):
     aot.avar_rows(*rows, out_aot)
     numba.njit(avar_rows)(*rows, out_jit)
     np.testing.assert_array_equal(out_aot, out_jit)
+    from bayes_imu.noise._sources import pair_sum_lags, second_differences_into
+
+    table = np.cumsum(rng.random(700 + 4 * 8 + 1))  # D(0 .. n + 4 max(m)), n = 700
+    ext = np.concatenate([table[:0:-1], table])
+    reach = 700 + 2 * 8
+    lo, size = table.size - 1 - reach, 2 * reach + 1
+    g_aot, g_jit = np.empty(size), np.empty(size)
+    aot.second_differences_into(ext, lo, 8, g_aot)
+    numba.njit(second_differences_into)(ext, lo, 8, g_jit)
+    np.testing.assert_array_equal(g_aot, g_jit)
+    h, half = np.cos(np.arange(size)), rng.random(9)
+    for flags in ((1, 1), (1, 0), (0, 0)):  # a = 3, b = 8: M_a = 695, M_b = 685
+        lag_sum = (g_aot, h, half, 40, 3, 695, 685, reach, *flags)
+        assert aot.pair_sum_lags(*lag_sum) == numba.njit(pair_sum_lags)(*lag_sum)
     # the running sums are strict IEEE (fast-math would optimise their compensation away), the fused
     # fill too
     running = {

@@ -21,7 +21,10 @@ from .euler_sums import (
     _phi2_series,
 )
 
-__all__ = ["avar_rows", "drift_rows", "powers_scalar", "coefficient_scalar"]
+__all__ = [
+    "avar_rows", "drift_rows", "pair_sum_lags", "second_differences_into", "powers_scalar",
+    "coefficient_scalar",
+]
 
 # module globals, not closure variables: numba's cache keys a closure's captured dispatcher by
 # identity
@@ -51,6 +54,52 @@ def avar_rows(mf, coeffs, s2, x, fx, e2, fy, switch, out):
                     m * m * fx[i] * fx[i]
                 )
             out[i, j] = s2[i] * value
+
+
+def second_differences_into(ext, lo, b, out):
+    """``out[k] = D(lo + k) - 2 D(lo - b + k) + D(lo - 2b + k)`` from the mirrored table ``ext``
+    (:func:`bayes_imu.noise.avar_covariance.exact_pair_sums`), rounded as the numpy form rounds
+    it, into a buffer reused for every cluster size."""
+    for k in range(out.size):
+        out[k] = ext[lo + k] - 2.0 * ext[lo - b + k] + ext[lo - 2 * b + k]
+
+
+def pair_sum_lags(g, h, half, w_lo, a, ma, mb, reach, use_g, use_h):
+    """``sum_l n(l) c(l) (c(l) + 2 e(l))`` over the lags ``l = -(M_a - 1) .. M_b - 1`` of one pair
+    of cluster sizes (:func:`bayes_imu.noise.avar_covariance.exact_pair_sums`): ``n(l)`` the index
+    pairs the two estimates share at lag ``l``, ``c(l) = -1/2 sum_p w_p g(p a - l)`` (``use_g``;
+    else 0) less ``half`` on the lags from offset ``w_lo``, ``e`` the same of ``h`` (``use_h``; else
+    the sum of ``n(l) c(l)^2``); ``g``, ``h`` second differences of step ``b``
+    (:func:`second_differences_into`). Each ``c`` and product is rounded as the whole-array numpy
+    form rounds it; the sum runs in blocks of 1024 lags, each block's total added to the whole."""
+    size = ma + mb - 1
+    f0 = reach - (mb - 1) + size - 1  # c's term p at lag offset j reads g at f0 + p a - j
+    w_hi = w_lo + half.size
+    total = 0.0
+    for start in range(0, size, 1024):
+        block = 0.0
+        for j in range(start, min(size, start + 1024)):
+            lag = j - (ma - 1)
+            count = float(min(ma, mb - lag) - max(0, -lag))
+            c = 0.0
+            if use_g:
+                c = c + 1.0 * g[f0 - j]
+                c = c + -2.0 * g[f0 + a - j]
+                c = c + 1.0 * g[f0 + 2 * a - j]
+                c = -0.5 * c
+            if w_lo <= j < w_hi:
+                c = c - half[j - w_lo]
+            if use_h:
+                e = 0.0
+                e = e + 1.0 * h[f0 - j]
+                e = e + -2.0 * h[f0 + a - j]
+                e = e + 1.0 * h[f0 + 2 * a - j]
+                e = -0.5 * e
+                block += count * (c * (c + 2.0 * e))
+            else:
+                block += count * (c * c)
+        total += block
+    return total
 
 
 @numba.njit(cache=True)

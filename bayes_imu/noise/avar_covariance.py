@@ -140,54 +140,58 @@ def exact_pair_sums(table, ms, n, *, deterministic=None, local=None):
     k = ms.size
     out = np.zeros((k, k))
     spread = bool(np.any(table))  # any term correlated beyond the window
+    kernel, fill = _pair_sum_kernel(), _kernels["second_differences_into"]
+    top = table.size - 1
+    lo, size = top - reach, 2 * reach + 1
+    empty = np.zeros(0)
+    # the tables reflected about lag 0 (ext[j + top] = D(|j|)), and one buffer each for their
+    # second differences at every step b
+    ext = np.concatenate([table[:0:-1], table]) if spread else None
+    ext_h = None if deterministic is None else np.concatenate([deterministic[:0:-1], deterministic])
+    g = np.empty(size) if spread else empty
+    h = empty if ext_h is None else np.empty(size)
     for ib in range(k):
         b = int(ms[ib])
         mb = n - 2 * b + 1
-        g = _second_differences(table, b, reach) if spread else None
-        h = None if deterministic is None else _second_differences(deterministic, b, reach)
+        if spread:
+            fill(ext, lo, b, g)  # g[j + reach] = sum_q w_q D(|j - q b|), |j| <= reach
+        if ext_h is not None:
+            fill(ext_h, lo, b, h)
         for ia in range(ib + 1):
             a = int(ms[ia])
             ma = n - 2 * a + 1
-            lag = np.arange(-(ma - 1), mb, dtype=np.int64)
-            count = (np.minimum(ma, mb - lag) - np.maximum(0, -lag)).astype(float)
-            c = _lag_covariance(g, a, mb, reach, lag.size) if spread else np.zeros(lag.size)
-            if local is not None:
-                _add_window_covariance(c, local, a, b, ma, mb)
-            if h is None:
-                out[ia, ib] = out[ib, ia] = np.dot(count, c * c)
-            else:
-                e = _lag_covariance(h, a, mb, reach, lag.size)
-                out[ia, ib] = out[ib, ia] = np.dot(count, c * (c + 2.0 * e))
+            half, w_lo = (empty, 0) if local is None else _window_covariance(local, a, b, ma, mb)
+            out[ia, ib] = out[ib, ia] = kernel(g, h, half, w_lo, a, ma, mb, reach, int(spread),
+                                               int(ext_h is not None))
     return out
 
 
-def _add_window_covariance(c, local, a, b, ma, mb):
-    """Add ``c(l) = -1/2 sum_{p,q} w_p w_q D(|p a - q b - l|)`` of the table ``local`` to ``c``
-    (lags ``-(M_a - 1) .. M_b - 1``) in the overlap window ``-2b <= l <= 2a`` only."""
+_kernels = {}  # filled on first use (:func:`_pair_sum_kernel`)
+
+
+def _pair_sum_kernel():
+    """The compiled lag sum of one pair (:func:`bayes_imu.noise._sources.pair_sum_lags`) and the
+    fill of second differences it reads: the numpy form they replaced made ~14 record-long
+    temporaries per pair (3 s of a 10 s fit of a 1e6-sample ADIS16405 log with a vibration line;
+    issue 39)."""
+    if not _kernels:
+        from ..allan.kernels import compiled_kernel
+
+        for name in ("pair_sum_lags", "second_differences_into"):
+            _kernels[name] = compiled_kernel(name, f"{__package__}._sources")
+    return _kernels["pair_sum_lags"]
+
+
+def _window_covariance(local, a, b, ma, mb):
+    """``(half, offset)``: ``1/2 sum_{p,q} w_p w_q D(|p a - q b - l|)`` of the table ``local`` in
+    the overlap window ``-2b <= l <= 2a`` (within the lags ``-(M_a - 1) .. M_b - 1``), which ``c``
+    loses there, and the offset of its first lag."""
     lag = np.arange(max(-2 * b, -(ma - 1)), min(2 * a, mb - 1) + 1)
     part = np.zeros(lag.size)
     for p, wa in ((0, 1.0), (1, -2.0), (2, 1.0)):
         for q, wb in ((0, 1.0), (1, -2.0), (2, 1.0)):
             part += wa * wb * local[np.abs(p * a - q * b - lag)]
-    c[lag + (ma - 1)] -= 0.5 * part
-
-
-def _second_differences(table, b, reach):
-    """``g[j + reach] = sum_q w_q D(|j - q b|)``, ``|j| <= reach``: D's second difference, step
-    b."""
-    top = table.size - 1  # the table holds D(0..top), top >= n + 4 max(m)
-    ext = np.concatenate([table[:0:-1], table])  # ext[j + top] = D(|j|)
-    lo, size = top - reach, 2 * reach + 1
-    return ext[lo:lo + size] - 2.0 * ext[lo - b:lo - b + size] + ext[lo - 2 * b:lo - 2 * b + size]
-
-
-def _lag_covariance(g, a, mb, reach, size):
-    """``c(l) = -1/2 sum_p w_p g(p a - l)``, ``l = -(M_a - 1) .. M_b - 1``: reversed slices of g."""
-    c = np.zeros(size)
-    for p, w in ((0, 1.0), (1, -2.0), (2, 1.0)):
-        first = p * a - (mb - 1) + reach
-        c += w * g[first:first + size][::-1]
-    return -0.5 * c
+    return 0.5 * part, int(lag[0] + (ma - 1))
 
 
 def equivalent_dof(avar, cov):
