@@ -13,22 +13,23 @@
 # (17 min in all); the estimates below were made before that run:
 #    0. the README's quick-start fit, 6 runs                           ~0.2 min
 #    1. bench_fit idle, synthetic 1e6, 3 runs (+ in-process stages)   ~1 min
-#    2. bench_fit idle, --real (six ADIS16405 gyro x logs, 1 run each)  ~1.5 min
+#    2. bench_fit idle, --real (six ADIS16405 gyro x logs, 3 runs each) ~4.5 min
 #    3. bench_fit --load 2, synthetic 1e6, 3 runs                      ~1.5 min
 #    4. bench_fit --load 2, --real, CUT to units 1-3 (1 run each)      ~1.2 min
 #    5. bench_allan (1e5, 1e6, 1e7; best of 3), unknown kind and --sensor gyro ~1.4 min
 #    6. bench_report (accel, gyro, scene4, refit2; folders made first) ~5 min
 #    7. bench_nav (refits gyro y + accel x with bands, then nav; 1 run) ~1.5 min
+#    7b. bench_real_fits (37 single-unit fits of the shared real logs, seed 0) ~6.5 min
 #    8. validate_population, CUT to accel_x (6 folds + the six-unit population, 8 parameters,
 #       fresh cache, 2 workers: mostly the single-unit fits and their evidences)   ~4.5 min
 #    9. the default suite idle (xdist, 2 workers)                       ~2 min
 #   10. the default suite under load 2                                  ~4 min
-#   total                                                               ~23 min
+#   total                                                               ~33 min
 # The population fits themselves (5-6 units of 8 parameters) took 1.3-5.2 s of CPU each under load
 # (accel_x: six folds and the six-unit population, all converged; 55 s for the run from a cache). Cuts made to stay within ~25 min: validate_population runs one
 # of its six axes (POPULATION_AXES=accel_x,gyro_x adds ~4 min; all six axes ~20 min more;
-# SKIP_POPULATION=1 skips it); bench_fit --load 2 --real runs units 1-3; bench_fit --real and
-# bench_nav run each case once.
+# SKIP_POPULATION=1 skips it); bench_fit --load 2 --real runs units 1-3; bench_nav runs each case
+# once.
 
 set -u
 REPO=${1:-$(cd "$(dirname "$0")/.." && pwd)}
@@ -103,7 +104,7 @@ python -c "import allantools, allan_variance" 2>/dev/null || echo "WARNING: peer
 
 step "quick start fit (README), 6 runs" quick_start
 step "bench_fit idle, synthetic 1e6, 3 runs" python scripts/bench_fit.py --runs 3
-step "bench_fit idle, --real" python scripts/bench_fit.py --real --runs 1
+step "bench_fit idle, --real, 3 runs" python scripts/bench_fit.py --real --runs 3
 step "bench_fit --load 2, synthetic 1e6, 3 runs" python scripts/bench_fit.py --load 2 --runs 3
 step "bench_fit --load 2, --real (units 1-3)" python scripts/bench_fit.py --load 2 --real --runs 1 \
     --real-units 1,2,3
@@ -113,6 +114,8 @@ step "bench_allan --sensor gyro (a gyro fit's call)" \
     python scripts/bench_allan.py --sizes 1e5,1e6,1e7 --repeat 3 --sensor gyro
 step "bench_report" python scripts/bench_report.py --work "$WORK/report" --data "$SMAC"
 step "bench_nav" nav_bench
+step "bench_real_fits (every single-unit fit of the shared real logs)" \
+    python scripts/bench_real_fits.py --data "$SMAC"
 AXES=${POPULATION_AXES:-accel_x}
 if [ "${SKIP_POPULATION:-0}" != 1 ]; then
     step "validate_population ($AXES)" python scripts/validate_population.py --workers 2 --axes "$AXES" \
