@@ -133,6 +133,22 @@ def check_avar(term):
     assert out.shape == (2, 3, m.size) and np.array_equal(out[1, 2], got)
 
 
+def check_avar_many(term):
+    """Evaluated with the other terms of its ``avar_group`` (a model's Gauss-Markov terms in one
+    call), each term's Allan variance is the bits of its own ``avar``, scalars and batches."""
+    group = [t for t in REGISTRY.values()
+             if term.avar_group is not None and t.avar_group == term.avar_group and t is not term]
+    m = np.array([1.0, 2.0, 3.0, 5.0, 8.0, 21.0, 4096.0])
+    p = {}
+    for t in (term, *group):
+        p.update(params_of(t))
+    for params in (p, {k: np.full((2, 3), v) * np.linspace(0.5, 2.0, 3) for k, v in p.items()}):
+        got = term.avar_many(group, m, params, DT)
+        assert len(got) == 1 + len(group)
+        for t, value in zip((term, *group), got):
+            assert np.array_equal(value, t.avar(m, params, DT)), t.name
+
+
 def check_structure_vs_simulation(term, rng):
     """Mean square of the simulator's second differences equals ``2 m^2 AVAR(m)`` within 5 sigma."""
     p = params_of(term)
@@ -328,6 +344,7 @@ CHECKS = (
     check_drift_monte_carlo,
     check_drift_orders_and_starts,
     check_covariance_tail,
+    check_avar_many,
     check_selection_and_start,
     check_datasheet_and_kalibr,
     check_start_variants,

@@ -6,6 +6,8 @@ A term is a stochastic (or, for the ramp, deterministic) component of the rate s
 
 * ``avar(mf, params, dt)``: the exact expected overlapping Allan variance of sampled data at
   cluster sizes ``m`` (``tau = m dt``), broadcast ``(...,) x (n_tau,) -> (..., n_tau)``;
+* ``avar_group`` and ``avar_many(others, mf, params, dt)`` (optional): terms of one group in a
+  model evaluated in one call, each to the bits of its own ``avar`` (the Gauss-Markov terms);
 * ``structure(k, params, dt)``: the phase structure function ``D(k)`` (a generalised
   covariance of ``x_k = sum_{t<k} y_t``, in ``u^2``) from which the covariance of the AVAR
   estimates is built (:mod:`bayes_imu.noise.avar_covariance`);
@@ -346,6 +348,17 @@ class Term:
     # --- interface, overridden by each term ---------------------------------------------
     def avar(self, mf, params, dt):  # pragma: no cover - abstract
         raise NotImplementedError
+
+    #: terms of one model evaluated together by :meth:`avar_many` (``None``: each alone)
+    avar_group = None
+
+    def avar_many(self, others, mf, params, dt):
+        """The Allan variances of this term and ``others`` (terms of its :attr:`avar_group` in one
+        model), a list in that order, each bit for bit its own :meth:`avar`. By default each
+        alone; a group overrides it where one call for all is cheaper (the Gauss-Markov terms:
+        a model's fast correlated term and two biases in one compiled call, a likelihood call's
+        largest part)."""
+        return [t.avar(mf, params, dt) for t in (self, *others)]
 
     def structure(self, k, params, dt):  # pragma: no cover - abstract
         raise NotImplementedError

@@ -165,8 +165,20 @@ class _GaussMarkov(Term):
     def time_constant_name(self):
         return self.parameters[1]
 
+    avar_group = "gauss_markov"
+
     def avar(self, mf, params, dt):
         return gm_avar(mf, params[self.variance_name], params[self.time_constant_name], dt)
+
+    def avar_many(self, others, mf, params, dt):
+        """One :func:`gm_avar` call for every Gauss-Markov term of a model (its rows are computed
+        one by one, so each term's are the bits of its own call)."""
+        terms = (self, *others)
+        values = np.broadcast_arrays(*(np.asarray(params[t.variance_name], float) for t in terms),
+                                     *(np.asarray(params[t.time_constant_name], float)
+                                       for t in terms))
+        k = len(terms)
+        return list(gm_avar(mf, np.stack(values[:k]), np.stack(values[k:]), dt))
 
     def structure(self, k, params, dt):
         return gm_structure(k, params[self.variance_name], dt / params[self.time_constant_name])

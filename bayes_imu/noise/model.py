@@ -189,13 +189,20 @@ class AvarEvaluator:
     (:meth:`NoiseModel.avar_evaluator`); a class, not a closure, so that a fit can be pickled
     (the outputs are written by another process, :mod:`bayes_imu.report.worker`)."""
 
-    __slots__ = ("model", "mf", "_names", "_components")
+    __slots__ = ("model", "mf", "_names", "_components", "_plan")
 
     def __init__(self, model, mf):
         self.model = model
         self.mf = mf
         self._names = model.parameter_names  # the model is frozen: looked up once, not per call
         self._components = model.components
+        # the terms of one avar_group evaluated in one call (Term.avar_many), the rest alone
+        groups = {}
+        for i, term in enumerate(model.components):
+            key = term.avar_group if term.avar_group is not None else ("alone", i)
+            groups.setdefault(key, []).append(i)
+        self._plan = tuple((tuple(index), tuple(model.components[j] for j in index[1:]))
+                           for index in groups.values())
 
     def __getstate__(self):
         return self.model, self.mf
@@ -211,7 +218,14 @@ class AvarEvaluator:
             theta = np.asarray(params, float)
             params = {name: theta[..., i] for i, name in enumerate(self._names)}
         components = self._components
-        out = components[0].avar(mf, params, dt)
-        for term in components[1:]:
-            out = out + term.avar(mf, params, dt)
+        parts = [None] * len(components)
+        for index, others in self._plan:
+            if others:
+                for i, value in zip(index, components[index[0]].avar_many(others, mf, params, dt)):
+                    parts[i] = value
+            else:
+                parts[index[0]] = components[index[0]].avar(mf, params, dt)
+        out = parts[0]  # summed in the model's order, as each term alone
+        for part in parts[1:]:
+            out = out + part
         return out
