@@ -490,3 +490,27 @@ def test_stopped_during_its_warm_up_the_worker_leaves_no_temporary_folder(tmp_pa
     writer.stop()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["started"]
     assert not _children()
+
+
+def _write_value(path, holder, ballast=None):
+    Path(path).write_text(json.dumps(holder), encoding="utf-8")
+
+
+def test_a_call_sends_its_arguments_as_they_were_when_submitted(tmp_path):
+    """The arguments are pickled as the call is submitted: a caller that changes them afterwards
+    (a fit result's cached properties, filled while the figures were queued) neither changes what
+    the worker gets nor breaks its pickling ("dictionary changed size during iteration" stopped
+    the worker about one run in six). The worker starts slowly and a first call fills the pipe,
+    so a sender that pickled later would see the change."""
+    import functools
+
+    holder = {"value": 1}
+    with OutputWriter(background=True, warm=(functools.partial(time.sleep, 1.0),)) as writer:
+        writer.submit(_write_value, tmp_path / "first.json", {"value": 0},
+                      ballast=np.zeros(1 << 20))  # 8 MB: more than a pipe holds
+        writer.submit(_write_value, tmp_path / "second.json", holder)
+        for k in range(200):  # the dictionary changes size after the call was submitted
+            holder[f"late{k}"] = k
+        holder["value"] = 2
+    assert json.loads((tmp_path / "second.json").read_text()) == {"value": 1}
+    assert not _children()

@@ -223,13 +223,38 @@ def _lean_classes(emcee):
             return state, accepted
 
     class DEMove(WholeHalves, emcee.moves.DEMove):
-        pass
+        def get_proposal(self, s, c, random):
+            """emcee's differential-evolution proposal with the same draws: ``choice`` of a pair
+            index with replacement is ``randint`` on the legacy generator (the same numbers,
+            tested), without ``choice``'s checks; the pairs' differences taken directly instead of
+            through ``numpy.diff`` of the pairs' rows (the same subtraction)."""
+            c = np.concatenate(c, axis=0)
+            ns = s.shape[0]
+            pairs = _nondiagonal_pairs(c.shape[0])
+            chosen = pairs[random.randint(0, pairs.shape[0], size=ns)]
+            diffs = c[chosen[:, 1]] - c[chosen[:, 0]]
+            gamma = self.g0 * (1 + self.sigma * random.randn(ns, 1))
+            return s + gamma * diffs, np.zeros(ns, dtype=np.float64)
 
     class StretchMove(WholeHalves, emcee.moves.StretchMove):
         pass
 
     _LEAN["classes"] = Sampler, DEMove, StretchMove
     return _LEAN["classes"]
+
+
+def _nondiagonal_pairs(n):
+    """emcee's ``_get_nondiagonal_pairs(n)`` (its DE move's pairs of distinct walkers, in its
+    order), kept per ``n``."""
+    pairs = _PAIRS.get(n)
+    if pairs is None:
+        from emcee.moves.de import _get_nondiagonal_pairs
+
+        pairs = _PAIRS[n] = _get_nondiagonal_pairs(n)
+    return pairs
+
+
+_PAIRS = {}
 
 
 def import_emcee():

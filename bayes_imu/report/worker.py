@@ -207,7 +207,7 @@ class OutputWriter:
         if not self.background:
             fn(*args, **kwargs)
             return
-        self._outbox.put((fn, args, kwargs))
+        self._outbox.put(_pickled((fn, args, kwargs)))
         self._pending += 1
 
     def picture(self, fn, *args, **kwargs):
@@ -231,7 +231,7 @@ class OutputWriter:
             call = _Call(0, fn, args, kwargs)
             return Computed(None, 0, call())
         self._calls += 1
-        self._outbox.put((_Call(self._calls, fn, args, kwargs), (), {}))
+        self._outbox.put(_pickled((_Call(self._calls, fn, args, kwargs), (), {})))
         return Computed(self, self._calls)
 
     def pool(self):
@@ -261,7 +261,7 @@ class OutputWriter:
     def wait(self):
         """Block until every queued output is done; raise the first error one of them raised."""
         if self._pending:
-            self._outbox.put(_DRAIN)  # this process now waits: the worker may use every CPU
+            self._outbox.put(_pickled(_DRAIN))  # this process now waits: the worker may use every CPU
         while self._pending:
             self._receive(block=True)
 
@@ -372,14 +372,25 @@ class _Call:
             return _Value(self.number, None, _picklable(exc))
 
 
+def _pickled(job):
+    """A call pickled now, in the caller's thread, as the worker's ``recv`` reads it: pickled in the
+    sender thread instead, a call's arguments could change while they were being pickled (a fit
+    result's cached properties filled by the caller: "dictionary changed size during iteration",
+    which stopped the worker about one run in six on an ADIS16405 log)."""
+    from multiprocessing.reduction import ForkingPickler
+
+    return bytes(ForkingPickler.dumps(job))
+
+
 def _send_all(outbox, conn):
-    """The sender thread: pickle and send each queued call, in order, until ``None``."""
+    """The sender thread: send each queued call (pickled by :func:`_pickled`), in order, until
+    ``None``; the caller never waits for the worker to read."""
     try:
         while True:
             job = outbox.get()
             if job is None:
                 return
-            conn.send(job)
+            conn.send_bytes(job)
     except OSError:  # the worker was stopped
         return
     finally:
