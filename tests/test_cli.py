@@ -363,12 +363,21 @@ def test_drift_of_a_non_stationary_log_is_the_same_with_the_same_seed(tmp_path):
 
 
 def test_a_p_value_that_underflowed_is_not_printed_as_zero():
-    """A new user read "goodness of fit p = 0": a p-value below what doubles resolve is printed as
-    a bound."""
-    from bayes_imu.cli.main import _p_text
+    """A new user read "goodness of fit p = 0" (the console, then allan_fit.png's residual panel):
+    a p-value below what doubles resolve is printed as a bound, by one helper that every output
+    uses (no module formats a p-value itself)."""
+    import re
 
-    assert _p_text(0.0) == "< 1e-300"
-    assert _p_text(0.012) == "= 0.012"
+    import bayes_imu
+    from bayes_imu.report.text import p_text
+
+    assert p_text(0.0) == "< 1e-300"
+    assert p_text(0.012) == "= 0.012"
+    own = re.compile(r"p = \{[^}]*p_value[^}]*\}")
+    package = Path(bayes_imu.__file__).parent
+    found = [f"{f.relative_to(package)}: {m.group(0)}" for f in sorted(package.rglob("*.py"))
+             for m in own.finditer(f.read_text(encoding="utf-8"))]
+    assert found == []
 
 
 def test_degrees_for_an_accelerometer_are_refused_before_reading(tmp_path, capsys):

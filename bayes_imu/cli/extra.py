@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..report.text import p_text
 
 __all__ = ["add_commands", "add_fit_options"]
 
@@ -274,7 +275,7 @@ def _inadequate_pilot(axis, check):
     if check is None or check.adequate:
         return []
     return [
-        f"[{axis}] the pilot fit failed its goodness-of-fit check (p = {check.p_value:.2g}): "
+        f"[{axis}] the pilot fit failed its goodness-of-fit check (p {p_text(check.p_value)}): "
         "the plan assumes its model, so its widths may be optimistic for this sensor "
         "(record longer, or fit more terms: bayes-imu fit --terms)"
     ]

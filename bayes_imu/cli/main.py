@@ -36,6 +36,7 @@ from .._version import __version__
 from ..report.output import staged_file, staged_folder, user_os_error
 from ..report.runs import fit_job, run_allan, run_fit, run_fit_batch, run_population
 from ..report.worker import PICTURE_FAILED_STATUS, background_default
+from ..report.text import p_text
 from ..report.writers import FitRequest, write_sigma_csv
 from .._progress import progress_bar, show_progress
 from ..allan.pipeline import LogSource
@@ -519,14 +520,8 @@ def _say_axis(args, axis):
     position = ((summary.get("adequacy") or {}).get("drift") or {}).get("position")
     if position is not None and not position["adequate"]:
         _warn(f"{column}: the position drift the log itself shows disagrees with the model at "
-              f"t = {position['worst_t_s']:g} s (p = {position['p_value']:.2g}); the position "
+              f"t = {position['worst_t_s']:g} s (p {p_text(position['p_value'])}); the position "
               "bands include the log's own interval where it measures it")
-
-
-def _p_text(p):
-    """``= 0.012`` or, below what double precision resolves (a p-value that underflowed to 0),
-    ``< 1e-300``: never a p of exactly 0."""
-    return f"= {p:.2g}" if p >= 1e-300 else "< 1e-300"
 
 
 def _warn_axis(axis):
@@ -536,7 +531,7 @@ def _warn_axis(axis):
     adequacy = result.adequacy
     if not adequacy.adequate:
         what = [
-            f"goodness of fit p {_p_text(adequacy.p_value)} (worst at tau = "
+            f"goodness of fit p {p_text(adequacy.p_value)} (worst at tau = "
             f"{adequacy.worst_tau_s:g} s)"
         ]
         if adequacy.at_prior_bound:
@@ -551,7 +546,7 @@ def _warn_axis(axis):
         _warn(
             f"{column}: the noise changes during the log: its {steady.n_segments} parts differ by "
             f"{_ratio_text(steady.largest_ratio())} in Allan deviation at tau = "
-            f"{steady.worst_tau_s:g} s (p = {steady.p_value:.2g}; warm-up?), with a spread of up "
+            f"{steady.worst_tau_s:g} s (p {p_text(steady.p_value)}; warm-up?), with a spread of up "
             f"to x{steady.spread_factor():.2g} (1 sigma) "
             "at longer tau; drift bands include that spread "
             "(parameter intervals: the parts' scatter)"

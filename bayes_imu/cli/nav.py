@@ -152,7 +152,7 @@ def add_nav_parser(sub):
 def _warn_inputs(checks):
     """One warning per input fit whose checks failed (a new user's finding: ``nav`` printed bounds
     from an accelerometer fit whose model did not describe its log, without a word)."""
-    from .main import _p_text  # main imports this module: its helper is taken when called
+    from ..report.text import p_text
 
     several = {k: sum(c["sensor"] == k for c in checks) > 1 for k in ("gyro", "accel")}
     for c in checks:
@@ -160,7 +160,7 @@ def _warn_inputs(checks):
                                          else "")
         if not c["adequate"]:
             print(f"bayes-imu: warning: {name}: the noise model does not describe its log "
-                  f"(goodness of fit p {_p_text(c['p_value'])}): the "
+                  f"(goodness of fit p {p_text(c['p_value'])}): the "
                   "bounds inherit its bands, too narrow where the model misses", file=sys.stderr)
         if c["stationary"] is False:
             print(f"bayes-imu: warning: {name}: the noise changes during its log (p = "

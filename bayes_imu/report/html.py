@@ -21,6 +21,7 @@ from ..drift.display import display_unit, display_parameters, rate_display
 from ..io.readers import SI_UNITS as UNITS_SI
 from ..noise.model import REGISTRY
 from .scene import MAX_SEARCH_S, OUTPUT_UNITS
+from .text import p_text
 from .scene_nav import navigation_section
 
 
@@ -263,7 +264,7 @@ def _sensor_section(s, cred, failures=None, display="si"):
 unit of the same
 model may be worse (list several units' logs to bound a new unit).</p>
 <p class="model">Model needed: <b>{html.escape(' + '.join(fit.model.terms))}</b> ({why}).</p>
-<p class="adequacy">Goodness of fit: p = {a.p_value:.2g}, worst at tau = {a.worst_tau_s:g} s: \
+<p class="adequacy">Goodness of fit: p {p_text(a.p_value)}, worst at tau = {a.worst_tau_s:g} s: \
 {html.escape(fit_check)}.</p>
 {_drift_check_text(s.bands)}
 <p class="diagnostics">Sampler: {conv}; {rhat}{d['n_steps']} steps x {d['n_walkers']} walkers.</p>

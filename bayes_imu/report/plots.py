@@ -4,6 +4,8 @@ import contextlib
 
 import numpy as np
 
+from .text import p_text
+
 __all__ = [
     "plot_allan",
     "plot_allan_fit",
@@ -197,7 +199,7 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None, scale=1.0):
                 alpha=0.8,
                 label=(
                     _wrapped(
-                        f"its {steady.n_segments} parts: noise changes (p = {steady.p_value:.2g})"
+                        f"its {steady.n_segments} parts: noise changes (p {p_text(steady.p_value)})"
                     )
                     if j == 0
                     else None
@@ -309,7 +311,7 @@ def _residual_panel(ax, fit):
         if check.adequate
         else ("INADEQUATE, intervals widened" if fit.widened else "INADEQUATE")
     )
-    ax.set_title(f"goodness of fit: p = {check.p_value:.2g} ({verdict}); shaded: +-2", fontsize=9)
+    ax.set_title(f"goodness of fit: p {p_text(check.p_value)} ({verdict}); shaded: +-2", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
 
 

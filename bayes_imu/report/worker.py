@@ -261,7 +261,8 @@ class OutputWriter:
     def wait(self):
         """Block until every queued output is done; raise the first error one of them raised."""
         if self._pending:
-            self._outbox.put(_pickled(_DRAIN))  # this process now waits: the worker may use every CPU
+            # this process now waits: the worker may use every CPU
+            self._outbox.put(_pickled(_DRAIN))
         while self._pending:
             self._receive(block=True)
 
