@@ -1067,8 +1067,11 @@ def _thinned(sampler, tau_max, n_walkers, settled):
     """Drop the burn-in, thin (:func:`~bayes_imu.inference.sampling.burn_and_thin`); diagnostics on
     the rest."""
     burn, thin = burn_and_thin(tau_max)
-    chain = sampler.get_chain(discard=burn, thin=thin)  # (draws, walkers, par)
-    lp = sampler.get_log_prob(discard=burn, thin=thin)
+    # copies: emcee returns views of its storage, which would keep every step of the chain (the
+    # reserved backend: up to max_steps, ~90 MB for 40 000 steps of 9 parameters) alive with the
+    # result; a report of two refitted logs held both (issue 39's memory bound)
+    chain = np.array(sampler.get_chain(discard=burn, thin=thin))  # (draws, walkers, par)
+    lp = np.array(sampler.get_log_prob(discard=burn, thin=thin))
     return chain, lp, _diagnostics(chain, tau_max, sampler.iteration, n_walkers, settled)
 
 
