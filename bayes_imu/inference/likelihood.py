@@ -290,8 +290,11 @@ class LogPosterior:
                 z = _normal_scores(self.shape, y)
                 out = out - 0.5 * np.sum((z @ self.whiten) * z, axis=-1)
         if self.order:
-            phi = log_theta[..., list(self.order)]
-            increasing = (np.diff(phi, axis=-1) > 0).all(axis=-1)
+            # each ordered time constant above the one before (b > a exactly where b - a > 0)
+            order = self.order
+            increasing = log_theta[..., order[1]] > log_theta[..., order[0]]
+            for a, b in zip(order[1:-1], order[2:]):
+                increasing = increasing & (log_theta[..., b] > log_theta[..., a])
             out = np.where(increasing, out - self.log_order_mass, -np.inf)
         return np.where(np.isfinite(out), out, -np.inf)
 
