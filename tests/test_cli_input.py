@@ -181,7 +181,7 @@ CASES = [  # (id, file bytes or None, extra arguments, message fragment)
         "units_sensor_mismatch",
         GOOD.encode(),
         ["fit", "{log}", "--column", "gx", "--rate", "100", "--units", "g", "--sensor", "gyro"],
-        "--units g is a accel unit but --sensor is gyro",
+        "--units g is an accel unit but --sensor is gyro",
     ),
     (
         "bad_column_list",

@@ -450,3 +450,21 @@ def test_scene_reading_keys_are_checked(tmp_path, extra, message):
     (tmp_path / "log.csv").write_text("gx\n" + "0.1\n-0.1\n" * 40)
     with pytest.raises(InputError, match=message):
         _one_sensor_report(tmp_path, "a", log="log.csv", column="gx", extra=extra)
+
+
+def test_html_drift_check_names_where_the_log_measures_and_escapes_the_p_value():
+    """A new user read "measured on the log itself (up to 600 s; beyond, the bands extrapolate)"
+    for a log that measures drift to 4940 s (600 s was only the report's last time checked), and
+    an unescaped "p < 1e-300" in the HTML."""
+    from types import SimpleNamespace
+
+    from bayes_imu.report.html import _drift_check_text
+
+    check = SimpleNamespace(t_s=np.array([10.0, 600.0]), adequate=True, worst_t_s=10.0,
+                            p_combined=0.0)
+    band = SimpleNamespace(check=check, measured_s=4940.0)
+    text = _drift_check_text([band])
+    assert "up to 600 s" in text and "measures drift up to 4940 s" in text
+    assert "p &lt; 1e-300" in text and "p < " not in text
+    band = SimpleNamespace(check=check, measured_s=float("nan"))
+    assert "beyond the log, the bands extrapolate" in _drift_check_text([band])

@@ -77,7 +77,7 @@ def test_navigation_keys_are_read(tmp_path):
         (("after_s = 60", 'statistic = "3sigma"'), "statistic='3sigma'"),
         (("after_s = 60", 'schuler = "on"'), "schuler='on'"),
         (("after_s = 60", "speed = 3"), "unknown key 'speed'"),
-        (('gyro = "g"', 'gyro = "a"'), "is a accel sensor; expected a gyro"),
+        (('gyro = "g"', 'gyro = "a"'), "is an accel sensor; expected a gyro"),
         (('accel = "a"', 'accel = "nope"'), "no [[sensor]] of that name"),
         (('accel = "a"', "accel = 3"), "accel=3"),
         (('name = "A"', 'name = "A"\ncolour = "red"'), "unknown key 'colour'"),

@@ -175,7 +175,8 @@ def allan_from_source(source, *, purpose="fit", grid="octave", progress=False):
         raise InputError(f"units={source.units} is {what}")
     if source.units is not None and source.sensor and source.sensor != table[source.units][0]:
         raise InputError(
-            f"units={source.units} is a {table[source.units][0]} unit but sensor is {source.sensor}"
+            f"units={source.units} is {_article(table[source.units][0])} unit but sensor is "
+            f"{source.sensor}"
         )
     if source.allan_table is not None:
         return _table(source)
@@ -183,6 +184,11 @@ def allan_from_source(source, *, purpose="fit", grid="octave", progress=False):
         columns, results, unit, info = _allan(spooled, purpose, grid, progress, increments, table)
     info["log"] = source.shown
     return SourceAllan(tuple(columns), tuple(results), unit, info)
+
+
+def _article(kind):
+    """``"an accel"`` or ``"a gyro"``: the sensor kind with its article."""
+    return f"an {kind}" if kind[0] in "aeiou" else f"a {kind}"
 
 
 def _kind(opts, table):

@@ -207,7 +207,7 @@ def _build_parser():
         help="overlapping Allan deviation of one column of a log",
         description=textwrap.fill(
             "Overlapping Allan deviation with chi-squared confidence intervals (Greenhall EDF). "
-            "Writes allan.csv (tau, m, adev, interval, edf, unit) and allan.png.",
+            "Writes allan.csv (tau, m, adev, adev_low, adev_high, edf, unit) and allan.png.",
             96,
         ),
         epilog="examples:\n  bayes-imu allan imu.csv --column gyro_x --rate 100 --units deg/s "
@@ -515,7 +515,7 @@ def _say_axis(args, axis):
     check = axis.check
     if check is not None and not check.adequate:
         _warn(f"{column}: the drift the log itself shows disagrees with the model at t = "
-              f"{check.worst_t_s:g} s (p = {check.p_combined:.2g}); the drift bands include the "
+              f"{check.worst_t_s:g} s (p {p_text(check.p_combined)}); the drift bands include the "
               f"log's own interval up to {check.t_s[-1]:g} s and extrapolate the model beyond")
     position = ((summary.get("adequacy") or {}).get("drift") or {}).get("position")
     if position is not None and not position["adequate"]:
@@ -1023,6 +1023,9 @@ _FLAGS = (
     (re.compile(r"\bneeds a (column|topic) \("), r"needs --\1 ("),
     (re.compile(r"\bleave out column\b"), "leave out --column"),
     (re.compile(r"^display_units='deg'"), "--display-units deg"),
+    (re.compile(r"^horizon=(\S+) and times: give one \(times:"),
+     r"--horizon \1 and --times: give one (--times:"),
+    (re.compile(r"; horizon: a log grid up to it\)"), "; --horizon: a log grid up to it)"),
     (re.compile(r"\(sensor='accel'\) has none: use 'si'"),
      "(--sensor accel) has none: use --display-units si"),
     (re.compile(r"\(give units\)"), "(give --units)"),

@@ -264,8 +264,8 @@ def _sensor_section(s, cred, failures=None, display="si"):
 unit of the same
 model may be worse (list several units' logs to bound a new unit).</p>
 <p class="model">Model needed: <b>{html.escape(' + '.join(fit.model.terms))}</b> ({why}).</p>
-<p class="adequacy">Goodness of fit: p {p_text(a.p_value)}, worst at tau = {a.worst_tau_s:g} s: \
-{html.escape(fit_check)}.</p>
+<p class="adequacy">Goodness of fit: p {html.escape(p_text(a.p_value))}, worst at tau = \
+{a.worst_tau_s:g} s: {html.escape(fit_check)}.</p>
 {_drift_check_text(s.bands)}
 <p class="diagnostics">Sampler: {conv}; {rhat}{d['n_steps']} steps x {d['n_walkers']} walkers.</p>
 <table>{head}{rows}</table>{sheet}
@@ -283,7 +283,8 @@ def _shown_bands(bands, display):
 
 def _drift_check_text(bands):
     """The drift-space check (drift.direct): the drift the log itself shows against the bands."""
-    check = next((b.check for b in bands if getattr(b, "check", None) is not None), None)
+    band = next((b for b in bands if getattr(b, "check", None) is not None), None)
+    check = None if band is None else band.check
     if check is None:
         return (
             '<p class="drift-check">Drift measured on the log itself: not available for these '
@@ -296,10 +297,19 @@ def _drift_check_text(bands):
              "log's own interval"
     )
     return (
-        f'<p class="drift-check">Drift measured on the log itself (up to {check.t_s[-1]:g} s; '
-        'beyond, the bands '
-        f"extrapolate the model): p = {check.p_combined:.2g}, {html.escape(verdict)}.</p>"
+        f'<p class="drift-check">Drift measured on the log itself, checked at the report\'s '
+        f"times up to {check.t_s[-1]:g} s ({html.escape(_measured_range(band))}): "
+        f"p {html.escape(p_text(check.p_combined))}, {html.escape(verdict)}.</p>"
     )
+def _measured_range(band):
+    """Where the log measures the band's drift itself (:attr:`DriftBands.measured_s`), beyond which
+    the band extrapolates the model."""
+    if np.isfinite(band.measured_s):
+        return (f"the log measures drift up to {band.measured_s:g} s; beyond, the bands "
+                "extrapolate the model")
+    return "beyond the log, the bands extrapolate the model"
+
+
 def _datasheet_table(s):
     """A sensor's datasheet check (scene ``datasheet``): spec, posterior median, P(within spec)."""
     check = s.datasheet_check

@@ -715,7 +715,7 @@ def _draw_measured(ax, bands, t):
             color="black",
             alpha=0.7,
             label=("measured on the log itself, 90% interval (the model "
-                   f"{'agrees' if check.adequate else 'DISAGREES'}: p = {check.p_combined:.2g})"),
+                   f"{'agrees' if check.adequate else 'DISAGREES'}: p {p_text(check.p_combined)})"),
         )
     measured = getattr(bands, "measured_s", float("nan"))
     edge = measured if np.isfinite(measured) else bands.record_s

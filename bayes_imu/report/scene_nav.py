@@ -183,7 +183,9 @@ def read_navigation(doc, path, sensors, credibility):
                 )
             if kind != key:
                 raise InputError(
-                    f"{at}: {key}={_excerpt(values[key])} is a {kind} sensor; expected a {key}"
+                    f"{at}: {key}={_excerpt(values[key])} is "
+                    f"{'an' if kind == 'accel' else 'a'} {kind} sensor; expected "
+                    f"{'an' if key == 'accel' else 'a'} {key}"
                 )
         specs.append(ImuSpec(values["name"], values["gyro"], values["accel"]))
     names = [s.name for s in specs]

@@ -42,6 +42,10 @@ __all__ = [
 ]
 
 
+#: longest drift time of a fit's bands when no times are given [s]
+DEFAULT_HORIZON_S = 3600.0
+
+
 @dataclass(frozen=True)
 class FitRequest:
     """One fit of a log, as ``bayes-imu fit`` runs it (every option of ``fit`` but where to write).
@@ -81,7 +85,7 @@ class FitRequest:
     likelihood: str = LIKELIHOODS[0]
     discrepancy: str = "auto"
     sensor: str = None
-    horizon: float = 3600.0
+    horizon: float = DEFAULT_HORIZON_S
     bias_start: str = "calibrated"
     calibration: float = DEFAULT_CALIBRATION_S
     models: str = "averaged"
@@ -94,6 +98,9 @@ class FitRequest:
         if self.display_units not in DISPLAY_CHOICES:
             raise InputError(f"display_units={self.display_units!r}: expected one of "
                              f"{', '.join(DISPLAY_CHOICES)}")
+        if self.times is not None and self.horizon != DEFAULT_HORIZON_S:
+            raise InputError(f"horizon={self.horizon:g} and times: give one (times: drift rows at "
+                             "exactly those times; horizon: a log grid up to it)")
         if self.display_units == "deg" and self.sensor == "accel":
             raise InputError("display_units='deg' shows a gyro's rates and angles in degrees; an "
                              "accelerometer (sensor='accel') has none: use 'si'")
