@@ -4,6 +4,7 @@ isolated."""
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from bayes_imu.cli.main import main
@@ -235,10 +236,12 @@ def _non_default(action):
     raise AssertionError(f"no test value for {action.dest}")
 
 
-def test_every_fit_option_reaches_a_batch_job_as_fit_would_read_it(tmp_path, monkeypatch):
+@pytest.mark.parametrize("left_out", ["--horizon", "--times"])
+def test_every_fit_option_reaches_a_batch_job_as_fit_would_read_it(tmp_path, monkeypatch,
+                                                                   left_out):
     """fit-batch with every option set away from its default: each job's request is, field for
     field, the request ``fit`` makes of the same log and options, and every option's value is in
-    it."""
+    it (``--horizon`` and ``--times`` exclude each other: each is left out once)."""
     import dataclasses
 
     import bayes_imu.report.fleet as fleet
@@ -246,7 +249,8 @@ def test_every_fit_option_reaches_a_batch_job_as_fit_would_read_it(tmp_path, mon
     from bayes_imu.report.fleet import JobResult
 
     actions = [a for a in _subparser("fit-batch")._actions
-               if a.option_strings and a.dest not in _RUN_OPTIONS | _BATCH_ONLY]
+               if a.option_strings and a.dest not in _RUN_OPTIONS | _BATCH_ONLY
+               and left_out not in a.option_strings]
     words = [w for a in actions for w in _non_default(a)]
     if "--input" in words:  # increments take increment units: keep the pair consistent
         words[words.index("--units") + 1] = "rad"
@@ -289,3 +293,30 @@ def test_logs_whose_names_look_like_options_are_fitted_as_logs(tmp_path, monkeyp
     for row, name in zip(batch["logs"], names):
         summary = json.loads((tmp_path / "out" / row["name"] / "summary.json").read_text())
         assert summary["log"] == name and sorted(summary["model"]) == ["random_walk", "white"]
+
+
+def test_a_batch_says_which_fits_flag_themselves(tmp_path, rng, capsys):
+    """fit-batch printed only "2 of 2 logs fitted" where a fit alone warns (a new user's report):
+    batch.json carries each axis's own checks (converged, adequate, stationary) and counts, and the
+    command warns, one line a log, naming the log and what its summary.json flags."""
+    folder = tmp_path / "logs"
+    folder.mkdir()
+    steady = 0.01 * rng.standard_normal(2**14)
+    changing = steady * np.where(np.arange(steady.size) < steady.size // 2, 1.0, 3.0)
+    for name, values in (("steady", steady), ("changing", changing)):
+        (folder / f"{name}.csv").write_text("gx\n" + "\n".join(f"{v:.8f}" for v in values) + "\n")
+    out = tmp_path / "batch"
+    status = main(["fit-batch", str(folder / "steady.csv"), str(folder / "changing.csv"),
+                   *OPTIONS, "--serial", "--out", str(out), "--quiet"])
+    assert status == 0
+    batch = json.loads((out / "batch.json").read_text())
+    checks = {e["name"]: e["checks"]["gx"] for e in batch["logs"]}
+    assert checks["steady"] == {"converged": True, "adequate": True, "stationary": True}
+    assert checks["changing"]["stationary"] is False
+    summary = json.loads((out / "changing" / "summary.json").read_text())
+    assert checks["changing"]["adequate"] == summary["adequacy"]["adequate"]
+    assert batch["n_unconverged"] == 0
+    assert batch["n_inadequate"] == int(checks["changing"]["adequate"] is False)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("bayes-imu: warning: changing: gx: ")
+    assert "the noise changes during the log" in err[0]

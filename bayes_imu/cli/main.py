@@ -810,6 +810,15 @@ def _cmd_fit_batch(args):
         )
     _say(args, f"{len(results) - len(failed)} of {len(results)} logs fitted in {run.seconds:.1f} s "
                f"({doc['logs_per_minute']:.1f} logs/min); wrote {args.out / 'batch.json'}")
+    for entry in doc["logs"]:  # what the fit alone would have warned of, one line a log
+        bad = [f"{column}: " + ", ".join(what for what, ok in (
+            ("sampler not converged", c["converged"]),
+            ("the noise model does not describe the log", c["adequate"] is not False),
+            ("the noise changes during the log", c["stationary"] is not False)) if not ok)
+            for column, c in entry.get("checks", {}).items()
+            if not c["converged"] or c["adequate"] is False or c["stationary"] is False]
+        if bad:
+            _warn(f"{entry['name']}: " + "; ".join(bad) + " (its summary.json says more)")
     unpictured = [r for r in results if r.status == PICTURE_FAILED_STATUS]
     for r in unpictured:
         _warn(f"{r.name}: a picture was not drawn; the numbers were written")

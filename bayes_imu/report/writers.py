@@ -295,23 +295,40 @@ def population_summary(population, *, unit, column, infos, drift=None):
     return summary
 
 
+def fit_checks(summary):
+    """What a fit's ``summary.json`` (one axis) says of its own reliability: ``converged`` (the
+    sampler), ``adequate`` (the model describes the log; ``None`` where not checked) and
+    ``stationary`` (the log's parts agree; ``None`` where not checked)."""
+    adequacy = summary.get("adequacy") or {}
+    stationarity = adequacy.get("stationarity") or {}
+    return {"converged": bool(summary["diagnostics"]["converged"]),
+            "adequate": adequacy.get("adequate"),
+            "stationary": stationarity.get("stationary")}
+
+
 def batch_summary(results, logs, folder, *, seconds, scheduler, seed):
     """``batch.json`` of a batch: each log's outcome, and the throughput (the fitted logs' samples
     are read from their ``summary.json`` in ``folder/<job name>``)."""
     samples = 0
-    for r in results:
+    entries = []
+    for r, log in zip(results, logs):
+        entry = dict(r.to_json(), log=str(log))
         if r.fitted:
             summary = json.loads((folder / r.name / "summary.json").read_text())
-            samples += (
-                sum(a["n_samples"] for a in summary["axes"].values())
-                if "axes" in summary
-                else summary["n_samples"]
-            )
+            axes = summary["axes"] if "axes" in summary else {summary["column"]: summary}
+            samples += sum(a["n_samples"] for a in axes.values())
+            entry["checks"] = {column: fit_checks(a) for column, a in axes.items()}
+        entries.append(entry)
     failed = [r for r in results if not r.fitted]
+    flagged = [e["checks"] for e in entries if "checks" in e]
     return {
-        "logs": [dict(r.to_json(), log=str(log)) for r, log in zip(results, logs)],
+        "logs": entries,
         "n_logs": len(results),
         "n_failed": len(failed),
+        # fitted logs with an axis whose sampler did not converge / whose model does not describe
+        # it (each log's own summary.json says which and why)
+        "n_unconverged": sum(any(not c["converged"] for c in f.values()) for f in flagged),
+        "n_inadequate": sum(any(c["adequate"] is False for c in f.values()) for f in flagged),
         "seconds": seconds,
         "logs_per_minute": 60 * len(results) / seconds,
         "samples_per_second": samples / seconds,
