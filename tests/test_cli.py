@@ -420,3 +420,15 @@ def test_horizon_and_times_together_are_refused(tmp_path, capsys):
     with pytest.raises(InputError, match="give one"):
         FitRequest(LogSource(), horizon=100.0, times=(10.0,))
     assert FitRequest(LogSource(), times=(10.0,)).times == (10.0,)
+
+
+def test_allan_readings_at_the_edge_are_said_to_be_bounds():
+    """The console printed "bias_instability ... at tau = 655 s" for a curve still falling at its
+    longest tau (summary.json knew: at_edge 0.999): a new user read it as a reading. Readings that
+    are bounds on most draws say so; the others are printed as before."""
+    from bayes_imu.cli.main import _reading_caveat
+
+    assert "still falls at the longest tau in 100% of draws" in _reading_caveat({"at_edge": 0.999})
+    assert "does not rise at the longest tau in 90% of draws" in _reading_caveat({"rising": 0.1})
+    assert _reading_caveat({"at_edge": 0.4}) == _reading_caveat({"rising": 0.6}) == ""
+    assert _reading_caveat({"median": 1.0}) == ""

@@ -573,8 +573,20 @@ def _say_readout(args, block):
             _say(
                 args,
                 f"    {name:30s} median {p['median']:.4g}  90% [{p['q05']:.4g}, {p['q95']:.4g}] "
-                f"{p['unit']}{at}",
+                f"{p['unit']}{at}{_reading_caveat(p)}",
             )
+
+
+def _reading_caveat(p):
+    """Where an Allan reading is a bound, not a reading (summary.json's ``at_edge``, ``rising``):
+    the curve still falls at the longest averaging time, or does not rise there yet."""
+    if p.get("at_edge", 0.0) >= 0.5:
+        return (f"; the curve still falls at the longest tau in {p['at_edge']:.0%} of draws: an "
+                "upper bound, not a reading")
+    if "rising" in p and p["rising"] < 0.5:
+        return (f"; the curve does not rise at the longest tau in {1.0 - p['rising']:.0%} of "
+                "draws: an upper bound, not a reading")
+    return ""
 
 
 def _ratio_text(ratio):
