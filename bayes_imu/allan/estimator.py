@@ -32,6 +32,10 @@ DEFAULT_SEGMENTS = 4
 
 _J_MAX = 100
 _MIN_ID_POINTS = 30
+#: averages below which an identified noise type is not trusted for the EDF (:func:`carried_edf`):
+#: the lag-1 autocorrelation's standard error ~1/sqrt(n) is 0.18 at 30 averages, enough to put
+#: 2 delta a whole step off (Riley & Greenhall 2004 give 30 as the least to identify at all)
+_TRUSTED_ID_POINTS = 100
 _MAX_ID_POINTS = 2**18  # lag-1 ACF standard error ~ 1/sqrt(n) = 0.002: ample to pick an integer
 _ALPHAS = (-2, -1, 0, 1, 2)
 _MAX_SEGMENT_TAUS = 40
@@ -79,7 +83,11 @@ class AllanResult:
     n_terms : ndarray of int
         Number of second differences averaged, ``n_samples + 1 - 2 m``.
     edf : ndarray
-        Equivalent degrees of freedom (Greenhall & Riley).
+        Equivalent degrees of freedom (Greenhall & Riley) of ``alpha``; where ``alpha`` was
+        identified from fewer than 100 cluster averages (or carried from a shorter size), the
+        smallest of ``alpha - 1 .. alpha + 1`` (:func:`carried_edf`): too few averages to tell
+        the noise type, so the interval is that of the least certain neighbouring type (a
+        white-rate tail read as flicker phase gave intervals 5x too narrow).
     alpha : ndarray of int
         Power-law exponent of the rate PSD used for the EDF: 2 white phase /
         quantization, 0 white rate (angle / velocity random walk), -1 flicker (bias
@@ -286,7 +294,8 @@ def allan_variance(
         # samples are read again only then, to name it (no pass over every record for it)
         _check_finite(y)
     alphas = _identify(x, ms, y.size, points) if alpha is None else alpha
-    result = assemble_result(ms, sums, alphas, y.size, rate_hz, confidence, interval)
+    result = assemble_result(ms, sums, alphas, y.size, rate_hz, confidence, interval,
+                             identified=alpha is None)
     contrasts = None
     if contrast_span_s is not None and contrast_span_s * rate_hz >= 1.0:
         # a gyro has no position: its record's position drift is not measured (a pass over a long
@@ -370,12 +379,17 @@ def check_options(rate_hz, confidence, interval):
     return rate_hz
 
 
-def assemble_result(ms, sums, alpha, n_samples, rate_hz, confidence, interval):
-    """:class:`AllanResult` from the second-difference sums of each cluster size (SP1065 eq 14)."""
+def assemble_result(ms, sums, alpha, n_samples, rate_hz, confidence, interval, identified=False):
+    """:class:`AllanResult` from the second-difference sums of each cluster size (SP1065 eq 14);
+    ``identified``: ``alpha`` was identified from the record (:func:`identify_noise`), so where it
+    was carried to a size with too few averages the EDF is the neighbours' smallest
+    (:func:`carried_edf`)."""
     n_terms = n_samples + 1 - 2 * ms
     avar = avar_from_sums(sums, ms, n_samples)
     alphas = _alpha_array(alpha, ms.size)
     edf = greenhall_edf(alphas, ms, n_samples + 1)
+    if identified:
+        edf = carried_edf(edf, alphas, ms, n_samples)
     low, high = chi2_interval(avar, edf, confidence, interval)
     return AllanResult(
         tau=ms / rate_hz,
@@ -496,6 +510,21 @@ def _identify(x, ms, n_samples, points, max_differences=2):
         if counts[i] >= _MIN_ID_POINTS:
             previous = _alpha_of(delta, d)
         out[i] = previous
+    return out
+
+
+def carried_edf(edf, alpha, ms, n_samples):
+    """``edf`` with each size whose ``alpha`` rests on fewer than :data:`_TRUSTED_ID_POINTS`
+    averages (identified from few, or carried from a shorter size where there are fewer than 30:
+    :func:`identify_noise`) given the smallest Greenhall EDF of ``alpha - 1 .. alpha + 1`` (within
+    -2 .. 2): the noise type there is not measured well, and one off by one changes the EDF
+    several times over (the Xsens MTi-G log's white-rate tail taken as flicker phase: EDF 637,
+    342, 173 at 30, 15 and 7.6 averages instead of 43.5, 20.7 and 9.3)."""
+    _, counts = identification_plan(ms, n_samples)
+    out = np.array(edf, dtype=float)
+    for i in np.flatnonzero(counts < _TRUSTED_ID_POINTS):
+        near = [a for a in (alpha[i] - 1, alpha[i], alpha[i] + 1) if -2 <= a <= 2]
+        out[i] = min(_edf_one(int(a), int(ms[i]), int(n_samples) + 1) for a in near)
     return out
 
 

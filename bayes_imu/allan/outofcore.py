@@ -116,7 +116,8 @@ def allan_variance_file(
         id_samples = _write_phase(source, mean, phase_path, ms, spans, bar)
         sums = _second_difference_sums(phase_path, ms, n, chunk, bar)
     alphas = noise_from_phase_samples(id_samples, ms) if alpha is None else alpha
-    return assemble_result(ms, sums, alphas, n, rate_hz, confidence, interval)
+    return assemble_result(ms, sums, alphas, n, rate_hz, confidence, interval,
+                           identified=alpha is None)
 
 
 def head_samples(path, *, column=None, dtype="<f8", n=1 << 16):

@@ -21,7 +21,7 @@ precision tables are printed with).
 
 import numpy as np
 
-from .estimator import AllanResult, chi2_interval, check_options, greenhall_edf
+from .estimator import AllanResult, carried_edf, chi2_interval, check_options, greenhall_edf
 from ..errors import InputError
 from ..io.readers import read_columns, sniff_file
 
@@ -99,7 +99,9 @@ def allan_from_table(tau, adev, *, rate_hz, edf=None, n_samples=None, confidence
                 f"Allan table: {n} samples cannot give tau = {tau[-1]:g} s ({m[-1]} samples); "
                 "expected at least twice the longest cluster size"
             )
-        edf = greenhall_edf(alpha, m, n + 1)
+        # the type read off the slope is no surer than a log's own identification where few
+        # averages make the estimate: the same rule (the neighbours' smallest EDF there)
+        edf = carried_edf(greenhall_edf(alpha, m, n + 1), alpha, m, n)
     low, high = chi2_interval(avar, edf, confidence)
     result = AllanResult(
         tau=m / rate_hz,
