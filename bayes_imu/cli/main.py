@@ -823,18 +823,23 @@ def _cmd_fit_batch(args):
     _say(args, f"{len(results) - len(failed)} of {len(results)} logs fitted in {run.seconds:.1f} s "
                f"({doc['logs_per_minute']:.1f} logs/min); wrote {args.out / 'batch.json'}")
     for entry in doc["logs"]:  # what the fit alone would have warned of, one line a log
-        bad = [f"{column}: " + ", ".join(what for what, ok in (
-            ("sampler not converged", c["converged"]),
-            ("the noise model does not describe the log", c["adequate"] is not False),
-            ("the noise changes during the log", c["stationary"] is not False)) if not ok)
-            for column, c in entry.get("checks", {}).items()
-            if not c["converged"] or c["adequate"] is False or c["stationary"] is False]
+        flagged = {column: _check_flags(c) for column, c in entry.get("checks", {}).items()}
+        bad = [f"{column}: {', '.join(flags)}" for column, flags in flagged.items() if flags]
         if bad:
             _warn(f"{entry['name']}: " + "; ".join(bad) + " (its summary.json says more)")
     unpictured = [r for r in results if r.status == PICTURE_FAILED_STATUS]
     for r in unpictured:
         _warn(f"{r.name}: a picture was not drawn; the numbers were written")
     return 2 if failed else PICTURE_FAILED_STATUS if unpictured else 0
+
+
+def _check_flags(checks):
+    """What one column's ``batch.json`` checks flag (:func:`bayes_imu.report.writers.fit_checks`;
+    ``None``: not checked, no flag)."""
+    return [what for what, flagged in (
+        ("sampler not converged", not checks["converged"]),
+        ("the noise model does not describe the log", checks["adequate"] is False),
+        ("the noise changes during the log", checks["stationary"] is False)) if flagged]
 
 
 def _fleet_fit(job):
