@@ -90,47 +90,45 @@ def contrast_edf(model, params, k, n_cal, n_samples, stride=1, *, order=1):
     (n_k,) ndarray
         ``nu = 2 (E V_hat)^2 / Var(V_hat)`` (module docstring).
     """
-    if order == 2:
-        return _position_edf(model, params, k, n_cal, n_samples, stride)
-    out = []
     ks = np.atleast_1d(np.asarray(k, dtype=float))
-    for kk, step in zip(ks, np.broadcast_to(np.asarray(stride, dtype=np.int64), ks.shape)):
+    nodes = [_start_nodes(kk, step, n_cal, n_samples)
+             for kk, step in zip(ks, np.broadcast_to(np.asarray(stride, dtype=np.int64), ks.shape))]
+    if order == 2:
+        cov = position_covariance(model, params, ks, n_cal, [d for _, _, d in nodes])
+        return np.array([_edf(c, m, w) for (m, w, _), c in zip(nodes, cov)])
+    out = []
+    for kk, (m, w, d) in zip(ks, nodes):
         r = kk / n_cal
         lags = np.array([0.0, n_cal, -n_cal, kk, -kk, kk + n_cal, -(kk + n_cal)])
         weights = np.array(
             [1 + (1 + r) ** 2 + r * r, -r * (1 + r), -r * (1 + r), -(1 + r), -(1 + r), r, r]
         )
-        m = int((n_samples - n_cal - kk) // step + 1)  # starts averaged, ``step`` apart
-        u, w = _lags(m, kk / step, n_cal / step)
-        d = step * np.concatenate(([0.0], u))
         table = model.structure_function(np.abs(d[:, None] + lags[None, :]).ravel(), params)
-        c = -0.5 * np.asarray(table, dtype=float).reshape(d.size, lags.size) @ weights
-        var = 2.0 / m**2 * (m * c[0] ** 2 + 2.0 * np.dot(w, c[1:] ** 2))
-        out.append(2.0 * c[0] ** 2 / var)
+        out.append(_edf(-0.5 * np.asarray(table, dtype=float).reshape(d.size, lags.size) @ weights,
+                        m, w))
     return np.array(out)
+
+
+def _start_nodes(k, step, n_cal, n_samples):
+    """``(m, w, d)`` of one outage ``k``: the ``m`` starts averaged, ``step`` apart, and the lags
+    ``d`` between two of them [samples] (``d[0] = 0``) with the weights ``w`` of ``d[1:]``
+    (:func:`_lags`)."""
+    m = int((n_samples - n_cal - k) // step + 1)
+    u, w = _lags(m, k / step, n_cal / step)
+    return m, w, step * np.concatenate(([0.0], u))
+
+
+def _edf(c, m, w):
+    """``2 (E V_hat)^2 / Var(V_hat)`` from the contrast's covariance ``c`` at the lags of
+    :func:`_start_nodes` (``c[0]`` its variance)."""
+    var = 2.0 / m**2 * (m * c[0] ** 2 + 2.0 * np.dot(w, c[1:] ** 2))
+    return 2.0 * c[0] ** 2 / var
 
 
 #: lags within this many spans ``k + N`` of the position contrast are summed exactly
 _NEAR_SPANS = 8
 #: step of the far region's fourth difference, as a fraction of the lag
 _FAR_STEP = 1.0 / 16.0
-
-
-def _position_edf(model, params, k, n_cal, n_samples, stride):
-    """:func:`contrast_edf` of the position contrast (module docstring)."""
-    ks = np.atleast_1d(np.asarray(k, dtype=float))
-    steps = np.broadcast_to(np.asarray(stride, dtype=np.int64), ks.shape)
-    nodes = []
-    for kk, step in zip(ks, steps):
-        m = int((n_samples - n_cal - kk) // step + 1)
-        u, w = _lags(m, kk / step, n_cal / step)
-        nodes.append((m, w, step * np.concatenate(([0.0], u))))
-    cov = position_covariance(model, params, ks, n_cal, [d for _, _, d in nodes])
-    out = []
-    for (m, w, _), c in zip(nodes, cov):
-        var = 2.0 / m**2 * (m * c[0] ** 2 + 2.0 * np.dot(w, c[1:] ** 2))
-        out.append(2.0 * c[0] ** 2 / var)
-    return np.array(out)
 
 
 def position_covariance(model, params, k, n_cal, lags):
