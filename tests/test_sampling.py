@@ -123,20 +123,24 @@ def test_autocorr_time_is_emcees_and_that_of_an_ar1_chain():
     np.testing.assert_allclose(ours[:2], (1 + phi) / (1 - phi), rtol=0.1)
 
 
-def test_autocorr_time_transforms_walkers_together_with_the_same_bits(rng):
-    """The walkers of a parameter are transformed together as contiguous rows: the same numbers, bit
-    for bit, as transforming each walker's series alone (emcee's layout, written out here with real
-    transforms), on chains of several lengths (a power of two and not)."""
+def test_autocorr_time_matches_the_per_walker_transforms(rng):
+    """The rewrites of :func:`autocorr_time` (a 5-smooth padded length, spectra summed over walkers
+    before one inverse transform) give the per-walker computation written out here (each walker's
+    series alone, padded to twice the next power of two as emcee pads, transformed forward and
+    back, normalised by its own lag-0 value): equal to 1e-13 relative on chains of several lengths
+    (a power of two and not, odd and prime), and the average keeps walkers of very different scale
+    apart (each normalised alone)."""
     from emcee.autocorr import auto_window
 
     from bayes_imu.inference.sampling import autocorr_time
 
-    for n_t in (250, 1000, 3001):
+    for n_t in (250, 1000, 3001, 4099):
         chain = np.cumsum(rng.standard_normal((n_t, 16, 3)), axis=0) * 0.05 + rng.standard_normal(
             (n_t, 16, 3)
         )
+        chain[:, :8, 1] *= 1e4  # half the walkers of one parameter on another scale
         size = 2
-        while size < 2 * n_t:
+        while size < 2 * n_t:  # emcee's padding (a power of two)
             size <<= 1
         expected = []
         for d in range(3):
@@ -148,7 +152,28 @@ def test_autocorr_time_transforms_walkers_together_with_the_same_bits(rng):
                 total += acf / acf[0]
             taus = 2.0 * np.cumsum(total / 16) - 1.0
             expected.append(taus[auto_window(taus, 5)])
-        np.testing.assert_array_equal(autocorr_time(chain), expected)
+        np.testing.assert_allclose(autocorr_time(chain), expected, rtol=1e-13)
+
+
+def test_fft_length_is_the_smallest_5_smooth_number_at_least_n():
+    """:func:`fft_length` against a scan of the integers from ``n`` up for the first whose only
+    prime factors are 2, 3 and 5, for every ``n`` below 3000 and at chain lengths of a fit."""
+    from bayes_imu.inference.sampling import fft_length
+
+    def smooth(k):
+        for p in (2, 3, 5):
+            while k % p == 0:
+                k //= p
+        return k == 1
+
+    def scan(n):
+        k = max(int(n), 1)
+        while not smooth(k):
+            k += 1
+        return k
+
+    for n in list(range(0, 3000)) + [80_000, 80_001, 73_000, 2 * 36_500 + 1, 131_073]:
+        assert fft_length(n) == scan(n), n
 
 
 def test_long_chains_are_checked_at_a_tenth_of_their_length():
