@@ -2,6 +2,7 @@
 
 import json
 import shutil
+import warnings
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -468,3 +469,36 @@ def test_html_drift_check_names_where_the_log_measures_and_escapes_the_p_value()
     assert "p &lt; 1e-300" in text and "p < " not in text
     band = SimpleNamespace(check=check, measured_s=float("nan"))
     assert "beyond the log, the bands extrapolate" in _drift_check_text([band])
+
+
+def test_scene_bounds_are_the_honest_bands_of_drift_csv():
+    """A white-noise-only fit of a log with a random walk in it: the model's drift is far too small,
+    and the record's own interval widens drift.csv's band (drift_bands, honest). The report's bound
+    at the same outages (the record's horizons and others between and beyond them) is that band's
+    upper edge, equal to 1e-12, wider than the model's quantile alone where the record measures the
+    drift; the longest outage within a limit is where that bound crosses it."""
+    from bayes_imu import allan_variance
+    from bayes_imu.drift.bands import drift_bands, drift_draws
+    from bayes_imu.inference.fit import fit_allan
+    from bayes_imu.report.scene import _bound, max_outage
+
+    rng = np.random.default_rng(3)
+    y = rng.standard_normal(100_000) + np.cumsum(rng.standard_normal(100_000)) * 0.02
+    allan = allan_variance(y, rate_hz=100.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fit = fit_allan(allan, terms=("white",), rng=0)
+    measured = allan.contrasts.of_order(1).t_s
+    t = np.unique(np.concatenate([measured, [0.5, 7.0, 55.0, 3000.0]]))
+    bound, median = _bound(fit, t, "attitude", 0.95, "calibrated", rng=0)
+    bands = drift_bands(fit, t, quantity="attitude", quantiles=(0.05, 0.5, 0.95), rng=0)
+    np.testing.assert_allclose(bound, bands.total[2], rtol=1e-12)
+    np.testing.assert_allclose(median, bands.total[1], rtol=1e-12)
+    model = np.quantile(drift_draws(fit, t, quantity="attitude")["total"], 0.95, axis=0)
+    inside = t <= measured[-1]
+    assert np.all(bound >= model) and np.mean(bound[inside] > 2 * model[inside]) > 0.5
+    limit = float(bound[t == 55.0][0])
+    longest = max_outage(fit, "attitude", limit, 0.95, rng=0)
+    assert _bound(fit, longest, "attitude", 0.95, "calibrated", rng=0)[0][0] <= limit
+    assert _bound(fit, longest * 1.001, "attitude", 0.95, "calibrated", rng=0)[0][0] > limit
+    assert 40.0 < longest <= 55.0 + 0.01  # times are whole samples

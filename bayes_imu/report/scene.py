@@ -6,7 +6,8 @@ sensor :func:`build_report` converts the log to SI (rad/s, m/s^2), fits it with 
 selection (each sensor carries only the terms its data support), and computes:
 
 * ``bounds``: for every outage and quantity, the posterior quantile at ``credibility`` of
-  the 1-sigma drift ``sigma(t)`` (``bound``) and its median; SI output units (rad, m/s, m);
+  the 1-sigma drift ``sigma(t)`` (``bound``), widened where the record measures the drift as
+  drift.csv's bands are (:class:`_Bound`), and its median; SI output units (rad, m/s, m);
 * ``max_outage_s``: the longest outage whose bound on the required quantity stays within
   ``max_error``, found by bisection on a continuous time (the bound increases with t).
 
@@ -643,15 +644,76 @@ def _columns(entry, where):
 def _bound(
     fit, t, quantity, credibility, bias_start, calibration_s=DEFAULT_CALIBRATION_S, rng=None
 ):
-    d = drift_draws(
-        fit,
-        np.atleast_1d(t),
-        quantity=quantity,
-        bias_start=bias_start,
-        calibration_s=calibration_s,
-        rng=rng,
-    )["total"]
-    return np.quantile(d, credibility, axis=0), np.median(d, axis=0)
+    """``(bound, median)`` at outages ``t`` (s): :class:`_Bound` for one set of times."""
+    return _Bound(fit, quantity, credibility, bias_start, calibration_s, rng)(t)
+
+
+class _Bound:
+    """The conservative bound of one fit and quantity as a function of outage time.
+
+    At each outage, the posterior quantile at ``credibility`` of the 1-sigma drift (and its
+    median), model-averaged, with the given bias semantics. Where the record measures the drift
+    itself (calibrated attitude, velocity or position of a log read in memory:
+    :mod:`bayes_imu.drift.direct`), the bound is widened to contain the record's own interval,
+    as the bands of drift.csv are (:func:`~bayes_imu.drift.bands.drift_bands`, ``honest=True``),
+    and each widened value at the horizons the record measures is carried forward to longer
+    outages (:func:`~bayes_imu.drift.direct.upper_envelope`; computed once): a report's bound is
+    never narrower than the band the same fit writes, at any outage. The draws (one seed from
+    ``rng``) are the same at every time asked, so the bound is one deterministic function of
+    time, non-decreasing wherever the model's drift is (what :func:`max_outage`'s bisection
+    needs).
+    """
+
+    def __init__(self, fit, quantity, credibility, bias_start, calibration_s, rng):
+        from ..drift.bands import direct_part
+        from ..drift.direct import direct_contrasts
+
+        self.fit, self.quantity, self.credibility = fit, quantity, float(credibility)
+        self.bias_start, self.calibration_s = bias_start, calibration_s
+        self.seed = (int(rng) if isinstance(rng, (int, np.integer))
+                     else int(np.random.default_rng(rng).integers(2**63)))
+        self.floor_t = self.floor = np.empty(0)
+        contrasts = direct_contrasts(fit, quantity, bias_start, calibration_s)
+        if contrasts is None or self.credibility <= 0.5:
+            return
+        draws = self._draws(np.unique(contrasts.t_s))
+        q = np.array([self.credibility, 0.5])
+        total = np.quantile(draws["total"], q, axis=0)
+        part = direct_part(fit, draws, quantity, bias_start, calibration_s, q, total)
+        if part is not None:
+            order = np.argsort(draws["t_s"], kind="stable")
+            self.floor_t = draws["t_s"][order]
+            self.floor = np.maximum.accumulate(part[0][0][order])
+
+    def _draws(self, t):
+        return drift_draws(
+            self.fit,
+            np.atleast_1d(t),
+            quantity=self.quantity,
+            bias_start=self.bias_start,
+            calibration_s=self.calibration_s,
+            rng=self.seed,
+        )
+
+    def __call__(self, t):
+        """``(bound, median)``, each ``(n_t,)``, at outages ``t`` (s)."""
+        from ..drift.bands import direct_part
+
+        draws = self._draws(t)
+        d = draws["total"]
+        bound, median = np.quantile(d, self.credibility, axis=0), np.median(d, axis=0)
+        if self.floor.size:
+            # widened where the record measures these outages (its interval at each, as
+            # drift_bands widens them), then carried forward from the horizons it measures
+            q = np.array([self.credibility, 0.5])
+            part = direct_part(self.fit, draws, self.quantity, self.bias_start,
+                               self.calibration_s, q, np.vstack([bound, median]))
+            if part is not None:
+                bound = part[0][0]
+            # the largest widened bound at a measured horizon not longer than each outage
+            at = np.searchsorted(self.floor_t, draws["t_s"] * (1.0 + 1e-12), side="right") - 1
+            bound = np.where(at >= 0, np.maximum(bound, self.floor[np.maximum(at, 0)]), bound)
+        return bound, median
 
 
 def max_outage(
@@ -667,7 +729,8 @@ def max_outage(
     """Longest time (s) whose ``credibility`` bound on ``quantity`` stays within ``max_error``.
 
     The bound is model-averaged, with the given bias semantics (default: the bias calibrated
-    over ``calibration_s`` seconds before the outage).
+    over ``calibration_s`` seconds before the outage), and widened where the record measures the
+    drift, as drift.csv's bands are (:class:`_Bound`).
 
     Bisection on log time between one sample and :data:`MAX_SEARCH_S` (relative precision 1e-4);
     ``0.0`` if even two samples exceed it, :data:`MAX_SEARCH_S` if the search limit does not.
@@ -679,9 +742,10 @@ def max_outage(
     dt = fit.model.dt
     lo, hi = 2.0 * dt, MAX_SEARCH_S  # position needs two samples to be non-zero
     seed = int(np.random.default_rng(rng).integers(2**63))
+    bounds = _Bound(fit, quantity, credibility, bias_start, calibration_s, seed)
 
     def bound(t):
-        return _bound(fit, t, quantity, credibility, bias_start, calibration_s, rng=seed)[0][0]
+        return bounds(t)[0][0]
 
     if bound(lo) > max_error:
         return 0.0
