@@ -502,3 +502,25 @@ def test_scene_bounds_are_the_honest_bands_of_drift_csv():
     assert _bound(fit, longest, "attitude", 0.95, "calibrated", rng=0)[0][0] <= limit
     assert _bound(fit, longest * 1.001, "attitude", 0.95, "calibrated", rng=0)[0][0] > limit
     assert 40.0 < longest <= 55.0 + 0.01  # times are whole samples
+
+
+def test_sensors_that_cannot_give_the_required_quantity_rank_last_and_the_reason_says_so():
+    """A heading requirement in a scene of two gyros and an accelerometer: the gyros by their
+    longest outage, the accelerometer last (it has no attitude), and the reason names it."""
+    from types import SimpleNamespace
+
+    from bayes_imu.report.scene import _rank
+
+    scene = SimpleNamespace(outages_s=(10.0, 60.0), credibility=0.95,
+                            requirement={"quantity": "attitude", "max_error": 0.01, "unit": "rad"})
+
+    def report(name, kind, longest, quantity):
+        bounds = [{"outage_s": t, "quantity": quantity, "bound": 1.0} for t in scene.outages_s]
+        return SimpleNamespace(spec=SimpleNamespace(name=name, kind=kind), max_outage_s=longest,
+                               bounds=bounds)
+
+    reports = [report("imu-accel", "accel", None, "position"),
+               report("short", "gyro", 30.0, "attitude"), report("long", "gyro", 300.0, "attitude")]
+    order, reason = _rank(scene, reports)
+    assert order == ("long", "short", "imu-accel")
+    assert reason.endswith("last, as they do not measure attitude: imu-accel (an accelerometer)")

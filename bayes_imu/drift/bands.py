@@ -260,7 +260,9 @@ def drift_draws(
     if segment_spread and steady is not None and not steady.stationary:
         total = total * np.exp(rng.standard_normal((n_all, 1)) * steady.drift_log_sd(k * dt))
     return {
-        "t_s": k * dt,
+        # whole samples over the rate: 35 / 100 is the double nearest 0.35 (what outputs print),
+        # 35 * 0.01 is 0.35000000000000003
+        "t_s": k / (1.0 / dt),
         "total": total,
         "white": np.sqrt(short[component_draws]),
         "bias": np.sqrt(rest[component_draws]),

@@ -229,9 +229,13 @@ def _sensor_section(s, cred, failures=None, display="si"):
     runner = next((c for c in cands if c.terms != chosen.terms), None)
     why = f"log evidence {chosen.log_evidence:.2f}"
     if runner is not None:
+        margin = chosen.log_evidence - runner.log_evidence
         why += (
-            f"; best alternative {' + '.join(runner.terms)} at {runner.log_evidence:.2f} "
-            f"({chosen.log_evidence - runner.log_evidence:+.2f} nats)"
+            f"; the most probable other model, {' + '.join(runner.terms)}, "
+            f"{runner.log_evidence:.2f}: "
+            + (f"{margin:.2f} nats less" if margin >= 0 else
+               f"{-margin:.2f} nats more, within the selection margin, so the model with fewer "
+               "terms is kept (the drift bands average both by their probabilities)")
         )
     d = fit.diagnostics
     # what summary.json parameters prints

@@ -345,13 +345,19 @@ def plot_corner(fit, path, *, unit="u", scale=1.0):
         ax.set_xscale("log")
         ax.set_xlabel(labels[0].replace("\n", " "))
         q = np.quantile(data[:, 0], [0.05, 0.5, 0.95])
-        ax.set_title(f"median {q[1]:.4g}, 90% [{q[0]:.4g}, {q[2]:.4g}]", fontsize=8)
+        ax.set_title(f"median {q[1]:.4g}, 90% [{q[0]:.4g}, {q[2]:.4g}] ({CORNER_SCOPE})",
+                     fontsize=8)
         fig.tight_layout()
         fig.savefig(path, dpi=90, bbox_inches="tight", pad_inches=0.1)
     else:
         fig = _corner_grid(plt, data, labels)
+        _corner_note(fig, fit.model.terms, data.shape[1])
         fig.savefig(path, dpi=90)
     plt.close(fig)
+
+
+#: what the corner plot's intervals are: the selected model's posterior from this record alone
+CORNER_SCOPE = "this record alone"
 
 
 #: the corner grid's layout (inches): a panel, the gap between panels, and the margins that hold the
@@ -406,6 +412,25 @@ def _corner_grid(plt, data, labels, bins=20):
                 _set_ticks(ax.xaxis, ticks[j], labelled=i == k - 1, label=labels[j])
                 ax.tick_params(which="both", labelsize=CORNER_FONT)
     return fig
+
+
+def _corner_note(fig, terms, k):
+    """What the corner plot shows, in the empty upper triangle (wrapped to its width, from the
+    second column's left edge): the model, and that the titles are this record's posterior alone
+    (summary.json's ``parameters`` add the repeatability between the record's parts)."""
+    import textwrap
+
+    width_in = (k - 1) * (_PANEL_IN + _GAP_IN) - _GAP_IN
+    chars = max(18, int(width_in * 72.0 / (0.62 * CORNER_FONT)))  # ~0.62 em a character
+    text = "\n".join(textwrap.fill(part, chars) for part in (
+        " + ".join(terms),
+        f"titles: median [5%, 95%], {CORNER_SCOPE}",
+        "(summary.json: parameters_this_record; its parameters add the repeatability between "
+        "the record's parts where it is wider)",
+    ))
+    w, h = fig.get_figwidth(), fig.get_figheight()
+    fig.text((_MARGINS_IN["left"] + _PANEL_IN + _GAP_IN + 0.1) / w, 1.0 - _MARGINS_IN["top"] / h,
+             text, ha="left", va="top", fontsize=CORNER_FONT)
 
 
 def _draw_range(x):

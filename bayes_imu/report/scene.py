@@ -37,6 +37,7 @@ import numpy as np
 from ..allan.pipeline import LogSource, allan_from_source
 from ..drift.bands import DEFAULT_CALIBRATION_S, SENSOR_QUANTITIES, drift_bands, drift_draws
 from ..noise import BIAS_STARTS
+from ..noise.quantities import SENSORS
 from ..drift.display import DISPLAY_CHOICES, parse_amount
 from ..errors import InputError
 from ..inference.fit import fit_allan
@@ -959,4 +960,10 @@ def _rank(scene, reports):
             f"ranked by the longest outage whose {scene.credibility:.0%} bound on "
             f"{req['quantity']} stays within {limit}; ties by the bound at {t_max:g} s"
         )
+        unable = [r for r in order if req["quantity"] not in SENSOR_QUANTITIES[r.spec.kind]]
+        if unable:
+            kinds = [SENSORS[r.spec.kind].long_name for r in unable]
+            names = ", ".join(f"{r.spec.name} ({'an' if k[0] in 'aeiou' else 'a'} {k})"
+                              for r, k in zip(unable, kinds))
+            reason += f"; last, as they do not measure {req['quantity']}: {names}"
     return tuple(r.spec.name for r in order), reason
