@@ -147,6 +147,10 @@ def spare_cpus():
     return usable_cpus() - load
 
 
+#: seconds stop() waits for the worker to end on SIGTERM before it kills it
+_TERM_WAIT_S = 3.0
+
+
 class OutputWriter:
     """Run independent output-writing calls in a worker process (or here).
 
@@ -290,6 +294,11 @@ class OutputWriter:
             self._outbox.put(None)  # ends the sender thread
             if self._process.is_alive():
                 self._process.terminate()
+                # SIGTERM ends it at once (its handler stops its children and exits); one run of
+                # the suite in many saw it finish a 30 s computed call first: then SIGKILL
+                self._process.join(_TERM_WAIT_S)
+                if self._process.is_alive():
+                    self._process.kill()
             self._process.join()
             self._results.close()
             self._process = None
