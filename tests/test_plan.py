@@ -61,3 +61,29 @@ def test_bad_plans_are_input_errors():
         plan_record_length(model, {"noise_variance": 1.0}, lengths_s=[0.1])
     with pytest.raises(InputError, match="quantity"):
         plan_record_length(model, {"noise_variance": 1.0}, horizons_s=[1.0])
+
+
+def test_pilot_check_warns_where_the_pilot_is_wider_than_the_plan_at_its_length():
+    """A white-noise pilot of 200 000 samples: its record-alone interval at its own length is what
+    the plan predicts there (ratio within 15%), no warning. The same noise with its variance
+    doubled half-way: its stationarity check fails, it reports the spread between its parts
+    (summary.json ``parameters``), far wider than the record-alone Fisher prediction, and the
+    check says so."""
+    import warnings
+
+    from bayes_imu.drift.plan import PILOT_EXCESS, pilot_check
+    from bayes_imu.inference.fit import fit_allan
+
+    y = np.random.default_rng(4).standard_normal(200_000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        steady = fit_allan(allan_variance(y, rate_hz=100.0), terms=("white",), rng=0)
+        y[100_000:] *= np.sqrt(2.0)
+        changed = fit_allan(allan_variance(y, rate_hz=100.0), terms=("white",), rng=0)
+    check = pilot_check(steady)
+    assert check.length_s == 2000.0 and abs(check.ratio()[0] - 1.0) < 0.15
+    assert check.stationary and check.warning("x") is None
+    wider = pilot_check(changed)
+    assert not wider.stationary and wider.ratio("reported")[0] >= PILOT_EXCESS
+    assert "noise_variance" in wider.warning("x") and "lower bounds" in wider.warning("x")
+    assert set(wider.to_dict()["reported_upper_halfwidth"]) == {"noise_variance"}

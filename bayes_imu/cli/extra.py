@@ -260,12 +260,19 @@ def _plan_inputs(args):
         return [(path.stem, model, params, kind, None)]
     if args.rate is not None:
         raise InputError("plan: --rate goes with --datasheet (a pilot fit has its own rate)")
+    from ..drift.plan import pilot_check
+
     out = []
+    args.pilot_checks = {}
     for axis, place, summary in fit_axes(args.fit):
         fit = load_fit(place)
         params = {p: float(np.median(fit.draws(p))) for p in fit.model.parameter_names}
         out.append((axis, fit.model, params, KIND_OF_UNIT.get(summary.get("unit")), fit.record_s))
         args.plan_warnings.extend(_inadequate_pilot(axis, getattr(fit, "adequacy", None)))
+        check = pilot_check(fit, calibration_s=args.calibration)
+        args.pilot_checks[axis] = check
+        if check.warning(axis) is not None:
+            args.plan_warnings.append(check.warning(axis))
     return out
 
 
@@ -292,7 +299,7 @@ def _cmd_plan(args):
     from .._version import __version__
 
     plans, pilot = [], None
-    args.plan_warnings = []
+    args.plan_warnings, args.pilot_checks = [], {}
     for label, model, params, kind, record_s in _plan_inputs(args):
         if args.horizons and kind is None:
             raise InputError(
@@ -321,7 +328,10 @@ def _cmd_plan(args):
             "method": "Fisher information of the correlated Allan-variance likelihood",
             "source": str(inputs[0]),
             "calibration_s": args.calibration,
-            "axes": {label: {"rate_hz": p.rate_hz, "rows": p.rows()} for label, p in plans},
+            "axes": {label: {"rate_hz": p.rate_hz, "rows": p.rows(),
+                             **({"pilot": args.pilot_checks[label].to_dict()}
+                                if label in args.pilot_checks else {})}
+                     for label, p in plans},
             "warnings": args.plan_warnings,
         }
         (tmp / "plan.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")

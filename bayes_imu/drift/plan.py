@@ -34,7 +34,7 @@ from .bands import DEFAULT_CALIBRATION_S
 from .closed_forms import QUANTITY_ORDER
 
 __all__ = ["PlanResult", "plan_record_length", "plan_from_fit", "DEFAULT_LENGTHS_S", "Z90",
-           "MAX_PLAN_SAMPLES"]
+           "MAX_PLAN_SAMPLES", "PilotCheck", "pilot_check", "PILOT_EXCESS"]
 
 #: default record lengths: 10 min, 30 min, 1 h, 2 h, 4 h, 8 h, 24 h, 48 h [s]
 #: longest record a plan predicts, in samples (48 h at 1.5 kHz; the covariance of the Allan
@@ -246,3 +246,93 @@ def plan_from_fit(fit, **options):
     """:func:`plan_record_length` at a pilot fit's posterior medians (its selected model)."""
     params = {p: float(np.median(fit.draws(p))) for p in fit.model.parameter_names}
     return plan_record_length(fit.model, params, **options)
+
+
+#: a pilot's own interval this much wider than predicted at its length is reported
+PILOT_EXCESS = 1.25
+
+
+@dataclass(frozen=True)
+class PilotCheck:
+    """A pilot's own 90% intervals against the plan's prediction at the pilot's length.
+
+    Attributes
+    ----------
+    length_s : float
+        The pilot's record length [s].
+    names : tuple of str
+    record : (n_par,) ndarray
+        Upper half-width ``q95 / q50 - 1`` of each parameter's 90% interval from the record alone
+        (summary.json ``parameters_this_record``; the model discrepancy included where the fit
+        was widened): what the plan predicts, where the model describes the log.
+    reported : (n_par,) ndarray
+        The same as the pilot reports it (summary.json ``parameters``: the repeatability between
+        the record's parts included).
+    predicted : (n_par,) ndarray
+        The plan's ``exp(1.645 sd) - 1`` at the pilot's length.
+    stationary : bool
+        The pilot's stationarity check passed (its parts agree).
+    """
+
+    length_s: float
+    names: tuple
+    record: np.ndarray
+    reported: np.ndarray
+    predicted: np.ndarray
+    stationary: bool = True
+
+    def ratio(self, which="record"):
+        """``(n_par,)`` the pilot's log half-widths (``"record"`` or ``"reported"``) over the
+        predicted ones (``> 1``: the pilot is wider)."""
+        return np.log1p(getattr(self, which)) / np.log1p(self.predicted)
+
+    def warning(self, label):
+        """A line for the user where the pilot's record-alone interval of some parameter is
+        :data:`PILOT_EXCESS` times or more as wide as predicted (the model discrepancy), or where
+        the pilot failed its stationarity check and reports intervals that much wider (its
+        parts' spread); else ``None``. (Intervals widened by the parts' spread of a log that passed
+        its check are not flagged: four parts' scatter often exceeds the posterior by chance.)"""
+        for which, why in (("record", "the model discrepancy its fit needed"),
+                           ("reported", "the spread between the log's parts, which its "
+                                        "stationarity check flagged")):
+            if which == "reported" and self.stationary:
+                continue
+            ratio = self.ratio(which)
+            worst = int(np.argmax(ratio))
+            if ratio[worst] >= PILOT_EXCESS:
+                width = getattr(self, which)[worst]
+                return (
+                    f"[{label}] at the pilot's own length ({self.length_s / 3600.0:.3g} h) its "
+                    f"90% interval of {self.names[worst]} is {ratio[worst]:.1f}x as wide as this "
+                    f"plan predicts there (+{100 * width:.3g}% against "
+                    f"+{100 * self.predicted[worst]:.3g}%): {why}, which the plan leaves out and a "
+                    "longer record need not shrink; read the plan's widths as lower bounds"
+                )
+        return None
+
+    def to_dict(self):
+        return {"length_s": float(self.length_s), "stationary": bool(self.stationary),
+                "record_upper_halfwidth": dict(zip(self.names, map(float, self.record))),
+                "reported_upper_halfwidth": dict(zip(self.names, map(float, self.reported))),
+                "predicted_upper_halfwidth": dict(zip(self.names, map(float, self.predicted)))}
+
+
+def pilot_check(fit, *, calibration_s=DEFAULT_CALIBRATION_S):
+    """:class:`PilotCheck` of a pilot fit: its intervals from the record alone
+    (:meth:`~bayes_imu.inference.fit.FitResult.quantiles`) and as it reports them
+    (:meth:`~bayes_imu.inference.fit.FitResult.repeatability_quantiles`, summary.json's
+    ``parameters``) against :func:`plan_from_fit` at its own record length.
+
+    The plan is the Fisher information of the record-alone likelihood at the pilot's medians; a
+    pilot whose record disagrees between its parts, or whose fit needed a model discrepancy,
+    reports wider intervals than that at its own length, and no plan should promise narrower ones
+    there. The check says by how much (``scripts/validate_plan.py`` checks the prediction itself
+    against simulate-and-fit)."""
+    names = tuple(fit.model.parameter_names)
+    at = plan_from_fit(fit, lengths_s=[fit.record_s], calibration_s=calibration_s)
+    alone, reported = fit.quantiles(), fit.repeatability_quantiles()
+    record = np.array([alone[n][2] / alone[n][1] - 1.0 for n in names])
+    wide = np.array([reported[n][2] / reported[n][1] - 1.0 for n in names])
+    steady = getattr(fit, "stationarity", None)
+    return PilotCheck(float(fit.record_s), names, record, wide, np.expm1(Z90 * at.log_sd[0]),
+                      steady is None or bool(steady.stationary))
