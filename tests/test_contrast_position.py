@@ -291,3 +291,32 @@ def test_a_gyro_record_measures_no_position_and_the_same_attitude(rng):
     np.testing.assert_array_equal(gyro.mean_square, unknown.mean_square)
     np.testing.assert_array_equal(accel.mean_square_2, unknown.mean_square_2)
     assert np.all(accel.mean_square_2[accel.k >= 2] > 0)
+
+
+def test_compiled_position_contrasts_of_a_long_record_are_numpys(rng):
+    """On a record the JIT kernels sum (longer than PRECOMPILED_BELOW), the position mean squares
+    come from the compiled passes (kernels.position_mean_squares): the running sum is numpy's
+    cumsum of x - mean bit for bit, and each outage's mean square equals numpy's
+    position_mean_square to 1e-13 relative (squares added in another order), on the default
+    outage grid and strides, with an offset and a random walk in the record; a shorter record
+    takes numpy's steps (None from the kernel)."""
+    from bayes_imu.allan import kernels
+    from bayes_imu.allan.contrast import (contrast_grid, contrast_stride, phase_contrasts,
+                                          position_mean_square, running_phase_sum)
+
+    n = kernels.PRECOMPILED_BELOW + 4_321
+    y = 3.0 + rng.standard_normal(n) + np.cumsum(rng.standard_normal(n)) * 1e-3
+    x = np.concatenate(([0.0], np.cumsum(y - y.mean())))
+    n_cal = 6000
+    ks = contrast_grid(n, n_cal)
+    strides = contrast_stride(ks, n_cal)
+    mean = x.mean()
+    s = running_phase_sum(x, mean)
+    np.testing.assert_array_equal(kernels._compile()["running_sum"](x, mean, np.empty(n + 2)), s)
+    expected = np.array([position_mean_square(x, k, n_cal, st, s=s, mean=mean)
+                         for k, st in zip(ks, strides)])
+    got = kernels.position_mean_squares(x, ks, n_cal, strides)
+    np.testing.assert_allclose(got, expected, rtol=1e-13, atol=0)
+    pc = phase_contrasts(x=x, rate_hz=100.0, calibration_s=60.0)
+    np.testing.assert_allclose(pc.mean_square_2, expected / 100.0**4, rtol=1e-13, atol=0)
+    assert kernels.position_mean_squares(x[:1000], ks[:3], 100, strides[:3]) is None

@@ -6,13 +6,14 @@ package build compiles the same functions ahead of time, one thread each (``pran
 there), into the extension ``bayes_imu._compiled`` (``setup.py``), which loads without numba. The
 precompiled build has the kernels of a record shorter than 2**21 samples (``setup.py``'s
 ``KERNELS``); the kernels of longer records' parallel passes (``centred_sums`` to ``residue_sums``,
-``span_sums``, ``contrast_sums`` and ``lag1_deltas``: a shorter record takes numpy's steps for the
-last two) are JIT-compiled only. :data:`FASTMATH` names the kernels compiled with reassociation (a
-vectorised sum of squares); the running sums never are (their Kahan-Babuska compensation would be
-optimised away): ``phase_and_sums`` fills through ``fill_blocks``, compiled apart with strict
-arithmetic. Helpers inlined into their callers (``inline="always"``: numba's IR, so they take the
-caller's fast-math flags and the precompiled ``sums_all`` compiles to the same code as before they
-were split out) are module globals, as a kernel's callees must be for numba's cache.
+``span_sums``, ``contrast_sums``, ``running_sum``, ``position_sums`` and ``lag1_deltas``: a shorter
+record takes numpy's steps for the last four) are JIT-compiled only. :data:`FASTMATH` names the
+kernels compiled with reassociation (a vectorised sum of squares); the running sums never are (their
+Kahan-Babuska compensation would be optimised away): ``phase_and_sums`` fills through
+``fill_blocks``, compiled apart with strict arithmetic. Helpers inlined into their callers
+(``inline="always"``: numba's IR, so they take the caller's fast-math flags and the precompiled
+``sums_all`` compiles to the same code as before they were split out) are module globals, as a
+kernel's callees must be for numba's cache.
 """
 
 import numba
@@ -37,6 +38,8 @@ __all__ = [
     "sums_all",
     "block_totals",
     "contrast_sums",
+    "running_sum",
+    "position_sums",
     "lag1_deltas",
     "FASTMATH",
     "PARALLEL",
@@ -62,6 +65,7 @@ PARALLEL = {
     "residue_sums",
     "sums_all",
     "contrast_sums",
+    "position_sums",
     "lag1_deltas",
 }
 
@@ -519,6 +523,54 @@ def contrast_sums(x, ks, n_cal, strides, tile):
             for q in range(q0, q1):
                 j = n_cal + q * s
                 e = x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
+                total += e * e
+            partial[t, i] = total
+    out = np.empty(nk)
+    for i in range(nk):
+        total = 0.0
+        for t in range(n_tiles):
+            total += partial[t, i]
+        out[i] = total / ((n - n_cal - ks[i]) // strides[i] + 1)
+    return out
+
+
+def running_sum(x, mean, out):
+    # out[0] = 0, out[m] = sum_{i<m} (x[i] - mean): allan/contrast.py's running_phase_sum, the
+    # same additions in the same order (numpy's cumsum of x - mean, bit for bit), in one pass
+    total = 0.0
+    out[0] = 0.0
+    for i in range(x.size):
+        total += x[i] - mean
+        out[i + 1] = total
+    return out
+
+
+def position_sums(x, s, mean, ks, n_cal, strides, tile):
+    # the mean square of the position contrasts e_j = (s[j + k] - s[j + 1]) - (k - 1 + c)(x[j] -
+    # mean) + c (x[j - n_cal] - mean), c = k (k - 1) / (2 n_cal), over the starts j = n_cal,
+    # n_cal + st, ... <= len(x) - 1 - k, for each outage k and its stride st (allan/contrast.py's
+    # position_mean_square, the same e_j: strict IEEE), tile by tile of starts as contrast_sums
+    # (each tile's samples read once for every outage shorter than a tile); tile sums added in
+    # tile order
+    n = x.size - 1
+    nk = ks.size
+    n_tiles = (n + tile) // tile
+    partial = np.zeros((n_tiles, nk))
+    for t in numba.prange(n_tiles):
+        lo = t * tile
+        hi = min(lo + tile, n + 1)
+        for i in range(nk):
+            k = ks[i]
+            st = strides[i]
+            c = k * (k - 1) / (2.0 * n_cal)
+            a = k - 1 + c
+            count = (n - n_cal - k) // st + 1
+            q0 = 0 if lo <= n_cal else (lo - n_cal + st - 1) // st
+            q1 = min(count, (hi - n_cal + st - 1) // st) if hi > n_cal else 0
+            total = 0.0
+            for q in range(q0, q1):
+                j = n_cal + q * st
+                e = (s[j + k] - s[j + 1]) - a * (x[j] - mean) + c * (x[j - n_cal] - mean)
                 total += e * e
             partial[t, i] = total
     out = np.empty(nk)

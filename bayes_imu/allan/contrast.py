@@ -43,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from .kernels import contrast_mean_squares
+from .kernels import contrast_mean_squares, position_mean_squares
 
 __all__ = [
     "PhaseContrasts",
@@ -229,6 +229,23 @@ def _mean_squares(x, ks, n_cal, strides):
     return np.array([contrast_mean_square(x, kk, n_cal, st) for kk, st in zip(ks, strides)])
 
 
+def _position_mean_squares(x, ks, n_cal, strides):
+    """``position_mean_square`` of each outage: compiled passes on a long record
+    (:func:`bayes_imu.allan.kernels.position_mean_squares`), else numpy's, one outage at a time
+    (the running sum computed once)."""
+    if not ks.size:
+        return np.zeros(0)
+    n = x.size - 1
+    if ks.min() >= 1 and n_cal >= 1 and ks.max() + n_cal <= n:
+        compiled = position_mean_squares(x, ks, n_cal, strides)
+        if compiled is not None:
+            return compiled
+    mean = x.mean()
+    s = running_phase_sum(x, mean)
+    return np.array([position_mean_square(x, kk, n_cal, st, s=s, mean=mean)
+                     for kk, st in zip(ks, strides)])
+
+
 def contrast_grid(
     n_samples, n_cal, per_decade=CONTRASTS_PER_DECADE, max_fraction=MAX_SPAN_FRACTION
 ):
@@ -280,13 +297,7 @@ def phase_contrasts(y=None, *, rate_hz, calibration_s=DEFAULT_CONTRAST_SPAN_S, x
     ms = _mean_squares(x, ks, n_cal, strides) / rate_hz**2
     ms2 = None
     if position:
-        mean = x.mean() if ks.size else None
-        s = running_phase_sum(x, mean) if ks.size else None
-        ms2 = (
-            np.array([position_mean_square(x, kk, n_cal, st, s=s, mean=mean)
-                      for kk, st in zip(ks, strides)]).reshape(ks.shape)
-            / rate_hz**4
-        )
+        ms2 = _position_mean_squares(x, ks, n_cal, strides).reshape(ks.shape) / rate_hz**4
     return PhaseContrasts(
         ks, n_cal, ms.reshape(ks.shape), (n - n_cal - ks) // strides + 1, float(rate_hz), int(n),
         ms2,
