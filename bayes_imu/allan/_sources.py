@@ -38,6 +38,8 @@ __all__ = [
     "sums_all",
     "block_totals",
     "contrast_sums",
+    "tile_starts",
+    "tile_means",
     "running_sum",
     "position_sums",
     "lag1_deltas",
@@ -516,19 +518,31 @@ def contrast_sums(x, ks, n_cal, strides, tile):
             k = ks[i]
             s = strides[i]
             r = k / n_cal
-            count = (n - n_cal - k) // s + 1
-            q0 = 0 if lo <= n_cal else (lo - n_cal + s - 1) // s
-            q1 = min(count, (hi - n_cal + s - 1) // s) if hi > n_cal else 0
+            q0, q1 = tile_starts_compiled(lo, hi, n, n_cal, k, s)
             total = 0.0
             for q in range(q0, q1):
                 j = n_cal + q * s
                 e = x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
                 total += e * e
             partial[t, i] = total
-    out = np.empty(nk)
-    for i in range(nk):
+    return tile_means_compiled(partial, n, n_cal, ks, strides)
+
+
+def tile_starts(lo, hi, n, n_cal, k, stride):
+    # (q0, q1): the starts j = n_cal + q stride (q0 <= q < q1) of outage k in the tile [lo, hi)
+    # of a record of n samples, of those j <= n - k
+    count = (n - n_cal - k) // stride + 1
+    q0 = 0 if lo <= n_cal else (lo - n_cal + stride - 1) // stride
+    q1 = min(count, (hi - n_cal + stride - 1) // stride) if hi > n_cal else 0
+    return q0, q1
+
+
+def tile_means(partial, n, n_cal, ks, strides):
+    # each outage's tile sums (a column of partial) added in tile order, over its count of starts
+    out = np.empty(ks.size)
+    for i in range(ks.size):
         total = 0.0
-        for t in range(n_tiles):
+        for t in range(partial.shape[0]):
             total += partial[t, i]
         out[i] = total / ((n - n_cal - ks[i]) // strides[i] + 1)
     return out
@@ -564,22 +578,14 @@ def position_sums(x, s, mean, ks, n_cal, strides, tile):
             st = strides[i]
             c = k * (k - 1) / (2.0 * n_cal)
             a = k - 1 + c
-            count = (n - n_cal - k) // st + 1
-            q0 = 0 if lo <= n_cal else (lo - n_cal + st - 1) // st
-            q1 = min(count, (hi - n_cal + st - 1) // st) if hi > n_cal else 0
+            q0, q1 = tile_starts_compiled(lo, hi, n, n_cal, k, st)
             total = 0.0
             for q in range(q0, q1):
                 j = n_cal + q * st
                 e = (s[j + k] - s[j + 1]) - a * (x[j] - mean) + c * (x[j - n_cal] - mean)
                 total += e * e
             partial[t, i] = total
-    out = np.empty(nk)
-    for i in range(nk):
-        total = 0.0
-        for t in range(n_tiles):
-            total += partial[t, i]
-        out[i] = total / ((n - n_cal - ks[i]) // strides[i] + 1)
-    return out
+    return tile_means_compiled(partial, n, n_cal, ks, strides)
 
 
 def lag1_deltas(x, ms, starts, steps, counts, max_differences, n_chunks):
@@ -652,3 +658,5 @@ block_totals_compiled = numba.njit(inline="always")(block_totals)
 compensated_add_compiled = numba.njit(inline="always")(compensated_add)
 fill_blocks_compiled = numba.njit(cache=True)(fill_blocks)
 gather_points_compiled = numba.njit(inline="always")(gather_points)
+tile_starts_compiled = numba.njit(inline="always")(tile_starts)
+tile_means_compiled = numba.njit(inline="always")(tile_means)
