@@ -269,10 +269,10 @@ def _plan_inputs(args):
         params = {p: float(np.median(fit.draws(p))) for p in fit.model.parameter_names}
         out.append((axis, fit.model, params, KIND_OF_UNIT.get(summary.get("unit")), fit.record_s))
         args.plan_warnings.extend(_inadequate_pilot(axis, getattr(fit, "adequacy", None)))
-        check = pilot_check(fit, calibration_s=args.calibration)
-        args.pilot_checks[axis] = check
-        if check.warning(axis) is not None:
-            args.plan_warnings.append(check.warning(axis))
+        check = args.pilot_checks[axis] = pilot_check(fit, calibration_s=args.calibration)
+        warning = check.warning(axis)
+        if warning is not None:
+            args.plan_warnings.append(warning)
     return out
 
 

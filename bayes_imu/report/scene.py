@@ -35,7 +35,9 @@ from pathlib import Path
 import numpy as np
 
 from ..allan.pipeline import LogSource, allan_from_source
-from ..drift.bands import DEFAULT_CALIBRATION_S, SENSOR_QUANTITIES, drift_bands, drift_draws
+from ..drift.bands import (DEFAULT_CALIBRATION_S, SENSOR_QUANTITIES, direct_part, drift_bands,
+                           drift_draws)
+from ..drift.direct import direct_contrasts
 from ..noise import BIAS_STARTS
 from ..noise.quantities import SENSORS
 from ..drift.display import DISPLAY_CHOICES, parse_amount
@@ -666,9 +668,6 @@ class _Bound:
     """
 
     def __init__(self, fit, quantity, credibility, bias_start, calibration_s, rng):
-        from ..drift.bands import direct_part
-        from ..drift.direct import direct_contrasts
-
         self.fit, self.quantity, self.credibility = fit, quantity, float(credibility)
         self.bias_start, self.calibration_s = bias_start, calibration_s
         self.seed = (int(rng) if isinstance(rng, (int, np.integer))
@@ -698,8 +697,6 @@ class _Bound:
 
     def __call__(self, t):
         """``(bound, median)``, each ``(n_t,)``, at outages ``t`` (s)."""
-        from ..drift.bands import direct_part
-
         draws = self._draws(t)
         d = draws["total"]
         bound, median = np.quantile(d, self.credibility, axis=0), np.median(d, axis=0)
