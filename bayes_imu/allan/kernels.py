@@ -472,7 +472,7 @@ def contrast_mean_squares(x, ks, n_cal, strides):
 
 
 def position_mean_squares(x, ks, n_cal, strides):
-    """``(mean, s, mean squares)`` of the position contrasts of
+    """Mean squares of the position contrasts of
     :func:`bayes_imu.allan.contrast.position_mean_square` (outages ``ks``, window ``n_cal``,
     strides ``strides``; all valid) of a phase record ``x`` that the JIT kernels sum: the running
     sum ``s`` of ``x`` about its mean in one compiled pass (numpy's ``cumsum``, the same bits),

@@ -35,7 +35,7 @@ from .contrast import DEFAULT_CONTRAST_SPAN_S
 from .estimator import allan_variance
 from .outofcore import BINARY_SUFFIXES
 
-__all__ = ["LogSource", "SourceAllan", "allan_from_source", "MIN_SAMPLES"]
+__all__ = ["LogSource", "SourceAllan", "allan_from_source", "MIN_SAMPLES", "with_article"]
 
 #: fewest samples per purpose: one Allan variance (``allan``), 4 octave cluster sizes
 #: (1, 2, 4, 8 <= N/4) for a fit
@@ -175,7 +175,7 @@ def allan_from_source(source, *, purpose="fit", grid="octave", progress=False):
         raise InputError(f"units={source.units} is {what}")
     if source.units is not None and source.sensor and source.sensor != table[source.units][0]:
         raise InputError(
-            f"units={source.units} is {_article(table[source.units][0])} unit but sensor is "
+            f"units={source.units} is {with_article(table[source.units][0])} unit but sensor is "
             f"{source.sensor}"
         )
     if source.allan_table is not None:
@@ -186,9 +186,9 @@ def allan_from_source(source, *, purpose="fit", grid="octave", progress=False):
     return SourceAllan(tuple(columns), tuple(results), unit, info)
 
 
-def _article(kind):
-    """``"an accel"`` or ``"a gyro"``: the sensor kind with its article."""
-    return f"an {kind}" if kind[0] in "aeiou" else f"a {kind}"
+def with_article(word):
+    """``"an accel"``, ``"a gyro"``, ``"an accelerometer"``: ``word`` with its article."""
+    return f"an {word}" if word[0] in "aeiou" else f"a {word}"
 
 
 def _kind(opts, table):

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..allan.pipeline import LogSource, allan_from_source
+from ..allan.pipeline import LogSource, allan_from_source, with_article
 from ..drift.bands import (DEFAULT_CALIBRATION_S, SENSOR_QUANTITIES, direct_part, drift_bands,
                            drift_draws)
 from ..drift.direct import direct_contrasts
@@ -681,9 +681,9 @@ class _Bound:
         total = np.quantile(draws["total"], q, axis=0)
         part = direct_part(fit, draws, quantity, bias_start, calibration_s, q, total)
         if part is not None:
-            order = np.argsort(draws["t_s"], kind="stable")
-            self.floor_t = draws["t_s"][order]
-            self.floor = np.maximum.accumulate(part[0][0][order])
+            # the horizons in increasing order (np.unique), the band already their upper envelope
+            # (direct_part: upper_envelope)
+            self.floor_t, self.floor = draws["t_s"], part[0][0]
 
     def _draws(self, t):
         return drift_draws(
@@ -959,8 +959,7 @@ def _rank(scene, reports):
         )
         unable = [r for r in order if req["quantity"] not in SENSOR_QUANTITIES[r.spec.kind]]
         if unable:
-            kinds = [SENSORS[r.spec.kind].long_name for r in unable]
-            names = ", ".join(f"{r.spec.name} ({'an' if k[0] in 'aeiou' else 'a'} {k})"
-                              for r, k in zip(unable, kinds))
+            names = ", ".join(f"{r.spec.name} ({with_article(SENSORS[r.spec.kind].long_name)})"
+                              for r in unable)
             reason += f"; last, as they do not measure {req['quantity']}: {names}"
     return tuple(r.spec.name for r in order), reason
