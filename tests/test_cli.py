@@ -373,6 +373,7 @@ def test_a_p_value_that_underflowed_is_not_printed_as_zero():
 
     assert p_text(0.0) == "< 1e-300"
     assert p_text(0.012) == "= 0.012"
+    assert p_text(0.996) == "> 0.99" and p_text(0.994) == "= 0.99" and p_text(1.0) == "= 1"
     own = re.compile(r"p = \{[^}]*p_(value|combined)[^}]*\}")
     package = Path(bayes_imu.__file__).parent
     found = [f"{f.relative_to(package)}: {m.group(0)}" for f in sorted(package.rglob("*.py"))

@@ -58,6 +58,12 @@ CASES = [  # (id, file bytes or None, extra arguments, message fragment)
         "expected at least 32 for fit",
     ),
     (
+        "one_sample",  # a single sample is not reported as a constant signal
+        b"gx\n0.1\n",
+        ["fit", "{log}", "--column", "gx", "--rate", "100"],
+        "1 sample; expected at least 32 for fit",
+    ),
+    (
         "too_few_for_allan",
         b"gx\n1\n2\n3\n",
         ["allan", "{log}", "--column", "gx", "--rate", "100"],

@@ -87,3 +87,24 @@ def test_pilot_check_warns_where_the_pilot_is_wider_than_the_plan_at_its_length(
     assert not wider.stationary and wider.ratio("reported")[0] >= PILOT_EXCESS
     assert "noise_variance" in wider.warning("x") and "lower bounds" in wider.warning("x")
     assert set(wider.to_dict()["reported_upper_halfwidth"]) == {"noise_variance"}
+    assert check.to_dict()["widened"] is False
+
+
+def test_pilot_warning_names_the_cause_the_fit_had():
+    """A record-alone interval wider than predicted is blamed on the model discrepancy only where
+    the pilot's fit was widened; otherwise on the posterior's shape (a user read the discrepancy on
+    an adequate fit); the parts' spread only where the stationarity check failed."""
+    from bayes_imu.drift.plan import PilotCheck
+
+    def check(**fields):
+        return PilotCheck(3600.0, ("a", "b"), np.array([0.1, 0.5]), np.array([0.1, 0.5]),
+                          np.array([0.1, 0.1]), **fields)
+
+    adequate = check().warning("x")
+    assert "b is" in adequate and "Gaussian approximation" in adequate
+    assert "discrepancy" not in adequate and "log's parts" not in adequate
+    assert "model discrepancy its fit needed" in check(widened=True).warning("x")
+    assert PilotCheck(3600.0, ("a",), np.array([0.1]), np.array([0.5]),
+                      np.array([0.1]), stationary=False).warning("x").count("log's parts") == 1
+    assert PilotCheck(3600.0, ("a",), np.array([0.1]), np.array([0.5]), np.array([0.1])
+                      ).warning("x") is None

@@ -185,3 +185,17 @@ def test_navigation_json_page_and_picture():
     buffer = io.BytesIO()
     _comparison_figure(report, buffer)
     assert buffer.getvalue()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_comparison_numbers_the_imus_by_their_ranking():
+    """comparison.png's ``#n`` is the IMU's place in the ranking, not in the scene (a user read
+    "#1 IMU 2" beside a ranking that put IMU 3 first); IMUs the ranking leaves out follow."""
+    from types import SimpleNamespace
+
+    from bayes_imu.report.scene_nav import ranked_imus
+
+    imus = tuple(SimpleNamespace(name=n) for n in ("IMU 2", "IMU 3", "IMU 4"))
+    report = SimpleNamespace(imus=imus, imu_ranking=("IMU 3", "IMU 2"))
+    assert [r.name for r in ranked_imus(report)] == ["IMU 3", "IMU 2", "IMU 4"]
+    assert [r.name for r in ranked_imus(SimpleNamespace(imus=imus, imu_ranking=()))] == [
+        "IMU 2", "IMU 3", "IMU 4"]

@@ -468,7 +468,8 @@ def _require_samples(opts, n, purpose):
     needed = MIN_SAMPLES[purpose]
     if n < needed:
         raise InputError(
-            f"{opts.log}: {n} samples; expected at least {needed} for {purpose} "
+            f"{opts.log}: {n} sample{'' if n == 1 else 's'}; expected at least {needed} for "
+            f"{purpose} "
             f"({'4 octave cluster sizes' if purpose == 'fit' else 'one Allan variance'})"
         )
 

@@ -272,6 +272,8 @@ class PilotCheck:
         The plan's ``exp(1.645 sd) - 1`` at the pilot's length.
     stationary : bool
         The pilot's stationarity check passed (its parts agree).
+    widened : bool
+        The pilot's fit needed a model discrepancy (its adequacy check failed).
     """
 
     length_s: float
@@ -280,6 +282,7 @@ class PilotCheck:
     reported: np.ndarray
     predicted: np.ndarray
     stationary: bool = True
+    widened: bool = False
 
     def ratio(self, which="record"):
         """``(n_par,)`` the pilot's log half-widths (``"record"`` or ``"reported"``) over the
@@ -292,7 +295,13 @@ class PilotCheck:
         the pilot failed its stationarity check and reports intervals that much wider (its
         parts' spread); else ``None``. (Intervals widened by the parts' spread of a log that passed
         its check are not flagged: four parts' scatter often exceeds the posterior by chance.)"""
-        for which, why in (("record", "the model discrepancy its fit needed"),
+        # the record-alone interval wider than the Fisher prediction: the model discrepancy where
+        # the fit was widened, else the posterior itself (several models averaged, or a skewed or
+        # weakly identified parameter) against the plan's local Gaussian approximation
+        record_why = ("the model discrepancy its fit needed" if self.widened else
+                      "its posterior departs from the plan's Gaussian approximation (several "
+                      "models averaged, or a skewed or weakly identified parameter)")
+        for which, why in (("record", record_why),
                            ("reported", "the spread between the log's parts, which its "
                                         "stationarity check flagged")):
             if which == "reported" and self.stationary:
@@ -312,6 +321,7 @@ class PilotCheck:
 
     def to_dict(self):
         return {"length_s": float(self.length_s), "stationary": bool(self.stationary),
+                "widened": bool(self.widened),
                 "record_upper_halfwidth": dict(zip(self.names, map(float, self.record))),
                 "reported_upper_halfwidth": dict(zip(self.names, map(float, self.reported))),
                 "predicted_upper_halfwidth": dict(zip(self.names, map(float, self.predicted)))}
@@ -335,4 +345,4 @@ def pilot_check(fit, *, calibration_s=DEFAULT_CALIBRATION_S):
     wide = np.array([reported[n][2] / reported[n][1] - 1.0 for n in names])
     steady = getattr(fit, "stationarity", None)
     return PilotCheck(float(fit.record_s), names, record, wide, np.expm1(Z90 * at.log_sd[0]),
-                      steady is None or bool(steady.stationary))
+                      steady is None or bool(steady.stationary), bool(fit.widened))

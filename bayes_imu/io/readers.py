@@ -370,6 +370,8 @@ class SignalExtent:
                 f"{MAX_MAGNITUDE:g} (a rate or specific force; larger values overflow the Allan "
                 "variance)"
             )
+        if self.n == 1:
+            return  # no spread to judge: the caller's sample count names what is missing
         spread = self.high - self.low
         if spread == 0.0:
             raise InputError(f"{where}: constant signal (all {self.n} samples are {self.first!r}); "

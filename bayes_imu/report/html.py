@@ -42,8 +42,8 @@ ASSUMPTIONS = (
     "draws it from its stationary distribution).",
     "Not modelled: temperature dependence, scale-factor and misalignment errors, vibration "
     "rectification and g-sensitivity, "
-    "turn-on bias repeatability, and the navigation filter itself (no gravity, Schuler or attitude "
-    "coupling). The log must be static and representative of the operating conditions.",
+    "turn-on bias repeatability, {filter}. The log must be static and representative of the "
+    "operating conditions.",
     "Unit-to-unit spread: a sensor given by one log (or fit folder) is bounded for that unit only; "
     "a sensor given by several units' logs is bounded for a new unit of the model (hierarchical "
     "fit, each section says which).",
@@ -52,6 +52,16 @@ ASSUMPTIONS = (
     "bounds (marked * in the table) can be optimistic; record logs several times longer than the "
     "longest outage.",
 )
+
+
+def navigation_filter_assumption(has_imus):
+    """What the report says of the navigation filter: the per-sensor bounds leave it out, and the
+    IMUs' navigation section (``has_imus``: the scene has a ``[navigation]`` table) adds it."""
+    if has_imus:
+        return ("and, in the per-sensor bounds, the navigation filter (gravity, Schuler and "
+                "attitude coupling enter the IMUs' navigation section below only)")
+    return ("and the navigation filter itself (no gravity, Schuler or attitude coupling: a "
+            "scene's [navigation] table adds them for each IMU)")
 
 
 def _png(fig_function, *args, failures=None, name="picture", **kwargs):
@@ -433,8 +443,11 @@ def report_html(report, comparison_png=None, *, failures=None):
         else scene.bias_start
     )
     terms = ", ".join(t.plot_label for t in REGISTRY.values())  # each term's own name (noise.model)
-    assumptions = "".join(f"<li>{html.escape(a.format(cred=cred, start=start, terms=terms))}</li>"
-                          for a in ASSUMPTIONS)
+    nav_filter = navigation_filter_assumption(bool(report.imus))
+    assumptions = "".join(
+        f"<li>{html.escape(a.format(cred=cred, start=start, terms=terms, filter=nav_filter))}</li>"
+        for a in ASSUMPTIONS
+    )
     sections = "".join(_sensor_section(s, cred, failures, display) for s in report.sensors)
     from .._version import __version__
 

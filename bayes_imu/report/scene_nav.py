@@ -393,7 +393,7 @@ def draw_imu_panels(report, ax_bands, ax_share, ax_terms=None):
     name = req["quantity"]
     span = _plot_span(report)
     styles = ("-", "--", "-.", ":")
-    for i, r in enumerate(report.imus):
+    for i, r in enumerate(ranked_imus(report)):
         b = r.bands
         q = b.quantities[name]
         keep = (b.t_s >= 0.1) & (b.t_s <= span) & (q.sigma[0] > 0)
@@ -418,7 +418,8 @@ def draw_imu_panels(report, ax_bands, ax_share, ax_terms=None):
             ax.axvline(req["after_s"], color="black", lw=1, ls="--")
         ax_bands.annotate(f"required outage {req['after_s']:g} s", (req["after_s"], 0.97),
                           xycoords=("data", "axes fraction"), rotation=90, fontsize=8,
-                          ha="right", va="top")
+                          ha="right", va="top",
+                          bbox=dict(facecolor="white", edgecolor="none", alpha=0.8, pad=1))
     what = "predictive bound" if req["statistic"] == "bound" else "bound on the 1-sigma error"
     where = "horizontal " if name != "tilt" else ""
     ax_bands.set_title(f"IMUs: {where}{name} error, gyro + accelerometer", fontsize=11)
@@ -445,6 +446,14 @@ def draw_imu_panels(report, ax_bands, ax_share, ax_terms=None):
         _draw_term_shares(report, ax_terms)
 
 
+def ranked_imus(report):
+    """The scene's IMU reports in ranking order (``report.imu_ranking``; any it leaves out follow in
+    scene order): the figure's ``#n`` is the IMU's place in the ranking."""
+    ranking = list(getattr(report, "imu_ranking", ()) or ())
+    placed = [r for name in ranking for r in report.imus if r.name == name]
+    return placed + [r for r in report.imus if r.name not in ranking]
+
+
 def _draw_term_shares(report, ax):
     """Stacked bars: each term's share of the required quantity's variance, per IMU and outage."""
     name = report.scene.navigation["quantity"]
@@ -454,16 +463,19 @@ def _draw_term_shares(report, ax):
     accel = [k for k in labels if k.startswith("accel:")]
     colours = {k: c for k, c in zip(gyro, _shades("Blues", len(gyro)))}
     colours.update({k: c for k, c in zip(accel, _shades("Oranges", len(accel)))})
+    # neighbouring shades of one colour map are hard to tell apart: every other term hatched too
+    hatches = {k: ("", "///", "...", "xxx")[i % 4] for group in (gyro, accel)
+               for i, k in enumerate(group)}
     ticks, texts = [], []
     x = 0.0
     for t in report.scene.outages_s:
-        for i, r in enumerate(report.imus):
+        for i, r in enumerate(ranked_imus(report)):
             row = next(w for w in r.rows if w["outage_s"] == t and w["quantity"] == name)
             bottom = 0.0
             for k in gyro + accel:
                 share = row["term_shares"].get(k, 0.0)
                 ax.bar(x, share, bottom=bottom, color=colours[k], width=0.8, edgecolor="white",
-                       lw=0.5)
+                       lw=0.5, hatch=hatches[k])
                 bottom += share
             ticks.append(x)
             texts.append(f"#{i + 1}")
@@ -474,12 +486,12 @@ def _draw_term_shares(report, ax):
     ax.set_xticks(ticks, texts, fontsize=8)
     ax.set_ylim(0, 1)
     ax.set_ylabel(f"share of the {name} error variance")
-    ax.set_xlabel("IMU (#) at each scene outage")
+    ax.set_xlabel("IMU (# in the ranking) at each scene outage")
     ax.set_title("each term's share (gyro blue, accelerometer orange)", fontsize=11, pad=16)
     for k in gyro + accel:
         sensor, term = k.split(":")
-        ax.bar(0, 0, color=colours[k], label=f"{'gyro' if sensor == 'gyro' else 'accel.'} "
-               f"{term.replace('_', ' ')}")
+        ax.bar(0, 0, color=colours[k], hatch=hatches[k], edgecolor="white", lw=0.5,
+               label=f"{'gyro' if sensor == 'gyro' else 'accel.'} {term.replace('_', ' ')}")
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
 
 

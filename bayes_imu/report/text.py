@@ -5,5 +5,9 @@ __all__ = ["p_text"]
 
 def p_text(p):
     """``"= 0.012"``, or ``"< 1e-300"`` for a p-value below what double precision resolves (one
-    that underflowed to 0): never a p of exactly 0. Written after ``p``: ``f"p {p_text(p)}"``."""
-    return f"= {p:.2g}" if p >= 1e-300 else "< 1e-300"
+    that underflowed to 0): never a p of exactly 0; ``"> 0.99"`` for one below 1 that two digits
+    would round to 1. Written after ``p``: ``f"p {p_text(p)}"``."""
+    if p < 1e-300:
+        return "< 1e-300"
+    text = f"{p:.2g}"
+    return "> 0.99" if p < 1.0 and float(text) >= 1.0 else f"= {text}"
