@@ -36,6 +36,16 @@ def pyplot():
     return plt
 
 
+#: dash patterns of the noise terms' lines, in turn: terms whose curves coincide over a range (white
+#: and filtered white noise beyond the filter's time constant) stay visible one through the other
+TERM_DASHES = ("--", (0, (1, 1.5)), "-.", (0, (6, 2, 1, 2, 1, 2)))
+
+
+def term_dashes(i):
+    """The dash pattern of the ``i``-th noise term's line (:data:`TERM_DASHES` in turn)."""
+    return TERM_DASHES[i % len(TERM_DASHES)]
+
+
 def import_plotting():
     """Import what the figures need (pyplot, corner) and draw a small log-log figure in memory
     (fonts, text layout and the PNG writer loaded): a worker's warm-up
@@ -214,7 +224,7 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None, scale=1.0):
         ax.plot(
             tau_f,
             part,
-            "--",
+            ls=term_dashes(i),
             color=f"C{i + 1}",
             lw=1,
             label=_term_label(term, _is_accel(fit, unit)),
@@ -674,8 +684,8 @@ def plot_drift(bands_list, path, *, units, title="", min_probability=0.1):
                 continue
             if np.any(positive):
                 where = f", median where modelled, P = {p:.2f}" if p < 0.995 else ", median"
-                ax.plot(t[positive], part[keep][positive], "--", lw=1, color=f"C{i + 1}",
-                        label=f"{_term_label(name, accel)}{where}")
+                ax.plot(t[positive], part[keep][positive], ls=term_dashes(i), lw=1,
+                        color=f"C{i + 1}", label=f"{_term_label(name, accel)}{where}")
         if hidden:
             import textwrap
 
