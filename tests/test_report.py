@@ -536,3 +536,26 @@ def test_sensors_that_cannot_give_the_required_quantity_rank_last_and_the_reason
     order, reason = _rank(scene, reports)
     assert order == ("long", "short", "imu-accel")
     assert reason.endswith("last, as they do not measure attitude: imu-accel (an accelerometer)")
+
+
+def test_report_console_gives_each_longest_outage_and_every_file_written(
+    report, tmp_path, capsys, monkeypatch
+):
+    """The console's ranking line gives each sensor's longest outage beside its name (a user saw
+    only the order) and the last line names every file written, comparison.png included."""
+    import bayes_imu.report.scene as scene_module
+    from bayes_imu.cli.main import main
+    from bayes_imu.report.text import outage_text
+
+    rep, _ = report
+    path = tmp_path / "scene.toml"
+    path.write_text(SCENE.format(data=DATA))
+    monkeypatch.setattr(scene_module, "build_report", lambda scene, **options: rep)
+    assert main(["report", str(path), "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    ranking = next(line for line in out.splitlines() if line.startswith("ranking: "))
+    for s in rep.sensors:
+        assert s.max_outage_s is not None
+        assert f"{s.spec.name} (longest outage {outage_text(s.max_outage_s)})" in ranking
+    written = f"wrote {tmp_path / 'out'}/report.json, report.html, comparison.png"
+    assert out.rstrip().endswith(written)

@@ -637,11 +637,26 @@ def _cmd_report(args):
     with staged as tmp, _sensor_progress(args, scene) as progress:
         report = build_report(scene, rng=args.seed, progress=progress)
         failures = write_report(report, tmp)
-    _say(args, f"ranking: {', '.join(report.ranking)} ({report.reason})")
+    outage = {s.spec.name: s.max_outage_s for s in report.sensors}
+    _say(args, "ranking: " + ", ".join(_with_outage(n, outage.get(n)) for n in report.ranking)
+         + f" ({report.reason})")
     if report.imus:  # a [navigation] requirement: the IMUs' ranking
-        _say(args, f"IMU ranking: {', '.join(report.imu_ranking)} ({report.imu_reason})")
-    _say(args, f"wrote {args.out}/report.json and report.html")
+        outage = {r.name: r.longest_outage_s for r in report.imus}
+        _say(args, "IMU ranking: " + ", ".join(_with_outage(n, outage.get(n))
+                                               for n in report.imu_ranking)
+             + f" ({report.imu_reason})")
+    written = [n for n in ("report.json", "report.html", "comparison.png")
+               if (Path(args.out) / n).exists()]
+    _say(args, f"wrote {args.out}/{', '.join(written)}")
     return _pictures_status(failures)
+
+
+def _with_outage(name, outage_s):
+    """``"name (longest outage 416 s)"`` on the report's console line, or the name alone where the
+    sensor has no longest outage (no requirement, or it cannot give the required quantity)."""
+    from ..report.text import outage_text
+
+    return name if outage_s is None else f"{name} (longest outage {outage_text(outage_s)})"
 
 
 @contextlib.contextmanager

@@ -21,7 +21,7 @@ from ..drift.display import display_unit, display_parameters, rate_display
 from ..io.readers import SI_UNITS as UNITS_SI
 from ..noise.model import REGISTRY
 from .scene import MAX_SEARCH_S, OUTPUT_UNITS
-from .text import p_text
+from .text import outage_text, p_text
 from .scene_nav import navigation_section
 
 
@@ -487,9 +487,7 @@ def _beyond_log(sensor):
 
 
 def _fmt_time(t):
-    if t >= MAX_SEARCH_S:
-        return f"{MAX_SEARCH_S:g} s or more (search limit)"
-    return f"{t:.4g} s"
+    return outage_text(t)
 
 
 def write_report(report, out_dir):

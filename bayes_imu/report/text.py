@@ -1,6 +1,6 @@
 """Numbers as the outputs print them (console, figures, report.html)."""
 
-__all__ = ["p_text"]
+__all__ = ["p_text", "outage_text"]
 
 
 def p_text(p):
@@ -11,3 +11,13 @@ def p_text(p):
         return "< 1e-300"
     text = f"{p:.2g}"
     return "> 0.99" if p < 1.0 and float(text) >= 1.0 else f"= {text}"
+
+
+def outage_text(t):
+    """``"416 s"``, or the search limit where the longest outage reached it (an outage length on
+    the report's page and console)."""
+    from .scene import MAX_SEARCH_S
+
+    if t >= MAX_SEARCH_S:
+        return f"{MAX_SEARCH_S:g} s or more (search limit)"
+    return f"{t:.4g} s"
