@@ -100,6 +100,11 @@ def test_a_noise_step_is_flagged_with_its_exact_spread(rng):
     assert free.p_each.shape == free.tau_s.shape and free.p_value == pytest.approx(
         min(1, free.p_each.min() * free.p_each.size)
     )
+    # the decision's rate is reported beside the p-value (summary.json), and is what decides
+    assert check.to_dict()["alpha"] == 0.01
+    lenient = segment_test(seg, greenhall_edf(np.zeros(seg.m.size, dtype=int), seg.m,
+                                              seg.n_samples + 1), 1 / DT, alpha=free.p_value / 2)
+    assert lenient.stationary and lenient.to_dict()["alpha"] == free.p_value / 2
 
 
 def test_flagged_fit_widens_drift_bands_by_the_spread(rng, tmp_path):
@@ -124,6 +129,7 @@ def test_flagged_fit_widens_drift_bands_by_the_spread(rng, tmp_path):
             st.tau_s,
             st.segment_adev,
             np.linspace(0.2, 0.6, st.tau_s.size),
+            alpha=0.05,
         ),
     )
     ratio = np.log(
@@ -142,6 +148,7 @@ def test_flagged_fit_widens_drift_bands_by_the_spread(rng, tmp_path):
     save_fit(flagged, tmp_path / "fit.npz")
     back = load_fit(tmp_path / "fit.npz")
     assert not back.stationarity.stationary and back.stationarity.p_value == 1e-5
+    assert back.stationarity.alpha == 0.05
     np.testing.assert_array_equal(back.stationarity.spread, flagged.stationarity.spread)
     np.testing.assert_array_equal(back.allan.segments.avar, fit.allan.segments.avar)
 

@@ -31,7 +31,7 @@ from .fit import FitResult, MixtureComponent
 from ..io.readers import read_json_object
 from ..noise.avar_forms import NoiseModel
 from .selection import Adequacy, CandidateScore
-from .stationarity import Stationarity
+from .stationarity import STATIONARITY_ALPHA, Stationarity
 
 __all__ = ["save_fit", "load_fit", "fit_axes", "write_netcdf", "ARCHIVE_NAME"]
 
@@ -83,6 +83,7 @@ def save_fit(fit, path):
             "stationary": bool(st.stationary),
             "p_value": float(st.p_value),
             "worst_tau_s": float(st.worst_tau_s),
+            "alpha": float(st.alpha),
         },
     }
     arrays = {f"allan_{k}": getattr(a, k) for k in _ALLAN_ARRAYS}
@@ -200,6 +201,7 @@ def load_fit(path):
             data["stationarity_tau"],
             data["stationarity_adev"],
             data["stationarity_spread"],
+            alpha=st.get("alpha", STATIONARITY_ALPHA),  # archives before the field: the default
         )
     )
     model = NoiseModel(tuple(meta["terms"]), meta["dt"])

@@ -69,6 +69,9 @@ class Stationarity:
         Between-segment standard deviation of ``ln avar`` beyond sampling, non-decreasing.
     p_each : (n_tau,) ndarray or None
         The p-value of each size on its own (before Bonferroni).
+    alpha : float
+        The false-alarm rate ``stationary`` was decided at (summary.json ``alpha``: a p of 0.011
+        passes at the default 0.01).
     """
 
     stationary: bool
@@ -78,6 +81,7 @@ class Stationarity:
     segment_adev: np.ndarray
     spread: np.ndarray
     p_each: np.ndarray = None
+    alpha: float = STATIONARITY_ALPHA
 
     @property
     def n_segments(self):
@@ -104,6 +108,7 @@ class Stationarity:
 
     def to_dict(self):
         return {"stationary": bool(self.stationary), "p_value": float(self.p_value),
+                "alpha": float(self.alpha),
                 "worst_tau_s": float(self.worst_tau_s), "n_segments": self.n_segments,
                 "adev_ratio_at_worst_tau": self.largest_ratio(),
                 "adev_spread_factor": self.spread_factor(),
@@ -175,4 +180,5 @@ def segment_test(segments, edf, rate_hz, *, alpha=STATIONARITY_ALPHA):
         np.sqrt(segments.avar[:, keep]),
         np.sqrt(np.maximum.accumulate(excess)),
         p_each,
+        float(alpha),
     )
