@@ -296,6 +296,8 @@ def test_fit_population_command(tmp_path, capsys):
         "unit2",
     ]
     assert set(summary["drift"]) == {"attitude"}
+    # how much the units measured each spread, beside it (1: the prior's own width)
+    assert all(0 < p["spread_ln"]["sd_over_prior_sd"] < 1.5 for p in summary["population"].values())
     # --display-units deg (issue 38): the new unit beside SI, a variance by (180/pi)^2
     for name, power in (("noise_variance", 2), ("noise_density", 1)):
         si, shown = summary["new_unit"][name], summary["new_unit_display"][name]
@@ -575,3 +577,48 @@ def test_unconverged_population_is_a_loud_failure(tmp_path, monkeypatch, capsys)
     assert diagnostics["converged"] is False and diagnostics["ess_hyper_min"] < 1e9
     assert diagnostics["rhat_max"] is None or diagnostics["rhat_max"] > 0
     assert "population sampler did not converge" in capsys.readouterr().err
+
+
+def test_spread_prior_sd_is_the_truncated_half_normal_s():
+    """The spread prior's standard deviation: the untruncated half-normal's s sqrt(1 - 2/pi) where
+    the bounds do not bite, and a quadrature of the truncated density where they do (scale 5 on
+    (1e-3, 5))."""
+    from scipy import integrate
+
+    from bayes_imu.inference.population import SPREAD_BOUNDS, spread_prior_sd
+
+    assert spread_prior_sd(1.0, (0.0, 60.0)) == pytest.approx(np.sqrt(1 - 2 / np.pi), rel=1e-12)
+    for scale in (0.3, 1.0, 5.0):
+        lo, hi = SPREAD_BOUNDS
+        moments = [integrate.quad(lambda x, k=k: x**k * np.exp(-0.5 * (x / scale) ** 2), lo, hi,
+                                  epsabs=0, epsrel=1e-12)[0] for k in (0, 1, 2)]
+        mean, second = moments[1] / moments[0], moments[2] / moments[0]
+        assert spread_prior_sd(scale) == pytest.approx(np.sqrt(second - mean**2), rel=1e-9)
+
+
+def test_a_spread_the_units_barely_measure_is_named():
+    """Spread draws from the prior itself give a share near 1 and are named (a user saw a new
+    unit's wide interval from two units with no word on why); draws the data narrowed are not."""
+    from types import SimpleNamespace
+
+    from bayes_imu.inference.population import (
+        SPREAD_BOUNDS, SPREAD_PRIOR_SHARE, PopulationResult, spread_prior_sd)
+    from bayes_imu.report.text import spread_prior_note
+
+    rng = np.random.default_rng(3)
+    prior = np.abs(rng.standard_normal(200_000))
+    prior = prior[(prior > SPREAD_BOUNDS[0]) & (prior < SPREAD_BOUNDS[1])]
+    narrow = rng.normal(0.2, 0.02, prior.size)
+    pop = SimpleNamespace(spread=np.column_stack([prior, narrow]), spread_scale=1.0,
+                          parameter_names=("noise_variance", "time_constant"), labels=("a", "b"))
+    share = PopulationResult.spread_prior_share(pop)
+    assert share["noise_variance"] == pytest.approx(1.0, abs=0.01)
+    assert share["time_constant"] == pytest.approx(0.02 / spread_prior_sd(1.0), rel=0.02)
+    assert share["time_constant"] < SPREAD_PRIOR_SHARE <= share["noise_variance"]
+    pop.spread_prior_share = lambda: share
+    note = spread_prior_note(pop)
+    assert note.startswith("2 units barely measure the unit-to-unit spread of noise_variance "
+                           "(posterior standard deviation 1.00 of the prior's)")
+    assert "time_constant" not in note and "half-normal, scale 1" in note
+    pop.spread_prior_share = lambda: {"time_constant": share["time_constant"]}
+    assert spread_prior_note(pop) is None

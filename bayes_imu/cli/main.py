@@ -36,7 +36,7 @@ from .._version import __version__
 from ..report.output import staged_file, staged_folder, user_os_error
 from ..report.runs import fit_job, run_allan, run_fit, run_fit_batch, run_population
 from ..report.worker import PICTURE_FAILED_STATUS, background_default
-from ..report.text import p_text
+from ..report.text import p_text, spread_prior_note
 from ..report.writers import FitRequest, write_sigma_csv
 from .._progress import progress_bar, show_progress
 from ..allan.pipeline import LogSource
@@ -637,6 +637,11 @@ def _cmd_report(args):
     with staged as tmp, _sensor_progress(args, scene) as progress:
         report = build_report(scene, rng=args.seed, progress=progress)
         failures = write_report(report, tmp)
+    for s in report.sensors:  # a population whose spread between units is mostly its prior's
+        pop = s.axes[s.worst].population
+        note = None if pop is None else spread_prior_note(pop)
+        if note:
+            _warn(f"{s.spec.name}: {note}")
     outage = {s.spec.name: s.max_outage_s for s in report.sensors}
     _say(args, "ranking: " + ", ".join(_with_outage(n, outage.get(n)) for n in report.ranking)
          + f" ({report.reason})")
@@ -819,6 +824,9 @@ def _say_population(args, run):
                    f"{s['q95']:.2g}]) in ln units (0.1 = 10%)")
     if run.drift is not None:
         _say_drift(args, run.drift)
+    weak = spread_prior_note(pop)
+    if weak:
+        _warn(weak)
 
 
 def _cmd_fit_batch(args):

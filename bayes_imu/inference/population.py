@@ -59,10 +59,30 @@ from .likelihood import default_bounds
 from ..noise.avar_forms import PARAMETER_UNITS, NoiseModel
 from .selection import CandidateScore, select
 
-__all__ = ["PopulationResult", "UnitPosterior", "fit_population", "SPREAD_BOUNDS"]
+__all__ = ["PopulationResult", "UnitPosterior", "fit_population", "SPREAD_BOUNDS",
+           "SPREAD_PRIOR_SHARE", "spread_prior_sd"]
 
 #: bounds of the population spread sigma (standard deviation of a ln parameter across units)
 SPREAD_BOUNDS = (1e-3, 5.0)
+#: a spread whose posterior standard deviation is at least this share of its prior's is "mostly its
+#: prior's" (:meth:`PopulationResult.spread_prior_share`): the units shrank its uncertainty by less
+#: than a quarter
+SPREAD_PRIOR_SHARE = 0.75
+
+
+def spread_prior_sd(scale, bounds=SPREAD_BOUNDS):
+    """Standard deviation of the spread's prior: a normal of scale ``scale`` truncated to
+    ``bounds`` (the half-normal of the module docstring, within :data:`SPREAD_BOUNDS`).
+
+    With ``a, b = bounds / scale``, ``Z = Phi(b) - Phi(a)``, the truncated standard normal has mean
+    ``m = (phi(a) - phi(b)) / Z`` and variance ``1 + (a phi(a) - b phi(b)) / Z - m^2``.
+    """
+    a, b = bounds[0] / scale, bounds[1] / scale
+    phi_a, phi_b = np.exp(-0.5 * a * a), np.exp(-0.5 * b * b)
+    phi_a, phi_b = phi_a / np.sqrt(2.0 * np.pi), phi_b / np.sqrt(2.0 * np.pi)
+    z = special.ndtr(b) - special.ndtr(a)
+    m = (phi_a - phi_b) / z
+    return float(scale * np.sqrt(1.0 + (a * phi_a - b * phi_b) / z - m * m))
 _LOG_2PI = float(np.log(2.0 * np.pi))
 
 
@@ -178,6 +198,16 @@ class PopulationResult:
     def parameter_names(self):
         return self.model.parameter_names
 
+    def spread_prior_share(self):
+        """Dict parameter -> posterior standard deviation of its spread ``sigma`` over the prior's
+        (:func:`spread_prior_sd`): near 1 where the units barely measure how far they differ (two
+        or three units, a poorly measured parameter), so that a new unit's bounds lean on the
+        spread's prior; well below 1 where the data measured it. Parameters at or above
+        :data:`SPREAD_PRIOR_SHARE` are warned of by the commands."""
+        prior = spread_prior_sd(self.spread_scale)
+        return {n: float(np.std(self.spread[:, i]) / prior)
+                for i, n in enumerate(self.parameter_names)}
+
     def spread_quantiles(self, q=(0.05, 0.5, 0.95)):
         """Dict parameter -> quantiles of the population spread sigma (ln units, ~ relative
         spread)."""
@@ -217,13 +247,14 @@ class PopulationResult:
                     "widened": bool(alone.widened),
                 }
             )
-        population = {}
+        population, share = {}, self.spread_prior_share()
         for i, name in enumerate(self.parameter_names):
             population[name] = {"median": float(np.exp(np.median(self.mean[:, i]))),
                                 "unit": PARAMETER_UNITS.get(name, "1").format(u=unit),
                                 "spread_ln": {"median": float(np.median(self.spread[:, i])),
                                               "q05": float(np.quantile(self.spread[:, i], 0.05)),
-                                              "q95": float(np.quantile(self.spread[:, i], 0.95))}}
+                                              "q95": float(np.quantile(self.spread[:, i], 0.95)),
+                                              "sd_over_prior_sd": share[name]}}
         return {
             "model": list(self.model.terms),
             "what": "posterior predictive for a new unit of this sensor model (unit-to-unit spread "

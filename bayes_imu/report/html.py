@@ -21,7 +21,7 @@ from ..drift.display import display_unit, display_parameters, rate_display
 from ..io.readers import SI_UNITS as UNITS_SI
 from ..noise.model import REGISTRY
 from .scene import MAX_SEARCH_S, OUTPUT_UNITS
-from .text import outage_text, p_text
+from .text import outage_text, p_text, spread_prior_note
 from .scene_nav import navigation_section
 
 
@@ -363,6 +363,8 @@ def _population_section(s, failures=None, display="si"):
         + ", ".join(inadequate)
     )
     sheet = _datasheet_table(s)
+    note = spread_prior_note(pop)
+    weak = "" if note is None else f'\n<p class="spread-prior">Note: {html.escape(note)}.</p>'
     rate_unit, scale = rate_display(UNITS_SI[s.spec.kind], display)
     pop_png = _png(lambda target: plot_population(pop, target, unit=rate_unit, rng=0, scale=scale),
                    failures=failures, name=f"report.html: the population of {s.spec.name[:40]}")
@@ -379,7 +381,7 @@ predictive of a hierarchical fit of {len(pop.labels)} units.</p>
 <p class="model">Common model: <b>{html.escape(' + '.join(pop.model.terms))}</b> (summed evidence \
 over the units);
 {html.escape(check)}; population sampler \
-{'converged' if pop.diagnostics['converged'] else 'NOT CONVERGED'}.</p>
+{'converged' if pop.diagnostics['converged'] else 'NOT CONVERGED'}.</p>{weak}
 <table>{head}{rows}</table>{sheet}
 <table><tr><th>unit-to-unit spread (ln \
 units)</th><th>5%</th><th>median</th><th>95%</th></tr>{spread}</table>

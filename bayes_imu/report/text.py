@@ -1,6 +1,6 @@
 """Numbers as the outputs print them (console, figures, report.html)."""
 
-__all__ = ["p_text", "outage_text"]
+__all__ = ["p_text", "outage_text", "spread_prior_note"]
 
 
 def p_text(p):
@@ -21,3 +21,21 @@ def outage_text(t):
     if t >= MAX_SEARCH_S:
         return f"{MAX_SEARCH_S:g} s or more (search limit)"
     return f"{t:.4g} s"
+
+
+def spread_prior_note(pop):
+    """A line where a population fit's unit-to-unit spread of some parameter is mostly its prior's
+    (:meth:`~bayes_imu.inference.population.PopulationResult.spread_prior_share` at or above
+    :data:`~bayes_imu.inference.population.SPREAD_PRIOR_SHARE`), else ``None``: the command's
+    warning and the report's note."""
+    from ..inference.population import SPREAD_PRIOR_SHARE
+
+    share = pop.spread_prior_share()
+    weak = {name: value for name, value in share.items() if value >= SPREAD_PRIOR_SHARE}
+    if not weak:
+        return None
+    return (f"{len(pop.labels)} units barely measure the unit-to-unit spread of "
+            f"{', '.join(weak)} (posterior standard deviation "
+            f"{', '.join(f'{v:.2f}' for v in weak.values())} of the prior's): a new unit's bounds "
+            f"lean on the spread's prior (half-normal, scale {pop.spread_scale:g} in ln units); "
+            "more units measure it")
