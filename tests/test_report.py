@@ -183,6 +183,10 @@ def test_html_is_self_contained_with_all_sections(report):
         "a scene's [navigation] table adds them",  # no navigation section in this scene
     ):
         assert text in page.replace("&#x27;", "'")
+    # every parameter row gives its SI unit (a user found SI columns without one)
+    assert "<th>95%</th><th>unit</th>" in page
+    assert "<td>noise_variance</td>" in page and "<td>(rad/s)^2</td>" in page
+    assert "<td>time_constant</td>" in page and "<td>s</td>" in page
 
 
 def test_navigation_filter_assumption_does_not_contradict_the_navigation_section():

@@ -109,11 +109,12 @@ def test_report_html_shows_degrees_beside_si(written):
                              f"{b['median'] * DEG:.4g}", f"{b['bound'] * DEG:.4g}", "deg"]
     q = report.sensors[0].fit.repeatability_quantiles()
     (variance,) = _cells(deg, "noise_variance")
-    assert variance == [f"{v:.4g}" for v in q["noise_variance"]] + [
+    assert variance == [f"{v:.4g}" for v in q["noise_variance"]] + ["(rad/s)^2"] + [
         f"{v * DEG**2:.4g}" for v in q["noise_variance"]] + ["(deg/s)^2"]
     # a density per sqrt(h), as a datasheet gives it: deg/sqrt(s) times sqrt(3600 s / 1 h)
     (arw,) = _cells(deg, "angle random walk (noise_density)")
-    assert arw[3:] == [f"{v * DEG * math.sqrt(3600.0):.4g}" for v in q["noise_density"]] + [
+    assert arw[3] == "rad/s/sqrt(Hz)"
+    assert arw[4:] == [f"{v * DEG * math.sqrt(3600.0):.4g}" for v in q["noise_density"]] + [
         "deg/sqrt(h)"]
     # the datasheet table is in the datasheet's own units whichever display: the same in both
     table = re.compile(r'<table class="datasheet">.*?</table>', re.S)

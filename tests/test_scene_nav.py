@@ -2,6 +2,7 @@
 one-line errors, the longest outage against an exact rational reference, and a ranking that the
 accelerometer-only position bound gets wrong."""
 
+import dataclasses
 from fractions import Fraction
 from pathlib import Path
 
@@ -199,3 +200,28 @@ def test_comparison_numbers_the_imus_by_their_ranking():
     assert [r.name for r in ranked_imus(report)] == ["IMU 3", "IMU 2", "IMU 4"]
     assert [r.name for r in ranked_imus(SimpleNamespace(imus=imus, imu_ranking=()))] == [
         "IMU 2", "IMU 3", "IMU 4"]
+
+
+def test_the_extrapolation_footnote_appears_only_with_a_marked_row(monkeypatch):
+    """The navigation table's "* beyond the shorter log" footnote only where some outage is marked
+    (a user read it under a table with no mark); the IMUs' pictures are left out here."""
+    import bayes_imu.report.scene_nav as scene_nav
+    from bayes_imu.report.scene import Report
+    from bayes_imu.report.scene_nav import navigation_section
+
+    monkeypatch.setattr(scene_nav, "_figure", lambda *args, **kwargs: "")
+    scene, reports = _ranking_scene()
+    imus = imu_reports(scene, reports, np.random.default_rng(0))
+    order, reason = rank_imus(scene, imus)
+    report = Report(scene, tuple(reports), (), "", imus, order, reason)
+    marked = any(row["outage_s"] > r.record_s for r in imus for row in r.rows)
+    page = navigation_section(report)
+    assert ("* beyond the shorter log" in page) == marked
+    assert page.count("*</td>") == sum(row["outage_s"] > r.record_s
+                                       and row["quantity"] == "position"
+                                       for r in imus for row in r.rows)
+    for record_s, n_marked in ((1e9, 0), (30.0, 2)):  # no outage beyond it; each IMU's 60 s
+        imus_at = tuple(dataclasses.replace(r, record_s=record_s) for r in imus)
+        page = navigation_section(Report(scene, tuple(reports), (), "", imus_at, order, reason))
+        assert page.count("*</td>") == n_marked
+        assert ("* beyond the shorter log" in page) == (n_marked > 0)

@@ -200,6 +200,7 @@ def _parameter_rows(quantiles, kind, display, digits=".4g"):
     rows = []
     for n, q in quantiles.items():
         cells = "".join(f"<td>{v:{digits}}</td>" for v in q)
+        cells += f"<td>{html.escape(_si_unit(n, kind))}</td>"
         if shown is not None:
             d = shown[n]
             cells += "".join(f"<td>{d[k]:{digits}}</td>" for k in ("q05", "median", "q95"))
@@ -207,6 +208,7 @@ def _parameter_rows(quantiles, kind, display, digits=".4g"):
         rows.append(f"<tr><td>{html.escape(n)}</td>{cells}</tr>")
     if shown is not None and "noise_density" in quantiles:  # as a datasheet gives it
         arw = "".join(f"<td>{v:{digits}}</td>" for v in quantiles["noise_density"])
+        arw += f"<td>{html.escape(_si_unit('noise_density', kind))}</td>"
         arw += "".join(f"<td>{shown['noise_density'][k] * _PER_SQRT_HOUR:{digits}}</td>"
                        for k in ("q05", "median", "q95"))
         rows.append(
@@ -225,7 +227,15 @@ def _parameter_head(title, kind, display, sep=""):
     extra = ""
     if rate_display(UNITS_SI[kind], display)[1] != 1.0:
         extra = "<th>5% (shown)</th><th>median (shown)</th><th>95% (shown)</th><th>unit shown</th>"
-    return f"<tr><th>{title}</th>{sep}<th>5%</th><th>median</th><th>95%</th>{extra}</tr>"
+    return (f"<tr><th>{title}</th>{sep}<th>5%</th><th>median</th><th>95%</th><th>unit</th>"
+            f"{extra}</tr>")
+
+
+def _si_unit(name, kind):
+    """The SI unit of parameter ``name`` of a ``kind`` sensor (``(rad/s)^2``, ``s``, ...)."""
+    from ..noise.model import PARAMETER_UNITS
+
+    return PARAMETER_UNITS.get(name, "1").format(u=UNITS_SI[kind])
 
 
 def _sensor_section(s, cred, failures=None, display="si"):

@@ -525,12 +525,13 @@ def navigation_section(report):
         spread = "unit-to-unit spread included" if r.unit_to_unit else "tested units only"
         items.append(f"<li>{html.escape(name)}: within the requirement for "
                      f"{_time_text(r.longest_outage_s, report)}{meets} ({spread})</li>")
-    rows = []
+    rows, starred = [], False
     for r in report.imus:
         for row in r.rows:
             if row["quantity"] != req["quantity"]:
                 continue
             star = "*" if row["outage_s"] > r.record_s else ""
+            starred = starred or bool(star)
             rows.append(
                 f"<tr><td>{html.escape(r.name)}</td><td>{row['outage_s']:g}{star}</td>"
                 f"<td>{_amount(row['bound'], row['unit'])}</td>"
@@ -547,6 +548,8 @@ def navigation_section(report):
                          title=r.name, record_s=r.record_s, t_max=span)
         figures.append(f'<h3>{html.escape(r.name)}</h3><img alt="navigation error of '
                        f'{html.escape(r.name)}" src="{buffer}">')
+    # the footnote only where a row carries its mark
+    footnote = "<p>* beyond the shorter log: the model's extrapolation.</p>\n" if starred else ""
     stat = ("predictive bound of the error itself" if req["statistic"] == "bound"
             else "credible bound on the 1-sigma error")
     return f"""<section id="navigation"><h2>Navigation: IMUs ranked by the requirement</h2>
@@ -560,8 +563,7 @@ after a few seconds.</p>
 <table><tr><th>IMU</th><th>outage (s)</th><th>{req['credibility']:.0%} bound</th>
 <th>1-sigma median [band]</th><th>gyro share</th><th>dominant</th><th>largest terms (share of the
 variance)</th></tr>{''.join(rows)}</table>
-<p>* beyond the shorter log: the model's extrapolation.</p>
-{''.join(figures)}
+{footnote}{''.join(figures)}
 </section>"""
 
 
