@@ -220,6 +220,9 @@ def test_the_extrapolation_footnote_appears_only_with_a_marked_row(monkeypatch):
     assert page.count("*</td>") == sum(row["outage_s"] > r.record_s
                                        and row["quantity"] == "position"
                                        for r in imus for row in r.rows)
+    # rows and pictures in the ranking's order, as the ranked list above them
+    assert order == ("B", "A") and page.index("<h3>B</h3>") < page.index("<h3>A</h3>")
+    assert page.index("<tr><td>B</td>") < page.index("<tr><td>A</td>")
     for record_s, n_marked in ((1e9, 0), (30.0, 2)):  # no outage beyond it; each IMU's 60 s
         imus_at = tuple(dataclasses.replace(r, record_s=record_s) for r in imus)
         page = navigation_section(Report(scene, tuple(reports), (), "", imus_at, order, reason))

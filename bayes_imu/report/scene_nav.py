@@ -526,7 +526,7 @@ def navigation_section(report):
         items.append(f"<li>{html.escape(name)}: within the requirement for "
                      f"{_time_text(r.longest_outage_s, report)}{meets} ({spread})</li>")
     rows, starred = [], False
-    for r in report.imus:
+    for r in ranked_imus(report):  # the table and pictures in the ranking's order, as the list
         for row in r.rows:
             if row["quantity"] != req["quantity"]:
                 continue
@@ -542,7 +542,7 @@ def navigation_section(report):
                 f"<td>{html.escape(_top_terms(row['term_shares']))}</td></tr>")
     figures = []
     span = _plot_span(report)
-    for r in report.imus:
+    for r in ranked_imus(report):
         buffer = _figure(plot_nav, r.bands, marks=r.bands.t_s[np.isin(r.bands.t_s,
                                                                        report.scene.outages_s)],
                          title=r.name, record_s=r.record_s, t_max=span)
