@@ -19,7 +19,7 @@ import numpy as np
 from ..drift.bands import SENSOR_QUANTITIES
 from ..drift.display import display_unit, display_parameters, rate_display
 from ..io.readers import SI_UNITS as UNITS_SI
-from ..noise.model import REGISTRY
+from ..noise.model import PARAMETER_UNITS, REGISTRY
 from .scene import MAX_SEARCH_S, OUTPUT_UNITS
 from .text import outage_text, p_text, spread_prior_note
 from .scene_nav import navigation_section
@@ -233,8 +233,6 @@ def _parameter_head(title, kind, display, sep=""):
 
 def _si_unit(name, kind):
     """The SI unit of parameter ``name`` of a ``kind`` sensor (``(rad/s)^2``, ``s``, ...)."""
-    from ..noise.model import PARAMETER_UNITS
-
     return PARAMETER_UNITS.get(name, "1").format(u=UNITS_SI[kind])
 
 
