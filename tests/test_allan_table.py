@@ -119,11 +119,31 @@ def test_fit_allan_table_command(tmp_path, capsys):
 @pytest.mark.skipif(not IMU_UTILS.exists(), reason="../shared/data_real/imu_utils not present")
 def test_imu_utils_table_of_the_adis16448_matches_euroc(tmp_path):
     """imu_utils' ADIS16448 gyro x table (deg/h, 200 Hz, 2 h): the noise density fitted from the
-    table agrees with the EuRoC / Kalibr value 1.6968e-4 rad/s/sqrt(Hz) to 10%."""
+    table agrees with the EuRoC / Kalibr value 1.6968e-4 rad/s/sqrt(Hz) to 10%.
+
+    The selected model's slow terms (two Gauss-Markov biases, a vibration line) do not converge in
+    40 000 steps here (autocorrelation ~1000 steps; one of the hard real cases of issue 39, warned
+    of with ConvergenceWarning); the short-term parameters the noise density is made of have
+    converged on their own (R-hat < 1.01, bulk ESS > 400 each), and that is what is compared."""
+    import warnings
+
+    from bayes_imu.errors import ConvergenceWarning
+    from bayes_imu.inference.diagnostics import ess_bulk, rhat
+
     t = np.loadtxt(IMU_UTILS / "data_16448_gyr_t.txt")
     a = np.loadtxt(IMU_UTILS / "data_16448_gyr_x.txt") * np.pi / 180 / 3600
     table, _ = allan_from_table(t, a, rate_hz=200.0, n_samples=200 * 7200)
-    fit = fit_allan(table, rng=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        fit = fit_allan(table, rng=0)
+    # the parameters of the noise density: white noise and the short-term terms' white equivalents
+    # (NoiseModel.short_term_variance)
+    short = ["noise_variance"] + [n for term in fit.model.components
+                                  if term.role == "short_term" and hasattr(term, "white_equivalent")
+                                  for n in term.parameters]
+    for name in short:
+        draws = fit.chains.chain[:, :, fit.parameter_names.index(name)].T
+        assert rhat(draws) < 1.01 and ess_bulk(draws) > 400, name
     assert np.median(fit.draws("noise_density")) == pytest.approx(1.6968e-4, rel=0.10)
 
 
