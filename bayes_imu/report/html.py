@@ -437,7 +437,8 @@ def report_html(report, comparison_png=None, *, failures=None):
     rank_rows = "".join(
         f"<li>{html.escape(name)}"
         + (
-            f": longest outage within the requirement {_fmt_time(s.max_outage_s)}" + _beyond_log(s)
+            f": longest outage within the requirement {outage_text(s.max_outage_s)}"
+            + _beyond_log(s)
             if s.max_outage_s is not None
             else (": cannot provide the required quantity" if req else "")
         )
@@ -490,14 +491,10 @@ class="reason">{html.escape(report.reason)}.</p></section>
 def _beyond_log(sensor):
     record = sensor.record_s
     return (
-        f" (beyond its {_fmt_time(record)} log: extrapolated)"
+        f" (beyond its {outage_text(record)} log: extrapolated)"
         if sensor.max_outage_s > record
         else ""
     )
-
-
-def _fmt_time(t):
-    return outage_text(t)
 
 
 def write_report(report, out_dir):
