@@ -36,7 +36,7 @@ from .._version import __version__
 from ..report.output import staged_file, staged_folder, user_os_error
 from ..report.runs import fit_job, run_allan, run_fit, run_fit_batch, run_population
 from ..report.worker import PICTURE_FAILED_STATUS, background_default
-from ..report.text import p_text, spread_prior_note
+from ..report.text import outage_text, p_text, spread_prior_note
 from ..report.writers import FitRequest, write_sigma_csv
 from .._progress import progress_bar, show_progress
 from ..allan.pipeline import LogSource
@@ -659,8 +659,6 @@ def _cmd_report(args):
 def _with_outage(name, outage_s):
     """``"name (longest outage 416 s)"`` on the report's console line, or the name alone where the
     sensor has no longest outage (no requirement, or it cannot give the required quantity)."""
-    from ..report.text import outage_text
-
     return name if outage_s is None else f"{name} (longest outage {outage_text(outage_s)})"
 
 

@@ -516,17 +516,17 @@ def navigation_section(report):
     if not report.imus:
         return ""
     req = report.scene.navigation
-    items = []
-    for name in report.imu_ranking:
-        r = next(x for x in report.imus if x.name == name)
+    # the list, the table and the pictures in the ranking's order
+    items, ranked = [], ranked_imus(report)
+    for r in ranked:
         meets = ("" if r.meets is None else
                  f"; {'MEETS' if r.meets else 'does NOT meet'} the {req['after_s']:g} s "
                  "requirement")
         spread = "unit-to-unit spread included" if r.unit_to_unit else "tested units only"
-        items.append(f"<li>{html.escape(name)}: within the requirement for "
+        items.append(f"<li>{html.escape(r.name)}: within the requirement for "
                      f"{_time_text(r.longest_outage_s, report)}{meets} ({spread})</li>")
     rows, starred = [], False
-    for r in ranked_imus(report):  # the table and pictures in the ranking's order, as the list
+    for r in ranked:
         for row in r.rows:
             if row["quantity"] != req["quantity"]:
                 continue
@@ -542,7 +542,7 @@ def navigation_section(report):
                 f"<td>{html.escape(_top_terms(row['term_shares']))}</td></tr>")
     figures = []
     span = _plot_span(report)
-    for r in ranked_imus(report):
+    for r in ranked:
         buffer = _figure(plot_nav, r.bands, marks=r.bands.t_s[np.isin(r.bands.t_s,
                                                                        report.scene.outages_s)],
                          title=r.name, record_s=r.record_s, t_max=span)
