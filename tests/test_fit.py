@@ -48,6 +48,40 @@ def test_a_result_keeps_its_thinned_draws_not_the_sampler_storage(lowgrade_fit):
     assert chains.chain.nbytes == chains.chain.size * 8
 
 
+def test_the_independence_move_is_used_where_it_is_accepted_and_changes_nothing_elsewhere(
+    lowgrade_fit,
+):
+    """The fit estimates the independence move's acceptance at its posterior (in [0, 1], in the
+    diagnostics) and runs the move on INDEPENDENCE_SHARE of the steps where it is at least
+    INDEPENDENCE_MIN_ACCEPT (the shipped low-grade gyro log's white + Gauss-Markov posterior is
+    close to a t: it is). A proposal below the threshold leaves the chain bit for bit what it is
+    without one (its pilot draws come from a spawned generator)."""
+    import importlib
+
+    from bayes_imu.inference.sampling import (
+        INDEPENDENCE_MIN_ACCEPT,
+        INDEPENDENCE_SHARE,
+        StudentProposal,
+    )
+
+    module = importlib.import_module("bayes_imu.inference.fit")  # the module: its _sample
+    _, result = lowgrade_fit
+    d = result.diagnostics
+    assert INDEPENDENCE_MIN_ACCEPT <= d["independence_acceptance"] <= 1.0
+    assert d["independence_share"] == pytest.approx(INDEPENDENCE_SHARE)
+    post = result.chains.posterior
+    start = result.chains.chain[-1]
+    q = StudentProposal(start.mean(axis=0), np.cov(start.T) + 1e-6 * np.eye(start.shape[1]))
+    runs = []
+    for independence in (None, (q, INDEPENDENCE_MIN_ACCEPT - 0.01)):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            runs.append(module._sample(post, start, np.random.default_rng(3), 250,
+                                       independence=independence))
+    np.testing.assert_array_equal(runs[0][0], runs[1][0])
+    assert runs[1][2]["independence_share"] == 0.0
+
+
 def test_white_only_log_selects_white_only():
     """Paper Fig 3 case: a white-only (high-grade) log comes back as white only."""
     spec, allan = load("gyro_highgrade")

@@ -34,6 +34,10 @@ from ..noise.avar_forms import BASE_TERMS, PARAMETER_UNITS, NoiseModel
 from .diagnostics import summary as convergence_summary
 from .sampling import (
     GEOMETRIC_FROM,
+    INDEPENDENCE_INFLATE,
+    INDEPENDENCE_MIN_ACCEPT,
+    StudentProposal,
+    independence_acceptance,
     autocorr_time,
     burn_and_thin,
     ensemble_sampler,
@@ -52,6 +56,7 @@ from .selection import (
     extensions,
     laplace_log_evidence,
     log_evidence,
+    negative_hessian,
     model_probabilities,
     posterior_mode,
     reductions,
@@ -73,6 +78,8 @@ __all__ = [
 DISCREPANCY_MODES = ("auto", "never", "always")
 RHAT_MAX = 1.01
 ESS_MIN = 400
+#: draws of the independence move's acceptance estimate (one vectorised density call)
+INDEPENDENCE_PILOT = 1000
 
 
 @dataclass(frozen=True)
@@ -612,7 +619,10 @@ def _fit(
     sampled = post.with_discrepancy() if widen else post
     phi_mode = posterior_mode(sampled, [scores[chosen].mode]).phi
     start = _initial_walkers(sampled, scored[chosen].evidence, phi_mode, n_walkers, rng)
-    log_samples, log_prob, diagnostics, chains = _sample(sampled, start, rng, max_steps, progress)
+    independence = _independence(sampled, phi_mode, rng)
+    log_samples, log_prob, diagnostics, chains = _sample(
+        sampled, start, rng, max_steps, progress, independence
+    )
     best_draw = log_samples[int(np.argmax(log_prob))]
     check = adequacy(post, best_draw, allan.tau, log_samples)
     probabilities = model_probabilities(scores)
@@ -1007,9 +1017,49 @@ def exchangeable_biases(post):
     return var_cols, time_cols, rows[time_cols[0]]
 
 
-def _sample(post, start, rng, max_steps, progress=False):
+def _independence(post, phi_mode, rng):
+    """``(proposal, acceptance)``: the independence move's Student t at ``phi_mode`` (the Laplace
+    approximation of ``post`` in log-parameters, its standard deviations inflated by
+    :data:`~bayes_imu.inference.sampling.INDEPENDENCE_INFLATE`) and the move's expected acceptance
+    (:func:`~bayes_imu.inference.sampling.independence_acceptance`, :data:`INDEPENDENCE_PILOT`
+    draws from a generator spawned from ``rng``: ``rng``'s own draws, and so the chains of a fit
+    that does not use the move, are as without it)."""
+    try:
+        pilot_rng = rng.spawn(1)[0]
+    except (TypeError, ValueError):  # a bit generator without a seed sequence to spawn from
+        pilot_rng = np.random.default_rng(rng.integers(2**63))
+    width = post.bounds[:, 1] - post.bounds[:, 0]
+    h = _phi_hessian(post, np.asarray(phi_mode, float))
+    w, v = np.linalg.eigh(h)
+    # a flat direction is bounded by the prior box: at most its widest side as standard deviation
+    w = np.clip(w, 1.0 / np.max(width) ** 2, None)
+    proposal = StudentProposal(phi_mode, INDEPENDENCE_INFLATE**2 * (v / w) @ v.T)
+    return proposal, independence_acceptance(post, proposal, INDEPENDENCE_PILOT, pilot_rng)
+
+
+def _phi_hessian(post, phi, step=1e-3):
+    """Negative Hessian of ``post`` (log-parameters) at ``phi`` by central differences; a step that
+    crosses a hard edge (ordered time constants, the box) is shrunk, and entries still non-finite
+    are dropped (zero, unit diagonal)."""
+    for _ in range(4):
+        h = negative_hessian(lambda x: post(np.atleast_2d(x)), phi, step)
+        if np.all(np.isfinite(h)):
+            return h
+        step /= 10.0
+    bad = ~np.isfinite(h)
+    h = np.where(bad, 0.0, h)
+    h[np.diag(np.diag(bad))] = 1.0
+    return h
+
+
+def _sample(post, start, rng, max_steps, progress=False, independence=None):
+    """emcee until converged or ``max_steps``. ``independence``: ``(proposal, acceptance)`` of
+    :func:`_independence`; the move is used where the acceptance is at least
+    :data:`~bayes_imu.inference.sampling.INDEPENDENCE_MIN_ACCEPT`."""
     n_walkers, n_par = start.shape
-    sampler = ensemble_sampler(post, start, rng, exchangeable_biases(post), capacity=max_steps)
+    use = independence is not None and independence[1] >= INDEPENDENCE_MIN_ACCEPT
+    sampler = ensemble_sampler(post, start, rng, exchangeable_biases(post), capacity=max_steps,
+                               independence=independence[0] if use else None)
     chunk, state, tau_old = min(250, max_steps), start, np.inf
     converged = False
     with progress_bar(desc="sampling", unit="step", enabled=progress) as bar:
@@ -1040,6 +1090,9 @@ def _sample(post, start, rng, max_steps, progress=False):
             ConvergenceWarning,
             stacklevel=4,
         )
+    if independence is not None:
+        diagnostics["independence_acceptance"] = float(independence[1])
+        diagnostics["independence_share"] = float(sampler._weights[-1]) if use else 0.0
     return chain.reshape(-1, n_par), lp.reshape(-1), diagnostics, SamplerChains(chain, lp, post)
 
 

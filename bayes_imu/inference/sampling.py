@@ -18,7 +18,18 @@ second region holds about 4% of the posterior; without the move a walker that en
 ~15 000 steps: of seeds 0-7, four stopped at 40 000 steps unconverged and three of the other four
 never visited it; with the move all eight converge, 3-5% of their draws there
 (``scripts/study_speed_options.py --seeds``, ``docs/reference.md``).
+
+Where the posterior is close to a Student t about its mode, a fourth move proposes each walker
+afresh from that t (:func:`independence_move`, on :data:`INDEPENDENCE_SHARE` of the steps): an
+accepted proposal forgets the walker's past in one step, which differential evolution takes tens
+of steps to do. It pays only where it is accepted often, so the fit first estimates its expected
+acceptance by importance sampling (:func:`independence_acceptance`) and adds it only at
+:data:`INDEPENDENCE_MIN_ACCEPT` or more: on the real ADIS16405 logs it halves the chains of the
+simple posteriors and is left out of the funnels (a term whose variance reaches the prior floor,
+its time constant then free) it cannot help (``docs/speed_under_load.md#sampler``).
 """
+
+from dataclasses import dataclass
 
 import numpy as np
 from .._lazy import import_without
@@ -26,8 +37,15 @@ from .._lazy import import_without
 __all__ = [
     "AUTOCORR_MULTIPLE",
     "RELABEL_SHARE",
+    "INDEPENDENCE_SHARE",
+    "INDEPENDENCE_MIN_ACCEPT",
+    "INDEPENDENCE_DF",
+    "INDEPENDENCE_INFLATE",
+    "StudentProposal",
     "ensemble_sampler",
     "relabel_move",
+    "independence_move",
+    "independence_acceptance",
     "import_emcee",
     "autocorr_time",
     "long_enough",
@@ -47,27 +65,42 @@ GEOMETRIC_FROM = 10_000
 #: share of the steps that are :func:`relabel_move` where a model has exchangeable Gauss-Markov
 #: biases
 RELABEL_SHARE = 0.1
+#: share of the steps that are :func:`independence_move` where the fit uses it (taken from the
+#: differential-evolution and stretch moves; the relabel move keeps its share)
+INDEPENDENCE_SHARE = 0.3
+#: the least expected acceptance (:func:`independence_acceptance`) for which the fit uses the
+#: independence move
+INDEPENDENCE_MIN_ACCEPT = 0.3
+#: degrees of freedom of the independence proposal (heavier tails than the posterior's)
+INDEPENDENCE_DF = 5.0
+#: factor on the standard deviations of the Laplace approximation in the independence proposal
+INDEPENDENCE_INFLATE = 1.2
 
 
-def ensemble_sampler(target, start, rng, exchangeable=None, capacity=None):
+def ensemble_sampler(target, start, rng, exchangeable=None, capacity=None, independence=None):
     """``emcee.EnsembleSampler`` for the vectorised log density ``target`` from walkers ``start``
     ``(n_walkers, n_par)``; emcee's legacy RandomState is seeded from the Generator ``rng`` (no
     global random state). ``exchangeable``: ``(variance_columns, time_columns, bounds)`` of two or
     more Gauss-Markov biases with one prior (:func:`relabel_move`, on :data:`RELABEL_SHARE` of the
     steps); ``None`` (or fewer than two): differential evolution and stretch moves only, as before.
     ``capacity``: the most steps the caller will run (:func:`reserved_backend`), or ``None``
-    (emcee's own storage, copied whole at every ``run_mcmc``)."""
+    (emcee's own storage, copied whole at every ``run_mcmc``). ``independence``: a
+    :class:`StudentProposal` for :func:`independence_move` on :data:`INDEPENDENCE_SHARE` of the
+    steps (taken from the differential-evolution and stretch moves), or ``None``."""
     emcee = import_emcee()
 
     n_walkers, n_par = start.shape
     sampler_class, de_move, stretch_move = _lean_classes(emcee)
-    moves = [(de_move(), 0.8), (stretch_move(), 0.2)]
+    local = 1.0
+    extra = []
     if exchangeable is not None and len(exchangeable[1]) >= 2:
-        moves = [
-            (de_move(), 0.8 * (1.0 - RELABEL_SHARE)),
-            (stretch_move(), 0.2 * (1.0 - RELABEL_SHARE)),
-            (relabel_move(*exchangeable), RELABEL_SHARE),
-        ]
+        local -= RELABEL_SHARE
+        extra.append((relabel_move(*exchangeable), RELABEL_SHARE))
+    if independence is not None:
+        share = INDEPENDENCE_SHARE * local
+        local -= share
+        extra.append((independence_move(independence), share))
+    moves = [(de_move(), 0.8 * local), (stretch_move(), 0.2 * local)] + extra
     backend = None if capacity is None else reserved_backend(emcee, capacity)
     sampler = sampler_class(n_walkers, n_par, target, vectorize=True, moves=moves, backend=backend)
     sampler.random_state = np.random.RandomState(rng.integers(2**32)).get_state()
@@ -143,6 +176,81 @@ def relabel_move(variance_columns, time_columns, bounds):
         return new, np.zeros(n)
 
     return emcee.moves.MHMove(proposal)
+
+
+@dataclass(frozen=True)
+class StudentProposal:
+    """Multivariate Student t: location ``loc`` ``(n,)``, shape matrix ``shape`` ``(n, n)``
+    (positive definite), ``df`` degrees of freedom; the independence move's proposal."""
+
+    loc: np.ndarray
+    shape: np.ndarray
+    df: float = INDEPENDENCE_DF
+
+    def __post_init__(self):
+        s, v = np.linalg.eigh(np.asarray(self.shape, float))
+        if not np.all(s > 0):
+            raise ValueError("the shape matrix of a Student t proposal must be positive definite")
+        object.__setattr__(self, "_factor", v * np.sqrt(s))
+        object.__setattr__(self, "_whiten", v / np.sqrt(s))
+
+    def draw(self, n, random):
+        """``(n, dim)`` draws from ``random`` (a ``numpy.random.RandomState`` or ``Generator``): a
+        normal draw divided by sqrt(chi2_df / df)."""
+        z = random.standard_normal((n, self.loc.size)) @ self._factor.T
+        return self.loc + z / np.sqrt(random.chisquare(self.df, n) / self.df)[:, None]
+
+    def log_density(self, x):
+        """Log density at the rows of ``x``, up to a constant (the same for every point)."""
+        maha = np.square((np.asarray(x, float) - self.loc) @ self._whiten).sum(axis=-1)
+        return -0.5 * (self.df + self.loc.size) * np.log1p(maha / self.df)
+
+
+def independence_move(proposal):
+    """Independence Metropolis-Hastings move: each walker proposes a draw ``y`` of ``proposal`` (a
+    :class:`StudentProposal`), whatever its position ``x``, and moves with probability
+    ``min(1, p(y) q(x) / (p(x) q(y)))`` (Tierney 1994, Ann. Statist. 22, 1701, sec 2.3.3): the
+    proposal's density ratio is emcee's ``factors``. Valid for any proposal whose support covers the
+    target's (a t does); fast where ``q`` is close to ``p`` (:func:`independence_acceptance`).
+
+    Returns
+    -------
+    emcee.moves.MHMove
+    """
+    emcee = import_emcee()
+
+    def propose(coords, random):
+        new = proposal.draw(coords.shape[0], random)
+        return new, proposal.log_density(coords) - proposal.log_density(new)
+
+    return emcee.moves.MHMove(propose)
+
+
+def independence_acceptance(log_target, proposal, n, rng):
+    """Expected acceptance of :func:`independence_move` at stationarity, estimated from ``n`` draws
+    of ``proposal``.
+
+    With weights ``w = p / q``, a walker at ``x ~ p`` accepts ``y ~ q`` with probability
+    ``min(1, w(y) / w(x))``; the importance draws ``y_j`` (normalised weights ``W_j``) stand for
+    both, ``sum_i W_i mean_j min(1, w_j / w_i)``, computed by sorting in ``O(n log n)``. It is
+    1 where ``q = p`` and near 0 where ``q`` misses the posterior's mass (an estimate: mass the
+    draws never reach is not seen). ``log_target``: vectorised log density (``-inf`` outside its
+    support); ``rng``: a ``numpy.random.Generator``.
+    """
+    y = proposal.draw(int(n), rng)
+    log_w = np.asarray(log_target(y), float) - proposal.log_density(y)
+    log_w = np.where(np.isfinite(log_w), log_w, -np.inf)
+    if not np.isfinite(log_w).any():
+        return 0.0
+    w = np.sort(np.exp(log_w - log_w.max()))
+    below = np.concatenate([[0.0], np.cumsum(w)[:-1]])  # sum of the weights before each one
+    # for w_i > 0: (sum_{w_j < w_i} w_j / w_i + #{w_j >= w_i}) / n; ties count as "at or above"
+    first = np.searchsorted(w, w, side="left")
+    below = below[first]
+    inside = w > 0
+    mean_accept = np.zeros_like(w)
+    mean_accept[inside] = (below[inside] / w[inside] + (w.size - first[inside])) / w.size
+    return float(np.sum(w * mean_accept) / np.sum(w))
 
 
 _LEAN = {}
