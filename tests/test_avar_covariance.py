@@ -118,6 +118,7 @@ def test_diagonal_is_greenhall_edf_at_large_m(term, alpha, rtol):
     np.testing.assert_allclose(edf, greenhall_edf([alpha] * m.size, m, n + 1), rtol=rtol)
 
 
+@pytest.mark.slow  # a Monte Carlo check of thousands of records: the nightly job
 def test_small_m_edf_monte_carlo(rng):
     """White rate noise, N = 4096, m = 1, 2, 4: exact EDF vs 2000 simulated records (5 sigma on
     Var)."""

@@ -117,6 +117,7 @@ def test_prior_box_spans_one_cycle_per_record_to_nyquist():
     assert np.max(np.sin(u) ** 4 / u**2) == pytest.approx(0.5251, abs=1e-4)
 
 
+@pytest.mark.slow  # a Monte Carlo check of thousands of records: the nightly job
 def test_avar_covariance_of_a_line_matches_monte_carlo(rng):
     """White noise plus a fixed-amplitude line (random phase), 1024 samples, 3000 records: the
     variance of each AVAR estimate is within 5 standard errors (sqrt(2/R) of a variance, doubled
