@@ -20,6 +20,7 @@ def _run(script, *args):
     return proc.stdout
 
 
+@pytest.mark.slow  # ~7 s: a script's quick run, as the others in the nightly job
 def test_paper_figures_quick(tmp_path):
     """200 Monte Carlo paths: the corrected formulas within 5 standard errors, the printed eqs 11
     and 29 far off."""
@@ -34,7 +35,7 @@ def test_paper_figures_quick(tmp_path):
     assert len(printed) == 2 and min(printed) > 20.0, printed
 
 
-# ~20 s: the benchmark's quick run (the default run keeps the cheap paper-figures one)
+# ~20 s: the benchmark's quick run
 @pytest.mark.slow
 def test_speed_vs_error_quick(tmp_path):
     out = _run("bench_speed_vs_error.py", "--quick", "--processes", "1", "--out", str(tmp_path))

@@ -88,6 +88,27 @@ def test_drift_matches_mpmath_sums(x, order, start):
         assert got == pytest.approx(ref, rel=1e-9, abs=1e-15 * scale), (k, n_cal)
 
 
+def test_calibrated_drift_is_never_negative_where_both_windows_hold_whole_periods():
+    """A 0.5 Hz line at 100 Hz (a drawn frequency 4e-9 off it), a 1000-sample outage after a
+    6000-sample window: both hold whole periods and the error nearly cancels. The variance is not
+    negative (the expanded form gave -1e-18, so a drift band's term curve took the square root of a
+    negative number) and it matches the mpmath sum to 1e-15 of the cancelled terms' size; so do
+    frequencies around it on a fine grid."""
+    for f in (0.49999999583868976, 0.5, 0.5 + 1e-9, 1.0, 2.5):
+        x = np.pi * f * DT
+        k, n_cal = 1000, 6000
+        got = TERM.drift_variance(1, np.array([float(k)]), _params(x), DT,
+                                  bias_start="calibrated", n_cal=float(n_cal))[0]
+        w = _weights(1, k, n_cal)
+        ref = _mp_variance(w, x, 0.7, start=-n_cal) * DT**2
+        scale = _mp_variance(np.abs(w), 0.0, 0.7) * DT**2
+        assert got >= 0.0 and got == pytest.approx(ref, rel=1e-9, abs=1e-15 * scale), f
+    grid = {"vibration_frequency": np.linspace(0.49, 0.51, 20001)[:, None],
+            "vibration_amplitude": np.ones((20001, 1))}
+    k = np.array([10.0, 100.0, 1000.0, 6000.0, 12000.0])
+    assert np.all(TERM.drift_variance(1, k, grid, DT, bias_start="calibrated", n_cal=6000.0) >= 0)
+
+
 def test_drift_broadcasts_over_draws():
     p = {
         "vibration_frequency": np.array([[0.5, 3.0, 20.0]]),

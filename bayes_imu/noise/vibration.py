@@ -21,6 +21,8 @@ sampled data:
 
       order 1, zero / stationary   (A^2/2) dt^2 D_k^2
       order 1, calibrated          (A^2/2) dt^2 [k^2 (E_N - E_k)^2 + 4 r D_k D_N sin^2((k+N) x/2)]
+                                   = (A^2/2) dt^2 [(k (E_N - E_k) + 2 r D_N sin^2((k+N) x/2))^2
+                                                   + (r D_N sin((k+N) x))^2]  (evaluated)
       order 2                      (A^2/2) dt^4 (Re^2 + Im^2) / (4 sin^2 x)
           Re = n E_n + 2 D_n sin^2((n+1) x/2) [+ 2 c sin^2(N x)]
           Im = -D_n sin((n+1) x)               [+ c sin(2 N x)]
@@ -159,7 +161,12 @@ class _Vibration(Term):
                 ek = (sinc_complement(k * x) - cx) / (1.0 - cx)
                 en = (sinc_complement(big_n * x) - cx) / (1.0 - cx)
                 r = k / big_n
-                out = (k * (en - ek)) ** 2 + 4.0 * r * dk * dn * np.sin(0.5 * (k + big_n) * x) ** 2
+                # |W|^2 as a sum of two squares (never negative; the docstring's form, expanded,
+                # went to -1e-18 by rounding where both windows hold whole periods)
+                theta = (k + big_n) * x
+                out = (k * (en - ek) + 2.0 * r * dn * np.sin(0.5 * theta) ** 2) ** 2 + (
+                    r * dn * np.sin(theta)
+                ) ** 2
             return np.where(k >= 1, a2 * dt**2 * out, 0.0)
         n = np.maximum(k - 1.0, 0.0)
         dn = np.sin(n * x) / sx
