@@ -137,3 +137,27 @@ def test_bench_allan_stage_times_follow_the_kernels_path(rng):
     n = kernels.PRECOMPILED_BELOW + 4096
     times = bench._stage_times(rng.standard_normal(n) + 3.0, 2 ** np.arange(19), 3)
     assert all(np.isfinite(t) and t > 0 for t in times)
+
+
+def test_compare_band_csvs_counts_identical_edges_and_verdicts(tmp_path):
+    """Two three-point runs, one median 10% higher and one verdict flipped: 100% identical q05/q95,
+    a 1.00e-01 largest median difference, 2 of 3 verdicts the same; no common point: exit 2."""
+    header = "family,seed,quantity,t_s,truth,q05,q50,q95,slow_share,covered,side\n"
+    old = ["a,0,attitude,1,1,0.5,1.0,2.0,0,1,", "a,0,attitude,2,1,0.5,1.0,2.0,0,1,",
+           "b,1,position,1,1,0.5,1.0,2.0,0,1,"]
+    new = ["a,0,attitude,1,1,0.5,1.1,2.0,0,1,", "a,0,attitude,2,1,0.5,1.0,2.0,0,0,below",
+           "b,1,position,1,1,0.5,1.0,2.0,0,1,"]
+    (tmp_path / "old.csv").write_text(header + "\n".join(old) + "\n")
+    (tmp_path / "new.csv").write_text(header + "\n".join(new) + "\n")
+    out = _run("compare_band_csvs.py", str(tmp_path / "old.csv"), str(tmp_path / "new.csv"))
+    assert "3 common points" in out
+    q50 = next(line for line in out.splitlines() if line.split()[:1] == ["q50"]).split()
+    assert q50[1] == "66.7%" and float(q50[-1]) == pytest.approx(0.1, rel=1e-6)
+    assert all(line.split()[1] == "100.0%" for line in out.splitlines()
+               if line.split()[:1] in (["q05"], ["q95"]))
+    assert "the same on 2 of 3 points" in out
+    (tmp_path / "other.csv").write_text(header + "c,9,attitude,1,1,0.5,1.0,2.0,0,1,\n")
+    done = subprocess.run([sys.executable, str(SCRIPTS / "compare_band_csvs.py"),
+                           str(tmp_path / "old.csv"), str(tmp_path / "other.csv")],
+                          capture_output=True, text=True)
+    assert done.returncode == 2 and "no common" in done.stderr

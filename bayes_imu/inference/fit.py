@@ -11,7 +11,9 @@ Pipeline of :func:`fit_allan`:
    stepwise extensions: each term's :attr:`~bayes_imu.noise.Term.selection`) gets its mode and
    its evidence (:mod:`bayes_imu.inference.selection`).
 4. *Refinement*: the covariance is recomputed at the selected model's mode.
-5. *Sampling*: emcee (``vectorize=True``, differential-evolution and stretch moves) in
+5. *Sampling*: emcee (``vectorize=True``, differential-evolution and stretch moves, and an
+   independence move where its estimated acceptance is high enough:
+   :mod:`bayes_imu.inference.sampling`) in
    log-parameters, in chunks of 250 steps (a tenth of the chain past 10 000 steps:
    :func:`~bayes_imu.inference.sampling.steps_to_next_check`) until the chain is longer than 50
    integrated autocorrelation times and that estimate has settled to 5%; then
