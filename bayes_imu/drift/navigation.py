@@ -257,11 +257,13 @@ def _propagate(a, b, p0, k):
     res_s = np.zeros(res_a.shape)
     top = int(kint.max()).bit_length() if k.size else 0
     for j in range(top):
-        bit = ((kint >> j) & 1).astype(bool)
-        if bit.any():
-            moved = res_a @ acc[..., None, :, :] @ np.swapaxes(res_a, -1, -2)
-            res_s = np.where(bit[:, None, None], res_s + moved, res_s)
-            res_a = np.where(bit[:, None, None], res_a @ power[..., None, :, :], res_a)
+        # only the lengths with this bit set move (about half of them): the products of the others
+        # were computed and dropped before
+        rows = np.flatnonzero((kint >> j) & 1)
+        if rows.size:
+            part = res_a[..., rows, :, :]
+            res_s[..., rows, :, :] += part @ acc[..., None, :, :] @ np.swapaxes(part, -1, -2)
+            res_a[..., rows, :, :] = part @ power[..., None, :, :]
         if j + 1 < top:
             acc = acc + power @ acc @ np.swapaxes(power, -1, -2)
             power = power @ power
