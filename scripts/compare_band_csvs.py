@@ -32,7 +32,8 @@ def main(argv=None):
               file=sys.stderr)
         return 2
     print(f"{len(keys)} common points ({len(old)} and {len(new)} rows)")
-    print(f"{'column':>7} {'identical':>9} {'median':>9} {'95%':>9} {'max':>9}  (relative difference)")
+    print(f"{'column':>7} {'identical':>9} {'median':>9} {'95%':>9} {'max':>9}"
+          "  (relative difference)")
     for column in ("q05", "q50", "q95"):
         d = np.abs([float(new[k][column]) / float(old[k][column]) - 1.0 for k in keys])
         print(f"{column:>7} {np.mean(d == 0):9.1%} {np.median(d):9.2e} {np.quantile(d, 0.95):9.2e} "
