@@ -79,6 +79,7 @@ def test_local_cluster_matches_serial_and_isolates_failures(tmp_path, logs, caps
         ) == serial[path.stem].replace(str(tmp_path / "serial" / path.stem).encode(), b"")
 
 
+@pytest.mark.slow  # ~8 s (a second Dask cluster): the nightly job; a local cluster: the test above
 def test_existing_scheduler_and_serial_mode(tmp_path, logs, monkeypatch):
     """Run as a user runs it (no output-process setting): a Dask worker is a daemonic process, which
     may not start the fit's output process (it failed every log before); a serial batch writes

@@ -355,6 +355,8 @@ def _report_reads_the_population_folder(tmp_path, out, summary):
                  "10", "--out", str(tmp_path / "o.yaml"), "--quiet"]) == 0
 
 
+@pytest.mark.slow  # ~15 s (two fits, a population, a report): the nightly job; the report of a
+# population folder alone is test_fit_population_command's
 def test_report_population_and_fit_folders(tmp_path):
     from bayes_imu.report.scene import build_report, read_scene
 
