@@ -222,8 +222,8 @@ class NavLoop:
 
         ``acov(n)`` gives the autocovariance of the increments at lags ``0..n-1`` (unit
         amplitude). The quadratic form ``t' Gamma t`` over the increment weights
-        (:meth:`increment_tails`) is exact; it is evaluated by FFT (circulant embedding), whose
-        rounding error is a few ``1e-16 n`` of ``gamma(0) |t|^2``.
+        (:meth:`increment_tails`) is exact; it is evaluated by FFT (circulant embedding, the form
+        summed over the spectrum), whose rounding error is a few ``1e-16 n`` of ``gamma(0) |t|^2``.
         """
         from scipy import fft
 
@@ -240,9 +240,14 @@ class NavLoop:
             circ = np.zeros(size)
             circ[:n] = gamma
             circ[size - n + 1 :] = gamma[1:][::-1]
-            spec = fft.rfft(circ)
-            conv = fft.irfft(fft.rfft(tails, size, axis=1) * spec, size, axis=1)[:, :n]
-            out[i] = np.maximum(np.einsum("qn,qn->q", tails, conv), 0.0)
+            # t' C t = sum_f |T_f|^2 lambda_f / size for the circulant C (eigenvalues lambda, real:
+            # its first column is symmetric), and t' C t = t' Gamma t for t zero past n: no inverse
+            # transform; the half spectrum counts its inner frequencies twice
+            spec = fft.rfft(circ).real
+            spec[1 : (size + 1) // 2] *= 2.0
+            tf = fft.rfft(tails, size, axis=1)
+            power = tf.real * tf.real + tf.imag * tf.imag
+            out[i] = np.maximum(power @ spec / size, 0.0)
         return out
 
 
