@@ -58,7 +58,7 @@ from .selection import (
     extensions,
     laplace_log_evidence,
     log_evidence,
-    negative_hessian,
+    finite_negative_hessian,
     model_probabilities,
     posterior_mode,
     reductions,
@@ -1031,27 +1031,12 @@ def _independence(post, phi_mode, rng):
     except (TypeError, ValueError):  # a bit generator without a seed sequence to spawn from
         pilot_rng = np.random.default_rng(rng.integers(2**63))
     width = post.bounds[:, 1] - post.bounds[:, 0]
-    h = _phi_hessian(post, np.asarray(phi_mode, float))
+    h = finite_negative_hessian(lambda x: post(np.atleast_2d(x)), np.asarray(phi_mode, float))
     w, v = np.linalg.eigh(h)
     # a flat direction is bounded by the prior box: at most its widest side as standard deviation
     w = np.clip(w, 1.0 / np.max(width) ** 2, None)
     proposal = StudentProposal(phi_mode, INDEPENDENCE_INFLATE**2 * (v / w) @ v.T)
     return proposal, independence_acceptance(post, proposal, INDEPENDENCE_PILOT, pilot_rng)
-
-
-def _phi_hessian(post, phi, step=1e-3):
-    """Negative Hessian of ``post`` (log-parameters) at ``phi`` by central differences; a step that
-    crosses a hard edge (ordered time constants, the box) is shrunk, and entries still non-finite
-    are dropped (zero, unit diagonal)."""
-    for _ in range(4):
-        h = negative_hessian(lambda x: post(np.atleast_2d(x)), phi, step)
-        if np.all(np.isfinite(h)):
-            return h
-        step /= 10.0
-    bad = ~np.isfinite(h)
-    h = np.where(bad, 0.0, h)
-    h[np.diag(np.diag(bad))] = 1.0
-    return h
 
 
 def _sample(post, start, rng, max_steps, progress=False, independence=None):

@@ -83,6 +83,8 @@ def spread_prior_sd(scale, bounds=SPREAD_BOUNDS):
     z = special.ndtr(b) - special.ndtr(a)
     m = (phi_a - phi_b) / z
     return float(scale * np.sqrt(1.0 + (a * phi_a - b * phi_b) / z - m * m))
+
+
 _LOG_2PI = float(np.log(2.0 * np.pi))
 
 

@@ -78,6 +78,7 @@ __all__ = [
     "adequacy",
     "at_prior_bound",
     "negative_hessian",
+    "finite_negative_hessian",
     "to_phi",
     "can_skip",
     "LAPLACE_SCREEN",
@@ -455,17 +456,24 @@ def negative_hessian(log_density, x0, step=1e-3):
     return h
 
 
+def finite_negative_hessian(log_density, x0, step=1e-3):
+    """:func:`negative_hessian` at a point that may sit next to a hard edge (ordered time
+    constants, the prior box): the step is shrunk tenfold, up to three times, until every entry is
+    finite; entries still non-finite are dropped (zero, unit diagonal)."""
+    for _ in range(4):
+        h = negative_hessian(log_density, x0, step)
+        if np.all(np.isfinite(h)):
+            return h
+        step /= 10.0
+    bad = ~np.isfinite(h)
+    h = np.where(bad, 0.0, h)
+    h[np.diag(np.diag(bad))] = 1.0
+    return h
+
+
 def _hessian_cov(post, u0, step=1e-3):
     """Inverse of the numerical Hessian of ``-log density`` at ``u0`` (eigenvalues floored)."""
-    for _ in range(4):  # a mode next to a hard edge (ordered time constants): shrink the step
-        h = negative_hessian(lambda u: _log_density_u(post, u), u0, step)
-        if np.all(np.isfinite(h)):
-            break
-        step /= 10.0
-    else:
-        bad = ~np.isfinite(h)
-        h = np.where(bad, 0.0, h)
-        h[np.diag(np.diag(bad))] = 1.0
+    h = finite_negative_hessian(lambda u: _log_density_u(post, u), u0, step)
     w, v = np.linalg.eigh(h)
     # a flat direction is bounded by the logistic prior (curvature >= ~0.1)
     w = np.clip(w, 1e-2, None)
