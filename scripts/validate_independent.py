@@ -59,8 +59,9 @@ import scenegen as sg  # noqa: E402
 HELD_OUT_START = 1_000_000
 #: a second held-out range (the first was seen in the session that fixed what it found), and a
 #: third (the second was seen by the session that measured position bands on it: issue 35's third
-#: session runs range 3 once, at its end)
-HELD_OUT_RANGES = {"1": HELD_OUT_START, "2": 3_000_000, "3": 5_000_000}
+#: session runs range 3 once, at its end), and a fourth (range 3 was seen: the seventh session of
+#: issue 39 runs range 4 once, at its end, on the sampler with the independence move)
+HELD_OUT_RANGES = {"1": HELD_OUT_START, "2": 3_000_000, "3": 5_000_000, "4": 7_000_000}
 NAV_TIMES = (10.0, 30.0, 60.0, 120.0, 300.0, 600.0, 1200.0)
 
 
