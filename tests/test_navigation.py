@@ -337,11 +337,9 @@ def test_bad_sensor():
         NavLoop("magnetometer")
 
 
-@pytest.mark.parametrize("sensor", ["gyro", "accel"])
-def test_flicker_fft_at_long_outages(sensor):
-    """The FFT quadratic form against the phase-structure form summed in extended precision
-    (2300 samples, realistic Schuler loop, 100 Hz)."""
-    dt, n_cal, k = 0.01, 300, 2000
+def _flicker_form(sensor, k, n_cal, dt):
+    """The calibrated error's flicker variance (tilt, velocity, position) at B = 1 as the
+    phase-structure quadratic form, summed in extended precision, over expm_weights' response."""
     w = expm_weights(sensor, k, dt, EARTH_RADIUS)
     c = np.vstack([np.repeat(-w.sum(0)[None] / n_cal, n_cal, axis=0), w]).astype(np.longdouble)
     a = np.zeros((c.shape[0] + 1, 3), dtype=np.longdouble)
@@ -352,11 +350,45 @@ def test_flicker_fft_at_long_outages(sensor):
     d[1:] = -(lag[1:] ** 2) * np.log(lag[1:]) / np.pi  # flicker D(l) at B = 1
     idx = np.arange(a.shape[0])
     dmat = d[np.abs(idx[:, None] - idx[None, :])]
-    ref = np.array([-0.5 * (a[:, i] @ dmat @ a[:, i]) for i in range(3)], dtype=float)
+    return np.array([-0.5 * (a[:, i] @ dmat @ a[:, i]) for i in range(3)], dtype=float)
+
+
+@pytest.mark.parametrize("sensor", ["gyro", "accel"])
+def test_flicker_fft_at_long_outages(sensor):
+    """The FFT quadratic form against the phase-structure form summed in extended precision
+    (2300 samples, realistic Schuler loop, 100 Hz)."""
+    dt, n_cal, k = 0.01, 300, 2000
+    ref = _flicker_form(sensor, k, dt=dt, n_cal=n_cal)
     got = REGISTRY["bias_instability"].nav_variance(
         NavLoop(sensor), np.array([float(k)]), {"bias_instability": 1.0}, dt, n_cal=n_cal
     )[0]
     np.testing.assert_allclose(got, ref, rtol=1e-10)
+
+
+@pytest.mark.parametrize("sensor", ["gyro", "accel"])
+def test_flicker_outages_of_one_call(sensor):
+    """Several outages and windows in one ``increment_variance`` call (the response and the
+    increments' autocovariance computed once, for the longest, and sliced for the others) against
+    the extended-precision form of each alone; an outage under one sample is 0; the
+    autocovariance is asked for once."""
+    from bayes_imu.noise.bias_instability import flicker_increment_acov
+
+    dt = 0.05
+    k = np.array([1.0, 7.0, 0.5, 150.0, 40.0, 600.0])
+    n_cal = np.array([40.0, 300.0, 10.0, 20.0, 1.0, 300.0])
+    calls = []
+
+    def acov(size):
+        calls.append(size)
+        return flicker_increment_acov(size, 1.0)
+
+    got = NavLoop(sensor).increment_variance(k, dt, n_cal, acov)
+    assert calls == [int(max(n + kk for n, kk in zip(n_cal, k))) - 1]
+    np.testing.assert_array_equal(got[2], 0.0)
+    for i in (0, 1, 3, 4, 5):
+        ref = _flicker_form(sensor, int(k[i]), dt=dt, n_cal=int(n_cal[i]))
+        np.testing.assert_allclose(got[i], ref, rtol=1e-10, atol=1e-14 * ref.max(),
+                                   err_msg=f"outage {k[i]}, window {n_cal[i]}")
 
 
 @pytest.mark.slow  # ~20 s: the grade table's 3.6e5 covariance steps per grade

@@ -38,6 +38,8 @@ evaluates its exact quadratic form over the stationary rate increments by FFT.
 
 from dataclasses import dataclass, field
 
+import os
+
 import numpy as np
 
 from ..errors import InputError
@@ -78,12 +80,14 @@ def loop_functions(w, t):
     s = t * np.sinc(z / np.pi)
     k = 0.5 * t * t * np.sinc(z / (2.0 * np.pi)) ** 2
     small = np.abs(z) < _J_SWITCH
-    zs = np.where(small, z, 0.0)
-    series = np.zeros(np.shape(z))
+    zs = z[small]  # the series only where it is used (a long grid's late times are not)
+    series = np.zeros(zs.shape)
     for n in range(_J_TERMS, -1, -1):  # (z - sin z)/z^3 = sum_n (-1)^n z^(2n) / (2n+3)!
         series = series * (-zs * zs) + 1.0 / _factorial(2 * n + 3)
     zb = np.where(small, 1.0, z)
-    j = np.where(small, series, (zb - np.sin(zb)) / zb**3) * t**3
+    ratio = np.array((zb - np.sin(zb)) / zb**3, dtype=float, ndmin=0)
+    ratio[small] = series
+    j = ratio * t**3
     return s, k, j
 
 
@@ -207,48 +211,84 @@ class NavLoop:
         return np.maximum(np.diagonal(out[..., :3, :3], axis1=-2, axis2=-1), 0.0)
 
     # --- flicker ------------------------------------------------------------------------
-    def increment_tails(self, k, dt, n_cal):
+    def increment_tails(self, k, dt, n_cal, *, responses=None):
         """``(3, n_cal + k - 1)``: weights of the rate increments ``y_m - y_{m-1}``,
-        ``m = -n_cal+1 .. k-1``, in the calibrated error (tilt, velocity, position)."""
+        ``m = -n_cal+1 .. k-1``, in the calibrated error (tilt, velocity, position).
+
+        ``responses`` ``(3, >= k)``, optional: :meth:`response` at ``dt, 2 dt, ...`` (the same
+        for every outage, computed once for the longest)."""
         k, n_cal = int(k), int(n_cal)
-        m = np.arange(-n_cal + 1, k, dtype=float)
-        full = self.response(k * dt)
-        inside = self.response(np.maximum(k - m, 0.0) * dt)
-        before = full[:, None] * (1.0 + m / n_cal)
-        return np.where(m >= 0, inside, before)
+        out = np.empty((3, n_cal + k - 1))
+        # m < 0 (before the outage): the calibration's linear share of the full response
+        before = np.arange(-n_cal + 1, 0, dtype=float)
+        out[:, : n_cal - 1] = self.response(k * dt)[:, None] * (1.0 + before / n_cal)
+        # 0 <= m < k: the response to the rest of the outage, (k - m) dt
+        if responses is None:
+            out[:, n_cal - 1 :] = self.response((k - np.arange(0, k, dtype=float)) * dt)
+        else:
+            out[:, n_cal - 1 :] = responses[:, k - 1 :: -1]
+        return out
 
     def increment_variance(self, k, dt, n_cal, acov):
         """Variance ``(n_t, 3)`` of the calibrated error of a process with stationary increments.
 
         ``acov(n)`` gives the autocovariance of the increments at lags ``0..n-1`` (unit
-        amplitude). The quadratic form ``t' Gamma t`` over the increment weights
-        (:meth:`increment_tails`) is exact; it is evaluated by FFT (circulant embedding, the form
-        summed over the spectrum), whose rounding error is a few ``1e-16 n`` of ``gamma(0) |t|^2``.
+        amplitude; called once, for the longest outage and window, and sliced for the others). The
+        quadratic form ``t' Gamma t`` over the increment weights (:meth:`increment_tails`) is
+        exact; it is evaluated by FFT (circulant embedding, the form summed over the spectrum),
+        whose rounding error is a few ``1e-16 n`` of ``gamma(0) |t|^2``.
         """
         from scipy import fft
 
         k = np.atleast_1d(np.asarray(k, float))
         n_cal = np.broadcast_to(np.asarray(n_cal, float), k.shape)
         out = np.zeros(k.shape + (3,))
+        live = k >= 1
+        if not live.any():
+            return out
+        # the response at dt, 2 dt, ... and the increments' autocovariance, each once
+        k_max = int(k[live].max())
+        responses = self.response(np.arange(1, k_max + 1, dtype=float) * dt)
+        gamma_all = acov(int((n_cal[live].astype(np.int64) + k[live].astype(np.int64)).max()) - 1)
         for i, (ki, ni) in enumerate(zip(k, n_cal)):
             if ki < 1:
                 continue
-            tails = self.increment_tails(ki, dt, ni)
+            tails = self.increment_tails(ki, dt, ni, responses=responses)
             n = tails.shape[1]
             size = fft.next_fast_len(2 * n - 1, real=True)
-            gamma = acov(n)
-            circ = np.zeros(size)
-            circ[:n] = gamma
-            circ[size - n + 1 :] = gamma[1:][::-1]
-            # t' C t = sum_f |T_f|^2 lambda_f / size for the circulant C (eigenvalues lambda, real:
-            # its first column is symmetric), and t' C t = t' Gamma t for t zero past n: no inverse
-            # transform; the half spectrum counts its inner frequencies twice
-            spec = fft.rfft(circ).real
+            gamma = gamma_all[:n]
+            # row 0: the circulant's first column (symmetric: its eigenvalues are real); rows 1-3:
+            # the weights, zero past n; one batched transform of the four rows
+            rows = np.zeros((1 + tails.shape[0], size))
+            rows[0, :n] = gamma
+            rows[0, size - n + 1 :] = gamma[1:][::-1]
+            rows[1:, :n] = tails
+            spectra = fft.rfft(rows, axis=1, workers=_fft_workers(size))
+            # t' C t = sum_f |T_f|^2 lambda_f / size for the circulant C (eigenvalues lambda), and
+            # t' C t = t' Gamma t for t zero past n: no inverse transform; the half spectrum counts
+            # its inner frequencies twice
+            spec = spectra[0].real
             spec[1 : (size + 1) // 2] *= 2.0
-            tf = fft.rfft(tails, size, axis=1)
+            tf = spectra[1:]
             power = tf.real * tf.real + tf.imag * tf.imag
             out[i] = np.maximum(power @ spec / size, 0.0)
         return out
+
+
+#: transform length from which the flicker's quadratic form is transformed on two threads
+_FFT_THREADED = 1 << 17
+
+
+def _fft_workers(size):
+    """Threads of one batched transform of ``size`` points: two from :data:`_FFT_THREADED` on
+    where the process may run on two CPUs or more (its four rows dealt to them), else one."""
+    if size < _FFT_THREADED:
+        return 1
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:  # macOS, Windows
+        cpus = os.cpu_count() or 1
+    return min(2, cpus)
 
 
 def _propagate(a, b, p0, k):
