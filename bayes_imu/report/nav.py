@@ -310,11 +310,9 @@ def plot_nav(
     ``min_share`` of the median total at every time, are listed, not drawn; times from ``t_min``
     to ``t_max`` [s] (default: every time of ``bands``). The lines common to the three panels
     are explained once, above them; each panel's legend lists its terms."""
-    from .plots import plain_text, pyplot
+    from .plots import plain_text, pyplot, sparse_log_minor_ticks
 
     plt = pyplot()
-    from matplotlib.ticker import LogLocator, NullFormatter
-
     names = ("tilt", "velocity", "position")
     fig, axes = plt.subplots(1, 3, figsize=(19, 8.5), squeeze=False)
     t_max = bands.t_s[-1] if t_max is None else float(t_max)
@@ -417,12 +415,7 @@ def plot_nav(
             )
         ax.set_xscale("log")
         ax.set_yscale("log")
-        # minor ticks: 2 and 5 of each decade of time, each decade of error the labels skip
-        # (matplotlib's default, every 2..9 of up to 12 decades on six axes, is a third of the
-        # picture's time: a tick is an object of its own)
-        ax.xaxis.set_minor_locator(LogLocator(base=10.0, subs=(2.0, 5.0), numticks=30))
-        ax.yaxis.set_minor_locator(LogLocator(base=10.0, subs=(1.0,), numticks=30))
-        ax.yaxis.set_minor_formatter(NullFormatter())
+        sparse_log_minor_ticks(ax)
         ax.set_ylim(max(median.min() * 0.05, 1e-300), q.bound[keep].max() * 3.0)
         ax.set_xlabel("time since GPS loss (s)")
         what = {

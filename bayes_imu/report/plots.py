@@ -46,6 +46,19 @@ def term_dashes(i):
     return TERM_DASHES[i % len(TERM_DASHES)]
 
 
+def sparse_log_minor_ticks(ax):
+    """Minor ticks of a log-log time plot: 2 and 5 of each decade of time (x), and each decade of
+    the y axis its labels skip, unlabelled. matplotlib's default, every 2..9 of each decade, is a
+    tick object each (five artists, its label laid out at every draw and by ``tight_layout``):
+    over the many decades of a drift plot's error axis a third or more of the figure's time."""
+    from matplotlib.ticker import LogLocator, NullFormatter
+
+    ax.xaxis.set_minor_locator(LogLocator(base=10.0, subs=(2.0, 5.0), numticks=30))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.yaxis.set_minor_locator(LogLocator(base=10.0, subs=(1.0,), numticks=30))
+    ax.yaxis.set_minor_formatter(NullFormatter())
+
+
 def import_plotting():
     """Import what the figures need (pyplot, corner) and draw a small log-log figure in memory
     (fonts, text layout and the PNG writer loaded): a worker's warm-up
@@ -713,6 +726,7 @@ def plot_drift(bands_list, path, *, units, title="", min_probability=0.1):
         _draw_measured(ax, bands, t)
         ax.set_xscale("log")
         ax.set_yscale("log")
+        sparse_log_minor_ticks(ax)
         ax.set_xlabel("time since GPS loss (s)")
         ax.set_ylabel(f"1-sigma {_QUANTITY_LABEL[bands.quantity]} ({plain_text(unit)})")
         start = (
