@@ -18,7 +18,7 @@
 #    4. bench_fit --load 2, --real, CUT to units 1-3 (1 run each)      ~1.2 min
 #    5. bench_allan (1e5, 1e6, 1e7; best of 3), unknown kind and --sensor gyro ~1.4 min
 #    6. bench_report (accel, gyro, scene4, refit2; folders made first) ~5 min
-#    7. bench_nav (refits gyro y + accel x with bands, then nav; 1 run) ~1.5 min
+#    7. bench_nav (refits gyro y + accel x with bands, then nav; 3 runs) ~1 min
 #    7b. bench_real_fits (37 single-unit fits of the shared real logs, seed 0) ~6.5 min
 #    8. validate_population, CUT to accel_x (6 folds + the six-unit population, 8 parameters,
 #       fresh cache, 2 workers: mostly the single-unit fits and their evidences)   ~4.5 min
@@ -28,10 +28,14 @@
 # The population fits themselves (5-6 units of 8 parameters) took 1.3-5.2 s of CPU each under load
 # (accel_x: six folds and the six-unit population, all converged; 55 s for the run from a cache). Cuts made to stay within ~25 min: validate_population runs one
 # of its six axes (POPULATION_AXES=accel_x,gyro_x adds ~4 min; all six axes ~20 min more;
-# SKIP_POPULATION=1 skips it); bench_fit --load 2 --real runs units 1-3; bench_nav runs each case
-# once.
+# SKIP_POPULATION=1 skips it); bench_fit --load 2 --real runs units 1-3.
 
 set -u
+# bytecode cached as on a user's machine: a shell that sets PYTHONDONTWRITEBYTECODE (this
+# workplace's does) makes every fresh process compile the package's changed modules from source,
+# and pytest rewrite every test module in every worker (the suite 2:51 against 2:35 in the eighth
+# session, docs/speed_under_load.md)
+unset PYTHONDONTWRITEBYTECODE
 REPO=${1:-$(cd "$(dirname "$0")/.." && pwd)}
 SHARED=${SHARED:-$REPO/../shared}
 SMAC=$SHARED/data_real/smac_imudata
@@ -95,7 +99,7 @@ nav_bench() {  # bench_nav reads gyro_y/ and accel_x/ in its work folder: the fo
     mkdir -p "$WORK/nav"
     ln -sfn bench_gyro_y "$WORK/nav/gyro_y"
     ln -sfn bench_accel_x "$WORK/nav/accel_x"
-    python scripts/bench_nav.py --work "$WORK/nav" --runs 1 --refit "$SMAC/adis_16405_imu1.csv.gz"
+    python scripts/bench_nav.py --work "$WORK/nav" --runs 3 --refit "$SMAC/adis_16405_imu1.csv.gz"
 }
 
 echo "bayes_imu benchmarks: $(git -C "$REPO" log --oneline -1)"
