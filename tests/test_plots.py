@@ -184,6 +184,26 @@ def test_drift_plot_labels_terms_with_probability(tmp_path, figures, fit):
         assert (label in text) == (p >= 0.1), name
 
 
+def test_drift_plot_minor_ticks_are_2_and_5_of_time_and_the_skipped_decades(tmp_path, figures,
+                                                                            fit):
+    """drift.png's log axes (plots.sparse_log_minor_ticks, also nav.png's): the time axis's
+    unlabelled minor ticks at 2 and 5 of each decade, the error axis's at whole decades only, none
+    labelled; the major (labelled) ticks are matplotlib's decades."""
+    bands = drift_bands(fit, quantity="attitude", bias_start="calibrated", horizon_s=1000.0)
+    plots.plot_drift([bands], tmp_path / "d.png", units=["rad"])
+    ax = figures[-1].axes[0]
+    x_lo, x_hi = ax.get_xlim()
+    x_minor = [v for v in ax.xaxis.get_minorticklocs() if x_lo <= v <= x_hi]
+    mantissa = {round(v / 10.0 ** np.floor(np.log10(v) + 1e-9), 6) for v in x_minor}
+    assert len(x_minor) >= 4 and mantissa == {2.0, 5.0}, x_minor
+    y_minor = ax.yaxis.get_minorticklocs()
+    np.testing.assert_allclose(np.log10(y_minor), np.round(np.log10(y_minor)), atol=1e-9)
+    for axis in (ax.xaxis, ax.yaxis):
+        assert all(t.label1.get_text() == "" for t in axis.get_minor_ticks())
+        majors = axis.get_majorticklocs()
+        np.testing.assert_allclose(np.log10(majors), np.round(np.log10(majors)), atol=1e-9)
+
+
 def test_population_plot(tmp_path, figures):
     from bayes_imu.inference.population import fit_population
 
