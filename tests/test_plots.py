@@ -204,6 +204,25 @@ def test_drift_plot_minor_ticks_are_2_and_5_of_time_and_the_skipped_decades(tmp_
         np.testing.assert_allclose(np.log10(majors), np.round(np.log10(majors)), atol=1e-9)
 
 
+def test_sparse_minor_ticks_leave_a_narrow_log_axis_its_labelled_minor_ticks():
+    """An axis spanning under two decades keeps matplotlib's minor ticks (2..9, labelled where no
+    decade falls inside); a wide one is thinned (plots.sparse_log_minor_ticks)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.ticker import NullFormatter
+
+    fig = Figure()
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.loglog([0.01, 3600.0], [2e-3, 8e-3])
+    plots.sparse_log_minor_ticks(ax)
+    assert isinstance(ax.xaxis.get_minor_formatter(), NullFormatter)
+    assert not isinstance(ax.yaxis.get_minor_formatter(), NullFormatter)
+    fig.canvas.draw()  # the tick labels laid out
+    y_labels = [t.get_text() for t in ax.yaxis.get_minorticklabels() if t.get_text()]
+    assert len(y_labels) >= 2, y_labels
+
+
 def test_population_plot(tmp_path, figures):
     from bayes_imu.inference.population import fit_population
 

@@ -36,9 +36,8 @@ flicker (bias-instability) term has no finite state: :meth:`NavLoop.increment_va
 evaluates its exact quadratic form over the stationary rate increments by FFT.
 """
 
-from dataclasses import dataclass, field
-
 import os
+from dataclasses import dataclass, field
 
 import numpy as np
 

@@ -415,7 +415,6 @@ def plot_nav(
             )
         ax.set_xscale("log")
         ax.set_yscale("log")
-        sparse_log_minor_ticks(ax)
         ax.set_ylim(max(median.min() * 0.05, 1e-300), q.bound[keep].max() * 3.0)
         ax.set_xlabel("time since GPS loss (s)")
         what = {
@@ -438,6 +437,7 @@ def plot_nav(
         )
         ax.grid(True, which="major", alpha=0.3)
         ax.set_xlim(t[0], t[-1])
+        sparse_log_minor_ticks(ax)
         handles, labels = ax.get_legend_handles_labels()
         own = [(h, lab) for h, lab in zip(handles, labels) if not _common(lab)]
         common.update((lab, h) for h, lab in zip(handles, labels) if _common(lab))

@@ -46,17 +46,26 @@ def term_dashes(i):
     return TERM_DASHES[i % len(TERM_DASHES)]
 
 
+#: decades an axis must span for :func:`sparse_log_minor_ticks` to thin its minor ticks
+SPARSE_FROM_DECADES = 2.0
+
+
 def sparse_log_minor_ticks(ax):
-    """Minor ticks of a log-log time plot: 2 and 5 of each decade of time (x), and each decade of
-    the y axis its labels skip, unlabelled. matplotlib's default, every 2..9 of each decade, is a
-    tick object each (five artists, its label laid out at every draw and by ``tight_layout``):
-    over the many decades of a drift plot's error axis a third or more of the figure's time."""
+    """Minor ticks of a log-log time plot, set after its data and limits: 2 and 5 of each decade of
+    time (x), and each decade of the y axis its labels skip, unlabelled. matplotlib's default, every
+    2..9 of each decade, is a tick object each (five artists, its label laid out at every draw and
+    by ``tight_layout``): over the many decades of a drift plot's error axis a third or more of the
+    figure's time. An axis spanning fewer than :data:`SPARSE_FROM_DECADES` decades keeps the
+    default, whose minor ticks carry the labels there."""
     from matplotlib.ticker import LogLocator, NullFormatter
 
-    ax.xaxis.set_minor_locator(LogLocator(base=10.0, subs=(2.0, 5.0), numticks=30))
-    ax.xaxis.set_minor_formatter(NullFormatter())
-    ax.yaxis.set_minor_locator(LogLocator(base=10.0, subs=(1.0,), numticks=30))
-    ax.yaxis.set_minor_formatter(NullFormatter())
+    for axis, limits, subs in ((ax.xaxis, ax.get_xlim(), (2.0, 5.0)),
+                               (ax.yaxis, ax.get_ylim(), (1.0,))):
+        low, high = sorted(limits)
+        if not (low > 0 and np.log10(high / low) >= SPARSE_FROM_DECADES):
+            continue
+        axis.set_minor_locator(LogLocator(base=10.0, subs=subs, numticks=30))
+        axis.set_minor_formatter(NullFormatter())
 
 
 def import_plotting():
