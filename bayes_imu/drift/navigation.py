@@ -36,11 +36,11 @@ flicker (bias-instability) term has no finite state: :meth:`NavLoop.increment_va
 evaluates its exact quadratic form over the stationary rate increments by FFT.
 """
 
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._system import usable_cpus
 from ..errors import InputError
 
 __all__ = [
@@ -84,7 +84,7 @@ def loop_functions(w, t):
     for n in range(_J_TERMS, -1, -1):  # (z - sin z)/z^3 = sum_n (-1)^n z^(2n) / (2n+3)!
         series = series * (-zs * zs) + 1.0 / _factorial(2 * n + 3)
     zb = np.where(small, 1.0, z)
-    ratio = np.array((zb - np.sin(zb)) / zb**3, dtype=float, ndmin=0)
+    ratio = np.array((zb - np.sin(zb)) / zb**3, dtype=float)  # a writable copy, 0-d too
     ratio[small] = series
     j = ratio * t**3
     return s, k, j
@@ -217,15 +217,14 @@ class NavLoop:
         ``responses`` ``(3, >= k)``, optional: :meth:`response` at ``dt, 2 dt, ...`` (the same
         for every outage, computed once for the longest)."""
         k, n_cal = int(k), int(n_cal)
+        if responses is None:
+            responses = self.response(np.arange(1, k + 1, dtype=float) * dt)
         out = np.empty((3, n_cal + k - 1))
         # m < 0 (before the outage): the calibration's linear share of the full response
         before = np.arange(-n_cal + 1, 0, dtype=float)
         out[:, : n_cal - 1] = self.response(k * dt)[:, None] * (1.0 + before / n_cal)
         # 0 <= m < k: the response to the rest of the outage, (k - m) dt
-        if responses is None:
-            out[:, n_cal - 1 :] = self.response((k - np.arange(0, k, dtype=float)) * dt)
-        else:
-            out[:, n_cal - 1 :] = responses[:, k - 1 :: -1]
+        out[:, n_cal - 1 :] = responses[:, k - 1 :: -1]
         return out
 
     def increment_variance(self, k, dt, n_cal, acov):
@@ -281,13 +280,7 @@ _FFT_THREADED = 1 << 17
 def _fft_workers(size):
     """Threads of one batched transform of ``size`` points: two from :data:`_FFT_THREADED` on
     where the process may run on two CPUs or more (its four rows dealt to them), else one."""
-    if size < _FFT_THREADED:
-        return 1
-    try:
-        cpus = len(os.sched_getaffinity(0))
-    except AttributeError:  # macOS, Windows
-        cpus = os.cpu_count() or 1
-    return min(2, cpus)
+    return 1 if size < _FFT_THREADED else min(2, usable_cpus())
 
 
 def _propagate(a, b, p0, k):

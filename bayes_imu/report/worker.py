@@ -34,6 +34,7 @@ per picture and exits with :data:`PICTURE_FAILED_STATUS`.
 
 import os
 
+from .._system import usable_cpus  # noqa: F401 (part of this module's API; tests patch it here)
 from ..errors import InputError
 
 __all__ = [
@@ -94,14 +95,6 @@ def draw_picture(fn, *args, **kwargs):
                 pass
         return PictureFailure("picture" if path is None else path, exc)
     return None
-
-
-def usable_cpus():
-    """CPUs this process may run on (its affinity mask where the system has one)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # macOS, Windows
-        return os.cpu_count() or 1
 
 
 def background_default(automatic=True):
