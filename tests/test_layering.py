@@ -13,7 +13,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "bayes_imu"
 STAGES = ("io", "allan", "noise", "inference", "drift", "report", "cli")
 #: ``_compiled`` is the extension module of precompiled kernels (``setup.py``) that allan and noise
 #: both load
-INFRASTRUCTURE = {"errors", "_version", "_progress", "_lazy", "_compiled"}
+INFRASTRUCTURE = {"errors", "_version", "_progress", "_lazy", "_system", "_compiled"}
 STAGE = {name: rank + 1 for rank, name in enumerate(STAGES)}
 STAGE.update({name: 0 for name in INFRASTRUCTURE})
 STAGE["__init__"] = len(STAGES) + 1  # the top-level namespace re-exports every stage
