@@ -433,3 +433,22 @@ def test_allan_readings_at_the_edge_are_said_to_be_bounds():
     assert "does not rise at the longest tau in 90% of draws" in _reading_caveat({"rising": 0.1})
     assert _reading_caveat({"at_edge": 0.4}) == _reading_caveat({"rising": 0.6}) == ""
     assert _reading_caveat({"median": 1.0}) == ""
+
+
+def test_console_intervals_carry_the_digits_their_width_resolves():
+    """report.text.interval_text: two significant digits more than median / width has (2 to 5):
+    the fit's wide drift interval to 2 digits, a tight parameter to 4, a degenerate interval to the
+    most; the console's parameter, reading and drift lines all use it (no f-string of its own)."""
+    import re
+
+    import bayes_imu
+    from bayes_imu.report.text import interval_text
+
+    assert interval_text(0.7891, 0.5495, 4.2) == "median 0.79, 90% [0.55, 4.2]"
+    assert interval_text(51680.0, 25580.0, 229000.0) == "median 5.2e+04, 90% [2.6e+04, 2.3e+05]"
+    assert interval_text(0.2589, 0.2457, 0.2686) == "median 0.2589, 90% [0.2457, 0.2686]"
+    assert interval_text(2.7637e-5, 2.7636e-5, 2.7638e-5) == (
+        "median 2.7637e-05, 90% [2.7636e-05, 2.7638e-05]")
+    assert interval_text(3.0, 3.0, 3.0) == "median 3, 90% [3, 3]"
+    main = (Path(bayes_imu.__file__).parent / "cli" / "main.py").read_text(encoding="utf-8")
+    assert not re.search(r"median \{[^}]*:\.\d+g\}", main)

@@ -36,7 +36,7 @@ from .._version import __version__
 from ..report.output import staged_file, staged_folder, user_os_error
 from ..report.runs import fit_job, run_allan, run_fit, run_fit_batch, run_population
 from ..report.worker import PICTURE_FAILED_STATUS, background_default
-from ..report.text import outage_text, p_text, spread_prior_note
+from ..report.text import interval_text, outage_text, p_text, spread_prior_note
 from ..report.writers import FitRequest, write_sigma_csv
 from .._progress import progress_bar, show_progress
 from ..allan.pipeline import LogSource
@@ -501,8 +501,7 @@ def _say_axis(args, axis):
     for name, p in (summary.get("parameters_display") or summary["parameters"]).items():
         _say(
             args,
-            f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] "
-            f"{p['unit']}",
+            f"  {name:18s} {interval_text(p['median'], p['q05'], p['q95'])} {p['unit']}",
         )
     _say_datasheet(args, summary["datasheet"])
     _say_readout(args, summary["allan_datasheet"])
@@ -572,7 +571,7 @@ def _say_readout(args, block):
             at = f" at tau = {p['tau_s']:.3g} s" if "tau_s" in p else ""
             _say(
                 args,
-                f"    {name:30s} median {p['median']:.4g}  90% [{p['q05']:.4g}, {p['q95']:.4g}] "
+                f"    {name:30s} {interval_text(p['median'], p['q05'], p['q95'])} "
                 f"{p['unit']}{at}{_reading_caveat(p)}",
             )
 
@@ -601,8 +600,7 @@ def _say_datasheet(args, block):
         for name, p in block.items():
             _say(
                 args,
-                f"    {name:30s} median {p['median']:.4g}  90% [{p['q05']:.4g}, {p['q95']:.4g}] "
-                f"{p['unit']}",
+                f"    {name:30s} {interval_text(p['median'], p['q05'], p['q95'])} {p['unit']}",
             )
 
 
@@ -610,8 +608,8 @@ def _say_drift(args, drift):
     for b, u in zip(drift.bands, drift.units):
         _say(
             args,
-            f"{b.quantity}: 1-sigma drift after {b.t_s[-1]:g} s: median {b.total[1][-1]:.4g}, "
-            f"90% [{b.total[0][-1]:.4g}, {b.total[2][-1]:.4g}] {u}",
+            f"{b.quantity}: 1-sigma drift after {b.t_s[-1]:g} s: "
+            f"{interval_text(b.total[1][-1], b.total[0][-1], b.total[2][-1])} {u}",
         )
     first = drift.bands[0]
     if first.extrapolated[-1]:
@@ -813,8 +811,7 @@ def _say_population(args, run):
                f"population sampler converged: {pop.diagnostics['converged']})")
     _say(args, "a new unit of this model (unit-to-unit spread included):")
     for name, p in (summary.get("new_unit_display") or summary["new_unit"]).items():
-        _say(args, f"  {name:18s} median {p['median']:.5g}  90% [{p['q05']:.5g}, {p['q95']:.5g}] "
-                   f"{p['unit']}")
+        _say(args, f"  {name:18s} {interval_text(p['median'], p['q05'], p['q95'])} {p['unit']}")
     _say_datasheet(args, summary["new_unit_datasheet"])
     for name, p in summary["population"].items():
         s = p["spread_ln"]
