@@ -293,30 +293,49 @@ def test_a_gyro_record_measures_no_position_and_the_same_attitude(rng):
     assert np.all(accel.mean_square_2[accel.k >= 2] > 0)
 
 
-def test_compiled_position_contrasts_of_a_long_record_are_numpys(rng):
+def test_compiled_position_contrasts_of_a_long_record_are_exact(rng):
     """On a record the JIT kernels sum (longer than PRECOMPILED_BELOW), the position mean squares
-    come from the compiled passes (kernels.position_mean_squares): the running sum is numpy's
-    cumsum of x - mean bit for bit, and each outage's mean square equals numpy's
-    position_mean_square to 1e-13 relative (squares added in another order), on the default
-    outage grid and strides, with an offset and a random walk in the record; a shorter record
-    takes numpy's steps (None from the kernel)."""
-    from bayes_imu.allan import kernels
-    from bayes_imu.allan.contrast import (contrast_grid, contrast_stride, phase_contrasts,
-                                          position_mean_square, running_phase_sum)
+    come from the compiled passes (kernels.position_mean_squares: 8-sample block sums in a
+    compensated running pair, each window a difference of two pairs and at most seven samples at
+    each end). Against an exact reference (each window summed by math.fsum, correctly rounded,
+    the contrast in exact rationals, the squares by fsum) they agree to 1e-10 relative on
+    outages from 2 samples to the whole record (windows reaching its last, partial block of 8;
+    short windows added in order; starts many strides apart). numpy's running sum about the mean
+    (the shorter records' steps) is off by ~1e-7 here: it rounds at the running sum's magnitude.
+    The phase contrasts of the same call are the attitude-only call's bits; a shorter record takes
+    numpy's steps (None from the kernel)."""
+    from fractions import Fraction
 
-    n = kernels.PRECOMPILED_BELOW + 4_321
-    y = 3.0 + rng.standard_normal(n) + np.cumsum(rng.standard_normal(n)) * 1e-3
+    from bayes_imu.allan import kernels
+    from bayes_imu.allan.contrast import contrast_grid, position_mean_square
+
+    n = kernels.PRECOMPILED_BELOW + 4_321  # n + 1 phase samples: a last block of 2
+    assert (n + 1) % 8 == 2
+    y = 3.0 + rng.standard_normal(n)
+    y[-1] += 1e4  # a large phase sample in the last block (x[n - 1] = mean - y[n - 1])
     x = np.concatenate(([0.0], np.cumsum(y - y.mean())))
     n_cal = 6000
-    ks = contrast_grid(n, n_cal)
-    strides = contrast_stride(ks, n_cal)
-    mean = x.mean()
-    s = running_phase_sum(x, mean)
-    np.testing.assert_array_equal(kernels._compile()["running_sum"](x, mean, np.empty(n + 2)), s)
-    expected = np.array([position_mean_square(x, k, n_cal, st, s=s, mean=mean)
-                         for k, st in zip(ks, strides)])
+    ks = np.array([2, 3, 9, 10, 17, 100, 1001, 40_000, n - n_cal - 3], dtype=np.int64)
+    strides = np.array([20_011, 19_997, 21_023, 20_021, 18_061, 20_983, 21_013, 41_017, 1])
     got = kernels.position_mean_squares(x, ks, n_cal, strides)
-    np.testing.assert_allclose(got, expected, rtol=1e-13, atol=0)
+    exact = []
+    for i, (k, st) in enumerate(zip(ks, strides)):
+        k, st = int(k), int(st)
+        c = Fraction(k * (k - 1), 2 * n_cal)
+        squares = []
+        for j in range(n_cal, n - k + 1, st):
+            p = Fraction(math.fsum(x[j + 1:j + k])) - (k - 1 + c) * Fraction(x[j]) + c * Fraction(
+                x[j - n_cal])
+            squares.append(float(p * p))
+        exact.append(math.fsum(squares) / len(squares))
+        assert got[i, 1] == pytest.approx(exact[-1], rel=1e-10, abs=0)
+    # the reference tells the two apart: numpy's steps miss it by more than the tolerance
+    assert abs(position_mean_square(x, 2, n_cal, 20_011) / exact[0] - 1.0) > 1e-10
+    np.testing.assert_array_equal(got[:, 0], kernels.contrast_mean_squares(x, ks, n_cal, strides))
+    grid = contrast_grid(n, n_cal)
     pc = phase_contrasts(x=x, rate_hz=100.0, calibration_s=60.0)
-    np.testing.assert_allclose(pc.mean_square_2, expected / 100.0**4, rtol=1e-13, atol=0)
+    both = kernels.position_mean_squares(x, grid, n_cal, contrast_stride(grid, n_cal))
+    np.testing.assert_array_equal(pc.mean_square_2, both[:, 1] / 100.0**4)
+    np.testing.assert_array_equal(
+        pc.mean_square, phase_contrasts(x=x, rate_hz=100.0, position=False).mean_square)
     assert kernels.position_mean_squares(x[:1000], ks[:3], 100, strides[:3]) is None

@@ -6,7 +6,7 @@ package build compiles the same functions ahead of time, one thread each (``pran
 there), into the extension ``bayes_imu._compiled`` (``setup.py``), which loads without numba. The
 precompiled build has the kernels of a record shorter than 2**21 samples (``setup.py``'s
 ``KERNELS``); the kernels of longer records' parallel passes (``centred_sums`` to ``residue_sums``,
-``span_sums``, ``contrast_sums``, ``running_sum``, ``position_sums`` and ``lag1_deltas``: a shorter
+``span_sums``, ``contrast_sums``, ``phase_prefix``, ``position_sums`` and ``lag1_deltas``: a shorter
 record takes numpy's steps for the last four) are JIT-compiled only. :data:`FASTMATH` names the
 kernels compiled with reassociation (a vectorised sum of squares); the running sums never are (their
 Kahan-Babuska compensation would be optimised away): ``phase_and_sums`` fills through
@@ -40,7 +40,9 @@ __all__ = [
     "contrast_sums",
     "tile_starts",
     "tile_means",
-    "running_sum",
+    "phase_prefix",
+    "head_sum",
+    "prefix_at",
     "position_sums",
     "lag1_deltas",
     "FASTMATH",
@@ -67,6 +69,7 @@ PARALLEL = {
     "residue_sums",
     "sums_all",
     "contrast_sums",
+    "phase_prefix",
     "position_sums",
     "lag1_deltas",
 }
@@ -548,44 +551,132 @@ def tile_means(partial, n, n_cal, ks, strides):
     return out
 
 
-def running_sum(x, mean, out):
-    # out[0] = 0, out[m] = sum_{i<m} (x[i] - mean): allan/contrast.py's running_phase_sum, the
-    # same additions in the same order (numpy's cumsum of x - mean, bit for bit), in one pass
-    total = 0.0
-    out[0] = 0.0
-    for i in range(x.size):
-        total += x[i] - mean
-        out[i + 1] = total
+def phase_prefix(x, chunk, out):
+    # out[b] = (hi, lo): sum_{i < 8 b} x[i] for 0 <= b <= len(x) // 8, as a compensated pair (the
+    # value hi + lo, exact to the rounding of the blocks' plain sums): the plain sums of the
+    # 8-sample blocks (their totals per chunk of blocks on the threads), the chunks' bases added
+    # in order with Kahan-Babuska compensation, then each chunk's running pair from its base on
+    # the threads (strict IEEE: the compensation is not optimised away). The position contrasts'
+    # windows of x are differences of two such sums (position_sums): 16 bytes per 8 samples
+    # instead of a running sum of every sample (80 MB at 1e7 samples, written and read)
+    nb = x.size // 8
+    out[0, 0] = 0.0
+    out[0, 1] = 0.0
+    n_chunks = (nb + chunk - 1) // chunk
+    totals = np.zeros((n_chunks, 2))
+    for h in numba.prange(n_chunks):
+        s = 0.0
+        c = 0.0
+        for b in range(h * chunk, min(h * chunk + chunk, nb)):
+            lo = 8 * b
+            v = ((x[lo] + x[lo + 1]) + (x[lo + 2] + x[lo + 3])) + (
+                (x[lo + 4] + x[lo + 5]) + (x[lo + 6] + x[lo + 7]))
+            out[b + 1, 0] = v
+            s, c = compensated_add_compiled(s, c, v)
+        totals[h, 0] = s
+        totals[h, 1] = c
+    bases = np.zeros((n_chunks, 2))
+    s = 0.0
+    c = 0.0
+    for h in range(n_chunks):
+        bases[h, 0] = s
+        bases[h, 1] = c
+        s, c = compensated_add_compiled(s, c, totals[h, 0])
+        s, c = compensated_add_compiled(s, c, totals[h, 1])
+    for h in numba.prange(n_chunks):
+        s = bases[h, 0]
+        c = bases[h, 1]
+        for b in range(h * chunk, min(h * chunk + chunk, nb)):
+            s, c = compensated_add_compiled(s, c, out[b + 1, 0])
+            out[b + 1, 0] = s
+            out[b + 1, 1] = c
     return out
 
 
-def position_sums(x, s, mean, ks, n_cal, strides, tile):
-    # the mean square of the position contrasts e_j = (s[j + k] - s[j + 1]) - (k - 1 + c)(x[j] -
-    # mean) + c (x[j - n_cal] - mean), c = k (k - 1) / (2 n_cal), over the starts j = n_cal,
-    # n_cal + st, ... <= len(x) - 1 - k, for each outage k and its stride st (allan/contrast.py's
-    # position_mean_square, the same e_j: strict IEEE), tile by tile of starts as contrast_sums
-    # (each tile's samples read once for every outage shorter than a tile); tile sums added in
-    # tile order
+def head_sum(x, lo, r):
+    # x[lo] + ... + x[lo + r - 1] for 0 <= r < 8 (lo + 6 < len(x)): the seven samples read and
+    # masked, added in a fixed tree, without a branch on r (a loop of r additions in a row was
+    # the position contrasts' largest cost)
+    v0 = x[lo] if r > 0 else 0.0
+    v1 = x[lo + 1] if r > 1 else 0.0
+    v2 = x[lo + 2] if r > 2 else 0.0
+    v3 = x[lo + 3] if r > 3 else 0.0
+    v4 = x[lo + 4] if r > 4 else 0.0
+    v5 = x[lo + 5] if r > 5 else 0.0
+    v6 = x[lo + 6] if r > 6 else 0.0
+    return ((v0 + v1) + (v2 + v3)) + ((v4 + v5) + v6)
+
+
+def prefix_at(x, prefix, p):
+    # (b, t): sum x[:p] = prefix[b] + t, b = p // 8, t the samples of block b before p
+    b = p >> 3
+    if b < prefix.shape[0] - 1:
+        return b, head_sum_compiled(x, 8 * b, p - 8 * b)
+    t = 0.0  # the record's last, partial block
+    for i in range(8 * b, p):
+        t += x[i]
+    return b, t
+
+
+def position_sums(x, prefix, ks, n_cal, strides, tile):
+    # (len(ks), 2): the mean squares of the phase contrasts of contrast_sums (column 0: the same
+    # e_j, added in the same order, so the same bits) and of the position contrasts (column 1)
+    # p_j = sum_{j < i < j + k} x[i] - (k - 1 + c) x[j] + c x[j - n_cal], c = k (k - 1) / (2 n_cal)
+    # (allan/contrast.py's position_mean_square; the constant it annihilates need not be taken out
+    # first), over the same starts, tile by tile as contrast_sums: the window of x from the
+    # compensated block sums of phase_prefix (exact differences of their pairs) and at most seven
+    # samples at each end, next to x[j] and x[j + k], which the phase contrast reads anyway. Each
+    # tile's next tile of x and of the block sums is read ahead a cache line at a time
     n = x.size - 1
     nk = ks.size
     n_tiles = (n + tile) // tile
-    partial = np.zeros((n_tiles, nk))
+    n_prefix = prefix.shape[0]
+    partial = np.zeros((n_tiles, 2 * nk + 1))
     for t in numba.prange(n_tiles):
         lo = t * tile
         hi = min(lo + tile, n + 1)
+        warm = 0.0
+        for p in range(hi, min(hi + tile, n + 1), 8):
+            warm += x[p]
+        for p in range(min(hi >> 3, n_prefix), min((hi + tile) >> 3, n_prefix), 4):
+            warm += prefix[p, 0]
+        partial[t, 2 * nk] = warm  # kept, so that the reads are not optimised away
         for i in range(nk):
             k = ks[i]
             st = strides[i]
+            r = k / n_cal
             c = k * (k - 1) / (2.0 * n_cal)
             a = k - 1 + c
             q0, q1 = tile_starts_compiled(lo, hi, n, n_cal, k, st)
             total = 0.0
-            for q in range(q0, q1):
-                j = n_cal + q * st
-                e = (s[j + k] - s[j + 1]) - a * (x[j] - mean) + c * (x[j - n_cal] - mean)
-                total += e * e
+            total_2 = 0.0
+            if k <= 9:  # a window of at most 8 samples: added in order (k = 1: empty, p = 0)
+                for q in range(q0, q1):
+                    j = n_cal + q * st
+                    e = x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
+                    total += e * e
+                    w = 0.0
+                    for m in range(j + 1, j + k):
+                        w += x[m]
+                    e2 = w - a * x[j] + c * x[j - n_cal]
+                    total_2 += e2 * e2
+            else:
+                for q in range(q0, q1):
+                    j = n_cal + q * st
+                    e = x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
+                    total += e * e
+                    b0, t0 = prefix_at_compiled(x, prefix, j + 1)
+                    b1, t1 = prefix_at_compiled(x, prefix, j + k)
+                    w = ((prefix[b1, 0] - prefix[b0, 0]) + (prefix[b1, 1] - prefix[b0, 1])) + (
+                        t1 - t0)
+                    e2 = w - a * x[j] + c * x[j - n_cal]
+                    total_2 += e2 * e2
             partial[t, i] = total
-    return tile_means_compiled(partial, n, n_cal, ks, strides)
+            partial[t, nk + i] = total_2
+    out = np.empty((nk, 2))
+    out[:, 0] = tile_means_compiled(partial[:, :nk], n, n_cal, ks, strides)
+    out[:, 1] = tile_means_compiled(partial[:, nk:2 * nk], n, n_cal, ks, strides)
+    return out
 
 
 def lag1_deltas(x, ms, starts, steps, counts, max_differences, n_chunks):
@@ -660,3 +751,5 @@ fill_blocks_compiled = numba.njit(cache=True)(fill_blocks)
 gather_points_compiled = numba.njit(inline="always")(gather_points)
 tile_starts_compiled = numba.njit(inline="always")(tile_starts)
 tile_means_compiled = numba.njit(inline="always")(tile_means)
+head_sum_compiled = numba.njit(inline="always")(head_sum)
+prefix_at_compiled = numba.njit(inline="always")(prefix_at)

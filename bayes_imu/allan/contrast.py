@@ -35,7 +35,12 @@ phase's mean: the contrast annihilates constants and linear trends of ``x``, so 
 mean nor the offset of ``S`` changes it). Its overlapping mean square over the same strided starts,
 ``V_hat_2(k) = dt^4 / M sum_j p_j^2``, is unbiased for the position bands' ``E p^2`` whatever the
 noise (:attr:`PhaseContrasts.mean_square_2`; :meth:`PhaseContrasts.of_order`). ``p = 0`` at
-``k = 1``, so position is measured from ``k = 2`` on.
+``k = 1``, so position is measured from ``k = 2`` on. A record the compiled kernels sum in parallel
+(:func:`bayes_imu.allan.kernels.position_mean_squares`) keeps ``S`` only every 8 samples, as a
+compensated pair, and reads each window as the difference of two such pairs and at most seven
+samples at each end: exact to the rounding of the window's own samples instead of the running sum's
+magnitude (a running sum of 1e7 samples rounds at ``1e-16 |S|``), in about a third of the time and a
+quarter of the memory.
 """
 
 from dataclasses import dataclass
@@ -221,29 +226,35 @@ def running_phase_sum(x, mean=None):
 def _mean_squares(x, ks, n_cal, strides):
     """``contrast_mean_square`` of each outage: one compiled call on a long record
     (:func:`bayes_imu.allan.kernels.contrast_mean_squares`, issue 39), else one at a time."""
-    n = x.size - 1
-    if ks.size and ks.min() >= 1 and n_cal >= 1 and ks.max() + n_cal <= n:
+    if _compiled_valid(x, ks, n_cal):
         compiled = contrast_mean_squares(x, ks, n_cal, strides)
         if compiled is not None:
             return compiled
     return np.array([contrast_mean_square(x, kk, n_cal, st) for kk, st in zip(ks, strides)])
 
 
-def _position_mean_squares(x, ks, n_cal, strides):
-    """``position_mean_square`` of each outage: compiled passes on a long record
-    (:func:`bayes_imu.allan.kernels.position_mean_squares`), else numpy's, one outage at a time
-    (the running sum computed once)."""
+def _both_mean_squares(x, ks, n_cal, strides):
+    """``(contrast_mean_square, position_mean_square)`` of each outage: two compiled passes on a
+    long record (:func:`bayes_imu.allan.kernels.position_mean_squares`; the phase contrasts' the
+    same bits as :func:`_mean_squares`'), else numpy's, one outage at a time (the running sum
+    computed once)."""
     if not ks.size:
-        return np.zeros(0)
-    n = x.size - 1
-    if ks.min() >= 1 and n_cal >= 1 and ks.max() + n_cal <= n:
+        return np.zeros(0), np.zeros(0)
+    if _compiled_valid(x, ks, n_cal):
         compiled = position_mean_squares(x, ks, n_cal, strides)
         if compiled is not None:
-            return compiled
+            return compiled[:, 0], compiled[:, 1]
     mean = x.mean()
     s = running_phase_sum(x, mean)
-    return np.array([position_mean_square(x, kk, n_cal, st, s=s, mean=mean)
-                     for kk, st in zip(ks, strides)])
+    return (_mean_squares(x, ks, n_cal, strides),
+            np.array([position_mean_square(x, kk, n_cal, st, s=s, mean=mean)
+                      for kk, st in zip(ks, strides)]))
+
+
+def _compiled_valid(x, ks, n_cal):
+    """Every outage valid for the compiled passes (an invalid one is reported by numpy's)."""
+    n = x.size - 1
+    return bool(ks.size) and ks.min() >= 1 and n_cal >= 1 and ks.max() + n_cal <= n
 
 
 def contrast_grid(
@@ -294,10 +305,13 @@ def phase_contrasts(y=None, *, rate_hz, calibration_s=DEFAULT_CONTRAST_SPAN_S, x
         )
     ks = contrast_grid(n, n_cal) if k is None else np.asarray(k, dtype=np.int64)
     strides = contrast_stride(ks, n_cal)
-    ms = _mean_squares(x, ks, n_cal, strides) / rate_hz**2
     ms2 = None
     if position:
-        ms2 = _position_mean_squares(x, ks, n_cal, strides).reshape(ks.shape) / rate_hz**4
+        ms, ms2 = _both_mean_squares(x, ks, n_cal, strides)
+        ms2 = ms2.reshape(ks.shape) / rate_hz**4
+    else:
+        ms = _mean_squares(x, ks, n_cal, strides)
+    ms = ms / rate_hz**2
     return PhaseContrasts(
         ks, n_cal, ms.reshape(ks.shape), (n - n_cal - ks) // strides + 1, float(rate_hz), int(n),
         ms2,

@@ -53,6 +53,8 @@ _BLOCK = 1 << 14
 _BLOCK_ALL = 1 << 16
 #: samples per plain sum of the compensated running sum
 _PHASE_BLOCK = 256
+#: 8-sample blocks per thread's share of the position contrasts' block sums (``phase_prefix``)
+_PREFIX_CHUNK = 4096
 #: residues per run of the residue sums of the sizes that are whole blocks (:func:`_far_sums`)
 _RESIDUES = 256
 #: samples per thread of the Allan variance sums (8 MiB of phase: enough work per cluster size to
@@ -96,7 +98,7 @@ def _compile():
         "span_sums",
         "sums_all",
         "contrast_sums",
-        "running_sum",
+        "phase_prefix",
         "position_sums",
         "lag1_deltas",
     ):
@@ -472,25 +474,29 @@ def contrast_mean_squares(x, ks, n_cal, strides):
 
 
 def position_mean_squares(x, ks, n_cal, strides):
-    """Mean squares of the position contrasts of
-    :func:`bayes_imu.allan.contrast.position_mean_square` (outages ``ks``, window ``n_cal``,
-    strides ``strides``; all valid) of a phase record ``x`` that the JIT kernels sum: the running
-    sum ``s`` of ``x`` about its mean in one compiled pass (numpy's ``cumsum``, the same bits),
-    then every outage in one compiled call on :func:`threads_for` threads, tile by tile of starts
-    as :func:`contrast_mean_squares`; ``None`` for a record the precompiled kernels sum (numpy's
-    steps there, without importing numba). The same contrasts as numpy's, their squares added in
-    another order (about 1e-15 relative)."""
+    """``(len(ks), 2)``: the mean squares of the phase contrasts of
+    :func:`contrast_mean_squares` (column 0, the same bits) and of the position contrasts of
+    :func:`bayes_imu.allan.contrast.position_mean_square` (column 1), outages ``ks``, window
+    ``n_cal``, strides ``strides`` (all valid), of a phase record ``x`` that the JIT kernels sum,
+    in two compiled passes on :func:`threads_for` threads; ``None`` for a record the precompiled
+    kernels sum (numpy's steps there, without importing numba).
+
+    A position contrast reads a window of ``x``: the first pass sums ``x`` in blocks of 8 samples
+    into a compensated running pair per block (``phase_prefix``: 2 numbers per 8 samples, 20 MB
+    at 1e7 samples, instead of numpy's running sum of every sample, 80 MB written and read), and
+    the second, tile by tile of starts as :func:`contrast_mean_squares`, takes each window as the
+    difference of two such pairs and at most seven samples at each end (``position_sums``). The
+    windows are exact to the rounding of their own samples' sums, not of the running sum's
+    magnitude: nearer an extended-precision reference than numpy's ``cumsum`` steps (tests)."""
     if _precompiled_for(x.size - 1) is not None:
         return None
     kernels = _compile()
     x = np.ascontiguousarray(x, dtype=float)
-    mean = float(x.mean())
-    s = kernels["running_sum"](x, mean, np.empty(x.size + 1))
     with threads_for_pass(x.size):
+        prefix = kernels["phase_prefix"](x, _PREFIX_CHUNK, np.empty((x.size // 8 + 1, 2)))
         return kernels["position_sums"](
             x,
-            s,
-            mean,
+            prefix,
             np.ascontiguousarray(ks, dtype=np.int64),
             int(n_cal),
             np.ascontiguousarray(strides, dtype=np.int64),
