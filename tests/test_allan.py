@@ -326,7 +326,8 @@ def test_fused_fill_and_sums_on_any_number_of_runs(rng):
     fill) gives phase_blocks' running sum and sums_all's sums of the same sizes bit for bit, on 1 to
     7 runs, whichever tiles are summed behind the fill and which after it (a run's first and last
     tiles), on a record that is not a whole number of tiles; one to two tiles of lag (the largest
-    size's reach)."""
+    size's reach). The position contrasts' 8-sample block sums it adds as it fills are block_sums'
+    bits on any number of runs."""
     from bayes_imu.allan import kernels
 
     jit = kernels._compile()
@@ -338,6 +339,8 @@ def test_fused_fill_and_sums_on_any_number_of_runs(rng):
     reference = np.empty(y.size + 1)
     reference[0] = 0.0
     jit["phase_blocks"](y, mean, bases, block, reference[1:])
+    eights = np.empty(y.size // 8)
+    jit["block_sums"](reference[1:], 4096, eights)
     for ms in (np.array([1, 2, 4, 8, 16, 3, 1000, 32_768]), np.array([5, 10, 20, 40_000])):
         expected = jit["sums_all"](reference, ms, tile)
         lag = (2 * int(ms.max()) + tile - 2) // tile
@@ -346,10 +349,14 @@ def test_fused_fill_and_sums_on_any_number_of_runs(rng):
         for runs in (1, 2, 3, 7):
             x = np.full(y.size + 1, np.nan)
             partial = np.zeros((n_tiles, ms.size))
+            # a column of position_mean_squares' table, as allan_sums passes it
+            filled = np.full((y.size // 8 + 1, 2), np.nan)[1:, 0]
             got = jit["phase_and_sums"](
-                y, mean, bases, block, x, ms, tile, lag, runs, partial, *kernels._gather_plan(None)
+                y, mean, bases, block, x, ms, tile, lag, runs, partial, *kernels._gather_plan(None),
+                filled,
             )
             np.testing.assert_array_equal(x, reference)
+            np.testing.assert_array_equal(filled, eights)
             np.testing.assert_array_equal(got, expected)
             # the tile sums it leaves are each tile's: their running total is the sums
             np.testing.assert_array_equal(np.cumsum(partial, axis=0)[-1], expected)

@@ -339,3 +339,26 @@ def test_compiled_position_contrasts_of_a_long_record_are_exact(rng):
     np.testing.assert_array_equal(
         pc.mean_square, phase_contrasts(x=x, rate_hz=100.0, position=False).mean_square)
     assert kernels.position_mean_squares(x[:1000], ks[:3], 100, strides[:3]) is None
+
+
+def test_position_contrasts_from_the_fill_are_the_unfused_bits(rng):
+    """allan_variance of a long record sums the position contrasts' 8-sample blocks of x[1:] as it
+    fills x (allan_sums' blocks=True: no further read of the record); its contrasts are the bits of
+    phase_contrasts summing them in a pass of their own, the block sums those of that pass (and
+    numpy's sums of the same 8 samples, to rounding); without blocks, allan_sums returns as
+    before."""
+    from bayes_imu.allan import kernels
+
+    n = kernels.PRECOMPILED_BELOW + 4_321
+    y = 3.0 + rng.standard_normal(n) + np.cumsum(rng.standard_normal(n)) * 1e-3
+    fused = allan_variance(y, rate_hz=100.0).contrasts
+    x, _, _, _, pairs = kernels.allan_sums(y, [1, 2, 4], blocks=True)
+    alone = np.empty(n // 8)
+    kernels._compile()["block_sums"](x[1:], 4096, alone)
+    np.testing.assert_array_equal(pairs[1:, 0], alone)
+    assert np.allclose(pairs[1:, 0], x[1:8 * (n // 8) + 1].reshape(-1, 8).sum(axis=1),
+                       rtol=1e-12, atol=1e-9 * np.abs(x).max())
+    separate = phase_contrasts(x=x, rate_hz=100.0)
+    np.testing.assert_array_equal(fused.mean_square_2, separate.mean_square_2)
+    np.testing.assert_array_equal(fused.mean_square, separate.mean_square)
+    assert len(kernels.allan_sums(y, [1, 2, 4])) == 2

@@ -6,14 +6,15 @@ package build compiles the same functions ahead of time, one thread each (``pran
 there), into the extension ``bayes_imu._compiled`` (``setup.py``), which loads without numba. The
 precompiled build has the kernels of a record shorter than 2**21 samples (``setup.py``'s
 ``KERNELS``); the kernels of longer records' parallel passes (``centred_sums`` to ``residue_sums``,
-``span_sums``, ``contrast_sums``, ``phase_prefix``, ``position_sums`` and ``lag1_deltas``: a shorter
-record takes numpy's steps for the last four) are JIT-compiled only. :data:`FASTMATH` names the
-kernels compiled with reassociation (a vectorised sum of squares); the running sums never are (their
-Kahan-Babuska compensation would be optimised away): ``phase_and_sums`` fills through
-``fill_blocks``, compiled apart with strict arithmetic. Helpers inlined into their callers
-(``inline="always"``: numba's IR, so they take the caller's fast-math flags and the precompiled
-``sums_all`` compiles to the same code as before they were split out) are module globals, as a
-kernel's callees must be for numba's cache.
+``span_sums``, ``contrast_sums``, ``block_sums``, ``pair_prefix``, ``position_sums`` and
+``lag1_deltas``: a shorter record takes numpy's steps for the contrasts and the noise
+identification) are JIT-compiled only. :data:`FASTMATH` names the kernels compiled with
+reassociation (a vectorised sum of squares); the running sums never are (their Kahan-Babuska
+compensation would be optimised away): ``phase_and_sums`` fills through ``fill_blocks`` and sums
+the position contrasts' blocks through ``eight_sums``, both compiled apart with strict arithmetic.
+Helpers inlined into their callers (``inline="always"``: numba's IR, so they take the caller's
+fast-math flags and the precompiled ``sums_all`` compiles to the same code as before they were
+split out) are module globals, as a kernel's callees must be for numba's cache.
 """
 
 import numba
@@ -40,7 +41,9 @@ __all__ = [
     "contrast_sums",
     "tile_starts",
     "tile_means",
-    "phase_prefix",
+    "eight_sums",
+    "block_sums",
+    "pair_prefix",
     "head_sum",
     "prefix_at",
     "position_sums",
@@ -69,7 +72,8 @@ PARALLEL = {
     "residue_sums",
     "sums_all",
     "contrast_sums",
-    "phase_prefix",
+    "block_sums",
+    "pair_prefix",
     "position_sums",
     "lag1_deltas",
 }
@@ -286,7 +290,7 @@ def phase_blocks(y, offset, bases, block, out):
 
 def phase_and_sums(
     y, offset, bases, block, x, ms, tile, lag, n_chunks, partial, starts, steps, counts, offsets,
-    points,
+    points, eights,
 ):
     # x[0] = 0 and x[1:] = phase_blocks' running sum, filled tile by tile (tile samples, a multiple
     # of block) on n_chunks runs of tiles, one per thread; each run sums the sizes ms over its tiles
@@ -298,7 +302,9 @@ def phase_and_sums(
     # parts' sums are read off them: span_sums). Each tile just filled also gives gather_points its
     # samples (starts, steps, counts, offsets, points: the noise identification's phase samples,
     # read while the tile is in cache instead of at scattered lines of the record afterwards; x[0]
-    # is not gathered).
+    # is not gathered) and, where eights is not empty (len(y) // 8: a column of pair_prefix's
+    # table), its 8-sample block sums of x[1:] for the position contrasts (eight_sums: the bits of
+    # block_sums, without another read of the record).
     x[0] = 0.0
     out = x[1:]
     per_tile = tile // block
@@ -316,6 +322,10 @@ def phase_and_sums(
                 x, t * tile + 1, min(t * tile + tile, y.size) + 1, starts, steps, counts, offsets,
                 points,
             )
+            if eights.size:
+                eight_sums_compiled(
+                    out, t * (tile // 8), min(t * (tile // 8) + tile // 8, eights.size), eights
+                )
             s = t - lag
             if first < s < n_tiles:
                 tile_sums_compiled(x, ms, s * tile, tile, partial[s])
@@ -551,28 +561,43 @@ def tile_means(partial, n, n_cal, ks, strides):
     return out
 
 
-def phase_prefix(x, chunk, out):
-    # out[b] = (hi, lo): sum_{i < 8 b} x[i] for 0 <= b <= len(x) // 8, as a compensated pair (the
-    # value hi + lo, exact to the rounding of the blocks' plain sums): the plain sums of the
-    # 8-sample blocks (their totals per chunk of blocks on the threads), the chunks' bases added
-    # in order with Kahan-Babuska compensation, then each chunk's running pair from its base on
-    # the threads (strict IEEE: the compensation is not optimised away). The position contrasts'
-    # windows of x are differences of two such sums (position_sums): 16 bytes per 8 samples
-    # instead of a running sum of every sample (80 MB at 1e7 samples, written and read)
-    nb = x.size // 8
-    out[0, 0] = 0.0
-    out[0, 1] = 0.0
+def eight_sums(v, first, last, out):
+    # out[b] = the 8 samples v[8 b .. 8 b + 7] added in a fixed tree, for first <= b < last (strict
+    # IEEE, compiled apart: the same bits from the fill, phase_and_sums, and from block_sums)
+    for b in range(first, last):
+        lo = 8 * b
+        out[b] = ((v[lo] + v[lo + 1]) + (v[lo + 2] + v[lo + 3])) + (
+            (v[lo + 4] + v[lo + 5]) + (v[lo + 6] + v[lo + 7]))
+
+
+def block_sums(v, chunk, out):
+    # out[b] = eight_sums of every whole block of 8 samples of v (len(out) = len(v) // 8; a column
+    # of pair_prefix's table), chunk blocks at a time per thread
+    nb = out.size
+    for h in numba.prange((nb + chunk - 1) // chunk):
+        eight_sums_compiled(v, h * chunk, min(h * chunk + chunk, nb), out)
+    return out
+
+
+def pair_prefix(pairs, chunk):
+    # in place: pairs[b] = (hi, lo) = sum_{q < b} blocks[q] for 0 <= b <= nb, from the block sums
+    # blocks[q] = pairs[q + 1, 0] (block_sums or the fill's eight_sums wrote them there: one table,
+    # no second array to fault in), as a compensated pair (the value hi + lo, exact to the rounding
+    # of the blocks' own sums): each chunk's total on the threads, the chunks' bases added in order
+    # with Kahan-Babuska compensation, then each chunk's running pair from its base on the threads
+    # (strict IEEE: the compensation is not optimised away). The position contrasts' windows are
+    # differences of two such sums (position_sums): 16 bytes per 8 samples instead of a running
+    # sum of every sample (80 MB at 1e7 samples, written and read)
+    nb = pairs.shape[0] - 1
+    pairs[0, 0] = 0.0
+    pairs[0, 1] = 0.0
     n_chunks = (nb + chunk - 1) // chunk
     totals = np.zeros((n_chunks, 2))
     for h in numba.prange(n_chunks):
         s = 0.0
         c = 0.0
         for b in range(h * chunk, min(h * chunk + chunk, nb)):
-            lo = 8 * b
-            v = ((x[lo] + x[lo + 1]) + (x[lo + 2] + x[lo + 3])) + (
-                (x[lo + 4] + x[lo + 5]) + (x[lo + 6] + x[lo + 7]))
-            out[b + 1, 0] = v
-            s, c = compensated_add_compiled(s, c, v)
+            s, c = compensated_add_compiled(s, c, pairs[b + 1, 0])
         totals[h, 0] = s
         totals[h, 1] = c
     bases = np.zeros((n_chunks, 2))
@@ -587,10 +612,10 @@ def phase_prefix(x, chunk, out):
         s = bases[h, 0]
         c = bases[h, 1]
         for b in range(h * chunk, min(h * chunk + chunk, nb)):
-            s, c = compensated_add_compiled(s, c, out[b + 1, 0])
-            out[b + 1, 0] = s
-            out[b + 1, 1] = c
-    return out
+            s, c = compensated_add_compiled(s, c, pairs[b + 1, 0])
+            pairs[b + 1, 0] = s
+            pairs[b + 1, 1] = c
+    return pairs
 
 
 def head_sum(x, lo, r):
@@ -607,14 +632,14 @@ def head_sum(x, lo, r):
     return ((v0 + v1) + (v2 + v3)) + ((v4 + v5) + v6)
 
 
-def prefix_at(x, prefix, p):
-    # (b, t): sum x[:p] = prefix[b] + t, b = p // 8, t the samples of block b before p
+def prefix_at(v, prefix, p):
+    # (b, t): sum v[:p] = prefix[b] + t, b = p // 8, t the samples of block b before p
     b = p >> 3
     if b < prefix.shape[0] - 1:
-        return b, head_sum_compiled(x, 8 * b, p - 8 * b)
+        return b, head_sum_compiled(v, 8 * b, p - 8 * b)
     t = 0.0  # the record's last, partial block
     for i in range(8 * b, p):
-        t += x[i]
+        t += v[i]
     return b, t
 
 
@@ -623,11 +648,13 @@ def position_sums(x, prefix, ks, n_cal, strides, tile):
     # e_j, added in the same order, so the same bits) and of the position contrasts (column 1)
     # p_j = sum_{j < i < j + k} x[i] - (k - 1 + c) x[j] + c x[j - n_cal], c = k (k - 1) / (2 n_cal)
     # (allan/contrast.py's position_mean_square; the constant it annihilates need not be taken out
-    # first), over the same starts, tile by tile as contrast_sums: the window of x from the
-    # compensated block sums of phase_prefix (exact differences of their pairs) and at most seven
-    # samples at each end, next to x[j] and x[j + k], which the phase contrast reads anyway. Each
-    # tile's next tile of x and of the block sums is read ahead a cache line at a time
+    # first), over the same starts, tile by tile as contrast_sums: the window x[j + 1 : j + k] =
+    # v[j : j + k - 1] of v = x[1:] from the compensated running pairs of its 8-sample blocks
+    # (prefix: pair_prefix; exact differences of their pairs) and at most seven samples at each
+    # end, next to x[j] and x[j + k], which the phase contrast reads anyway. Each tile's next tile
+    # of x and of the pairs is read ahead a cache line at a time
     n = x.size - 1
+    v = x[1:]
     nk = ks.size
     n_tiles = (n + tile) // tile
     n_prefix = prefix.shape[0]
@@ -665,8 +692,8 @@ def position_sums(x, prefix, ks, n_cal, strides, tile):
                     j = n_cal + q * st
                     e = x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
                     total += e * e
-                    b0, t0 = prefix_at_compiled(x, prefix, j + 1)
-                    b1, t1 = prefix_at_compiled(x, prefix, j + k)
+                    b0, t0 = prefix_at_compiled(v, prefix, j)
+                    b1, t1 = prefix_at_compiled(v, prefix, j + k - 1)
                     w = ((prefix[b1, 0] - prefix[b0, 0]) + (prefix[b1, 1] - prefix[b0, 1])) + (
                         t1 - t0)
                     e2 = w - a * x[j] + c * x[j - n_cal]
@@ -748,6 +775,7 @@ tile_sums_compiled = numba.njit(inline="always")(tile_sums)
 block_totals_compiled = numba.njit(inline="always")(block_totals)
 compensated_add_compiled = numba.njit(inline="always")(compensated_add)
 fill_blocks_compiled = numba.njit(cache=True)(fill_blocks)
+eight_sums_compiled = numba.njit(cache=True)(eight_sums)
 gather_points_compiled = numba.njit(inline="always")(gather_points)
 tile_starts_compiled = numba.njit(inline="always")(tile_starts)
 tile_means_compiled = numba.njit(inline="always")(tile_means)

@@ -277,18 +277,25 @@ def allan_variance(
         _check_finite(y)  # a non-finite sample is named first, as before the options
         raise
     plan = segment_plan(ms, y.size, segments)
+    contrasted = contrast_span_s is not None and contrast_span_s * rate_hz >= 1.0
+    # a gyro has no position: its record's position drift is not measured (a pass over a long
+    # record's blocks and strided reads of two more arrays)
+    position = sensor != "gyro"
     with progress_bar(total=ms.size, desc="Allan variance", unit="tau", enabled=progress) as bar:
         # the running sum of y about its mean (precision), the sums of every size, those of the
-        # parts for the stationarity check and the noise identification's phase samples, in one
-        # call
-        x, sums, *more = allan_sums(
+        # parts for the stationarity check, the noise identification's phase samples and the
+        # position contrasts' block sums, in one call
+        got = allan_sums(
             y,
             ms,
             progress=bar.update,
             parts=None if plan is None else (segments, plan[1]),
             gather=None if alpha is not None else _starts_steps(ms, y.size),
+            blocks=contrasted and position,
         )
-    parts, points = more or (None, None)
+    x, sums = got[:2]
+    parts, points = got[2:4] if len(got) > 2 else (None, None)
+    blocks = got[4] if len(got) > 4 else None
     if not (np.isfinite(x[-1]) and np.isfinite(sums).all()):
         # a non-finite sample makes the mean, hence the whole running sum, non-finite: the
         # samples are read again only then, to name it (no pass over every record for it)
@@ -297,11 +304,9 @@ def allan_variance(
     result = assemble_result(ms, sums, alphas, y.size, rate_hz, confidence, interval,
                              identified=alpha is None)
     contrasts = None
-    if contrast_span_s is not None and contrast_span_s * rate_hz >= 1.0:
-        # a gyro has no position: its record's position drift is not measured (a pass over a long
-        # record and strided reads of two more arrays)
+    if contrasted:
         contrasts = phase_contrasts(x=x, rate_hz=rate_hz, calibration_s=contrast_span_s,
-                                    position=sensor != "gyro")
+                                    position=position, blocks=blocks)
     segment = None
     if plan is not None:
         length, part_ms = plan

@@ -53,7 +53,8 @@ _BLOCK = 1 << 14
 _BLOCK_ALL = 1 << 16
 #: samples per plain sum of the compensated running sum
 _PHASE_BLOCK = 256
-#: 8-sample blocks per thread's share of the position contrasts' block sums (``phase_prefix``)
+#: 8-sample blocks per thread's share of the position contrasts' block sums and running pairs
+#: (``block_sums``, ``pair_prefix``)
 _PREFIX_CHUNK = 4096
 #: residues per run of the residue sums of the sizes that are whole blocks (:func:`_far_sums`)
 _RESIDUES = 256
@@ -98,7 +99,8 @@ def _compile():
         "span_sums",
         "sums_all",
         "contrast_sums",
-        "phase_prefix",
+        "block_sums",
+        "pair_prefix",
         "position_sums",
         "lag1_deltas",
     ):
@@ -270,7 +272,7 @@ def _far_sums(x, ms):
     return sums
 
 
-def allan_sums(y, ms, progress=None, *, parts=None, gather=None):
+def allan_sums(y, ms, progress=None, *, parts=None, gather=None, blocks=False):
     """The running sum ``x = phase_from_rate(y, record_mean(y))`` and its
     ``second_difference_sums(x, ms)`` (and, with ``parts``, those of consecutive parts of ``x``).
 
@@ -302,6 +304,10 @@ def allan_sums(y, ms, progress=None, *, parts=None, gather=None):
         ``(starts, steps, counts)``: also the phase samples ``x[starts[i] + q steps[i]]``, ``0 <= q
         <= counts[i]`` (the noise identification's, :func:`lag1_deltas`), gathered on a record the
         JIT kernels sum from each tile of ``x`` as it is filled (in cache).
+    blocks : bool
+        Also the sums of ``x[1:]`` in blocks of 8 samples that the position contrasts read
+        (:func:`position_mean_squares`' ``pairs``), summed on a record the JIT kernels sum from
+        each tile of ``x`` as it is filled; the result then always has five items.
 
     Returns
     -------
@@ -313,28 +319,34 @@ def allan_sums(y, ms, progress=None, *, parts=None, gather=None):
         With ``parts`` or ``gather``: the gathered samples, all sizes' in one array, and where each
         size's begin; ``None`` without ``gather`` or where they were not gathered (a record the
         precompiled kernels sum, or no size below a block: :func:`lag1_deltas` reads ``x`` then).
+    pairs : ndarray, shape (n_samples // 8 + 1, 2), or None
+        With ``blocks``: the block sums in ``pairs[1:, 0]`` (:func:`position_mean_squares`'
+        table), or ``None`` where they were not summed in the fill (a record the precompiled
+        kernels sum, or no size below a block).
     """
     y = np.ascontiguousarray(y, dtype=float)
     ms = np.ascontiguousarray(ms, dtype=np.int64)
     report = progress if progress is not None else (lambda done: None)
     near = ms < _BLOCK_ALL
-    partial = points = None
+    partial = points = eights = None
     if _precompiled_for(y.size) is not None or ms.size == 0:
         x = phase_from_rate(y, record_mean(y))
         sums = second_difference_sums(x, ms)
         report(ms.size)
     else:
-        x, sums, partial, points = _fused_sums(y, ms, near, report, gather)
-    if parts is None and gather is None:
+        x, sums, partial, points, eights = _fused_sums(y, ms, near, report, gather, blocks)
+    if parts is None and gather is None and not blocks:
         return x, sums
-    if parts is None:
-        return x, sums, None, points
-    n_parts, part_ms = parts
-    part_ms = np.ascontiguousarray(part_ms, dtype=np.int64)
-    if partial is None:
-        every = np.ones(part_ms.size, dtype=bool)
-        return x, sums, _each_part(x, part_ms, int(n_parts), every), points
-    return x, sums, _part_sums(x, ms[near], partial, part_ms, int(n_parts)), points
+    part_sums = None
+    if parts is not None:
+        n_parts, part_ms = parts
+        part_ms = np.ascontiguousarray(part_ms, dtype=np.int64)
+        if partial is None:
+            every = np.ones(part_ms.size, dtype=bool)
+            part_sums = _each_part(x, part_ms, int(n_parts), every)
+        else:
+            part_sums = _part_sums(x, ms[near], partial, part_ms, int(n_parts))
+    return (x, sums, part_sums, points) + ((eights,) if blocks else ())
 
 
 def _gather_plan(gather):
@@ -351,13 +363,15 @@ def _gather_plan(gather):
     return starts, steps, counts, offsets, points
 
 
-def _fused_sums(y, ms, near, report, gather=None):
+def _fused_sums(y, ms, near, report, gather=None, blocks=False):
     """:func:`allan_sums` of a record the JIT kernels sum: ``x``, the sums, the tile sums of the
-    sizes below a block (``(n_tiles, near.sum())``, ``None`` where there are none) and the gathered
-    ``(points, offsets)`` (``None`` without ``gather`` or sizes below a block)."""
+    sizes below a block (``(n_tiles, near.sum())``, ``None`` where there are none), the gathered
+    ``(points, offsets)`` (``None`` without ``gather`` or sizes below a block) and the table of
+    :func:`position_mean_squares` with the 8-sample block sums of ``x[1:]`` (``None`` without
+    ``blocks`` or sizes below a block)."""
     kernels = _compile()
     sums = np.empty(ms.size)
-    partial = points = None
+    partial = points = eights = None
     with threads_for_pass(y.size):
         centred = kernels["centred_sums"](y, _PHASE_BLOCK)
         mean = kernels["centred_mean"](y, centred, _PHASE_BLOCK)
@@ -369,10 +383,12 @@ def _fused_sums(y, ms, near, report, gather=None):
             n_tiles = (x.size - 2 * int(ms[near].min()) + _BLOCK_ALL - 1) // _BLOCK_ALL
             partial = np.zeros((n_tiles, int(near.sum())))
             plan = _gather_plan(gather)
+            eights = np.empty((y.size // 8 + 1 if blocks else 1, 2))
             sums[near] = kernels["phase_and_sums"](
                 y, mean, bases, _PHASE_BLOCK, x, ms[near], _BLOCK_ALL, lag, threads_for(y.size),
-                partial, *plan,
+                partial, *plan, eights[1:, 0],
             )
+            eights = eights if blocks else None
             if gather is not None:
                 points = plan[4], plan[3]
         else:
@@ -382,7 +398,7 @@ def _fused_sums(y, ms, near, report, gather=None):
         if not near.all():
             sums[~near] = _far_sums(x, ms[~near])
             report(int((~near).sum()))
-    return x, sums, partial, points
+    return x, sums, partial, points, eights
 
 
 def _each_part(x, ms, n_parts, which):
@@ -473,30 +489,36 @@ def contrast_mean_squares(x, ks, n_cal, strides):
         )
 
 
-def position_mean_squares(x, ks, n_cal, strides):
+def position_mean_squares(x, ks, n_cal, strides, pairs=None):
     """``(len(ks), 2)``: the mean squares of the phase contrasts of
     :func:`contrast_mean_squares` (column 0, the same bits) and of the position contrasts of
     :func:`bayes_imu.allan.contrast.position_mean_square` (column 1), outages ``ks``, window
     ``n_cal``, strides ``strides`` (all valid), of a phase record ``x`` that the JIT kernels sum,
-    in two compiled passes on :func:`threads_for` threads; ``None`` for a record the precompiled
+    in compiled passes on :func:`threads_for` threads; ``None`` for a record the precompiled
     kernels sum (numpy's steps there, without importing numba).
 
-    A position contrast reads a window of ``x``: the first pass sums ``x`` in blocks of 8 samples
-    into a compensated running pair per block (``phase_prefix``: 2 numbers per 8 samples, 20 MB
-    at 1e7 samples, instead of numpy's running sum of every sample, 80 MB written and read), and
-    the second, tile by tile of starts as :func:`contrast_mean_squares`, takes each window as the
-    difference of two such pairs and at most seven samples at each end (``position_sums``). The
-    windows are exact to the rounding of their own samples' sums, not of the running sum's
-    magnitude: nearer an extended-precision reference than numpy's ``cumsum`` steps (tests)."""
+    A position contrast reads a window of ``x``: the sums of ``x[1:]`` in blocks of 8 samples (in
+    ``pairs[1:, 0]``, ``pairs`` of shape ``((len(x) - 1) // 8 + 1, 2)``, where :func:`allan_sums`
+    already summed them as it filled ``x``: ``blocks=True``; else one pass, ``block_sums``) are
+    added in place into a compensated running pair per block (``pair_prefix``: 16 bytes per 8
+    samples, 20 MB at 1e7 samples, instead of numpy's running sum of every sample, 80 MB written and
+    read), and the last pass, tile by tile of starts as :func:`contrast_mean_squares`, takes each
+    window as the difference of two such pairs and at most seven samples at each end
+    (``position_sums``). The windows are exact to the rounding of their own samples' sums, not of
+    the running sum's magnitude: nearer an extended-precision reference than numpy's ``cumsum``
+    steps (tests)."""
     if _precompiled_for(x.size - 1) is not None:
         return None
     kernels = _compile()
     x = np.ascontiguousarray(x, dtype=float)
     with threads_for_pass(x.size):
-        prefix = kernels["phase_prefix"](x, _PREFIX_CHUNK, np.empty((x.size // 8 + 1, 2)))
+        if pairs is None:
+            pairs = np.empty(((x.size - 1) // 8 + 1, 2))
+            kernels["block_sums"](x[1:], _PREFIX_CHUNK, pairs[1:, 0])
+        kernels["pair_prefix"](pairs, _PREFIX_CHUNK)
         return kernels["position_sums"](
             x,
-            prefix,
+            pairs,
             np.ascontiguousarray(ks, dtype=np.int64),
             int(n_cal),
             np.ascontiguousarray(strides, dtype=np.int64),
