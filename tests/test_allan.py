@@ -326,8 +326,9 @@ def test_fused_fill_and_sums_on_any_number_of_runs(rng):
     fill) gives phase_blocks' running sum and sums_all's sums of the same sizes bit for bit, on 1 to
     7 runs, whichever tiles are summed behind the fill and which after it (a run's first and last
     tiles), on a record that is not a whole number of tiles; one to two tiles of lag (the largest
-    size's reach). The position contrasts' 8-sample block sums it adds as it fills are block_sums'
-    bits on any number of runs."""
+    size's reach). The position contrasts' 8-sample block sums it adds as it fills (in its fast-math
+    loop: any order of the 8) are the same bits on any number of runs, within the rounding bound of
+    8 additions of block_sums' strict ones."""
     from bayes_imu.allan import kernels
 
     jit = kernels._compile()
@@ -341,6 +342,9 @@ def test_fused_fill_and_sums_on_any_number_of_runs(rng):
     jit["phase_blocks"](y, mean, bases, block, reference[1:])
     eights = np.empty(y.size // 8)
     jit["block_sums"](reference[1:], 4096, eights)
+    blocks = np.abs(reference[1:8 * eights.size + 1]).reshape(-1, 8)
+    bound = 14 * np.finfo(float).eps * blocks.sum(axis=1)
+    first_fill = None
     for ms in (np.array([1, 2, 4, 8, 16, 3, 1000, 32_768]), np.array([5, 10, 20, 40_000])):
         expected = jit["sums_all"](reference, ms, tile)
         lag = (2 * int(ms.max()) + tile - 2) // tile
@@ -356,7 +360,10 @@ def test_fused_fill_and_sums_on_any_number_of_runs(rng):
                 filled,
             )
             np.testing.assert_array_equal(x, reference)
-            np.testing.assert_array_equal(filled, eights)
+            assert np.all(np.abs(filled - eights) <= bound)
+            if first_fill is None:
+                first_fill = filled.copy()
+            np.testing.assert_array_equal(filled, first_fill)
             np.testing.assert_array_equal(got, expected)
             # the tile sums it leaves are each tile's: their running total is the sums
             np.testing.assert_array_equal(np.cumsum(partial, axis=0)[-1], expected)

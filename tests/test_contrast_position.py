@@ -300,10 +300,11 @@ def test_compiled_position_contrasts_of_a_long_record_are_exact(rng):
     each end). Against an exact reference (each window summed by math.fsum, correctly rounded,
     the contrast in exact rationals, the squares by fsum) they agree to 1e-10 relative on
     outages from 2 samples to the whole record (windows reaching its last, partial block of 8;
-    short windows added in order; starts many strides apart). numpy's running sum about the mean
-    (the shorter records' steps) is off by ~1e-7 here: it rounds at the running sum's magnitude.
-    The phase contrasts of the same call are the attitude-only call's bits; a shorter record takes
-    numpy's steps (None from the kernel)."""
+    short windows added in order; starts many strides apart), with the block sums from their own
+    pass and from allan_sums' fill alike. numpy's running sum about the mean (the shorter records'
+    steps) misses that tolerance: it rounds at the running sum's magnitude. The phase contrasts of
+    the same call are the attitude-only call's bits; a shorter record takes numpy's steps (None
+    from the kernel)."""
     from fractions import Fraction
 
     from bayes_imu.allan import kernels
@@ -313,11 +314,12 @@ def test_compiled_position_contrasts_of_a_long_record_are_exact(rng):
     assert (n + 1) % 8 == 2
     y = 3.0 + rng.standard_normal(n)
     y[-1] += 1e4  # a large phase sample in the last block (x[n - 1] = mean - y[n - 1])
-    x = np.concatenate(([0.0], np.cumsum(y - y.mean())))
+    x, _, _, _, fill = kernels.allan_sums(y, [1, 2, 4], blocks=True)
     n_cal = 6000
     ks = np.array([2, 3, 9, 10, 17, 100, 1001, 40_000, n - n_cal - 3], dtype=np.int64)
     strides = np.array([20_011, 19_997, 21_023, 20_021, 18_061, 20_983, 21_013, 41_017, 1])
     got = kernels.position_mean_squares(x, ks, n_cal, strides)
+    filled = kernels.position_mean_squares(x, ks, n_cal, strides, fill)
     exact = []
     for i, (k, st) in enumerate(zip(ks, strides)):
         k, st = int(k), int(st)
@@ -329,6 +331,7 @@ def test_compiled_position_contrasts_of_a_long_record_are_exact(rng):
             squares.append(float(p * p))
         exact.append(math.fsum(squares) / len(squares))
         assert got[i, 1] == pytest.approx(exact[-1], rel=1e-10, abs=0)
+        assert filled[i, 1] == pytest.approx(exact[-1], rel=1e-10, abs=0)
     # the reference tells the two apart: numpy's steps miss it by more than the tolerance
     assert abs(position_mean_square(x, 2, n_cal, 20_011) / exact[0] - 1.0) > 1e-10
     np.testing.assert_array_equal(got[:, 0], kernels.contrast_mean_squares(x, ks, n_cal, strides))
@@ -341,24 +344,28 @@ def test_compiled_position_contrasts_of_a_long_record_are_exact(rng):
     assert kernels.position_mean_squares(x[:1000], ks[:3], 100, strides[:3]) is None
 
 
-def test_position_contrasts_from_the_fill_are_the_unfused_bits(rng):
+def test_position_contrasts_from_the_fill(rng):
     """allan_variance of a long record sums the position contrasts' 8-sample blocks of x[1:] as it
-    fills x (allan_sums' blocks=True: no further read of the record); its contrasts are the bits of
-    phase_contrasts summing them in a pass of their own, the block sums those of that pass (and
-    numpy's sums of the same 8 samples, to rounding); without blocks, allan_sums returns as
-    before."""
+    fills x (allan_sums' blocks=True: no further read of the record); its contrasts are
+    phase_contrasts' from those block sums, the phase contrasts the attitude-only call's bits. The
+    fill adds each block's 8 samples in its own fast-math loop, so in any order: within the
+    rounding bound of 8 additions (14 eps sum |v|) of block_sums' fixed tree, which is numpy's
+    same tree bit for bit; without blocks, allan_sums returns as before."""
     from bayes_imu.allan import kernels
 
     n = kernels.PRECOMPILED_BELOW + 4_321
     y = 3.0 + rng.standard_normal(n) + np.cumsum(rng.standard_normal(n)) * 1e-3
     fused = allan_variance(y, rate_hz=100.0).contrasts
     x, _, _, _, pairs = kernels.allan_sums(y, [1, 2, 4], blocks=True)
+    v = x[1:8 * (n // 8) + 1].reshape(-1, 8)
+    tree = ((v[:, 0] + v[:, 1]) + (v[:, 2] + v[:, 3])) + ((v[:, 4] + v[:, 5]) + (v[:, 6] + v[:, 7]))
     alone = np.empty(n // 8)
     kernels._compile()["block_sums"](x[1:], 4096, alone)
-    np.testing.assert_array_equal(pairs[1:, 0], alone)
-    assert np.allclose(pairs[1:, 0], x[1:8 * (n // 8) + 1].reshape(-1, 8).sum(axis=1),
-                       rtol=1e-12, atol=1e-9 * np.abs(x).max())
-    separate = phase_contrasts(x=x, rate_hz=100.0)
-    np.testing.assert_array_equal(fused.mean_square_2, separate.mean_square_2)
-    np.testing.assert_array_equal(fused.mean_square, separate.mean_square)
+    np.testing.assert_array_equal(alone, tree)
+    bound = 14 * np.finfo(float).eps * np.abs(v).sum(axis=1)
+    assert np.all(np.abs(pairs[1:, 0] - tree) <= bound)
+    from_fill = phase_contrasts(x=x, rate_hz=100.0, pairs=pairs)
+    np.testing.assert_array_equal(fused.mean_square_2, from_fill.mean_square_2)
+    np.testing.assert_array_equal(
+        fused.mean_square, phase_contrasts(x=x, rate_hz=100.0, position=False).mean_square)
     assert len(kernels.allan_sums(y, [1, 2, 4])) == 2

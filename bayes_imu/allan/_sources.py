@@ -6,15 +6,18 @@ package build compiles the same functions ahead of time, one thread each (``pran
 there), into the extension ``bayes_imu._compiled`` (``setup.py``), which loads without numba. The
 precompiled build has the kernels of a record shorter than 2**21 samples (``setup.py``'s
 ``KERNELS``); the kernels of longer records' parallel passes (``centred_sums`` to ``residue_sums``,
-``span_sums``, ``contrast_sums``, ``block_sums``, ``pair_prefix``, ``position_sums`` and
-``lag1_deltas``: a shorter record takes numpy's steps for the contrasts and the noise
-identification) are JIT-compiled only. :data:`FASTMATH` names the kernels compiled with
-reassociation (a vectorised sum of squares); the running sums never are (their Kahan-Babuska
-compensation would be optimised away): ``phase_and_sums`` fills through ``fill_blocks`` and sums
-the position contrasts' blocks through ``eight_sums``, both compiled apart with strict arithmetic.
-Helpers inlined into their callers (``inline="always"``: numba's IR, so they take the caller's
-fast-math flags and the precompiled ``sums_all`` compiles to the same code as before they were
-split out) are module globals, as a kernel's callees must be for numba's cache.
+``span_sums``, ``contrast_sums``, ``block_sums``, ``pair_prefix`` and ``lag1_deltas``: a shorter
+record takes numpy's steps for the contrasts and the noise identification) are JIT-compiled only.
+:data:`FASTMATH` names the kernels compiled with reassociation (a vectorised sum of squares); the
+running sums never are (their Kahan-Babuska compensation would be optimised away):
+``phase_and_sums`` fills through ``fill_blocks``, compiled apart. numba compiles a callee's
+signature inside the first caller that needs it, with that caller's fast-math flags, and reuses
+that build for every caller (measured: a fixed tree of 8 additions came back reassociated in a
+strict caller after a fast-math one had compiled it first); the position contrasts' block sum,
+``eight_sum``, is therefore inlined into each of its two callers: strict in ``block_sums``, in any
+order in the fill. Helpers inlined into their callers (``inline="always"``: numba's IR, so they
+take the caller's fast-math flags and the precompiled ``sums_all`` compiles to the same code as
+before they were split out) are module globals, as a kernel's callees must be for numba's cache.
 """
 
 import numba
@@ -41,12 +44,11 @@ __all__ = [
     "contrast_sums",
     "tile_starts",
     "tile_means",
-    "eight_sums",
+    "eight_sum",
     "block_sums",
     "pair_prefix",
     "head_sum",
     "prefix_at",
-    "position_sums",
     "lag1_deltas",
     "FASTMATH",
     "PARALLEL",
@@ -74,7 +76,6 @@ PARALLEL = {
     "contrast_sums",
     "block_sums",
     "pair_prefix",
-    "position_sums",
     "lag1_deltas",
 }
 
@@ -303,8 +304,9 @@ def phase_and_sums(
     # samples (starts, steps, counts, offsets, points: the noise identification's phase samples,
     # read while the tile is in cache instead of at scattered lines of the record afterwards; x[0]
     # is not gathered) and, where eights is not empty (len(y) // 8: a column of pair_prefix's
-    # table), its 8-sample block sums of x[1:] for the position contrasts (eight_sums: the bits of
-    # block_sums, without another read of the record).
+    # table), its 8-sample block sums of x[1:] for the position contrasts (eight_sum, inlined,
+    # without another read of the record; in this kernel's fast-math context, so the 8 samples may
+    # be added in another order than block_sums' tree: a sum of them all the same).
     x[0] = 0.0
     out = x[1:]
     per_tile = tile // block
@@ -322,10 +324,8 @@ def phase_and_sums(
                 x, t * tile + 1, min(t * tile + tile, y.size) + 1, starts, steps, counts, offsets,
                 points,
             )
-            if eights.size:
-                eight_sums_compiled(
-                    out, t * (tile // 8), min(t * (tile // 8) + tile // 8, eights.size), eights
-                )
+            for b in range(t * (tile // 8), min(t * (tile // 8) + tile // 8, eights.size)):
+                eights[b] = eight_sum_compiled(out, 8 * b)
             s = t - lag
             if first < s < n_tiles:
                 tile_sums_compiled(x, ms, s * tile, tile, partial[s])
@@ -506,41 +506,6 @@ def block_totals(x, ms, block, partial):
     return out
 
 
-def contrast_sums(x, ks, n_cal, strides, tile):
-    # the mean square of the phase contrasts e_j = x[j + k] - (1 + r) x[j] + r x[j - n_cal],
-    # r = k / n_cal, over the starts j = n_cal, n_cal + s, ... <= len(x) - 1 - k, for each outage k
-    # and its stride s (allan/contrast.py's contrast_mean_square, the same e_j: strict IEEE, no
-    # contraction into fused multiply-adds). The starts are taken tile by tile (tile starts, on the
-    # threads), every outage in a tile before the next, each tile after one read of the next
-    # tile's samples, a cache line at a time (the hardware prefetcher streams them in): the outages
-    # shorter than a tile then read x from cache, not each at scattered lines from memory (a
-    # stride of 187 samples is 1.5 kB; scattered, a long record's contrasts took 4x as long).
-    # Tile sums added in tile order.
-    n = x.size - 1
-    nk = ks.size
-    n_tiles = (n + tile) // tile  # starts 0 <= j <= n
-    partial = np.zeros((n_tiles, nk + 1))
-    for t in numba.prange(n_tiles):
-        lo = t * tile
-        hi = min(lo + tile, n + 1)
-        warm = 0.0
-        for p in range(hi, min(hi + tile, n + 1), 8):
-            warm += x[p]
-        partial[t, nk] = warm  # kept, so that the read is not optimised away
-        for i in range(nk):
-            k = ks[i]
-            s = strides[i]
-            r = k / n_cal
-            q0, q1 = tile_starts_compiled(lo, hi, n, n_cal, k, s)
-            total = 0.0
-            for q in range(q0, q1):
-                j = n_cal + q * s
-                e = x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
-                total += e * e
-            partial[t, i] = total
-    return tile_means_compiled(partial, n, n_cal, ks, strides)
-
-
 def tile_starts(lo, hi, n, n_cal, k, stride):
     # (q0, q1): the starts j = n_cal + q stride (q0 <= q < q1) of outage k in the tile [lo, hi)
     # of a record of n samples, of those j <= n - k
@@ -561,32 +526,31 @@ def tile_means(partial, n, n_cal, ks, strides):
     return out
 
 
-def eight_sums(v, first, last, out):
-    # out[b] = the 8 samples v[8 b .. 8 b + 7] added in a fixed tree, for first <= b < last (strict
-    # IEEE, compiled apart: the same bits from the fill, phase_and_sums, and from block_sums)
-    for b in range(first, last):
-        lo = 8 * b
-        out[b] = ((v[lo] + v[lo + 1]) + (v[lo + 2] + v[lo + 3])) + (
-            (v[lo + 4] + v[lo + 5]) + (v[lo + 6] + v[lo + 7]))
+def eight_sum(v, lo):
+    # v[lo] + ... + v[lo + 7] in a fixed tree (inlined: strict IEEE in block_sums, in any order
+    # inside phase_and_sums' fast-math loop)
+    return ((v[lo] + v[lo + 1]) + (v[lo + 2] + v[lo + 3])) + (
+        (v[lo + 4] + v[lo + 5]) + (v[lo + 6] + v[lo + 7]))
 
 
 def block_sums(v, chunk, out):
-    # out[b] = eight_sums of every whole block of 8 samples of v (len(out) = len(v) // 8; a column
+    # out[b] = eight_sum of every whole block of 8 samples of v (len(out) = len(v) // 8; a column
     # of pair_prefix's table), chunk blocks at a time per thread
     nb = out.size
     for h in numba.prange((nb + chunk - 1) // chunk):
-        eight_sums_compiled(v, h * chunk, min(h * chunk + chunk, nb), out)
+        for b in range(h * chunk, min(h * chunk + chunk, nb)):
+            out[b] = eight_sum_compiled(v, 8 * b)
     return out
 
 
 def pair_prefix(pairs, chunk):
     # in place: pairs[b] = (hi, lo) = sum_{q < b} blocks[q] for 0 <= b <= nb, from the block sums
-    # blocks[q] = pairs[q + 1, 0] (block_sums or the fill's eight_sums wrote them there: one table,
+    # blocks[q] = pairs[q + 1, 0] (block_sums or the fill wrote them there: one table,
     # no second array to fault in), as a compensated pair (the value hi + lo, exact to the rounding
     # of the blocks' own sums): each chunk's total on the threads, the chunks' bases added in order
     # with Kahan-Babuska compensation, then each chunk's running pair from its base on the threads
     # (strict IEEE: the compensation is not optimised away). The position contrasts' windows are
-    # differences of two such sums (position_sums): 16 bytes per 8 samples instead of a running
+    # differences of two such sums (contrast_sums): 16 bytes per 8 samples instead of a running
     # sum of every sample (80 MB at 1e7 samples, written and read)
     nb = pairs.shape[0] - 1
     pairs[0, 0] = 0.0
@@ -643,21 +607,28 @@ def prefix_at(v, prefix, p):
     return b, t
 
 
-def position_sums(x, prefix, ks, n_cal, strides, tile):
-    # (len(ks), 2): the mean squares of the phase contrasts of contrast_sums (column 0: the same
-    # e_j, added in the same order, so the same bits) and of the position contrasts (column 1)
-    # p_j = sum_{j < i < j + k} x[i] - (k - 1 + c) x[j] + c x[j - n_cal], c = k (k - 1) / (2 n_cal)
-    # (allan/contrast.py's position_mean_square; the constant it annihilates need not be taken out
-    # first), over the same starts, tile by tile as contrast_sums: the window x[j + 1 : j + k] =
-    # v[j : j + k - 1] of v = x[1:] from the compensated running pairs of its 8-sample blocks
-    # (prefix: pair_prefix; exact differences of their pairs) and at most seven samples at each
-    # end, next to x[j] and x[j + k], which the phase contrast reads anyway. Each tile's next tile
-    # of x and of the pairs is read ahead a cache line at a time
+def contrast_sums(x, pairs, ks, n_cal, strides, tile, position):
+    # (len(ks), 2): the mean squares of the phase contrasts e_j = x[j + k] - (1 + r) x[j] + r x[j -
+    # n_cal], r = k / n_cal (column 0; allan/contrast.py's contrast_mean_square, the same e_j:
+    # strict IEEE, no contraction into fused multiply-adds) and, with position, of the position
+    # contrasts p_j = sum_{j < i < j + k} x[i] - (k - 1 + c) x[j] + c x[j - n_cal], c = k (k - 1) /
+    # (2 n_cal) (column 1, else 0; allan/contrast.py's position_mean_square; the constant it
+    # annihilates need not be taken out first), over the starts j = n_cal, n_cal + st, ... <=
+    # len(x) - 1 - k, for each outage k and its stride st. The starts are taken tile by tile (tile
+    # starts, on the threads), every outage in a tile before the next, each tile after one read of
+    # the next tile's samples (and of its rows of pairs), a cache line at a time (the hardware
+    # prefetcher streams them in): the outages shorter than a tile then read x from cache, not
+    # each at scattered lines from memory (a stride of 187 samples is 1.5 kB; scattered, a long
+    # record's contrasts took 4x as long). A position window x[j + 1 : j + k] = v[j : j + k - 1] of
+    # v = x[1:] longer than 8 samples is the difference of two compensated running pairs of its
+    # 8-sample blocks (pairs: pair_prefix; exact differences) and at most seven samples at each
+    # end, next to x[j] and x[j + k], which the phase contrast reads anyway; a shorter one is
+    # added in order. Tile sums added in tile order.
     n = x.size - 1
     v = x[1:]
     nk = ks.size
-    n_tiles = (n + tile) // tile
-    n_prefix = prefix.shape[0]
+    n_tiles = (n + tile) // tile  # starts 0 <= j <= n
+    n_pairs = pairs.shape[0]
     partial = np.zeros((n_tiles, 2 * nk + 1))
     for t in numba.prange(n_tiles):
         lo = t * tile
@@ -665,8 +636,9 @@ def position_sums(x, prefix, ks, n_cal, strides, tile):
         warm = 0.0
         for p in range(hi, min(hi + tile, n + 1), 8):
             warm += x[p]
-        for p in range(min(hi >> 3, n_prefix), min((hi + tile) >> 3, n_prefix), 4):
-            warm += prefix[p, 0]
+        if position:
+            for p in range(min(hi >> 3, n_pairs), min((hi + tile) >> 3, n_pairs), 4):
+                warm += pairs[p, 0]
         partial[t, 2 * nk] = warm  # kept, so that the reads are not optimised away
         for i in range(nk):
             k = ks[i]
@@ -677,7 +649,12 @@ def position_sums(x, prefix, ks, n_cal, strides, tile):
             q0, q1 = tile_starts_compiled(lo, hi, n, n_cal, k, st)
             total = 0.0
             total_2 = 0.0
-            if k <= 9:  # a window of at most 8 samples: added in order (k = 1: empty, p = 0)
+            if not position:
+                for q in range(q0, q1):
+                    j = n_cal + q * st
+                    e = x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
+                    total += e * e
+            elif k <= 9:  # a window of at most 8 samples: added in order (k = 1: empty, p = 0)
                 for q in range(q0, q1):
                     j = n_cal + q * st
                     e = x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
@@ -692,9 +669,9 @@ def position_sums(x, prefix, ks, n_cal, strides, tile):
                     j = n_cal + q * st
                     e = x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
                     total += e * e
-                    b0, t0 = prefix_at_compiled(v, prefix, j)
-                    b1, t1 = prefix_at_compiled(v, prefix, j + k - 1)
-                    w = ((prefix[b1, 0] - prefix[b0, 0]) + (prefix[b1, 1] - prefix[b0, 1])) + (
+                    b0, t0 = prefix_at_compiled(v, pairs, j)
+                    b1, t1 = prefix_at_compiled(v, pairs, j + k - 1)
+                    w = ((pairs[b1, 0] - pairs[b0, 0]) + (pairs[b1, 1] - pairs[b0, 1])) + (
                         t1 - t0)
                     e2 = w - a * x[j] + c * x[j - n_cal]
                     total_2 += e2 * e2
@@ -775,7 +752,7 @@ tile_sums_compiled = numba.njit(inline="always")(tile_sums)
 block_totals_compiled = numba.njit(inline="always")(block_totals)
 compensated_add_compiled = numba.njit(inline="always")(compensated_add)
 fill_blocks_compiled = numba.njit(cache=True)(fill_blocks)
-eight_sums_compiled = numba.njit(cache=True)(eight_sums)
+eight_sum_compiled = numba.njit(inline="always")(eight_sum)
 gather_points_compiled = numba.njit(inline="always")(gather_points)
 tile_starts_compiled = numba.njit(inline="always")(tile_starts)
 tile_means_compiled = numba.njit(inline="always")(tile_means)

@@ -233,15 +233,15 @@ def _mean_squares(x, ks, n_cal, strides):
     return np.array([contrast_mean_square(x, kk, n_cal, st) for kk, st in zip(ks, strides)])
 
 
-def _both_mean_squares(x, ks, n_cal, strides, blocks=None):
-    """``(contrast_mean_square, position_mean_square)`` of each outage: two compiled passes on a
+def _both_mean_squares(x, ks, n_cal, strides, pairs=None):
+    """``(contrast_mean_square, position_mean_square)`` of each outage: compiled passes on a
     long record (:func:`bayes_imu.allan.kernels.position_mean_squares`; the phase contrasts' the
     same bits as :func:`_mean_squares`'), else numpy's, one outage at a time (the running sum
     computed once)."""
     if not ks.size:
         return np.zeros(0), np.zeros(0)
     if _compiled_valid(x, ks, n_cal):
-        compiled = position_mean_squares(x, ks, n_cal, strides, blocks)
+        compiled = position_mean_squares(x, ks, n_cal, strides, pairs)
         if compiled is not None:
             return compiled[:, 0], compiled[:, 1]
     mean = x.mean()
@@ -269,7 +269,7 @@ def contrast_grid(
 
 
 def phase_contrasts(y=None, *, rate_hz, calibration_s=DEFAULT_CONTRAST_SPAN_S, x=None, k=None,
-                    position=True, blocks=None):
+                    position=True, pairs=None):
     """:class:`PhaseContrasts` of rate samples ``y`` (or of their phase record ``x``).
 
     Parameters
@@ -287,11 +287,11 @@ def phase_contrasts(y=None, *, rate_hz, calibration_s=DEFAULT_CONTRAST_SPAN_S, x
     position : bool
         Whether to measure the position (order 2) drift too (``False`` for a gyro: its
         :attr:`~PhaseContrasts.mean_square_2` is then ``None``).
-    blocks : ((len(x) - 1) // 8 + 1, 2) ndarray, optional
-        With ``x``: the sums of ``x[1:]`` in blocks of 8 samples in ``blocks[1:, 0]`` where already
+    pairs : ((len(x) - 1) // 8 + 1, 2) ndarray, optional
+        With ``x``: the sums of ``x[1:]`` in blocks of 8 samples in ``pairs[1:, 0]`` where already
         summed (:func:`bayes_imu.allan.kernels.allan_sums`' ``blocks``), read by the position
-        contrasts of a long record instead of summed again (the same numbers; the table is
-        overwritten).
+        contrasts of a long record instead of summed again (the same sums to rounding; the table
+        is overwritten).
 
     Returns
     -------
@@ -312,7 +312,7 @@ def phase_contrasts(y=None, *, rate_hz, calibration_s=DEFAULT_CONTRAST_SPAN_S, x
     strides = contrast_stride(ks, n_cal)
     ms2 = None
     if position:
-        ms, ms2 = _both_mean_squares(x, ks, n_cal, strides, blocks)
+        ms, ms2 = _both_mean_squares(x, ks, n_cal, strides, pairs)
         ms2 = ms2.reshape(ks.shape) / rate_hz**4
     else:
         ms = _mean_squares(x, ks, n_cal, strides)

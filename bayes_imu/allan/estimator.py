@@ -295,7 +295,7 @@ def allan_variance(
         )
     x, sums = got[:2]
     parts, points = got[2:4] if len(got) > 2 else (None, None)
-    blocks = got[4] if len(got) > 4 else None
+    pairs = got[4] if len(got) > 4 else None
     if not (np.isfinite(x[-1]) and np.isfinite(sums).all()):
         # a non-finite sample makes the mean, hence the whole running sum, non-finite: the
         # samples are read again only then, to name it (no pass over every record for it)
@@ -306,7 +306,7 @@ def allan_variance(
     contrasts = None
     if contrasted:
         contrasts = phase_contrasts(x=x, rate_hz=rate_hz, calibration_s=contrast_span_s,
-                                    position=position, blocks=blocks)
+                                    position=position, pairs=pairs)
     segment = None
     if plan is not None:
         length, part_ms = plan

@@ -101,7 +101,6 @@ def _compile():
         "contrast_sums",
         "block_sums",
         "pair_prefix",
-        "position_sums",
         "lag1_deltas",
     ):
         _compiled[name] = numba.njit(
@@ -328,13 +327,13 @@ def allan_sums(y, ms, progress=None, *, parts=None, gather=None, blocks=False):
     ms = np.ascontiguousarray(ms, dtype=np.int64)
     report = progress if progress is not None else (lambda done: None)
     near = ms < _BLOCK_ALL
-    partial = points = eights = None
+    partial = points = pairs = None
     if _precompiled_for(y.size) is not None or ms.size == 0:
         x = phase_from_rate(y, record_mean(y))
         sums = second_difference_sums(x, ms)
         report(ms.size)
     else:
-        x, sums, partial, points, eights = _fused_sums(y, ms, near, report, gather, blocks)
+        x, sums, partial, points, pairs = _fused_sums(y, ms, near, report, gather, blocks)
     if parts is None and gather is None and not blocks:
         return x, sums
     part_sums = None
@@ -346,7 +345,7 @@ def allan_sums(y, ms, progress=None, *, parts=None, gather=None, blocks=False):
             part_sums = _each_part(x, part_ms, int(n_parts), every)
         else:
             part_sums = _part_sums(x, ms[near], partial, part_ms, int(n_parts))
-    return (x, sums, part_sums, points) + ((eights,) if blocks else ())
+    return (x, sums, part_sums, points) + ((pairs,) if blocks else ())
 
 
 def _gather_plan(gather):
@@ -371,7 +370,7 @@ def _fused_sums(y, ms, near, report, gather=None, blocks=False):
     ``blocks`` or sizes below a block)."""
     kernels = _compile()
     sums = np.empty(ms.size)
-    partial = points = eights = None
+    partial = points = pairs = None
     with threads_for_pass(y.size):
         centred = kernels["centred_sums"](y, _PHASE_BLOCK)
         mean = kernels["centred_mean"](y, centred, _PHASE_BLOCK)
@@ -383,12 +382,12 @@ def _fused_sums(y, ms, near, report, gather=None, blocks=False):
             n_tiles = (x.size - 2 * int(ms[near].min()) + _BLOCK_ALL - 1) // _BLOCK_ALL
             partial = np.zeros((n_tiles, int(near.sum())))
             plan = _gather_plan(gather)
-            eights = np.empty((y.size // 8 + 1 if blocks else 1, 2))
+            pairs = np.empty((y.size // 8 + 1 if blocks else 1, 2))
             sums[near] = kernels["phase_and_sums"](
                 y, mean, bases, _PHASE_BLOCK, x, ms[near], _BLOCK_ALL, lag, threads_for(y.size),
-                partial, *plan, eights[1:, 0],
+                partial, *plan, pairs[1:, 0],
             )
-            eights = eights if blocks else None
+            pairs = pairs if blocks else None
             if gather is not None:
                 points = plan[4], plan[3]
         else:
@@ -398,7 +397,7 @@ def _fused_sums(y, ms, near, report, gather=None, blocks=False):
         if not near.all():
             sums[~near] = _far_sums(x, ms[~near])
             report(int((~near).sum()))
-    return x, sums, partial, points, eights
+    return x, sums, partial, points, pairs
 
 
 def _each_part(x, ms, n_parts, which):
@@ -478,14 +477,22 @@ def contrast_mean_squares(x, ks, n_cal, strides):
     contrasts as numpy's, their squares added in another order (about 1e-15 relative)."""
     if _precompiled_for(x.size - 1) is not None:
         return None
+    return _contrast_pass(x, np.zeros((1, 2)), ks, n_cal, strides, False)[:, 0]
+
+
+def _contrast_pass(x, pairs, ks, n_cal, strides, position):
+    """``contrast_sums``' tile pass on :func:`threads_for` threads: the phase contrasts' mean
+    squares and, with ``position``, the position contrasts' from ``pairs`` (``pair_prefix``'s)."""
     kernels = _compile()
     with threads_for_pass(x.size):
         return kernels["contrast_sums"](
             np.ascontiguousarray(x, dtype=float),
+            pairs,
             np.ascontiguousarray(ks, dtype=np.int64),
             int(n_cal),
             np.ascontiguousarray(strides, dtype=np.int64),
             _BLOCK_ALL,
+            position,
         )
 
 
@@ -503,10 +510,11 @@ def position_mean_squares(x, ks, n_cal, strides, pairs=None):
     added in place into a compensated running pair per block (``pair_prefix``: 16 bytes per 8
     samples, 20 MB at 1e7 samples, instead of numpy's running sum of every sample, 80 MB written and
     read), and the last pass, tile by tile of starts as :func:`contrast_mean_squares`, takes each
-    window as the difference of two such pairs and at most seven samples at each end
-    (``position_sums``). The windows are exact to the rounding of their own samples' sums, not of
-    the running sum's magnitude: nearer an extended-precision reference than numpy's ``cumsum``
-    steps (tests)."""
+    window as the difference of two such pairs and at most seven samples at each end (the same
+    ``contrast_sums`` pass). The windows are exact to the rounding of their own samples' sums, not
+    of the running sum's magnitude: nearer an extended-precision reference than numpy's ``cumsum``
+    steps (tests). The fill adds each block's 8 samples in any order (its fast-math loop), the pass
+    of its own in a fixed tree: the same sums to rounding."""
     if _precompiled_for(x.size - 1) is not None:
         return None
     kernels = _compile()
@@ -516,14 +524,7 @@ def position_mean_squares(x, ks, n_cal, strides, pairs=None):
             pairs = np.empty(((x.size - 1) // 8 + 1, 2))
             kernels["block_sums"](x[1:], _PREFIX_CHUNK, pairs[1:, 0])
         kernels["pair_prefix"](pairs, _PREFIX_CHUNK)
-        return kernels["position_sums"](
-            x,
-            pairs,
-            np.ascontiguousarray(ks, dtype=np.int64),
-            int(n_cal),
-            np.ascontiguousarray(strides, dtype=np.int64),
-            _BLOCK_ALL,
-        )
+    return _contrast_pass(x, pairs, ks, n_cal, strides, True)
 
 
 def lag1_deltas(x, ms, starts, counts, max_differences, *, steps=None, n_samples=None):
