@@ -4,7 +4,7 @@ import contextlib
 
 import numpy as np
 
-from .text import p_text
+from .text import interval_digits, p_text
 
 __all__ = [
     "plot_allan",
@@ -589,7 +589,7 @@ def _set_ticks(axis, ticks, *, labelled, label):
 
 def _diagonal_panel(ax, x, limits, bins):
     """One parameter's histogram on log bins, its 5%, 50%, 95% quantiles dashed and given in the
-    title."""
+    title (to the digits the interval resolves: :func:`~bayes_imu.report.text.interval_digits`)."""
     from matplotlib.ticker import NullLocator
 
     counts, edges = np.histogram(x, bins=np.geomspace(limits[0], limits[1], bins + 1))
@@ -602,7 +602,9 @@ def _diagonal_panel(ax, x, limits, bins):
     ax.set_ylim(0.0, 1.1 * counts.max())
     ax.yaxis.set_major_locator(NullLocator())
     ax.yaxis.set_minor_locator(NullLocator())
-    ax.set_title(f"{q[1]:.4g}\n[{q[0]:.3g}, {q[2]:.3g}]", fontsize=CORNER_FONT)
+    # the digits the interval resolves, as the console prints them (at most 4 in a panel's title)
+    d = interval_digits(q[1], q[0], q[2], most=4)
+    ax.set_title(f"{q[1]:.{d}g}\n[{q[0]:.{d}g}, {q[2]:.{d}g}]", fontsize=CORNER_FONT)
 
 
 _SUPERSCRIPT = str.maketrans(

@@ -1,6 +1,6 @@
 """Numbers as the outputs print them (console, figures, report.html)."""
 
-__all__ = ["p_text", "outage_text", "interval_text", "spread_prior_note"]
+__all__ = ["p_text", "outage_text", "interval_digits", "interval_text", "spread_prior_note"]
 
 
 def p_text(p):
@@ -13,17 +13,22 @@ def p_text(p):
     return "> 0.99" if p < 1.0 and float(text) >= 1.0 else f"= {text}"
 
 
-def interval_text(median, low, high, most=5):
-    """``"median 0.79, 90% [0.55, 4.2]"``: a median and its interval to the significant digits the
-    interval resolves, two more than the median over the interval's width has (at least 2, at most
-    ``most``): a factor-of-eight interval gives 2 digits, a 1% one 4. The separator after the
-    median is ``", "``; a width that is not positive and finite gives ``most`` digits."""
+def interval_digits(median, low, high, most=5):
+    """The significant digits an interval resolves: two more than the median over the interval's
+    width has (at least 2, at most ``most``): a factor-of-eight interval gives 2 digits, a 1% one 4;
+    a width that is not positive and finite gives ``most``."""
     import math
 
     width = high - low
-    digits = most
     if math.isfinite(width) and width > 0 and median != 0 and math.isfinite(median):
-        digits = min(most, max(2, math.ceil(math.log10(abs(median) / width)) + 2))
+        return min(most, max(2, math.ceil(math.log10(abs(median) / width)) + 2))
+    return most
+
+
+def interval_text(median, low, high, most=5):
+    """``"median 0.79, 90% [0.55, 4.2]"``: a median and its interval to the significant digits the
+    interval resolves (:func:`interval_digits`); the separator after the median is ``", "``."""
+    digits = interval_digits(median, low, high, most)
     return f"median {median:.{digits}g}, 90% [{low:.{digits}g}, {high:.{digits}g}]"
 
 
