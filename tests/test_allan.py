@@ -321,6 +321,49 @@ def test_long_record_running_sum_is_near_exact_on_any_number_of_threads(rng, mon
     )
 
 
+_COMPILE_ORDER_PROBE = """
+import re, sys
+import numpy as np
+from bayes_imu.allan import kernels
+jit = kernels._compile()
+block, tile = kernels._PHASE_BLOCK, kernels._BLOCK_ALL
+y = np.random.default_rng(0).standard_normal(3 * tile + 5) + 0.25
+sums = jit["centred_sums"](y, block)
+mean = jit["centred_mean"](y, sums, block)
+bases = jit["centred_bases"](y, sums, mean, block)
+ms = np.array([1, 2, 4])
+x = np.empty(y.size + 1)
+partial = np.zeros(((y.size - 1 + tile - 1) // tile, ms.size))
+eights = np.empty(y.size // 8)
+# the fast-math kernel first: the order in which a shared callee took its caller's flags
+plan = kernels._gather_plan(None)
+jit["phase_and_sums"](y, mean, bases, block, x, ms, tile, 1, 2, partial, *plan, eights)
+jit["phase_blocks"](y, mean, bases, block, np.empty(y.size))
+ir = "".join(jit["phase_blocks"].inspect_llvm(s) for s in jit["phase_blocks"].signatures)
+flagged = re.findall(r"= fadd (?:reassoc|fast|nnan|ninf|nsz|arcp|contract|afn)", ir)
+print(len(flagged), len(re.findall(r"= fadd double", ir)))
+"""
+
+
+@pytest.mark.slow  # ~10 s: the parallel kernels compiled afresh in another process
+def test_the_running_sum_is_strict_whichever_kernel_compiles_first(tmp_path):
+    """phase_blocks (strict IEEE) fills the running sum through fill_blocks, which the fast-math
+    phase_and_sums calls too. numba compiles a callee's signature inside the first caller that needs
+    it, with that caller's fast-math flags, and reuses it: with fill_blocks called apart,
+    phase_and_sums compiled first gave phase_blocks 18 fast-math additions and no strict one. In a
+    fresh process and an empty numba cache, phase_and_sums compiled first, phase_blocks' build has
+    strict additions and no addition with a fast-math flag."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    done = subprocess.run([sys.executable, "-c", _COMPILE_ORDER_PROBE], env=env,
+                          capture_output=True, text=True, check=True)
+    flagged, strict = map(int, done.stdout.split())
+    assert flagged == 0 and strict > 0
+
+
 def test_fused_fill_and_sums_on_any_number_of_runs(rng):
     """phase_and_sums (each thread fills a run of tiles and sums the sizes below a tile behind its
     fill) gives phase_blocks' running sum and sums_all's sums of the same sizes bit for bit, on 1 to
@@ -652,8 +695,8 @@ def test_precompiled_kernels_agree_with_the_jit_build(rng):
     for flags in ((1, 1), (1, 0), (0, 0)):  # a = 3, b = 8: M_a = 695, M_b = 685
         lag_sum = (g_aot, h, half, 40, 3, 695, 685, reach, *flags)
         assert aot.pair_sum_lags(*lag_sum) == numba.njit(pair_sum_lags)(*lag_sum)
-    # the running sums are strict IEEE (fast-math would optimise their compensation away), the fused
-    # fill too
+    # the running sums are strict IEEE (fast-math would optimise their compensation away; their
+    # builds: test_the_running_sum_is_strict_whichever_kernel_compiles_first)
     running = {
         "phase_chunk",
         "centred_sums",
@@ -662,9 +705,7 @@ def test_precompiled_kernels_agree_with_the_jit_build(rng):
         "fill_blocks",
         "phase_blocks",
     }
-    assert not running & set(
-        _sources.FASTMATH
-    ) and not _sources.fill_blocks_compiled.targetoptions.get("fastmath")
+    assert not running & set(_sources.FASTMATH)
     from bayes_imu.noise import _sources as noise_sources
     from bayes_imu.noise.euler_sums import SWITCH, _random_walk, series_coefficients
 

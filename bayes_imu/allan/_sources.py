@@ -9,13 +9,17 @@ precompiled build has the kernels of a record shorter than 2**21 samples (``setu
 ``span_sums``, ``contrast_sums``, ``block_sums``, ``pair_prefix`` and ``lag1_deltas``: a shorter
 record takes numpy's steps for the contrasts and the noise identification) are JIT-compiled only.
 :data:`FASTMATH` names the kernels compiled with reassociation (a vectorised sum of squares); the
-running sums never are (their Kahan-Babuska compensation would be optimised away):
-``phase_and_sums`` fills through ``fill_blocks``, compiled apart. numba compiles a callee's
-signature inside the first caller that needs it, with that caller's fast-math flags, and reuses
-that build for every caller (measured: a fixed tree of 8 additions came back reassociated in a
-strict caller after a fast-math one had compiled it first); the position contrasts' block sum,
-``eight_sum``, is therefore inlined into each of its two callers: strict in ``block_sums``, in any
-order in the fill. Helpers inlined into their callers (``inline="always"``: numba's IR, so they
+running sums never are (their Kahan-Babuska compensation would be optimised away). numba compiles
+a callee's signature inside the first caller that needs it, with that caller's fast-math flags,
+and reuses that build for every caller (measured: a fixed tree of 8 additions came back
+reassociated in a strict caller after a fast-math one had compiled it first; ``fill_blocks``,
+called apart, took ``phase_and_sums``' flags into ``phase_blocks`` the same way). A helper that
+both a strict and a fast-math kernel call is therefore inlined into each, so that each caller's
+flags, not the order of compilation, decide its build: the position contrasts' block sum
+``eight_sum`` (strict in ``block_sums``, in any order in the fill) and the running sum's
+``fill_blocks`` (strict in ``phase_blocks``; in ``phase_and_sums``' fast-math loop its additions
+stay in order all the same, each partial sum being stored: the fused fill is ``phase_blocks``'
+bits, tested). Helpers inlined into their callers (``inline="always"``: numba's IR, so they
 take the caller's fast-math flags and the precompiled ``sums_all`` compiles to the same code as
 before they were split out) are module globals, as a kernel's callees must be for numba's cache.
 """
@@ -272,7 +276,9 @@ def centred_bases(y, sums, offset, block):
 
 def fill_blocks(y, offset, bases, block, first, last, out):
     # out[i] = base of the block + the plain sum within the block of (y - offset) up to y[i], for
-    # the blocks first <= b < last (strict IEEE: never compiled with fast-math)
+    # the blocks first <= b < last (inlined: strict IEEE in phase_blocks; in phase_and_sums'
+    # fast-math context, where its stored partial sums keep the additions in order: the same bits,
+    # tested)
     for b in range(first, last):
         base = bases[b]
         acc = 0.0
@@ -751,7 +757,7 @@ pair_sum_compiled = numba.njit(cache=True)(pair_sum)
 tile_sums_compiled = numba.njit(inline="always")(tile_sums)
 block_totals_compiled = numba.njit(inline="always")(block_totals)
 compensated_add_compiled = numba.njit(inline="always")(compensated_add)
-fill_blocks_compiled = numba.njit(cache=True)(fill_blocks)
+fill_blocks_compiled = numba.njit(inline="always")(fill_blocks)
 eight_sum_compiled = numba.njit(inline="always")(eight_sum)
 gather_points_compiled = numba.njit(inline="always")(gather_points)
 tile_starts_compiled = numba.njit(inline="always")(tile_starts)
