@@ -53,6 +53,7 @@ __all__ = [
     "pair_prefix",
     "head_sum",
     "prefix_at",
+    "phase_contrast",
     "lag1_deltas",
     "FASTMATH",
     "PARALLEL",
@@ -602,6 +603,12 @@ def head_sum(x, lo, r):
     return ((v0 + v1) + (v2 + v3)) + ((v4 + v5) + v6)
 
 
+def phase_contrast(x, j, k, r, n_cal):
+    # x[j + k] - (1 + r) x[j] + r x[j - n_cal] (contrast_sums' phase contrast, in one place for its
+    # three loops: the same order of operations, strict IEEE)
+    return x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
+
+
 def prefix_at(v, prefix, p):
     # (b, t): sum v[:p] = prefix[b] + t, b = p // 8, t the samples of block b before p
     b = p >> 3
@@ -658,12 +665,12 @@ def contrast_sums(x, pairs, ks, n_cal, strides, tile, position):
             if not position:
                 for q in range(q0, q1):
                     j = n_cal + q * st
-                    e = x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
+                    e = phase_contrast_compiled(x, j, k, r, n_cal)
                     total += e * e
             elif k <= 9:  # a window of at most 8 samples: added in order (k = 1: empty, p = 0)
                 for q in range(q0, q1):
                     j = n_cal + q * st
-                    e = x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
+                    e = phase_contrast_compiled(x, j, k, r, n_cal)
                     total += e * e
                     w = 0.0
                     for m in range(j + 1, j + k):
@@ -673,7 +680,7 @@ def contrast_sums(x, pairs, ks, n_cal, strides, tile, position):
             else:
                 for q in range(q0, q1):
                     j = n_cal + q * st
-                    e = x[j + k] - (1.0 + r) * x[j] + r * x[j - n_cal]
+                    e = phase_contrast_compiled(x, j, k, r, n_cal)
                     total += e * e
                     b0, t0 = prefix_at_compiled(v, pairs, j)
                     b1, t1 = prefix_at_compiled(v, pairs, j + k - 1)
@@ -764,3 +771,4 @@ tile_starts_compiled = numba.njit(inline="always")(tile_starts)
 tile_means_compiled = numba.njit(inline="always")(tile_means)
 head_sum_compiled = numba.njit(inline="always")(head_sum)
 prefix_at_compiled = numba.njit(inline="always")(prefix_at)
+phase_contrast_compiled = numba.njit(inline="always")(phase_contrast)
