@@ -450,7 +450,8 @@ def test_console_intervals_carry_the_digits_their_width_resolves():
     assert interval_text(2.7637e-5, 2.7636e-5, 2.7638e-5) == (
         "median 2.7637e-05, 90% [2.7636e-05, 2.7638e-05]")
     assert interval_text(3.0, 3.0, 3.0) == "median 3, 90% [3, 3]"
-    # the corner plot's diagonal titles take the same digits, at most 4
+    # the corner plot's titles (the diagonal panels, a one-parameter model's histogram) take the
+    # same digits, at most 4
     from bayes_imu.report.text import interval_digits
 
     assert interval_digits(188.4, 75.2, 478.0, most=4) == 2
@@ -458,5 +459,6 @@ def test_console_intervals_carry_the_digits_their_width_resolves():
     assert interval_digits(2.7637e-5, 2.7636e-5, 2.7638e-5, most=4) == 4
     plots = (Path(bayes_imu.__file__).parent / "report" / "plots.py").read_text(encoding="utf-8")
     assert "interval_digits(q[1], q[0], q[2]" in plots and ":.4g}\\n[" not in plots
+    assert not re.search(r"median \{[^}]*:\.\d+g\}", plots)
     main = (Path(bayes_imu.__file__).parent / "cli" / "main.py").read_text(encoding="utf-8")
     assert not re.search(r"median \{[^}]*:\.\d+g\}", main)

@@ -401,6 +401,31 @@ def test_corner_grid_is_the_lower_triangle_with_labels_on_its_edges_only(tmp_pat
         ), (i, j)
 
 
+def test_a_one_parameter_corner_plot_labels_few_ticks_apart_and_its_interval_digits(tmp_path,
+                                                                                   figures):
+    """A one-parameter model's corner.png is a histogram on a log axis: over a narrow range
+    matplotlib labelled every minor tick, one over the other (2.46x10^-3 ... 2.52x10^-3 on a
+    white-noise log). It takes the grid's ticks (at most four labelled, apart) and its title the
+    digits the interval resolves (report.text.interval_text, at most 4)."""
+    from bayes_imu.report.text import interval_text
+
+    y = 0.05 * np.random.default_rng(1).standard_normal(50_000)
+    fit = fit_allan(allan_variance(y, rate_hz=100.0), terms=("white",), rng=0)
+    assert fit.samples.shape[1] == 1
+    plots.plot_corner(fit, tmp_path / "c.png")
+    fig = figures[-1]
+    fig.canvas.draw()
+    ax = fig.axes[0]
+    low, high = ax.get_xlim()
+    shown = [t for t in ax.get_xticklabels(which="both")
+             if t.get_visible() and t.get_text() and low <= t.get_position()[0] <= high]
+    assert 2 <= len(shown) <= 4, [t.get_text() for t in shown]
+    boxes = sorted((t.get_window_extent() for t in shown), key=lambda b: b.x0)
+    assert all(a.x1 <= b.x0 for a, b in zip(boxes, boxes[1:]))
+    q = np.quantile(fit.samples[:, 0], [0.05, 0.5, 0.95])
+    assert ax.get_title().startswith(interval_text(q[1], q[0], q[2], most=4) + " (")
+
+
 def test_an_accelerometers_rate_terms_are_named_for_acceleration():
     """The figures of an accelerometer say "acceleration random walk" / "acceleration ramp" (a new
     user read "rate random walk" on an accelerometer's allan_fit.png and drift.png); a gyro's

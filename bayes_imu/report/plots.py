@@ -4,7 +4,7 @@ import contextlib
 
 import numpy as np
 
-from .text import interval_digits, p_text
+from .text import interval_digits, interval_text, p_text
 
 __all__ = [
     "plot_allan",
@@ -375,10 +375,13 @@ def plot_corner(fit, path, *, unit="u", scale=1.0):
             color="C0",
         )
         ax.set_xscale("log")
-        ax.set_xlabel(labels[0].replace("\n", " "))
+        # the grid's ticks (at most four labelled): matplotlib's labelled every minor tick of a
+        # narrow log axis, one over the other
+        _set_ticks(ax.xaxis, _log_ticks(data[:, 0].min(), data[:, 0].max()), labelled=True,
+                   label=labels[0].replace("\n", " "))
         q = np.quantile(data[:, 0], [0.05, 0.5, 0.95])
-        ax.set_title(f"median {q[1]:.4g}, 90% [{q[0]:.4g}, {q[2]:.4g}] ({CORNER_SCOPE})",
-                     fontsize=8)
+        # the digits the interval resolves, as the diagonal panels of a larger model's corner plot
+        ax.set_title(f"{interval_text(q[1], q[0], q[2], most=4)} ({CORNER_SCOPE})", fontsize=8)
         fig.tight_layout()
         fig.savefig(path, dpi=90, bbox_inches="tight", pad_inches=0.1)
     else:
