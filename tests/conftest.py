@@ -26,3 +26,27 @@ def shared_file(*parts):
     if not path.exists():
         pytest.skip(f"shared data not available: {path}")
     return path
+
+
+@pytest.fixture
+def figures(monkeypatch):
+    """The figures the plot functions of :mod:`bayes_imu.report.plots` close, kept for inspection
+    (closed at the end of the test)."""
+    import matplotlib.pyplot as real
+
+    from bayes_imu.report import plots
+
+    kept = []
+
+    class Shim:
+        def __getattr__(self, name):
+            return getattr(real, name)
+
+        @staticmethod
+        def close(fig):
+            kept.append(fig)
+
+    monkeypatch.setattr(plots, "pyplot", lambda: Shim())
+    yield kept
+    for fig in kept:
+        real.close(fig)

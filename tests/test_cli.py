@@ -311,7 +311,8 @@ def test_drift_beyond_the_log_is_flagged_as_extrapolation(tmp_path, rng, capsys)
         == 0
     )
     err = capsys.readouterr().err
-    assert "bayes-imu: warning: the drift horizon (100 s) is longer than the log (40.96 s)" in err
+    assert ("bayes-imu: warning: g: the drift horizon (100 s) is longer than the log (40.96 s)"
+            in err)
     rows = [r.split(",") for r in (out / "drift.csv").read_text().splitlines()]
     assert rows[0][-1] == "extrapolated"
     assert all((float(r[0]) > 40.96) == (r[-1] == "true") for r in rows[1:])
@@ -436,29 +437,140 @@ def test_allan_readings_at_the_edge_are_said_to_be_bounds():
 
 
 def test_console_intervals_carry_the_digits_their_width_resolves():
-    """report.text.interval_text: two significant digits more than median / width has (2 to 5):
-    the fit's wide drift interval to 2 digits, a tight parameter to 4, a degenerate interval to the
-    most; the console's parameter, reading and drift lines all use it (no f-string of its own)."""
+    """report.text.interval_text: two significant digits more than median / width has (3 to 5),
+    all three numbers to the same digits, trailing zeros kept; plain numbers from 1e-3 to 1e5,
+    exponents outside. Two digits hid values (a new user's report: "90% [34, 1e+02] deg" for
+    104.9 deg, "time_constant median 1.9e+02, 90% [59, 6.6e+02] s" for 192 s and 661 s,
+    "[593, 1.05e+03] ug"). The console's parameter, reading and drift lines all use it (no
+    f-string of its own)."""
     import re
 
     import bayes_imu
-    from bayes_imu.report.text import interval_text
+    from bayes_imu.report.text import interval_text, number_text
 
-    assert interval_text(0.7891, 0.5495, 4.2) == "median 0.79, 90% [0.55, 4.2]"
-    assert interval_text(51680.0, 25580.0, 229000.0) == "median 5.2e+04, 90% [2.6e+04, 2.3e+05]"
+    # the issue's intervals, as they print now
+    assert interval_text(60.4, 34.5, 104.9) == "median 60.4, 90% [34.5, 105]"
+    assert interval_text(192.0, 58.7, 661.0) == "median 192, 90% [58.7, 661]"
+    assert interval_text(800.0, 593.0, 1050.0) == "median 800, 90% [593, 1050]"
+    # a wide interval: 3 digits each (0.5495 is 0.549499... in binary); a tight one: 4; exponents
+    # only beyond 1e5 and below 1e-3; a degenerate interval to the most digits
+    assert interval_text(0.7891, 0.5495, 4.2) == "median 0.789, 90% [0.549, 4.20]"
+    assert interval_text(51680.0, 25580.0, 229000.0) == "median 51700, 90% [25600, 2.29e+05]"
     assert interval_text(0.2589, 0.2457, 0.2686) == "median 0.2589, 90% [0.2457, 0.2686]"
     assert interval_text(2.7637e-5, 2.7636e-5, 2.7638e-5) == (
         "median 2.7637e-05, 90% [2.7636e-05, 2.7638e-05]")
-    assert interval_text(3.0, 3.0, 3.0) == "median 3, 90% [3, 3]"
+    assert interval_text(3.0, 3.0, 3.0) == "median 3.0000, 90% [3.0000, 3.0000]"
+    # rounded before the notation is chosen: 99999.7 to 3 digits is 1.00e+05, 0.0009996 is 0.00100
+    assert [number_text(v) for v in (104.9, 661.0, 1050.0, 99999.7, 0.0009996, 0.00099, 0.0)] == [
+        "105", "661", "1050", "1.00e+05", "0.00100", "9.90e-04", "0"]
     # the corner plot's titles (the diagonal panels, a one-parameter model's histogram) take the
-    # same digits, at most 4
+    # same numbers, at most 4 digits
     from bayes_imu.report.text import interval_digits
 
-    assert interval_digits(188.4, 75.2, 478.0, most=4) == 2
+    assert interval_digits(188.4, 75.2, 478.0, most=4) == 3
     assert interval_digits(0.0007011, 0.000615, 0.000803, most=4) == 3
     assert interval_digits(2.7637e-5, 2.7636e-5, 2.7638e-5, most=4) == 4
     plots = (Path(bayes_imu.__file__).parent / "report" / "plots.py").read_text(encoding="utf-8")
-    assert "interval_digits(q[1], q[0], q[2]" in plots and ":.4g}\\n[" not in plots
+    assert "interval_numbers(q[1], q[0], q[2]" in plots and ":.4g}\\n[" not in plots
+    assert not re.search(r"\{q\[\d\]:\.\{?\w*\}?g\}", plots)
     assert not re.search(r"median \{[^}]*:\.\d+g\}", plots)
     main = (Path(bayes_imu.__file__).parent / "cli" / "main.py").read_text(encoding="utf-8")
     assert not re.search(r"median \{[^}]*:\.\d+g\}", main)
+    assert not re.search(r"\[\{[^}]*:\.2g\}", main)  # the population spread's 2-digit line
+
+
+def test_each_warning_of_a_several_column_fit_names_its_column(tmp_path, rng, capsys,
+                                                                monkeypatch):
+    """A three-axis fit repeated a warning once per column without saying which (a new user's
+    report: the drift horizon beyond the log, three times; the library's warnings raised while a
+    column is fitted, such as the sampler's, likewise). Every warning of one column now starts
+    with the column's name, as the model-adequacy warnings did."""
+    import importlib
+    import re
+    import warnings
+
+    fit_module = importlib.import_module("bayes_imu.inference.fit")
+    real = fit_module.fit_allan
+
+    def fit_allan(*args, **kwargs):  # a library warning raised while each column is fitted
+        warnings.warn("planted: sampler not converged", UserWarning)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(fit_module, "fit_allan", fit_allan)
+    log = tmp_path / "imu.csv"
+    y = rng.standard_normal((2**12, 3))
+    log.write_text("gx,gy,gz\n" + "".join(f"{a:.6f},{b:.6f},{c:.6f}\n" for a, b, c in y))
+    assert main(["fit", str(log), "--column", "gx,gy,gz", "--rate", "100", "--terms", "white",
+                 "--sensor", "gyro", "--horizon", "100", "--out", str(tmp_path / "out"),
+                 "--quiet"]) == 0
+    said = [line for line in capsys.readouterr().err.splitlines()
+            if line.startswith("bayes-imu: warning: ")]
+    for column in ("gx", "gy", "gz"):
+        own = [line for line in said if line.startswith(f"bayes-imu: warning: {column}: ")]
+        assert f"bayes-imu: warning: {column}: planted: sampler not converged" in own, said
+        assert any(f"{column}: the drift horizon (100 s) is longer than the log" in line
+                   for line in own), said
+    assert said and all(re.match(r"bayes-imu: warning: g[xyz]: ", line) for line in said), said
+
+
+def test_console_parameters_name_their_model_and_print_their_digits(tmp_path, capsys):
+    """The README's quick-start fit. The parameter block was headed "parameters (...)" below a
+    model line that names the model average and the selected model: its values are the selected
+    model's (summary.json ``model``), and the heading now says so, as does the datasheet block's.
+    README.md described the model lines as "under `model:`", which the console never printed: the
+    phrases it quotes are the console's. Every interval prints to at least three digits, without
+    an exponent where its numbers lie between 1e-3 and 1e5 (the time constant printed "median
+    1.9e+02, 90% [59, 6.6e+02] s")."""
+    from bayes_imu.report.text import interval_text
+
+    root = Path(__file__).resolve().parents[1]
+    data = root / "data_synthetic" / "gyro_lowgrade.csv.gz"
+    assert main(["fit", str(data), "--column", "gyro_x_dps", "--rate", "100", "--units", "deg/s",
+                 "--out", str(tmp_path / "q")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    summary = json.loads((tmp_path / "q" / "summary.json").read_text())
+    head = next(i for i, line in enumerate(out)
+                if line.startswith("  parameters of the selected model, "))
+    assert out[head].startswith(f"  parameters of the selected model, "
+                                f"{' + '.join(summary['model'])} (90% intervals include")
+    block = out[head + 1: head + 1 + len(summary["parameters"])]
+    assert [line.split()[0] for line in block] == list(summary["parameters"])
+    assert "  datasheet units (the selected model):" in out
+    plain = 0
+    for line, p in zip(block, summary["parameters"].values()):
+        assert interval_text(p["median"], p["q05"], p["q95"]) in line
+        if all(1e-3 <= abs(p[k]) < 1e5 for k in ("median", "q05", "q95")):
+            assert "e+" not in line and "e-" not in line, line
+            plain += 1
+    assert plain >= 1
+    readme = " ".join((root / "README.md").read_text(encoding="utf-8").split())
+    console = "\n".join(out)
+    assert "under `model:`" not in readme
+    for said in ("model average (what the drift bands use): ",
+                 "simplest model within the evidence margin: ",
+                 "parameters of the selected model"):
+        assert said in readme and said in console, said
+
+
+def test_fit_says_where_the_attitude_error_leaves_the_small_angle_model(tmp_path, rng, capsys):
+    """A gyro's drift bands may reach hundreds of degrees (the integral of the rate error, exact);
+    the console now says where the median passes 0.1 rad, as ``nav`` hatches it. White noise of
+    1 rad/s per sample at 100 Hz: the attitude's 1-sigma error is 0.1 sqrt(t) rad with the bias
+    known (slightly more with it calibrated), so the median passes 0.1 rad near t = 1 s; a quiet
+    gyro (1e-4 rad/s) never does within its horizon, and is not told so."""
+    for scale, expected in ((1.0, 1.0), (1e-4, None)):
+        log = tmp_path / f"g{scale:g}.csv"
+        log.write_text("g\n" + "\n".join(f"{v:.9g}" for v in scale * rng.standard_normal(2**14)))
+        out = tmp_path / f"out{scale:g}"
+        assert main(["fit", str(log), "--column", "g", "--rate", "100", "--units", "rad/s",
+                     "--terms", "white", "--sensor", "gyro", "--horizon", "30",
+                     "--out", str(out)]) == 0
+        said = capsys.readouterr().out
+        lines = [line for line in said.splitlines() if "small-angle" in line]
+        if expected is None:
+            assert lines == []
+            continue
+        assert len(lines) == 1
+        t = float(lines[0].split(" s:")[0].split("after ")[-1])
+        assert "passes 0.1 rad" in lines[0]
+        assert 0.5 * expected < t < 1.5 * expected

@@ -126,3 +126,39 @@ def test_export_errors_are_one_line(gyro_fit, tmp_path, capsys):
     )
     assert "--overbound" in capsys.readouterr().err
     assert not (tmp_path / "a.yaml").exists()
+
+
+def test_force_replaces_an_export_of_any_format_it_wrote_and_the_docs_say_so(gyro_fit, tmp_path,
+                                                                              capsys):
+    """docs/cli.md said OpenVINS, VINS and MATLAB files cannot be replaced with --force ("remove
+    such a file by hand"), but --force replaces any file an export wrote: its sidecar
+    ``.NAME.bayes_imu.json`` records the file's hash, whatever the format. It refuses a file
+    without that sidecar and one changed since, and without --force any existing file."""
+    from pathlib import Path
+
+    def export(fmt, out, *extra):
+        return main(["export", "--gyro", str(gyro_fit / "g"), "--format", fmt, "--out", str(out),
+                     "--quiet", *extra])
+
+    for fmt, name in (("openvins", "kalibr_imu_chain.yaml"), ("vins", "vins.yaml"),
+                      ("matlab", "imu.m")):
+        out = tmp_path / name
+        assert export(fmt, out) == 0 and (tmp_path / f".{name}.bayes_imu.json").is_file()
+        assert export(fmt, out) == 2
+        assert "file exists; use --force" in capsys.readouterr().err
+        written = out.read_text()
+        out.write_text("stale\n")  # changed since: refused, kept
+        assert export(fmt, out, "--force") == 2
+        assert "--force replaces only a file a bayes_imu run wrote" in capsys.readouterr().err
+        assert out.read_text() == "stale\n"
+        out.write_text(written)  # as written: replaced
+        assert export(fmt, out, "--force") == 0 and out.read_text() == written
+    foreign = tmp_path / "other.m"  # no sidecar: another tool's file
+    foreign.write_text("% gyro = gyroparams;\n")
+    assert export("matlab", foreign, "--force") == 2
+    assert "replaces only a file a bayes_imu run wrote" in capsys.readouterr().err
+    docs = (Path(__file__).resolve().parents[1] / "docs" / "cli.md").read_text(encoding="utf-8")
+    section = " ".join(docs.split("## `export`")[1].split("\n## ")[0].split())
+    assert "remove such a file by hand to rewrite it" not in section
+    assert "`--force` replaces a file of any format that a bayes_imu run wrote" in section
+    assert "`.NAME.bayes_imu.json`" in section and "changed since" in section

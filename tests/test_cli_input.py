@@ -133,7 +133,7 @@ CASES = [  # (id, file bytes or None, extra arguments, message fragment)
         "text_rate",
         GOOD.encode(),
         ["fit", "{log}", "--column", "gx", "--rate", "fast"],
-        "--rate: expected a sample rate from 0.01 Hz to 1e+06 Hz, got 'fast'",
+        "--rate: expected a plain number in Hz (no unit written: --rate 100), got 'fast'",
     ),
     (
         "nan_rate",
@@ -176,6 +176,25 @@ CASES = [  # (id, file bytes or None, extra arguments, message fragment)
         GOOD.encode(),
         ["fit", "{log}", "--column", "gx", "--time-column", "time", "--rate", "200"],
         "but --rate is 200 Hz",
+    ),
+    (  # the unit the rate picks is not said to "agree" with it (it did), and rate_hz is --rate
+        "rate_picks_the_unit_and_disagrees",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gx", "--time-column", "time", "--rate", "150"],
+        "the time column gives 100 Hz, a step of 0.01 s with stamps in s (the unit nearest --rate "
+        "150), but --rate is 150 Hz; expected them to agree within 1%",
+    ),
+    (  # a unit written after the number: not a number, not a rate out of range
+        "rate_with_its_unit",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gx", "--rate", "100Hz"],
+        "--rate: expected a plain number in Hz (no unit written: --rate 100), got '100Hz'",
+    ),
+    (
+        "horizon_with_its_unit",
+        GOOD.encode(),
+        ["fit", "{log}", "--column", "gx", "--rate", "100", "--horizon", "1h"],
+        "--horizon: expected a plain number in s (no unit written), got '1h'",
     ),
     (
         "unknown_units",

@@ -222,6 +222,12 @@ def test_max_position_requirement(folders, tmp_path, capsys):
     assert code == 0
     req = json.loads((out / "summary.json").read_text())["requirement"]
     assert req["max_error_m"] == 5.0 and req["longest_outage_s"] > 0
+    # a whole number of samples as people write it (it was 15.530000000000001), and one channel
+    # called one channel (a one-axis pair gives no horizontal radius)
+    assert len(repr(req["longest_outage_s"])) <= 14
+    assert round(req["longest_outage_s"] * 100) == pytest.approx(req["longest_outage_s"] * 100,
+                                                                 abs=1e-6)
+    assert "one horizontal channel" in req["meaning"] and "radius" not in req["meaning"]
     assert f"within 5.00 m at 95 % for {req['longest_outage_s']:g} s" in capsys.readouterr().out
     code = main(
         [
@@ -279,3 +285,49 @@ def test_nav_says_and_records_an_input_fit_whose_checks_failed(capsys):
         "bayes-imu: warning: --accel fit: the noise changes during its log (p = 1e-129): a unit's "
         "noise on another day may differ",
     ]
+
+
+def test_small_angle_limit_is_where_the_median_tilt_crosses_it():
+    """``small_angle_valid_to_s`` and nav.png's hatch both start where the median tilt reaches
+    0.1 rad, interpolated between band times (they differed: the last time below it in the
+    summary, the first above it in the picture, 300 s against ~450 s on a coarse grid). A tilt
+    growing as a power of time crosses exactly where the power law says: 0.002 t^1.5 = 0.1 at
+    t = 50^(2/3) s."""
+    from types import SimpleNamespace
+
+    from bayes_imu.report.nav import SMALL_ANGLE_RAD, small_angle_limit
+
+    t = np.array([1.0, 3.0, 10.0, 30.0, 100.0])
+
+    def bands(tilt):
+        return SimpleNamespace(t_s=t, quantities={"tilt": SimpleNamespace(
+            sigma=np.vstack([0.5 * tilt, tilt, 2.0 * tilt]))})
+
+    assert SMALL_ANGLE_RAD == 0.1
+    assert small_angle_limit(bands(0.002 * t**1.5)) == pytest.approx(50.0 ** (2.0 / 3.0),
+                                                                    rel=1e-12)
+    assert small_angle_limit(bands(1e-4 * t)) is None
+    assert small_angle_limit(bands(0.5 + 0 * t)) == 1.0  # above from the first time
+
+
+def test_nav_png_labels_one_channel_with_one_pair_of_parentheses(folders, tmp_path, figures):
+    """nav.png's y labels of a one-axis pair read "velocity error (one channel) (m/s)": two pairs
+    of parentheses, the second the unit's. Now "velocity error, one channel (m/s)". Each term
+    keeps one colour in every panel, and no two terms share one."""
+    from matplotlib.colors import to_hex
+
+    from bayes_imu.report.nav import plot_nav
+
+    bands = navigation_bands(load_fit(folders["gyro"]), load_fit(folders["accel"]),
+                             nav_times(0.01, (10, 60)), calibration_s=60.0, rng=0)
+    plot_nav(bands, tmp_path / "nav.png")
+    axes = [ax for ax in figures[-1].axes if ax.get_ylabel()]
+    assert [ax.get_ylabel() for ax in axes] == [
+        "tilt error (rad)", "velocity error, one channel (m/s)", "position error, one channel (m)"]
+    colours = {}
+    for ax in axes:
+        for line in ax.get_lines():
+            if line.get_label().startswith(("gyro ", "accelerometer ")):
+                colours.setdefault(line.get_label(), set()).add(to_hex(line.get_color()))
+    assert colours and all(len(c) == 1 for c in colours.values()), colours
+    assert len(set.union(*colours.values())) == len(colours), colours

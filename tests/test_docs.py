@@ -45,3 +45,15 @@ def test_readme_walkthrough_runs_as_written(tmp_path):
     for path in ("walk/gyro/summary.json", "walk/gyro/drift.png", "walk/population/population.png",
                  "walk/report/report.html", "walk/imu.yaml"):
         assert (tmp_path / path).exists(), path
+
+
+def test_the_cli_pages_summary_lists_every_command():
+    """docs/cli.md's summary at the top left out ``nav``, ``export`` and ``plan``: every command
+    of the parser has a line of it there, and the summary names no command the parser lacks."""
+    from bayes_imu.cli.main import _build_parser
+
+    parser = _build_parser()
+    commands = next(a for a in parser._actions if a.dest == "command").choices
+    summary = _blocks("docs/cli.md", "")[0]
+    listed = {line.split()[1] for line in summary.splitlines() if line.startswith("bayes-imu ")}
+    assert listed == set(commands), sorted(set(commands) ^ listed)

@@ -98,7 +98,7 @@ def test_unstated_units_are_refused_with_the_likely_one():
     # the column's unit and the rate disagree: one line naming both
     with pytest.raises(
         InputError,
-        match=r"gives 100 Hz .*stamps in ms \(column name 't_ms'\).* but rate_hz is 50 Hz",
+        match=r"gives 100 Hz, .*stamps in ms \(column name 't_ms'\), but rate_hz is 50 Hz",
     ):
         check_time(np.arange(500) * 10.0, column="t_ms", rate_hz=50)
     with pytest.raises(InputError, match=r"none agrees with the rate given \(50 Hz\)"):
@@ -493,6 +493,64 @@ def test_scene_paths_are_confined_to_the_scene_folder(tmp_path):
     with pytest.raises(InputError) as info:
         read_log(secret, column="zz")
     assert len(str(info.value)) < 250 and "\x1b" not in str(info.value)
+
+
+def test_scene_path_messages_name_the_flag_the_link_and_the_nearest_key(tmp_path, capsys):
+    """A path outside the scene's folder pointed at the Python API ("(or allow_outside=True)") on
+    the command line: it names --allow-outside there (the scene key too). A symbolic link inside
+    the folder that resolves outside got the same words as "../x": it now says it is a link and
+    where it leads (the file itself, or a folder on its way). An unknown key gets the nearest
+    known one ("unit": did you mean 'units'?)."""
+    from bayes_imu.report.scene import read_scene
+
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    (outside / "x.csv").write_text("gx\n1\n2\n")
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    (folder / "link.csv").symlink_to(outside / "x.csv")
+    (folder / "data").symlink_to(outside)
+    scene = folder / "scene.toml"
+    rule = "paths are confined to it unless allow_outside = true in [scene]"
+    # the target is shown by its last 80 characters (a long temporary folder is cut at its start)
+    cases = (("../outside/x.csv", "lies outside the scene's folder; ", None),
+             ("link.csv",
+              "lies outside the scene's folder: it is a symbolic link that resolves to ",
+              str(outside / "x.csv")),
+             ("data/x.csv", "lies outside the scene's folder: its folder 'data' is a symbolic link "
+                            "that resolves to ", str(outside)))
+    for given, why, target in cases:
+        scene.write_text(SCENE_HEAD + _sensor("log", given))
+        with pytest.raises(InputError) as info:
+            read_scene(scene)
+        for text, flag in ((str(info.value), "allow_outside=True"), (None, "--allow-outside")):
+            if text is None:
+                assert main(["report", str(scene), "--out", str(tmp_path / "r")]) == 2
+                err = capsys.readouterr().err
+                assert err.startswith("bayes-imu: error: ") and err.endswith("\n")
+                assert err.count("\n") == 1
+                text = err[len("bayes-imu: error: "):-1]
+            head = f"{scene}: [[sensor]] #1: log path {given!r} {why}"
+            assert text.startswith(head) and text.endswith(f"; {rule} (or {flag})")
+            if target is not None:
+                shown = text[len(head):-len(f"; {rule} (or {flag})")]
+                assert shown[0] == shown[-1] == "'" and len(shown) <= 82
+                assert target.endswith(shown[1:-1].removeprefix("..."))
+        assert main(["report", str(scene), "--out", str(tmp_path / "r"), "--allow-outside"]) == 2
+        err = capsys.readouterr().err  # read, not refused (too short to fit)
+        assert "lies outside" not in err and "2 samples; expected at least 32" in err, err
+    scene.write_text(SCENE_HEAD + _sensor("log", "link.csv").replace("units =", "unit ="))
+    assert main(["report", str(scene), "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "unknown key 'unit' (did you mean 'units'?); expected keys: " in err
+    scene.write_text(SCENE_HEAD.replace("outages_s", "outage_s") + _sensor("log", "link.csv"))
+    with pytest.raises(InputError, match=r"unknown key 'outage_s' \(did you mean 'outages_s'\?\)"):
+        read_scene(scene)
+    scene.write_text(SCENE_HEAD + _sensor("log", "link.csv") + "colour = 'red'\n")
+    with pytest.raises(InputError) as info:
+        read_scene(scene)
+    assert "unknown key 'colour'; expected keys" in str(info.value)  # nothing near: no hint
 
 
 def test_scene_units_and_population_logs_must_be_distinct(tmp_path, capsys):

@@ -9,27 +9,6 @@ from bayes_imu.report import plots
 from bayes_imu.drift.bands import drift_bands
 
 
-@pytest.fixture
-def figures(monkeypatch):
-    """The figures the plot functions close, kept for inspection."""
-    import matplotlib.pyplot as real
-
-    kept = []
-
-    class Shim:
-        def __getattr__(self, name):
-            return getattr(real, name)
-
-        @staticmethod
-        def close(fig):
-            kept.append(fig)
-
-    monkeypatch.setattr(plots, "pyplot", lambda: Shim())
-    yield kept
-    for fig in kept:
-        real.close(fig)
-
-
 @pytest.fixture(scope="module")
 def fit():
     model = NoiseModel(("white", "gauss_markov"), 0.01)
@@ -436,3 +415,38 @@ def test_an_accelerometers_rate_terms_are_named_for_acceleration():
     assert _term_label("ramp", True) == "acceleration ramp"
     assert _term_label("random_walk") == "rate random walk"
     assert _term_label("gauss_markov", True) == _term_label("gauss_markov")
+
+
+def test_corner_panel_titles_print_three_digits_without_an_exponent(figures):
+    """A corner plot's diagonal title printed a time constant of 192 s (90% 59 to 661 s) as
+    "1.9e+02 [59, 6.6e+02]": two digits, exponents for numbers people read plainly. The titles now
+    take :func:`~bayes_imu.report.text.interval_numbers` (at least three digits, one precision for
+    the three numbers, plain from 1e-3 to 1e5)."""
+    from bayes_imu.report.text import interval_numbers
+
+    rng = np.random.default_rng(4)
+    x = np.exp(rng.normal(np.log(192.0), 0.74, 40_000))  # 90% about 57 to 650 s
+    fig = plots.pyplot().figure()
+    ax = fig.add_subplot()
+    plots._diagonal_panel(ax, x, (x.min(), x.max()), 20)
+    q = np.quantile(x, [0.05, 0.5, 0.95])
+    median, low, high = interval_numbers(q[1], q[0], q[2], most=4)
+    assert ax.get_title() == f"{median}\n[{low}, {high}]"
+    assert "e" not in ax.get_title() and len(median) == 3 and len(high) == 3, ax.get_title()
+    plots.pyplot().close(fig)
+
+
+def test_series_colours_are_all_different_and_none_is_reserved():
+    """One colour per series of a figure (comparison.png gave sensor #2 and IMU #2 the same "C1";
+    nav.png's terms repeated the tab10 colours past ten): every colour different, none near the
+    red of a requirement line, the grey of the outage marks or black; the cycle's own first."""
+    from matplotlib.colors import to_rgb
+
+    for n in (1, 6, 12, 45, 80):
+        colours = plots.series_colours(n)
+        assert len(colours) == n == len(set(colours))
+        for colour in colours:
+            for reserved, radius in plots.RESERVED_COLOURS.items():
+                distance = np.linalg.norm(np.subtract(to_rgb(colour), to_rgb(reserved)))
+                assert distance > radius, (colour, reserved)
+    assert plots.series_colours(3) == ["#1f77b4", "#ff7f0e", "#2ca02c"]  # C0, C1, C2

@@ -1,5 +1,6 @@
 """Reports: scene parsing, bounds, ranking, max outage, HTML (headless browser), Kalibr export."""
 
+import io
 import json
 import shutil
 import warnings
@@ -563,3 +564,151 @@ def test_report_console_gives_each_longest_outage_and_every_file_written(
         assert f"{s.spec.name} (longest outage {outage_text(s.max_outage_s)})" in ranking
     written = f"wrote {tmp_path / 'out'}/report.json, report.html, comparison.png"
     assert out.rstrip().endswith(written)
+
+
+def test_report_warns_of_each_fit_that_fails_a_check_and_its_page_says_so(
+    report, tmp_path, capsys, monkeypatch
+):
+    """A sensor whose log's noise changes during the log (and whose model misses it): ``fit`` warns
+    of both; ``report`` on the same fit said nothing on the console and its page mentioned it
+    only in a picture's legend (a new user's report). Now the console warns, naming the sensor
+    and axis, and the sensor's section of report.html has a stationarity line: NOT STATIONARY
+    here, the p-value of the check where it passes."""
+    import dataclasses
+    import html
+
+    import bayes_imu.report.scene as scene_module
+    from bayes_imu.cli.main import main
+    from bayes_imu.report.text import p_text
+
+    rep, _ = report
+    flagged = _flagged_fit()
+    first = rep.sensors[0]
+    axis = dataclasses.replace(first.axes[first.worst], fit=flagged, posterior=flagged)
+    axes = tuple(axis if i == first.worst else a for i, a in enumerate(first.axes))
+    changed = dataclasses.replace(rep, sensors=(dataclasses.replace(first, axes=axes),)
+                                  + rep.sensors[1:])
+    path = tmp_path / "scene.toml"
+    path.write_text(SCENE.format(data=DATA))
+    monkeypatch.setattr(scene_module, "build_report", lambda scene, **options: changed)
+    assert main(["report", str(path), "--out", str(tmp_path / "out")]) == 0
+    err = capsys.readouterr().err
+    name = f"{first.spec.name} {axis.axis}"
+    assert f"{name}: the noise changes during the log" in err
+    if not flagged.adequacy.adequate:
+        assert f"{name}: the noise model does not describe this log" in err
+    other = rep.sensors[1]
+    assert f"{other.spec.name} " not in err  # the other sensor's fits pass both checks
+    page = (tmp_path / "out" / "report.html").read_text()
+    sections = page.split('<section class="sensor"')[1:]
+    mine = next(s for s in sections if f'id="sensor-{first.spec.name}"' in s)
+    assert "NOT STATIONARY" in mine
+    assert f"p {html.escape(p_text(flagged.stationarity.p_value))}" in mine
+    theirs = next(s for s in sections if f'id="sensor-{other.spec.name}"' in s)
+    steady = other.fit.stationarity
+    assert "NOT STATIONARY" not in theirs
+    assert f"parts share one noise (p {html.escape(p_text(steady.p_value))})" in theirs
+
+
+def test_navigation_section_names_the_fits_behind_an_imu_that_fail_a_check():
+    """The ranking of IMUs is built on its sensors' fits; an IMU whose accelerometer fit fails the
+    goodness of fit and whose gyro's noise changes during the log carries a caution naming both
+    (the page said INADEQUATE only in the sensor's own section)."""
+    from types import SimpleNamespace
+
+    from bayes_imu.report.scene_nav import ImuSpec, _fit_cautions
+
+    def fit(adequate, stationary):
+        return SimpleNamespace(adequacy=SimpleNamespace(adequate=adequate),
+                               stationarity=SimpleNamespace(stationary=stationary))
+
+    def sensor(name, *fits):
+        axes = tuple(SimpleNamespace(axis=f"ax{i}", fit=f, population=None)
+                     for i, f in enumerate(fits))
+        return SimpleNamespace(spec=SimpleNamespace(name=name), axes=axes)
+
+    rep = SimpleNamespace(sensors=(sensor("g", fit(True, False), fit(True, True)),
+                                   sensor("a", fit(False, True)), sensor("ok", fit(True, True))))
+    text = _fit_cautions(rep, ImuSpec("imu", "g", "a"))
+    assert text == ("gyro g ax0: the noise changes during the log; "
+                    "accelerometer a ax0: the model does not describe the log")
+    assert _fit_cautions(rep, ImuSpec("fine", "ok", "ok")) == ""
+
+
+def test_a_wrong_column_in_any_sensor_is_refused_before_the_first_fit(tmp_path, capsys,
+                                                                      monkeypatch):
+    """A scene whose second sensor names a column its log lacks: the report fitted the first
+    sensor ("sensor 1/2 done: a (1.9 s)") and only then refused the second. Every sensor's log
+    is now checked from its header before anything is read or fitted (neither the reader nor the
+    fit is called), with the "did you mean" hint ``bayes-imu fit --column`` gives; one line, exit
+    status 2, nothing written."""
+    import bayes_imu.report.scene as scene_module
+
+    def never(*args, **kwargs):
+        raise AssertionError("a log was read or fitted before the scene's columns were checked")
+
+    monkeypatch.setattr(scene_module, "allan_from_source", never)
+    monkeypatch.setattr(scene_module, "fit_allan", never)
+    rows = "".join(f"{np.sin(i):.6f},{np.cos(i):.6f}\n" for i in range(200))
+    (tmp_path / "small.csv").write_text("gyro_x_dps,gyro_y_dps\n" + rows)
+    sensor = ('[[sensor]]\nname = "{}"\nkind = "gyro"\nlog = "small.csv"\ncolumn = "{}"\n'
+              'rate_hz = 100\nunits = "deg/s"\n')
+    scene = tmp_path / "s8.toml"
+    scene.write_text('[scene]\noutages_s = [10]\n' + sensor.format("a", "gyro_x_dps")
+                     + sensor.format("b", "gyro_x_dp"))
+    assert main(["report", str(scene), "--out", str(tmp_path / "r8")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "sensor 1/" not in err, err
+    assert err.startswith(f"bayes-imu: error: sensor 'b': {tmp_path / 'small.csv'}: no column "
+                          "'gyro_x_dp'; expected one of the header names")
+    assert err.rstrip().endswith("did you mean 'gyro_x_dps'?")
+    assert not (tmp_path / "r8").exists()
+    # the same words as bayes-imu fit --column gives for the same log and name
+    assert main(["fit", str(tmp_path / "small.csv"), "--column", "gyro_x_dp", "--rate", "100",
+                 "--out", str(tmp_path / "f")]) == 2
+    fit_err = capsys.readouterr().err
+    assert fit_err.removeprefix("bayes-imu: error: ") == err.removeprefix(
+        "bayes-imu: error: sensor 'b': ")
+    # a time column is checked too, and a missing log: before any fit
+    scene.write_text('[scene]\noutages_s = [10]\n' + sensor.format("a", "gyro_x_dps")
+                     + sensor.format("b", "gyro_y_dps").replace("rate_hz = 100",
+                                                                'time_column = "time"'))
+    assert main(["report", str(scene), "--out", str(tmp_path / "r8")]) == 2
+    assert "sensor 'b': " in capsys.readouterr().err.split("no column 'time'")[0]
+    scene.write_text('[scene]\noutages_s = [10]\n' + sensor.format("a", "gyro_x_dps")
+                     + sensor.format("b", "gyro_y_dps").replace("small.csv", "gone.csv"))
+    assert main(["report", str(scene), "--out", str(tmp_path / "r8")]) == 2
+    assert "sensor 'b': " in capsys.readouterr().err.split("gone.csv: no such file")[0]
+
+
+def test_a_requirement_given_as_shown_is_not_repeated(report, monkeypatch, figures):
+    """``max_error = "10 m"`` printed "requirement 10 m (10 m)" in comparison.png's legend and "at
+    most 10 m (given as 10 m)" in report.html (and the ranking's reason): the amount as given is
+    quoted only where it says something else than the amount shown ("1 deg" beside 0.01745 rad)."""
+    import dataclasses
+
+    from bayes_imu.report import html as report_html
+    from bayes_imu.report.scene import _rank
+    from bayes_imu.report.text import repeats
+
+    assert repeats("10 m", "10 m") and repeats("10m", "10 m") and repeats(" 1e1 m", "10 m")
+    assert not repeats("1 deg", "0.01745 rad") and not repeats("10 cm", "10 m")
+    rep, _ = report
+    monkeypatch.setattr(report_html, "_png", lambda *args, **kwargs: "")  # not this test's pictures
+    for given, quoted in (("0.0175 rad", ""), ("0.0175rad", ""), ("1 deg", " (1 deg)")):
+        req = dict(rep.scene.requirement, given=given)
+        if given == "1 deg":
+            req["max_error"] = np.deg2rad(1.0)
+        scene = dataclasses.replace(rep.scene, requirement=req)
+        changed = dataclasses.replace(rep, scene=scene)
+        report_html._comparison_figure(changed, io.BytesIO())
+        labels = [t.get_text() for ax in figures[-1].axes if ax.get_legend()
+                  for t in ax.get_legend().get_texts()]
+        limit = f"{req['max_error']:.4g} rad"
+        assert f"requirement {limit}{quoted}" in labels, labels
+        page = report_html.report_html(changed, comparison_png=b"")
+        said = f"attitude error (1-sigma) at most {limit}" + (
+            f" (given as {given})" if quoted else "")
+        assert f"requirement: {said}; bias start" in page, said
+        reason = _rank(scene, rep.sensors)[1]
+        assert (f"within {given} (" in reason) == bool(quoted), reason

@@ -228,3 +228,41 @@ def test_the_extrapolation_footnote_appears_only_with_a_marked_row(monkeypatch):
         page = navigation_section(Report(scene, tuple(reports), (), "", imus_at, order, reason))
         assert page.count("*</td>") == n_marked
         assert ("* beyond the shorter log" in page) == (n_marked > 0)
+
+
+def test_comparison_gives_every_series_its_own_colour(figures):
+    """comparison.png drew the second sensor ("u1 accel x") and the second IMU ("#2 ADIS unit 2")
+    in the same colour ("C1" for both: each row counted from C0). The sensors' and the IMUs'
+    series now take their colours from one list for the whole figure: one colour per series, the
+    same in each panel it appears in, no two series alike."""
+    import io
+    from types import SimpleNamespace
+
+    from matplotlib.colors import to_hex
+
+    from bayes_imu.drift.bands import SENSOR_QUANTITIES
+    from bayes_imu.report.html import _comparison_figure
+    from bayes_imu.report.scene import Report
+
+    scene, reports = _ranking_scene()
+    t = np.geomspace(0.1, 100.0, 20)
+
+    def band(quantity, scale):
+        return SimpleNamespace(quantity=quantity, t_s=t, quantiles=(0.05, 0.5, 0.95),
+                               total=np.vstack([0.5 * scale * t, scale * t, 2.0 * scale * t]))
+
+    drawn = [dataclasses.replace(r, bands=tuple(band(q, 1.0 + i)
+                                                for q in SENSOR_QUANTITIES[r.spec.kind]))
+             for i, r in enumerate(reports)]
+    imus = imu_reports(scene, reports, np.random.default_rng(0))
+    order, reason = rank_imus(scene, imus)
+    _comparison_figure(Report(scene, tuple(drawn), (), "", imus, order, reason), io.BytesIO())
+    colours = {}
+    for ax in figures[-1].axes:
+        for line in ax.get_lines():
+            label = line.get_label()
+            if label.endswith("% bound)") or label.startswith("#"):  # a sensor's, an IMU's
+                colours.setdefault(label, set()).add(to_hex(line.get_color()))
+    assert len(colours) == len(reports) + len(imus) == 6, colours
+    assert all(len(c) == 1 for c in colours.values()), colours
+    assert len(set.union(*colours.values())) == len(colours), colours

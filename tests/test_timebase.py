@@ -25,10 +25,28 @@ def test_rate_alone_and_rate_cross_check():
     assert check_time(None, rate_hz=50, n_samples=10).rate_hz == 50.0
     t = np.arange(100) / 100.0
     assert check_time(t, rate_hz=100.0 * (1 + RATE_TOLERANCE / 2)).rate_hz == pytest.approx(100.0)
-    with pytest.raises(InputError, match=r"gives 100 Hz .* but rate_hz is 105 Hz"):
+    with pytest.raises(InputError, match=r"gives 100 Hz, .* but rate_hz is 105 Hz"):
         check_time(t, rate_hz=105, where="log.csv")
     with pytest.raises(InputError, match="no sample rate"):
         check_time(None, n_samples=10)
+
+
+def test_a_unit_picked_by_the_rate_is_not_said_to_agree_with_a_rate_it_disagrees_with():
+    """Stamps 0.01 apart and rate_hz=150: seconds are the unit whose rate (100 Hz) lies within 50%
+    of the rate given, so they are picked, and the two rates then disagree by more than 1%. The
+    message said "stamps in s (agrees with rate_hz=150)" and, in the same line, that they do not
+    agree; it now says how the unit was picked, with one pair of parentheses. Where they agree, the
+    record says the same."""
+    t = np.arange(100) / 100.0
+    with pytest.raises(InputError) as info:
+        check_time(t, rate_hz=150, where="timed.csv")
+    text = str(info.value)
+    assert text == ("timed.csv: the time column gives 100 Hz, a step of 0.01 s with stamps in s "
+                    "(the unit nearest rate_hz=150), but rate_hz is 150 Hz; expected them to agree "
+                    "within 1% (or give only one)")
+    assert "agrees" not in text
+    base = check_time(t, rate_hz=100.5)
+    assert (base.time_unit, base.time_unit_source) == ("s", "the unit nearest rate_hz=100.5")
     for bad in (0, -1, float("nan"), float("inf"), "fast"):
         with pytest.raises(InputError, match="rate_hz="):
             check_time(None, rate_hz=bad, n_samples=10)

@@ -29,13 +29,15 @@ import numpy as np
 
 from ..errors import InputError
 from ..io.bags import is_bag, read_imu_bag
-from ..io.readers import INCREMENT_UNITS, SI_UNITS, UNITS, read_columns, sniff_file
+from ..io.readers import (INCREMENT_UNITS, SI_UNITS, UNITS, check_columns, read_columns,
+                          sniff_file)
 from ..io.timebase import check_time
 from .contrast import DEFAULT_CONTRAST_SPAN_S
 from .estimator import allan_variance
 from .outofcore import BINARY_SUFFIXES
 
-__all__ = ["LogSource", "SourceAllan", "allan_from_source", "MIN_SAMPLES", "with_article"]
+__all__ = ["LogSource", "SourceAllan", "allan_from_source", "check_source", "MIN_SAMPLES",
+           "with_article"]
 
 #: fewest samples per purpose: one Allan variance (``allan``), 4 octave cluster sizes
 #: (1, 2, 4, 8 <= N/4) for a fit
@@ -184,6 +186,32 @@ def allan_from_source(source, *, purpose="fit", grid="octave", progress=False):
         columns, results, unit, info = _allan(spooled, purpose, grid, progress, increments, table)
     info["log"] = source.shown
     return SourceAllan(tuple(columns), tuple(results), unit, info)
+
+
+def check_source(source):
+    """Check what ``source`` asks of its log from the log's header alone, before anything is read.
+
+    The columns of a text log (its time column and the columns of its ``where`` filter too) are
+    checked against the header (:func:`~bayes_imu.io.readers.check_columns`: the same message,
+    with its "did you mean" hint, that :func:`allan_from_source` gives), and a missing log is
+    refused, so that a caller about to read several logs (a scene's sensors) finds a wrong name
+    before the first fit. Binary logs, ROS bags, standard input and named pipes are left to
+    :func:`allan_from_source` (a pipe can be read only once).
+
+    Raises
+    ------
+    InputError
+        The first wrong column or missing log, in one line that names the file.
+    """
+    if source.allan_table is not None or source.log is None:
+        return
+    log = Path(source.log)
+    if str(log) == "-" or is_bag(log) or log.suffix.lower() in BINARY_SUFFIXES:
+        return
+    if log.exists() and not log.is_file():  # a named pipe or a device: read as it streams in
+        return
+    columns = _columns(dataclasses.replace(source, log=log), "fit")
+    check_columns(log, columns=columns, time_column=source.time_column, where=source.where)
 
 
 def with_article(word):

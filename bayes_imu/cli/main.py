@@ -27,6 +27,7 @@ import sys
 import textwrap
 import threading
 import time
+import types
 import warnings
 from pathlib import Path
 
@@ -36,7 +37,8 @@ from .._version import __version__
 from ..report.output import staged_file, staged_folder, user_os_error
 from ..report.runs import fit_job, run_allan, run_fit, run_fit_batch, run_population
 from ..report.worker import PICTURE_FAILED_STATUS, background_default
-from ..report.text import interval_text, outage_text, p_text, spread_prior_note
+from ..report.text import (interval_numbers, interval_text, number_text, outage_text, p_text,
+                           spread_prior_note)
 from ..report.writers import FitRequest, write_sigma_csv
 from .._progress import progress_bar, show_progress
 from ..allan.pipeline import LogSource
@@ -486,8 +488,8 @@ def _pictures_status(failures):
 
 def _say_time_unit(args, info):
     if "time_unit" in info:
-        _say(args, f"time stamps in {info['time_unit']} ({info['time_unit_source']}): "
-                   f"{info['rate_hz']:.6g} Hz")
+        source = as_flags(info["time_unit_source"])  # "the unit nearest --rate 200"
+        _say(args, f"time stamps in {info['time_unit']} ({source}): {info['rate_hz']:.6g} Hz")
 
 
 def _say_axis(args, axis):
@@ -496,21 +498,23 @@ def _say_axis(args, axis):
     if axis.folder is not None:
         _say(args, f"[{column}]")
     _say(args, _model_line(summary, result.diagnostics["converged"]))
-    _say(args, "  parameters (90% intervals include the repeatability between the log's parts; "
-               "the record alone: summary.json parameters_this_record)")
+    # the values below are the selected model's (summary.json "model"), not the average's
+    _say(args, f"  parameters of the selected model, {' + '.join(summary['model'])} (90% intervals "
+               "include the repeatability between the log's parts; the record alone: "
+               "summary.json parameters_this_record)")
     for name, p in (summary.get("parameters_display") or summary["parameters"]).items():
         _say(
             args,
             f"  {name:18s} {interval_text(p['median'], p['q05'], p['q95'])} {p['unit']}",
         )
-    _say_datasheet(args, summary["datasheet"])
+    _say_datasheet(args, summary["datasheet"], "the selected model")
     _say_readout(args, summary["allan_datasheet"])
     if "datasheet_check" in summary:
         checked = summary["datasheet_check"]
         _say(args, f"  datasheet {Path(checked['file']).name}: {checked['verdict']}")
     _warn_axis(axis)
     if drift is not None:
-        _say_drift(args, drift)
+        _say_drift(args, drift, column)
     check = axis.check
     if check is not None and not check.adequate:
         _warn(f"{column}: the drift the log itself shows disagrees with the model at t = "
@@ -594,9 +598,10 @@ def _ratio_text(ratio):
     return f"{100.0 * (ratio - 1.0):.2g}%" if ratio < 1.1 else f"{ratio:.2g}x"
 
 
-def _say_datasheet(args, block):
+def _say_datasheet(args, block, whose=None):
+    """The datasheet-unit block of a fit (``whose``: the model its values belong to)."""
     if block:
-        _say(args, "  datasheet units:")
+        _say(args, f"  datasheet units{f' ({whose})' if whose else ''}:")
         for name, p in block.items():
             _say(
                 args,
@@ -604,13 +609,31 @@ def _say_datasheet(args, block):
             )
 
 
-def _say_drift(args, drift):
+def _say_small_angle(args, band, unit):
+    """Where the median attitude error passes 0.1 rad: the integrated rate error stays exact there,
+    but a navigator's linear (small-angle) error model does not (``bayes-imu nav`` hatches it)."""
+    from ..report.nav import SMALL_ANGLE_RAD, small_angle_time
+
+    scale = np.pi / 180.0 if unit == "deg" else 1.0
+    t = small_angle_time(band.t_s, np.asarray(band.total[1], float) * scale)
+    if t is not None:
+        limit = SMALL_ANGLE_RAD / scale
+        _say(args, f"  (the median passes {limit:.3g} {unit} after {t:.3g} s: the integrated rate "
+                   "error is exact beyond, but a navigator's small-angle error model is not; "
+                   "bayes-imu nav marks it)")
+
+
+def _say_drift(args, drift, column=None):
+    """The drift at the horizon, and a warning where the horizon lies beyond what the record
+    measures (starting with ``column``'s name, as every warning of one column of a fit does)."""
     for b, u in zip(drift.bands, drift.units):
         _say(
             args,
             f"{b.quantity}: 1-sigma drift after {b.t_s[-1]:g} s: "
             f"{interval_text(b.total[1][-1], b.total[0][-1], b.total[2][-1])} {u}",
         )
+        if b.quantity == "attitude" and u in ("rad", "deg"):
+            _say_small_angle(args, b, u)
     first = drift.bands[0]
     if first.extrapolated[-1]:
         measured = first.measured_s
@@ -619,8 +642,9 @@ def _say_drift(args, drift):
                      f"calibration within half the {first.record_s:.4g} s log)")
         else:
             where = f"than the log ({first.record_s:g} s)"
-        _warn(f"the drift horizon ({first.t_s[-1]:g} s) is longer {where}: beyond it the bands "
-              "extrapolate the fitted model (drift.csv column 'extrapolated')")
+        _warn(f"{column + ': ' if column is not None else ''}the drift horizon "
+              f"({first.t_s[-1]:g} s) is longer {where}: beyond it the bands extrapolate the "
+              "fitted model (drift.csv column 'extrapolated')")
 
 
 def _cmd_report(args):
@@ -640,6 +664,14 @@ def _cmd_report(args):
         note = None if pop is None else spread_prior_note(pop)
         if note:
             _warn(f"{s.spec.name}: {note}")
+    for s in report.sensors:  # what each fit alone would have warned of
+        for ax in s.axes:
+            fits = ([(f"{s.spec.name} {ax.axis}", ax.fit)] if ax.population is None else
+                    [(f"{s.spec.name} {label} {ax.axis}", f)
+                     for label, f in zip(ax.population.labels, ax.population.unit_fits)])
+            for column, fit in fits:
+                if fit is not None:
+                    _warn_axis(types.SimpleNamespace(result=fit, column=column))
     outage = {s.spec.name: s.max_outage_s for s in report.sensors}
     _say(args, "ranking: " + ", ".join(_with_outage(n, outage.get(n)) for n in report.ranking)
          + f" ({report.reason})")
@@ -814,9 +846,9 @@ def _say_population(args, run):
         _say(args, f"  {name:18s} {interval_text(p['median'], p['q05'], p['q95'])} {p['unit']}")
     _say_datasheet(args, summary["new_unit_datasheet"])
     for name, p in summary["population"].items():
-        s = p["spread_ln"]
-        _say(args, f"  unit-to-unit spread of {name}: {s['median']:.2g} (90% [{s['q05']:.2g}, "
-                   f"{s['q95']:.2g}]) in ln units (0.1 = 10%)")
+        median, low, high = interval_numbers(*(p["spread_ln"][k] for k in ("median", "q05", "q95")))
+        _say(args, f"  unit-to-unit spread of {name}: {median} (90% [{low}, {high}]) in ln units "
+                   "(0.1 = 10%)")
     if run.drift is not None:
         _say_drift(args, run.drift)
     weak = spread_prior_note(pop)
@@ -882,8 +914,8 @@ def _cmd_drift(args):
     with staged_folder(args.out, force=args.force, inputs=[args.sensor]) as tmp:
         write_sigma_csv(results, units, factors, tmp / "drift.csv")
     for result, unit, f in zip(results, units, factors):
-        last = result.total[-1] * f
-        _say(args, f"{result.quantity}: 1-sigma drift after {result.t_s[-1]:g} s = {last:.4g} "
+        last = number_text(result.total[-1] * f, 4)
+        _say(args, f"{result.quantity}: 1-sigma drift after {result.t_s[-1]:g} s = {last} "
                    f"{unit} (order {QUANTITY_ORDER[result.quantity]})")
     _say(args, f"wrote {args.out / 'drift.csv'}")
     return 0
@@ -891,13 +923,16 @@ def _cmd_drift(args):
 
 # ---------------------------------------------------------------------------- entry point
 
-def _checked(convert, ok, expected):
+def _checked(convert, ok, expected, *, not_number=None):
     """An argparse type: ``convert(text)``, refused unless ``ok(value)``, with ``expected`` in the
-    message."""
+    message; text that ``convert`` cannot read (``100Hz``) is refused with ``not_number`` where
+    given (what form the value takes), as it is not out of range but not a number."""
     def check(text):
         try:
             value = convert(text)
         except ValueError:
+            if not_number is not None:
+                raise argparse.ArgumentTypeError(f"expected {not_number}, got {text!r}") from None
             value = None
         if value is None or not ok(value):
             raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}")
@@ -910,7 +945,8 @@ _positive_int = _checked(int, lambda v: v > 0, "a positive whole number")
 _seed_type = _checked(int, lambda v: 0 <= v < 2**32, "a whole number from 0 to 2**32 - 1")
 _workers_type = _checked(int, lambda v: v >= 1, "at least 1 worker process")
 _rate_type = _checked(float, lambda v: np.isfinite(v) and RATE_RANGE[0] <= v <= RATE_RANGE[1],
-                      f"a sample rate from {RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz")
+                      f"a sample rate from {RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz",
+                      not_number="a plain number in Hz (no unit written: --rate 100)")
 _positive_number = _checked(float, lambda v: np.isfinite(v) and v > 0, "a positive number")
 
 
@@ -925,7 +961,8 @@ def _ranged(kind):
     """An argparse type: a number in :data:`bayes_imu.io.limits.RANGES` ``[kind]``."""
     low, high, unit = RANGES[kind]
     return _checked(float, lambda v: np.isfinite(v) and low <= v <= high and v > 0,
-                    f"a number from {low:g} to {high:g}{' ' + unit if unit else ''}")
+                    f"a number from {low:g} to {high:g}{' ' + unit if unit else ''}",
+                    not_number=f"a plain number in {unit} (no unit written)" if unit else None)
 
 
 def _times(text):
@@ -970,6 +1007,24 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
     _warn(as_flags(str(message)))  # the library's parameter names as this command's flags
 
 
+def _warning_line(flags):
+    """A ``warnings.showwarning`` that writes one line, the library's names put in the command's
+    terms by ``flags``."""
+    if flags is as_flags:
+        return _one_line_warning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        _warn(flags(str(message)))
+
+    return show
+
+
+def _flags(args):
+    """How a library message is put in the command's terms: :func:`as_flags`, or for ``report``
+    (whose sensors' options are scene keys) :func:`_report_flags`."""
+    return _report_flags if getattr(args, "handler", None) is _cmd_report else as_flags
+
+
 def main(argv=None):
     """Run the ``bayes-imu`` command; return the exit status."""
     parser = _build_parser()
@@ -985,7 +1040,7 @@ def main(argv=None):
     log.setLevel(logging.INFO)
     with warnings.catch_warnings(), _sigterm_as_interrupt():  # warnings shown the command's way
         warnings.simplefilter("default")
-        warnings.showwarning = _one_line_warning
+        warnings.showwarning = _warning_line(_flags(args))
         return _run(args)
 
 
@@ -1048,6 +1103,8 @@ _FLAGS = (
     (re.compile(r"^(out|scheduler)="), r"--\1 "),
     (re.compile(r"^columns="), "--column "),
     (re.compile(r"\bbut rate_hz is\b"), "but --rate is"),
+    (re.compile(r"\bthe unit nearest rate_hz="), "the unit nearest --rate "),
+    (re.compile(r"\(or allow_outside=True\)"), "(or --allow-outside)"),
     (re.compile(r"\(is rate_hz right\?\)"), "(is --rate right?)"),
     (re.compile(r"\bgive a column\b"), "give --column"),
     (re.compile(r"\btime_unit='(\w+)'"), r"--time-unit \1"),
@@ -1090,6 +1147,22 @@ def as_flags(message):
     return message
 
 
+#: a report's messages: only the command's own options become flags; what a sensor's reading says
+#: of ``rate_hz``, ``time_unit``, ``column`` ... names the scene's keys, spelled as in the scene
+_REPORT_FLAGS = (
+    (re.compile(r"\bforce=True\b"), "--force"),
+    (re.compile(r"^out="), "--out "),
+    (re.compile(r"\(or allow_outside=True\)"), "(or --allow-outside)"),
+)
+
+
+def _report_flags(message):
+    """A library message in ``report``'s terms (:data:`_REPORT_FLAGS`)."""
+    for pattern, flag in _REPORT_FLAGS:
+        message = pattern.sub(flag, message)
+    return message
+
+
 def _run(args):
     try:
         return args.handler(args)
@@ -1110,7 +1183,7 @@ def _run(args):
     except BayesIMUError as exc:
         if args.debug or os.environ.get("BAYES_IMU_DEBUG") == "1":
             raise
-        print(f"bayes-imu: error: {as_flags(str(exc))}", file=sys.stderr)
+        print(f"bayes-imu: error: {_flags(args)(str(exc))}", file=sys.stderr)
         return 2
     except Exception as exc:  # an internal error: one line, the traceback with --debug
         if args.debug or os.environ.get("BAYES_IMU_DEBUG") == "1":

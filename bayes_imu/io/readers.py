@@ -35,6 +35,7 @@ __all__ = [
     "LogData",
     "read_log",
     "read_columns",
+    "check_columns",
     "read_text",
     "check_signal",
     "SignalExtent",
@@ -263,16 +264,7 @@ def read_columns(path, *, columns, time_column=None, progress=False, signal=True
     """
     path = Path(path)
     fmt = sniff_file(path)
-    wanted = [resolve_column(path, fmt, c) for c in columns]
-    if time_column is not None:
-        wanted.append(resolve_column(path, fmt, time_column))
-    if len(set(wanted)) != len(wanted):
-        raise InputError(
-            f"{path}: the same column is asked for twice "
-            f"({', '.join(fmt['names'][i] for i in wanted)})"
-        )
-    rows = None if where is None else _row_filter(where)
-    filtered = [] if rows is None else [resolve_column(path, fmt, c) for c in rows.columns]
+    wanted, rows, filtered = _resolve_columns(path, fmt, columns, time_column, where)
     stamps = None if time_column is None else _iso_stamps(path, fmt, wanted[-1])
     numeric = wanted[:-1] if stamps is not None else wanted
     read = sorted(set(numeric) | set(filtered))
@@ -302,6 +294,40 @@ def read_columns(path, *, columns, time_column=None, progress=False, signal=True
         names[-1] if time_column is not None and fmt["header"] else None,
         stamps is not None,
     )
+
+
+def check_columns(path, *, columns, time_column=None, where=None):
+    """The 0-based indices of ``columns``, then of ``time_column``, in a text log's header, read
+    from the log's first bytes alone (:func:`sniff_file`).
+
+    A name not in the header (with the nearest name as a hint), an index out of range, a column
+    asked for twice, or a column of ``where`` not in the header is refused exactly as
+    :func:`read_columns` refuses it, without reading the samples: a caller about to read several
+    logs (a scene's sensors) checks them all before the first long step.
+
+    Raises
+    ------
+    InputError
+        The first wrong column, in one line that names the file.
+    """
+    path = Path(path)
+    return _resolve_columns(path, sniff_file(path), columns, time_column, where)[0]
+
+
+def _resolve_columns(path, fmt, columns, time_column, where):
+    """``(wanted, rows, filtered)``: the indices of ``columns`` then ``time_column``, the row filter
+    of ``where`` (or ``None``) and the indices of its columns."""
+    wanted = [resolve_column(path, fmt, c) for c in columns]
+    if time_column is not None:
+        wanted.append(resolve_column(path, fmt, time_column))
+    if len(set(wanted)) != len(wanted):
+        raise InputError(
+            f"{path}: the same column is asked for twice "
+            f"({', '.join(fmt['names'][i] for i in wanted)})"
+        )
+    rows = None if where is None else _row_filter(where)
+    filtered = [] if rows is None else [resolve_column(path, fmt, c) for c in rows.columns]
+    return wanted, rows, filtered
 
 
 def _row_filter(where):

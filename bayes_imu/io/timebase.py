@@ -17,7 +17,8 @@ suggest giving it as the rate instead of the time column.
 
 Units of the stamps (:data:`TIME_UNITS`): given (``time_unit``), else read from the column's
 name (``t_ms``, ``time_us``, ``timestamp_ns``, ``time [s]``: :func:`unit_from_name`), else,
-when a rate is given too, the one unit whose rate agrees with it, else seconds. Seconds
+when a rate is given too, the one unit whose rate lies within :data:`STEP_TOLERANCE` of it (the
+unit nearest it; the two rates must then agree within :data:`RATE_TOLERANCE`), else seconds. Seconds
 assumed but not stated are refused where they give a rate outside :data:`TYPICAL_RATE_RANGE`
 while another unit gives one inside it (a 100 Hz log stamped in milliseconds reads as
 0.1 Hz): the error names every unit's rate and the likely one. The unit used and where it
@@ -136,7 +137,9 @@ def _resolve_unit(time_unit, column, step_raw, rate_hz, where):
             u for u, r in _unit_rates(step_raw).items() if abs(r / rate_hz - 1.0) <= STEP_TOLERANCE
         ]
         if len(agree) == 1:
-            return agree[0], f"agrees with rate_hz={rate_hz:g}"
+            # "nearest", not "agrees": within STEP_TOLERANCE picks the unit, and the rate of the
+            # stamps must then still agree within RATE_TOLERANCE (check_time says so if not)
+            return agree[0], f"the unit nearest rate_hz={rate_hz:g}"
         if not agree and _unlikely(step_raw):
             rates = ", ".join(f"{u}: {r:.4g} Hz" for u, r in _unit_rates(step_raw).items())
             raise InputError(f"{where}: the time column (median step {step_raw:.6g}) gives, as "
@@ -320,11 +323,9 @@ def check_time(
             f"{RATE_RANGE[0]:g} Hz to {RATE_RANGE[1]:g} Hz" + _stamp_hint(step_raw, unit)
         )
     if rate_hz is not None and abs(rate / rate_hz - 1.0) > RATE_TOLERANCE:
-        raise InputError(f"{where}: the time column gives {rate:.6g} Hz (step {1 / rate:.6g} s, "
-                         f"{stated}) but "
-                         f"rate_hz is {rate_hz:g} Hz; expected them to agree within "
-                         f"{RATE_TOLERANCE:.0%} (or give "
-                         "only one)")
+        raise InputError(f"{where}: the time column gives {rate:.6g} Hz, a step of "
+                         f"{1 / rate:.6g} s with {stated}, but rate_hz is {rate_hz:g} Hz; "
+                         f"expected them to agree within {RATE_TOLERANCE:.0%} (or give only one)")
     if not n_bad:
         return TimeBase(
             rate,

@@ -21,7 +21,7 @@ from ..drift.display import display_unit, display_parameters, rate_display
 from ..io.readers import SI_UNITS as UNITS_SI
 from ..noise.model import PARAMETER_UNITS, REGISTRY
 from .scene import MAX_SEARCH_S, OUTPUT_UNITS
-from .text import outage_text, p_text, spread_prior_note
+from .text import as_given, outage_text, p_text, spread_prior_note
 from .scene_nav import navigation_section
 
 
@@ -100,9 +100,11 @@ def _shown(report, quantity):
 
 
 def _comparison_figure(report, target):
-    from .plots import plain_text, pyplot
+    from .plots import plain_text, pyplot, series_colours
 
     plt = pyplot()
+    # one colour per series of the whole figure: the sensors', then the IMUs' (bottom row)
+    colours = series_colours(len(report.sensors) + len(report.imus))
     quantities = [
         q for q in OUTPUT_UNITS if any(q in SENSOR_QUANTITIES[s.spec.kind] for s in report.sensors)
     ]
@@ -116,7 +118,7 @@ def _comparison_figure(report, target):
             ax.set_visible(False)
         for ax in axes[1][3:]:
             ax.set_visible(False)
-        draw_imu_panels(report, *axes[1][:3])
+        draw_imu_panels(report, *axes[1][:3], colours=colours[len(report.sensors):])
     for ax, quantity in zip(axes[0], quantities):
         unit, factor = _shown(report, quantity)
         for i, s in enumerate(report.sensors):
@@ -128,10 +130,10 @@ def _comparison_figure(report, target):
             ax.plot(
                 band.t_s[keep],
                 band.total[-1][keep],
-                color=f"C{i}",
+                color=colours[i],
                 label=f"{plain_text(s.spec.name)} ({band.quantiles[-1]:.0%} bound)",
             )
-            ax.plot(band.t_s[keep], band.total[1][keep], color=f"C{i}", ls=":", lw=1)
+            ax.plot(band.t_s[keep], band.total[1][keep], color=colours[i], ls=":", lw=1)
         for t in report.scene.outages_s:
             ax.axvline(t, color="gray", lw=0.8, ls="--")
             ax.annotate(
@@ -146,14 +148,14 @@ def _comparison_figure(report, target):
             )
         req = report.scene.requirement
         if req and req["quantity"] == quantity:
-            given = f" ({req['given']})" if req.get("given") else ""
             limit = req["max_error"] * factor
+            shown = f"{limit:.4g} {unit}"
             ax.axhline(limit, color="red", lw=1,
-                       label=f"requirement {limit:.4g} {unit}{given}")
+                       label=f"requirement {shown}{as_given(req.get('given'), shown)}")
             for i, s in enumerate(report.sensors):
                 t_max = s.max_outage_s
                 if t_max is not None and 0 < t_max < MAX_SEARCH_S:
-                    ax.plot([t_max], [limit], marker="v", ms=8, color=f"C{i}", ls="none",
+                    ax.plot([t_max], [limit], marker="v", ms=8, color=colours[i], ls="none",
                             label=f"{plain_text(s.spec.name)}: longest acceptable outage "
                                   f"{t_max:.3g} s")
         ax.set_xscale("log")
@@ -288,12 +290,30 @@ model may be worse (list several units' logs to bound a new unit).</p>
 <p class="model">Model needed: <b>{html.escape(' + '.join(fit.model.terms))}</b> ({why}).</p>
 <p class="adequacy">Goodness of fit: p {html.escape(p_text(a.p_value))}, worst at tau = \
 {a.worst_tau_s:g} s: {html.escape(fit_check)}.</p>
+{_stationarity_text(fit)}
 {_drift_check_text(s.bands)}
 <p class="diagnostics">Sampler: {conv}; {rhat}{d['n_steps']} steps x {d['n_walkers']} walkers.</p>
 <table>{head}{rows}</table>{sheet}
 {_img(f"Allan fit of {s.spec.name}", allan_png)}
 {_img(f"drift bands of {s.spec.name}", drift_png)}
 </section>"""
+
+
+def _stationarity_text(fit):
+    """The stationarity check's paragraph: whether the log's parts share one noise (empty where the
+    fit was not checked)."""
+    steady = getattr(fit, "stationarity", None)
+    if steady is None:
+        return ""
+    if steady.stationary:
+        return (f'<p class="stationarity">Stationarity: the log\'s {steady.n_segments} parts share '
+                f"one noise (p {html.escape(p_text(steady.p_value))}).</p>")
+    return (
+        f'<p class="stationarity">Stationarity: <b>NOT STATIONARY</b>: the noise changes during '
+        f"the log: its {steady.n_segments} parts differ in Allan deviation at tau = "
+        f"{steady.worst_tau_s:g} s (p {html.escape(p_text(steady.p_value))}; a warm-up?); the "
+        "drift bands include that spread.</p>"
+    )
 
 
 def _shown_bands(bands, display):
@@ -405,8 +425,9 @@ def report_html(report, comparison_png=None, *, failures=None):
     scene = report.scene
     cred = scene.credibility
     req = scene.requirement
-    req_text = (f"{req['quantity']} error (1-sigma) at most {req['max_error']:.4g} {req['unit']}"
-                + (f" (given as {req['given']})" if req.get("given") else "") if req else "none")
+    limit = f"{req['max_error']:.4g} {req['unit']}" if req else ""
+    req_text = (f"{req['quantity']} error (1-sigma) at most {limit}"
+                + as_given(req.get("given"), limit, "(given as {})") if req else "none")
     if req and _shown(report, req["quantity"])[1] != 1.0 and not req.get("given"):
         unit, factor = _shown(report, req["quantity"])
         req_text += f" ({req['max_error'] * factor:.4g} {unit})"

@@ -139,9 +139,12 @@ def run_nav(request, *, failures=None):
             "quantity": "position",
             "max_error_m": request.max_position_m,
             "credibility": 0.95,
-            "longest_outage_s": longest,
-            "meaning": "longest outage whose predictive 95 % bound of the horizontal position "
-            "error stays within max_error_m (to the refined grid of longest_outage)",
+            # a whole number of samples: 15.53, not 15.530000000000001
+            "longest_outage_s": None if longest is None else float(f"{longest:.12g}"),
+            "meaning": "longest outage whose predictive 95 % bound of the "
+            + ("horizontal position error (radius)" if len(gyro) == 3 else
+               "position error in this one horizontal channel")
+            + " stays within max_error_m (to the refined grid of longest_outage)",
         }
     with staged_folder(
         request.out, force=request.force, inputs=[request.gyro, request.accel]
@@ -247,7 +250,7 @@ def _summary(bands, request, rows, gyro, accel):
             "P(|error| <= bound95) = 0.95 "
             "(for the horizontal radius of three-axis sets: P(radius <= bound95))",
         },
-        "small_angle_valid_to_s": _small_angle_limit(bands),
+        "small_angle_valid_to_s": small_angle_limit(bands),
         "inputs": input_checks(gyro, accel),
         "rows": rows,
         "bayes_imu_version": __version__,
@@ -274,10 +277,27 @@ def input_checks(gyro, accel):
     return out
 
 
-def _small_angle_limit(bands):
-    """Last listed time [s] before the median tilt exceeds :data:`SMALL_ANGLE_RAD` (or ``None``)."""
-    over = np.flatnonzero(bands.quantities["tilt"].sigma[1] > SMALL_ANGLE_RAD)
-    return None if not over.size else float(bands.t_s[max(over[0] - 1, 0)])
+def small_angle_limit(bands):
+    """Time [s] at which the median 1-sigma tilt reaches :data:`SMALL_ANGLE_RAD`, interpolated
+    log-log between the two band times around it (the tilt grows as a power of time between
+    them); the first band time where it is already above at the first; ``None`` where it stays
+    below. ``summary.json``'s ``small_angle_valid_to_s`` and where ``nav.png`` hatches."""
+    return small_angle_time(bands.t_s, bands.quantities["tilt"].sigma[1])
+
+
+def small_angle_time(t, tilt):
+    """:func:`small_angle_limit` of a median 1-sigma tilt (or attitude error) ``tilt`` [rad] at
+    times ``t`` [s]."""
+    t, tilt = np.asarray(t, float), np.asarray(tilt, float)
+    over = np.flatnonzero(tilt > SMALL_ANGLE_RAD)
+    if not over.size:
+        return None
+    i = over[0]
+    if i == 0 or not (tilt[i - 1] > 0 and t[i - 1] > 0):
+        return float(t[i])
+    x0, x1 = np.log(t[i - 1]), np.log(t[i])
+    y0, y1 = np.log(tilt[i - 1]), np.log(tilt[i])
+    return float(np.exp(x0 + (np.log(SMALL_ANGLE_RAD) - y0) * (x1 - x0) / (y1 - y0)))
 
 
 _TERM_STYLE = {"gyro": "-", "accel": "--"}
@@ -310,7 +330,7 @@ def plot_nav(
     ``min_share`` of the median total at every time, are listed, not drawn; times from ``t_min``
     to ``t_max`` [s] (default: every time of ``bands``). The lines common to the three panels
     are explained once, above them; each panel's legend lists its terms."""
-    from .plots import plain_text, pyplot, sparse_log_minor_ticks
+    from .plots import plain_text, pyplot, series_colours, sparse_log_minor_ticks
 
     plt = pyplot()
     names = ("tilt", "velocity", "position")
@@ -319,8 +339,12 @@ def plot_nav(
     common = {}
     period = schuler_period_s(bands.g, bands.radius)
     radial = "position_x" in bands.quantities
-    colours = plt.get_cmap("tab10")
-    tilted = np.flatnonzero(bands.quantities["tilt"].sigma[1] > SMALL_ANGLE_RAD)
+    # each term its own colour, the same in every panel (the band's first colour of the cycle, the
+    # bound's red, the grey and the sensors' black left out: series_colours); the tab10 cycle
+    # repeated its colours past ten terms
+    labels = list(dict.fromkeys(k for b in bands.quantities.values() for k in b.terms))
+    colours = dict(zip(labels, series_colours(len(labels) + 1)[1:]))
+    tilted = small_angle_limit(bands)
     for ax, name in zip(axes[0], names):
         q = bands.quantities[name]
         keep = (q.sigma[0] > 0) & (bands.t_s >= min(t_min, bands.t_s[-1]))
@@ -366,7 +390,7 @@ def plot_nav(
                 part[keep],
                 _TERM_STYLE[sensor],
                 lw=1,
-                color=colours((drawn + 4) % 10),
+                color=colours[label],
                 label=f"{'gyro' if sensor == 'gyro' else 'accelerometer'} {term.replace('_', ' ')}"
                 + (" (channel x)" if radial else ""),
             )
@@ -382,9 +406,9 @@ def plot_nav(
             if improbable:
                 text += f"{improbable} terms of posterior probability < {min_probability:g}"
             ax.plot([], [], " ", label=textwrap.fill(text.rstrip("; "), 44))
-        if tilted.size and bands.t_s[tilted[0]] < t[-1]:
+        if tilted is not None and tilted < t[-1]:
             ax.axvspan(
-                bands.t_s[tilted[0]],
+                tilted,
                 t[-1],
                 facecolor="none",
                 edgecolor="gray",
@@ -423,7 +447,8 @@ def plot_nav(
             "position": "horizontal position error",
         }
         if "position_x" not in bands.quantities:  # one channel: along the accelerometer's axis
-            what = {k: v.replace("horizontal ", "") + " (one channel)" if k != "tilt" else v
+            # "velocity error, one channel (m/s)": one pair of parentheses, the unit's
+            what = {k: v.replace("horizontal ", "") + ", one channel" if k != "tilt" else v
                     for k, v in what.items()}
         ax.set_ylabel(f"{what[name]} ({q.unit})")
         start = (

@@ -4,7 +4,7 @@ import contextlib
 
 import numpy as np
 
-from .text import interval_digits, interval_text, p_text
+from .text import interval_numbers, interval_text, p_text
 
 __all__ = [
     "plot_allan",
@@ -39,6 +39,42 @@ def pyplot():
 #: dash patterns of the noise terms' lines, in turn: terms whose curves coincide over a range (white
 #: and filtered white noise beyond the filter's time constant) stay visible one through the other
 TERM_DASHES = ("--", (0, (1, 1.5)), "-.", (0, (6, 2, 1, 2, 1, 2)))
+
+
+#: colours the figures give a fixed meaning (a requirement's line, outage marks, legend keys), each
+#: with the distance in RGB within which a series' colour would be taken for it
+#: (:func:`series_colours`): the cycle's red beside a red requirement line, its grey beside the
+#: grey outage marks
+RESERVED_COLOURS = {"red": 0.3, "gray": 0.15, "black": 0.3}
+
+
+def series_colours(n):
+    """``n`` colours, no two alike (hex strings): one per series of a figure, so that two series
+    drawn in different panels (a sensor's band and an IMU's) never share a colour. Matplotlib's
+    colour cycle first (``C0``, ``C1``, ...), then tab20b's and tab20c's (each a shade of every
+    hue before the next shade), then evenly spaced hues;
+    colours near :data:`RESERVED_COLOURS` are left out."""
+    import matplotlib as mpl
+    from matplotlib.colors import to_hex, to_rgb
+
+    base = mpl.rcParams["axes.prop_cycle"].by_key().get("color", [])
+    # tab20b and tab20c hold five hues in four shades each: one shade of every hue first, so that
+    # neighbouring series differ in hue, not only in shade
+    more = [mpl.colormaps[name].colors[4 * hue + shade] for name in ("tab20b", "tab20c")
+            for shade in range(4) for hue in range(5)]
+    reserved = np.array([to_rgb(c) for c in RESERVED_COLOURS])
+    radius = np.array(list(RESERVED_COLOURS.values()))
+
+    def free(colour):
+        return np.all(np.linalg.norm(reserved - np.array(to_rgb(colour)), axis=1) > radius)
+
+    pool = [c for c in dict.fromkeys(to_hex(c) for c in [*base, *more]) if free(c)]
+    m = n - len(pool)
+    while len(pool) < n:  # more series than named colours: hues, finer until there are enough
+        m *= 2
+        hues = (to_hex(mpl.colormaps["hsv"]((k + 0.5) / m)) for k in range(m))
+        pool = list(dict.fromkeys([*pool, *(c for c in hues if free(c))]))
+    return pool[:n]
 
 
 def term_dashes(i):
@@ -592,7 +628,7 @@ def _set_ticks(axis, ticks, *, labelled, label):
 
 def _diagonal_panel(ax, x, limits, bins):
     """One parameter's histogram on log bins, its 5%, 50%, 95% quantiles dashed and given in the
-    title (to the digits the interval resolves: :func:`~bayes_imu.report.text.interval_digits`)."""
+    title (to the digits the interval resolves: :func:`~bayes_imu.report.text.interval_numbers`)."""
     from matplotlib.ticker import NullLocator
 
     counts, edges = np.histogram(x, bins=np.geomspace(limits[0], limits[1], bins + 1))
@@ -606,8 +642,8 @@ def _diagonal_panel(ax, x, limits, bins):
     ax.yaxis.set_major_locator(NullLocator())
     ax.yaxis.set_minor_locator(NullLocator())
     # the digits the interval resolves, as the console prints them (at most 4 in a panel's title)
-    d = interval_digits(q[1], q[0], q[2], most=4)
-    ax.set_title(f"{q[1]:.{d}g}\n[{q[0]:.{d}g}, {q[2]:.{d}g}]", fontsize=CORNER_FONT)
+    median, low, high = interval_numbers(q[1], q[0], q[2], most=4)
+    ax.set_title(f"{median}\n[{low}, {high}]", fontsize=CORNER_FONT)
 
 
 _SUPERSCRIPT = str.maketrans(

@@ -13,7 +13,9 @@ ends, so a command can say it while the run goes on. The command line only parse
 prints and chooses the exit status.
 """
 
+import contextlib
 import dataclasses
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,7 +27,8 @@ from .writers import (axis_summary, batch_summary, drift_check_summary, drift_ou
                       population_summary, write_allan_csv, write_drift, write_json)
 
 __all__ = ["AxisRun", "FitRun", "PopulationRun", "BatchRun", "AllanRun", "run_fit", "fit_job",
-           "run_fit_batch", "run_population", "run_allan", "input_files", "datasheet_summary"]
+           "run_fit_batch", "run_population", "run_allan", "input_files", "datasheet_summary",
+           "column_warnings"]
 
 
 @dataclass(frozen=True)
@@ -198,8 +201,9 @@ def run_fit(request, out, *, force=False, background=False, progress=False, on_r
             axes = []
             for allan, column, folder in zip(read.results, columns, folders):
                 where = tmp if folder is None else tmp / folder
-                axes.append(_fit_axis(request, allan, unit, info, column, folder, where, writer,
-                                      progress=progress, on_axis=on_axis))
+                with column_warnings(column):
+                    axes.append(_fit_axis(request, allan, unit, info, column, folder, where,
+                                          writer, progress=progress, on_axis=on_axis))
             if len(columns) > 1:
                 summary = fit_summary({a.column: a.summary for a in axes}, info=info,
                                       seed=request.seed, folders=folders)
@@ -207,6 +211,30 @@ def run_fit(request, out, *, force=False, background=False, progress=False, on_r
             writer.wait()  # every output in the staging folder before it is moved into place
     failures = tuple(f for f in writer.picture_failures if f is not None)
     return FitRun(tuple(axes), unit, info, failures)
+
+
+@contextlib.contextmanager
+def column_warnings(column):
+    """Warnings shown while one column is fitted start with its name (``gyro_x: sampler not
+    converged ...``), as the command's own warnings of a column do: a several-column fit otherwise
+    repeats one warning per column, none saying which. Each warning keeps its category and is shown
+    as it is raised, through whatever ``warnings.showwarning`` shows it (a warning filtered to an
+    error still raises)."""
+    prefix = f"{column}: "
+    with warnings.catch_warnings():
+        shown = warnings.showwarning
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            text = str(message)
+            if not text.startswith(prefix):
+                try:
+                    message = category(prefix + text)
+                except Exception:  # a category that takes other arguments: its text alone
+                    message = prefix + text
+            shown(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = show
+        yield
 
 
 def fit_job(job):

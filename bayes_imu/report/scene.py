@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..allan.pipeline import LogSource, allan_from_source, with_article
+from ..allan.pipeline import LogSource, allan_from_source, check_source, with_article
 from ..drift.bands import (DEFAULT_CALIBRATION_S, SENSOR_QUANTITIES, direct_part, drift_bands,
                            drift_draws)
 from ..drift.direct import direct_contrasts
@@ -56,6 +56,7 @@ __all__ = [
     "read_scene",
     "build_report",
     "distinct_units",
+    "check_logs",
     "OUTPUT_UNITS",
 ]
 
@@ -331,10 +332,15 @@ def _get(table, key, kind, where, default=None, required=True):
 
 
 def _known(table, keys, where):
-    """Reject the first key of ``table`` not in ``keys``, by name."""
+    """Reject the first key of ``table`` not in ``keys``, by name, with the nearest key as a hint
+    (``unit``: did you mean 'units'?)."""
+    import difflib
+
     unknown = [k for k in table if k not in keys]
     if unknown:
-        raise InputError(f"{where}: unknown key {_excerpt(unknown[0])}; expected keys: "
+        near = difflib.get_close_matches(str(unknown[0]), keys, n=1, cutoff=0.75)
+        hint = f" (did you mean {near[0]!r}?)" if near else ""
+        raise InputError(f"{where}: unknown key {_excerpt(unknown[0])}{hint}; expected keys: "
                          f"{', '.join(keys)}")
 
 
@@ -560,20 +566,50 @@ def _datasheet(entry, path, kind, where, allow_outside=False):
 
 
 def _confined(scene_path, given, key, where, allow_outside):
-    """``given`` (relative to the scene's folder), refused where it resolves outside that folder."""
+    """``given`` (relative to the scene's folder), refused where it resolves outside that folder;
+    the message says so when a symbolic link takes a path that reads as inside out of it."""
     folder = scene_path.parent
     candidate = folder / given
     if allow_outside:
         return candidate
+    rule = ("paths are confined to it unless allow_outside = true in [scene] (or "
+            "allow_outside=True)")
     try:
         inside = candidate.resolve().is_relative_to(folder.resolve())
     except (OSError, RuntimeError):  # a symlink loop
-        inside = False
+        raise InputError(f"{where}: {key} path {_excerpt(given)} cannot be resolved (a symbolic "
+                         "link loop); expected a path inside the scene's folder") from None
     if not inside:
-        raise InputError(f"{where}: {key} path {_excerpt(given)} lies outside the scene's folder; "
-                         "paths are confined "
-                         "to it unless allow_outside = true in [scene] (or allow_outside=True)")
+        link = _outside_link(folder, given)
+        why = "" if link is None else f": {link}"
+        raise InputError(f"{where}: {key} path {_excerpt(given)} lies outside the scene's "
+                         f"folder{why}; {rule}")
     return candidate
+
+
+def _outside_link(folder, given):
+    """Where ``given`` reads as a path inside ``folder`` (absolute or leaving it by ``..``: no) but
+    a symbolic link on it leads out, what that link is (``"it is a symbolic link that resolves to
+    '/x/a.csv'"``, or the same of a folder on its way), else ``None``."""
+    import os
+
+    relative = Path(os.path.normpath(given))
+    if relative.is_absolute() or relative.parts[:1] == ("..",):
+        return None
+    try:
+        home = folder.resolve()
+        for k in range(1, len(relative.parts) + 1):
+            part = folder.joinpath(*relative.parts[:k])
+            if not part.is_symlink():
+                continue
+            target = part.resolve()
+            if not target.is_relative_to(home):
+                what = ("it is" if k == len(relative.parts)
+                        else f"its folder {_excerpt(str(Path(*relative.parts[:k])))} is")
+                return f"{what} a symbolic link that resolves to {_tail(target)}"
+    except (OSError, RuntimeError):
+        return None
+    return None
 
 
 def _tail(path, limit=80):
@@ -767,7 +803,12 @@ def build_report(scene, *, rng=None, progress=None):
     ``rng`` (:meth:`numpy.random.Generator.spawn`): its numbers are the same whichever sensors are
     listed beside it (tested). ``progress``, if given, is called as ``progress(done, total, name)``
     after each sensor (``done`` of ``total`` sensors finished, the last one's name).
+
+    Every sensor's logs are checked from their headers first (:func:`check_logs`): a wrong column
+    in the last sensor is refused before the first one is fitted.
     """
+    for spec in scene.sensors:
+        check_logs(spec)
     rng = np.random.default_rng(rng)
     reports = []
     # each sensor its own stream, spawned from the report's: a sensor's fits and bounds do not
@@ -842,6 +883,26 @@ def build_report(scene, *, rng=None, progress=None):
 
     imus = imu_reports(scene, reports, rng)  # after the sensors' streams: theirs stay the same
     return Report(scene, tuple(reports), ranking, reason, imus, *rank_imus(scene, imus))
+
+
+def check_logs(spec):
+    """Check a sensor's logs from their headers alone, before any is read: each text log's columns
+    (time column and ``where`` columns included) against its header, with the "did you mean" hint
+    of ``bayes-imu fit --column`` (:func:`~bayes_imu.allan.pipeline.check_source`). Fit folders
+    and logs whose checks need their content are left to :func:`build_report`'s reading.
+
+    Raises
+    ------
+    InputError
+        ``sensor 'name': FILE: no column ...``, as the reading would say it.
+    """
+    if spec.reading is None:
+        return
+    try:
+        for p in spec.paths:
+            check_source(dataclasses.replace(spec.reading, log=p))
+    except InputError as exc:
+        raise InputError(f"sensor {_excerpt(spec.name)}: {exc}") from None
 
 
 def _axes(spec, rng):
@@ -928,6 +989,8 @@ def _saved_axes(folder, spec, where):
 
 
 def _rank(scene, reports):
+    from .text import as_given
+
     t_max = max(scene.outages_s)
     req = scene.requirement
 
@@ -951,7 +1014,8 @@ def _rank(scene, reports):
             reports, key=lambda r: (r.max_outage_s is None, -(r.max_outage_s or 0.0), last_bound(r))
         )
         limit = f"{req['max_error']:g} {req['unit']}"
-        if req.get("given"):  # as the scene gave it ("1 deg"), SI beside it
+        # as the scene gave it ("1 deg"), SI beside it, unless that says the same ("10 m")
+        if as_given(req.get("given"), limit):
             limit = f"{req['given']} ({limit})"
         reason = (
             f"ranked by the longest outage whose {scene.credibility:.0%} bound on "

@@ -331,13 +331,13 @@ def rank_imus(scene, imus):
 
 def requirement_text(req):
     """One line: what the navigation requirement asks."""
-    given = f" (given as {req['given']})" if req.get("given") else ""
+    from .text import as_given
+
+    limit = f"{req['max_error']:.4g} {req['unit']}"
+    given = as_given(req.get("given"), limit, "(given as {})")
     after = f" for outages of at least {req['after_s']:g} s" if req.get("after_s") else ""
     what = "error" if req["statistic"] == "bound" else "1-sigma error"
-    return (
-        f"{req['quantity']} {what} at most {req['max_error']:.4g} {req['unit']}{given}{after} "
-        f"at {req['credibility']:.0%}"
-    )
+    return f"{req['quantity']} {what} at most {limit}{given}{after} at {req['credibility']:.0%}"
 
 
 def navigation_json(report):
@@ -382,23 +382,26 @@ def _plot_span(report):
     return 2.0 * max(list(report.scene.outages_s) + [req.get("after_s") or 0.0])
 
 
-def draw_imu_panels(report, ax_bands, ax_share, ax_terms=None):
+def draw_imu_panels(report, ax_bands, ax_share, ax_terms=None, *, colours=None):
     """The IMUs on the bottom row of ``comparison.png``: the required quantity's bound, median and
     1-sigma band per IMU with the requirement and each IMU's longest outage within it; the gyro's
     share of its median variance (which sensor dominates when); and each term's share at the
-    scene's outages (``ax_terms``, stacked bars)."""
-    from .plots import plain_text
+    scene's outages (``ax_terms``, stacked bars). ``colours``: one per IMU in ranking order
+    (default :func:`~bayes_imu.report.plots.series_colours`), none of the figure's other series'."""
+    from .plots import plain_text, series_colours
 
     req = report.scene.navigation
     name = req["quantity"]
     span = _plot_span(report)
     styles = ("-", "--", "-.", ":")
-    for i, r in enumerate(ranked_imus(report)):
+    ranked = ranked_imus(report)
+    colours = series_colours(len(ranked)) if colours is None else colours
+    for i, r in enumerate(ranked):
         b = r.bands
         q = b.quantities[name]
         keep = (b.t_s >= 0.1) & (b.t_s <= span) & (q.sigma[0] > 0)
         t = b.t_s[keep]
-        colour, style = f"C{i}", styles[i % len(styles)]
+        colour, style = colours[i], styles[i % len(styles)]
         label = f"#{i + 1} {plain_text(r.name)}"
         ax_bands.fill_between(t, q.sigma[0][keep], q.sigma[-1][keep], color=colour, alpha=0.15,
                               lw=0)
@@ -507,6 +510,30 @@ def _top_terms(shares, n=3):
     return ", ".join(f"{label.replace('_', ' ')} {share:.0%}" for label, share in best)
 
 
+def _fit_cautions(report, spec):
+    """What the fits behind one IMU failed (goodness of fit, stationarity), as the sensors' sections
+    say it: ``"gyro g1 z: the model does not describe the log; ..."``, or ``""``."""
+    out = []
+    for role, name in (("gyro", spec.gyro), ("accelerometer", spec.accel)):
+        sensor = next((s for s in report.sensors if s.spec.name == name), None)
+        if sensor is None:
+            continue
+        for ax in sensor.axes:
+            fits = ([ax.fit] if ax.population is None else list(ax.population.unit_fits))
+            flags = set()
+            for fit in fits:
+                if fit is None:
+                    continue
+                if fit.adequacy is not None and not fit.adequacy.adequate:
+                    flags.add("the model does not describe the log")
+                steady = getattr(fit, "stationarity", None)
+                if steady is not None and not steady.stationary:
+                    flags.add("the noise changes during the log")
+            if flags:
+                out.append(f"{role} {name} {ax.axis}: {', '.join(sorted(flags))}")
+    return "; ".join(out)
+
+
 def navigation_section(report):
     """The HTML section of the IMUs (empty without a ``[navigation]`` table)."""
     import html
@@ -523,8 +550,10 @@ def navigation_section(report):
                  f"; {'MEETS' if r.meets else 'does NOT meet'} the {req['after_s']:g} s "
                  "requirement")
         spread = "unit-to-unit spread included" if r.unit_to_unit else "tested units only"
+        caution = _fit_cautions(report, r.spec)
+        caution = f" <b>Caution</b>: {html.escape(caution)}." if caution else ""
         items.append(f"<li>{html.escape(r.name)}: within the requirement for "
-                     f"{_time_text(r.longest_outage_s, report)}{meets} ({spread})</li>")
+                     f"{_time_text(r.longest_outage_s, report)}{meets} ({spread}){caution}</li>")
     rows, starred = [], False
     for r in ranked:
         for row in r.rows:

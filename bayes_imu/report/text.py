@@ -1,6 +1,7 @@
 """Numbers as the outputs print them (console, figures, report.html)."""
 
-__all__ = ["p_text", "outage_text", "interval_digits", "interval_text", "spread_prior_note"]
+__all__ = ["p_text", "outage_text", "number_text", "interval_digits", "interval_numbers",
+           "interval_text", "spread_prior_note", "repeats", "as_given", "PLAIN_RANGE"]
 
 
 def p_text(p):
@@ -13,23 +14,78 @@ def p_text(p):
     return "> 0.99" if p < 1.0 and float(text) >= 1.0 else f"= {text}"
 
 
+#: magnitudes printed without an exponent (:func:`number_text`): from 1e-3 up to (not including) 1e5
+PLAIN_RANGE = (1e-3, 1e5)
+
+
+def number_text(value, digits=3):
+    """``value`` to ``digits`` significant digits, trailing zeros kept (they are digits: ``0.340``,
+    ``73.0``): plain for magnitudes in :data:`PLAIN_RANGE` (``105``, ``661``, ``1050``,
+    ``0.00123``), exponent notation outside it (``2.76e-05``, ``2.29e+05``); ``0`` as ``"0"``.
+    The value is rounded first, so that 99999.7 to 3 digits is ``1.00e+05`` and 0.0009996 is
+    ``0.00100``."""
+    import math
+
+    if not math.isfinite(value):
+        return f"{value}"
+    if value == 0:
+        return "0"
+    digits = max(1, int(digits))
+    rounded = float(f"{value:.{digits - 1}e}")
+    if not PLAIN_RANGE[0] <= abs(rounded) < PLAIN_RANGE[1]:
+        return f"{value:.{digits - 1}e}"
+    decimals = max(0, digits - 1 - math.floor(math.log10(abs(rounded))))
+    return f"{rounded:.{decimals}f}"
+
+
 def interval_digits(median, low, high, most=5):
     """The significant digits an interval resolves: two more than the median over the interval's
-    width has (at least 2, at most ``most``): a factor-of-eight interval gives 2 digits, a 1% one 4;
+    width has (at least 3, at most ``most``): a factor-of-eight interval gives 3 digits, a 1% one 4;
     a width that is not positive and finite gives ``most``."""
     import math
 
     width = high - low
     if math.isfinite(width) and width > 0 and median != 0 and math.isfinite(median):
-        return min(most, max(2, math.ceil(math.log10(abs(median) / width)) + 2))
+        return min(most, max(3, math.ceil(math.log10(abs(median) / width)) + 2))
     return most
 
 
-def interval_text(median, low, high, most=5):
-    """``"median 0.79, 90% [0.55, 4.2]"``: a median and its interval to the significant digits the
-    interval resolves (:func:`interval_digits`); the separator after the median is ``", "``."""
+def interval_numbers(median, low, high, most=5):
+    """``(median, low, high)`` as text, all three to the same significant digits, the ones the
+    interval resolves (:func:`interval_digits`), by :func:`number_text`: a median and its interval
+    at one precision (``"192"``, ``"59.0"``, ``"661"``)."""
     digits = interval_digits(median, low, high, most)
-    return f"median {median:.{digits}g}, 90% [{low:.{digits}g}, {high:.{digits}g}]"
+    return tuple(number_text(v, digits) for v in (median, low, high))
+
+
+def interval_text(median, low, high, most=5):
+    """``"median 0.789, 90% [0.550, 4.20]"``: a median and its interval to the significant digits
+    the interval resolves (:func:`interval_numbers`); the separator after the median is ``", "``."""
+    shown = interval_numbers(median, low, high, most)
+    return f"median {shown[0]}, 90% [{shown[1]}, {shown[2]}]"
+
+
+def repeats(given, shown):
+    """Whether ``given`` (an amount as a scene wrote it: ``"10 m"``, ``"10m"``, ``"1e1 m"``) says
+    what ``shown`` (the amount as printed beside it, ``"10 m"``) says: the same number and the same
+    unit, so that quoting it as well would say one thing twice (``requirement 10 m (10 m)``)."""
+    import re
+
+    def amount(text):
+        match = re.fullmatch(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*",
+                             str(text))
+        return None if match is None else (float(match[1]), match[2])
+
+    said = amount(given)
+    return said is not None and said == amount(shown)
+
+
+def as_given(given, shown, form="({})"):
+    """``" (1 deg)"``: ``given`` (the amount as the scene wrote it) in ``form``, after ``shown``
+    (the amount as printed); ``""`` where there is none or it :func:`repeats` ``shown``."""
+    if not given or repeats(given, shown):
+        return ""
+    return " " + form.format(given)
 
 
 def outage_text(t):
