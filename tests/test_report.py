@@ -712,3 +712,31 @@ def test_a_requirement_given_as_shown_is_not_repeated(report, monkeypatch, figur
         assert f"requirement: {said}; bias start" in page, said
         reason = _rank(scene, rep.sensors)[1]
         assert (f"within {given} (" in reason) == bool(quoted), reason
+
+
+def test_a_library_warning_of_a_scene_fit_names_its_sensor_and_column(tmp_path, rng,
+                                                                      monkeypatch):
+    """A warning raised while a scene's sensor is fitted (the sampler's "not converged", planted
+    here) said neither sensor nor column: with two sensors a user could not tell whose. It now
+    starts with the sensor's name and column, as fit's warnings of a column start with the
+    column."""
+    import warnings
+
+    import bayes_imu.report.scene as scene_module
+
+    real = scene_module.fit_allan
+
+    def fit_allan(*args, **kwargs):
+        warnings.warn("planted: sampler not converged", UserWarning)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(scene_module, "fit_allan", fit_allan)
+    log = tmp_path / "g.csv"
+    log.write_text("gx\n" + "\n".join(f"{v:.6f}" for v in 1e-3 * rng.standard_normal(2**12)))
+    shown = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = lambda message, *args, **kwargs: shown.append(str(message))
+        _one_sensor_report(tmp_path, "cheap unit", log=str(log), column="gx",
+                           extra={"rate_hz": 100})
+    assert "cheap unit gx: planted: sampler not converged" in shown, shown

@@ -1049,6 +1049,44 @@ def main(argv=None):
 _EXECUTABLE = False
 
 
+#: glibc's malloc for the executable: blocks below this size [bytes] come from the heap, and a free
+#: returns memory to the system only past twice it (:func:`_steady_allocator`)
+MALLOC_MMAP_BYTES = 32 * 2**20
+
+
+def _steady_allocator():
+    """Fix glibc's ``malloc`` thresholds for this process and the processes it starts.
+
+    By default glibc maps every block above a threshold (128 KiB at start) afresh and unmaps it
+    when freed, raising the threshold to the size of the largest mapped block freed so far. A
+    fit's arrays of a few megabytes (importance draws, the walkers' Allan variances) were then
+    mapped anew at each call, or not, depending on which blocks the process had happened to free
+    before: the same fit took 110 000 or 230 000 page faults (0.2-0.3 s of system time) from one
+    version of the code to the next, the arithmetic unchanged (docs/speed_under_load.md,
+    "Eleventh session"). Fixed thresholds (``mallopt``: mapped from :data:`MALLOC_MMAP_BYTES`,
+    trimmed past twice it) make that deterministic: blocks below 32 MiB are reused from the heap,
+    and at most 64 MiB of freed memory is kept. The processes it starts (the output process)
+    get the same through glibc's environment variables. Left alone where the user set either
+    variable, and off glibc (``mallopt`` missing). Returns whether it was set.
+    """
+    names = ("MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_")
+    if not sys.platform.startswith("linux") or any(n in os.environ for n in names):
+        return False
+    import ctypes
+
+    try:
+        mallopt = ctypes.CDLL(None).mallopt  # this process's C library
+    except (OSError, AttributeError):
+        return False
+    mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
+    m_trim_threshold, m_mmap_threshold = -1, -3  # <malloc.h>
+    if not (mallopt(m_mmap_threshold, MALLOC_MMAP_BYTES) == 1
+            and mallopt(m_trim_threshold, 2 * MALLOC_MMAP_BYTES) == 1):
+        return False
+    os.environ.update(zip(names, (str(MALLOC_MMAP_BYTES), str(2 * MALLOC_MMAP_BYTES))))
+    return True
+
+
 def command(argv=None):
     """The ``bayes-imu`` executable: :func:`main`, then leave at once with its status.
 
@@ -1062,6 +1100,7 @@ def command(argv=None):
     """
     global _EXECUTABLE
     _EXECUTABLE = True
+    _steady_allocator()
     status = main(argv)
     for stream in (sys.stdout, sys.stderr):
         try:

@@ -910,6 +910,7 @@ def _axes(spec, rng):
     folders)."""
     from ..inference.population import fit_population
     from ..inference.population_archive import is_population_folder
+    from .runs import column_warnings
 
     where = f"sensor {_excerpt(spec.name)}: "
     if spec.source == "fit" and is_population_folder(spec.paths[0]):
@@ -932,14 +933,22 @@ def _axes(spec, rng):
         except InputError as exc:
             raise InputError(f"{where}{exc}") from None
         allans = {column: [r.results[j] for r in read] for j, column in enumerate(spec.columns)}
-        fits = {column: [fit_allan(a, rng=rng) for a in allans[column]] for column in spec.columns}
+        fits = {}
+        for column in spec.columns:
+            fits[column] = []
+            for i, (a, path) in enumerate(zip(allans[column], spec.paths)):
+                # a warning of the fit says whose ("sampler not converged" of which sensor)
+                whose = spec.name if len(spec.paths) == 1 else f"{spec.name} {_label(path, i)}"
+                with column_warnings(f"{whose} {column}"):
+                    fits[column].append(fit_allan(a, rng=rng))
     out = []
     for axis in fits:
         if len(fits[axis]) == 1:
             out.append(AxisResult(axis, fits[axis][0], fits[axis][0]))
         else:
             labels = [_label(p, i) for i, p in enumerate(spec.paths)]
-            pop = fit_population(allans[axis], labels=labels, unit_fits=fits[axis], rng=rng)
+            with column_warnings(f"{spec.name} {axis}"):
+                pop = fit_population(allans[axis], labels=labels, unit_fits=fits[axis], rng=rng)
             out.append(AxisResult(axis, pop.new_unit, None, pop))
     return out
 
