@@ -616,6 +616,7 @@ def test_navigation_section_names_the_fits_behind_an_imu_that_fail_a_check():
     (the page said INADEQUATE only in the sensor's own section)."""
     from types import SimpleNamespace
 
+    from bayes_imu.report.scene import AxisResult
     from bayes_imu.report.scene_nav import ImuSpec, _fit_cautions
 
     def fit(adequate, stationary):
@@ -623,8 +624,7 @@ def test_navigation_section_names_the_fits_behind_an_imu_that_fail_a_check():
                                stationarity=SimpleNamespace(stationary=stationary))
 
     def sensor(name, *fits):
-        axes = tuple(SimpleNamespace(axis=f"ax{i}", fit=f, population=None)
-                     for i, f in enumerate(fits))
+        axes = tuple(AxisResult(f"ax{i}", f, f) for i, f in enumerate(fits))
         return SimpleNamespace(spec=SimpleNamespace(name=name), axes=axes)
 
     rep = SimpleNamespace(sensors=(sensor("g", fit(True, False), fit(True, True)),

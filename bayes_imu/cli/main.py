@@ -27,7 +27,6 @@ import sys
 import textwrap
 import threading
 import time
-import types
 import warnings
 from pathlib import Path
 
@@ -512,7 +511,7 @@ def _say_axis(args, axis):
     if "datasheet_check" in summary:
         checked = summary["datasheet_check"]
         _say(args, f"  datasheet {Path(checked['file']).name}: {checked['verdict']}")
-    _warn_axis(axis)
+    _warn_fit(result, column)
     if drift is not None:
         _say_drift(args, drift, column)
     check = axis.check
@@ -527,10 +526,9 @@ def _say_axis(args, axis):
               "bands include the log's own interval where it measures it")
 
 
-def _warn_axis(axis):
-    """The warnings of one column's fit: a model that does not describe the log, noise that
-    changes."""
-    result, column = axis.result, axis.column
+def _warn_fit(result, column):
+    """The warnings of a fit, each starting with ``column``: a model that does not describe the
+    log, noise that changes."""
     adequacy = result.adequacy
     if not adequacy.adequate:
         what = [
@@ -666,12 +664,8 @@ def _cmd_report(args):
             _warn(f"{s.spec.name}: {note}")
     for s in report.sensors:  # what each fit alone would have warned of
         for ax in s.axes:
-            fits = ([(f"{s.spec.name} {ax.axis}", ax.fit)] if ax.population is None else
-                    [(f"{s.spec.name} {label} {ax.axis}", f)
-                     for label, f in zip(ax.population.labels, ax.population.unit_fits)])
-            for column, fit in fits:
-                if fit is not None:
-                    _warn_axis(types.SimpleNamespace(result=fit, column=column))
+            for label, fit in ax.unit_fits:
+                _warn_fit(fit, " ".join(p for p in (s.spec.name, label, ax.axis) if p))
     outage = {s.spec.name: s.max_outage_s for s in report.sensors}
     _say(args, "ranking: " + ", ".join(_with_outage(n, outage.get(n)) for n in report.ranking)
          + f" ({report.reason})")

@@ -9,7 +9,8 @@ import re
 
 from ..errors import InputError
 
-__all__ = ["DISPLAY_CHOICES", "QUANTITY_UNITS", "display_unit", "parse_amount", "rate_display",
+__all__ = ["DISPLAY_CHOICES", "QUANTITY_UNITS", "display_unit", "amount_parts", "parse_amount",
+           "rate_display",
            "unit_power", "display_parameters"]
 
 DISPLAY_CHOICES = ("si", "deg")
@@ -33,6 +34,13 @@ def display_unit(unit, display):
     return unit, 1.0
 
 
+def amount_parts(text):
+    """``(number, unit)`` of an amount written as text (``"0.5 deg"``, ``"10m"``, ``"1e1 m"``; the
+    unit ``""`` where none is written), or ``None`` where ``text`` is not a number and a unit."""
+    match = _AMOUNT.match(str(text))
+    return None if match is None else (float(match.group(1)), match.group(2) or "")
+
+
 def parse_amount(value, quantity, where):
     """An amount of ``quantity`` in SI: a number (SI already) or a string with a unit, e.g. ``"0.5
     deg"``."""
@@ -43,12 +51,12 @@ def parse_amount(value, quantity, where):
             f"{list(units)[0]}'"
         )
     if isinstance(value, str):
-        match = _AMOUNT.match(value)
-        if not match or (match.group(2) or "") not in units:
+        parts = amount_parts(value)
+        if parts is None or parts[1] not in units:
             raise InputError(
                 f"{where}: {value!r}: expected a number and a unit, one of {', '.join(units)}"
             )
-        number, unit = float(match.group(1)), match.group(2)
+        number, unit = parts
     else:
         number, unit = float(value), next(iter(units))
     if not (math.isfinite(number) and number > 0):

@@ -150,6 +150,14 @@ class AxisResult:
     fit: object = None
     population: object = None
 
+    @property
+    def unit_fits(self):
+        """``((label, FitResult), ...)``: the single-unit fits behind this axis, the fit alone
+        (label ``None``) or each unit of the population (its label)."""
+        if self.population is not None:
+            return tuple(zip(self.population.labels, self.population.unit_fits))
+        return () if self.fit is None else ((None, self.fit),)
+
 
 @dataclass(frozen=True)
 class SensorReport:

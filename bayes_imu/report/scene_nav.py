@@ -519,11 +519,8 @@ def _fit_cautions(report, spec):
         if sensor is None:
             continue
         for ax in sensor.axes:
-            fits = ([ax.fit] if ax.population is None else list(ax.population.unit_fits))
             flags = set()
-            for fit in fits:
-                if fit is None:
-                    continue
+            for _, fit in ax.unit_fits:
                 if fit.adequacy is not None and not fit.adequacy.adequate:
                     flags.add("the model does not describe the log")
                 steady = getattr(fit, "stationarity", None)

@@ -68,16 +68,12 @@ def interval_text(median, low, high, most=5):
 def repeats(given, shown):
     """Whether ``given`` (an amount as a scene wrote it: ``"10 m"``, ``"10m"``, ``"1e1 m"``) says
     what ``shown`` (the amount as printed beside it, ``"10 m"``) says: the same number and the same
-    unit, so that quoting it as well would say one thing twice (``requirement 10 m (10 m)``)."""
-    import re
+    unit, so that quoting it as well would say one thing twice (``requirement 10 m (10 m)``);
+    both read as a scene's amounts are (:func:`~bayes_imu.drift.display.amount_parts`)."""
+    from ..drift.display import amount_parts
 
-    def amount(text):
-        match = re.fullmatch(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*",
-                             str(text))
-        return None if match is None else (float(match[1]), match[2])
-
-    said = amount(given)
-    return said is not None and said == amount(shown)
+    said = amount_parts(given)
+    return said is not None and said == amount_parts(shown)
 
 
 def as_given(given, shown, form="({})"):
