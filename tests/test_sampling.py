@@ -75,6 +75,37 @@ def test_lean_sampler_gives_emcees_own_chains_bit_for_bit_across_chunks():
     assert 0.1 < np.mean(own[2]) / 500 < 0.9  # proposals both accepted and rejected
 
 
+def test_lean_sampler_with_a_metropolis_move_gives_emcees_own_chains_bit_for_bit():
+    """With the independence move on 30% of the steps (a Metropolis-Hastings move the lean loop
+    hands a State, between red-blue steps it runs on the walkers' arrays in place): the same chain,
+    log densities and acceptances as emcee's own sampler and moves with the same weights, bit for
+    bit, across resumed chunks."""
+    import emcee
+
+    from bayes_imu.inference.sampling import INDEPENDENCE_SHARE, StudentProposal, independence_move
+
+    proposal = StudentProposal(np.zeros(4), 0.3 * np.eye(4))
+    runs = []
+    for lean in (True, False):
+        rng = np.random.default_rng(3)
+        start = 0.1 * rng.standard_normal((16, 4))
+        if lean:
+            sampler = ensemble_sampler(_banana, start, rng, independence=proposal)
+        else:
+            local = 1.0 - INDEPENDENCE_SHARE
+            moves = [(emcee.moves.DEMove(), 0.8 * local), (emcee.moves.StretchMove(), 0.2 * local),
+                     (independence_move(proposal), INDEPENDENCE_SHARE)]
+            sampler = emcee.EnsembleSampler(16, 4, _banana, vectorize=True, moves=moves)
+            sampler.random_state = np.random.RandomState(rng.integers(2**32)).get_state()
+        state = start
+        for chunk in (150, 100, 250):
+            state = sampler.run_mcmc(state, chunk, progress=False)
+        runs.append((sampler.get_chain(), sampler.get_log_prob(), sampler.backend.accepted.copy()))
+    for a, b in zip(*runs):
+        np.testing.assert_array_equal(a, b)
+    assert 0.1 < np.mean(runs[1][2]) / 500 < 0.9
+
+
 def test_lean_sampler_keeps_emcees_errors():
     import pytest
 
@@ -194,6 +225,35 @@ def test_long_chains_are_checked_at_a_tenth_of_their_length():
         iteration += step
         checks += 1
     assert iteration == 40_000 and checks == 54
+
+
+def test_no_check_before_the_chain_could_stop():
+    """Given the autocorrelation time ``tau`` of the last check, the next one is not before
+    ``0.9 x 50 tau`` steps (a multiple of 250), at most doubling the chain; short chains
+    (``tau`` <= 11 steps) and the schedule without ``tau`` are as before. With a constant
+    estimate, a chain reaches 50 ``tau`` at most 10% (plus one chunk) later than with the schedule
+    before, and with fewer checks."""
+    from bayes_imu.inference.sampling import GEOMETRIC_FROM, steps_to_next_check
+
+    for n in range(250, GEOMETRIC_FROM, 250):
+        assert steps_to_next_check(n, 250, 11.0) == steps_to_next_check(n, 250) == 250
+        assert steps_to_next_check(n, 250, np.inf) == 250  # no estimate yet
+    assert steps_to_next_check(2000, 250, 400.0) == 2000  # doubling at most
+    assert steps_to_next_check(8000, 250, 400.0) == 8000
+    assert steps_to_next_check(16_000, 250, 400.0) == 2000  # to 0.9 x 50 x 400 = 18 000
+    assert steps_to_next_check(18_000, 250, 400.0) == 2000  # then a tenth, up to 250s
+    for tau in (12.0, 30.0, 100.0, 400.0, 1000.0):
+        reached = {}
+        for with_tau in (False, True):
+            iteration, checks = 0, 0
+            while iteration < 50 * tau:
+                iteration += steps_to_next_check(iteration, 250, tau if with_tau and iteration
+                                                 else None)
+                checks += 1
+            reached[with_tau] = (iteration, checks)
+        assert reached[True][0] <= 1.1 * 50 * tau + 250, (tau, reached)
+        assert reached[True][1] <= reached[False][1], (tau, reached)
+    assert reached[True][1] < reached[False][1] / 3  # tau = 1000: 50 checks before
 
 
 def _two_biases(theta):

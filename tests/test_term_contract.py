@@ -149,6 +149,31 @@ def check_avar_many(term):
             assert np.array_equal(value, t.avar(m, params, DT)), t.name
 
 
+def check_avar_power(term):
+    """A term that declares ``avar_power = k`` has one parameter ``p`` and its Allan variance is
+    ``p**k`` times its value at ``p = 1``, for values of ``p`` across 40 decades; in a model with
+    the white noise (itself such a term), the model's Allan variance (the terms' powers times their
+    curves in one product, :class:`~bayes_imu.noise.model.AvarEvaluator`) is the sum of the terms'
+    own ``avar`` to 1e-14, from an ``(..., n_par)`` array and from a dict."""
+    if term.avar_power is None:
+        return
+    assert len(term.parameters) == 1 and term.avar_power in (1, 2, 3, 4)
+    name = term.parameters[0]
+    m = np.array([1.0, 2.0, 3.0, 5.0, 8.0, 21.0, 4096.0])
+    unit = term.avar(m, {name: np.asarray(1.0)}, DT)
+    for value in (1e-20, 3.7e-3, 1.0, 2.5e4, 1e20):
+        got = term.avar(m, {name: np.asarray(value)}, DT)
+        np.testing.assert_allclose(got, value**term.avar_power * unit, rtol=1e-14, atol=0)
+    model = NoiseModel(tuple(dict.fromkeys(("white", term.name))), dt=DT)
+    p = {**params_of(REGISTRY["white"]), **params_of(term)}
+    scale = np.linspace(0.5, 2.0, 3)
+    batch = {k: np.full((2, 3), v) * scale for k, v in p.items()}
+    own = sum(REGISTRY[t].avar(m, batch, DT) for t in model.terms)
+    theta = np.stack([batch[k] for k in model.parameter_names], axis=-1)
+    for params in (theta, batch):
+        np.testing.assert_allclose(model.avar(m, params), own, rtol=1e-14, atol=0)
+
+
 def check_structure_vs_simulation(term, rng):
     """Mean square of the simulator's second differences equals ``2 m^2 AVAR(m)`` within 5 sigma."""
     p = params_of(term)
@@ -345,6 +370,7 @@ CHECKS = (
     check_drift_orders_and_starts,
     check_covariance_tail,
     check_avar_many,
+    check_avar_power,
     check_selection_and_start,
     check_datasheet_and_kalibr,
     check_start_variants,
@@ -407,8 +433,16 @@ class _BadStarts(_WrongAvar):
         return ({"time_constant": 1.0},)
 
 
+class _WrongPower(_WrongAvar):
+    """Declares its Allan variance the square of its parameter's multiple; it is the multiple."""
+
+    avar_power = 2
+
+
 _UNITS = {"noise_variance": "({u})^2"}
 PLANTED = {
+    "wrong_power": _WrongPower("wrong_power", ("noise_variance",), _UNITS, "wrong power",
+                               "short_term", selection=("extension",), kalibr="none"),
     "bad_starts": _BadStarts(
         "bad_starts",
         ("noise_variance",),
@@ -474,6 +508,7 @@ FAILURES = [
     ("worst_time", check_worst_axis),
     ("fast_exchangeable", check_exchangeable),
     ("worst_unknown", check_declarations_),
+    ("wrong_power", check_avar_power),
 ]
 
 

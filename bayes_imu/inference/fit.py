@@ -14,8 +14,9 @@ Pipeline of :func:`fit_allan`:
 5. *Sampling*: emcee (``vectorize=True``, differential-evolution and stretch moves, and an
    independence move where its estimated acceptance is high enough:
    :mod:`bayes_imu.inference.sampling`) in
-   log-parameters, in chunks of 250 steps (a tenth of the chain past 10 000 steps:
-   :func:`~bayes_imu.inference.sampling.steps_to_next_check`) until the chain is longer than 50
+   log-parameters, in chunks of 250 steps (a tenth of the chain past 10 000 steps, and none before
+   the chain could stop: :func:`~bayes_imu.inference.sampling.steps_to_next_check`) until the
+   chain is longer than 50
    integrated autocorrelation times and that estimate has settled to 5%; then
    rank-normalised R-hat and bulk/tail ESS (:mod:`bayes_imu.inference.diagnostics`). Non-convergence
    warns (:class:`ConvergenceWarning`) and sets ``diagnostics["converged"] = False``.
@@ -35,7 +36,6 @@ from .likelihood import LIKELIHOODS, LogPosterior, default_bounds
 from ..noise.avar_forms import BASE_TERMS, PARAMETER_UNITS, NoiseModel
 from .diagnostics import summary as convergence_summary
 from .sampling import (
-    GEOMETRIC_FROM,
     INDEPENDENCE_INFLATE,
     INDEPENDENCE_MIN_ACCEPT,
     StudentProposal,
@@ -1054,11 +1054,10 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
             state = sampler.run_mcmc(state, chunk, progress=False)
             tau_max = float(np.max(autocorr_time(sampler.get_chain())))
             bar.update(chunk)
-            # a long chain: checked at a tenth of its length, up to the cap
-            if sampler.iteration >= GEOMETRIC_FROM:
-                chunk = min(
-                    steps_to_next_check(sampler.iteration, 250), max_steps - sampler.iteration
-                )
+            # a long chain: checked at a tenth of its length, and not before it could stop
+            chunk = min(
+                steps_to_next_check(sampler.iteration, 250, tau_max), max_steps - sampler.iteration
+            )
             bar.set_postfix_str(f"autocorrelation {tau_max:.0f} steps")
             settled = long_enough(sampler.iteration, tau_max, tau_old)
             tau_old = tau_max

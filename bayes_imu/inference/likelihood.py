@@ -153,6 +153,10 @@ class LogPosterior:
             self, "_log_prior_inside", -float(np.sum(np.log(self.bounds[:, 1] - self.bounds[:, 0])))
         )
         object.__setattr__(self, "_low", np.ascontiguousarray(self.bounds[:, 0]))
+        # the observed log AVAR less the log-scale bias (the residual's fixed part), and the
+        # discrepancy likelihood's constant: computed once, not per call
+        object.__setattr__(self, "_centre", self.log_avar - self.offset)
+        object.__setattr__(self, "_half_log_2pi", 0.5 * np.size(self.m) * np.log(2.0 * np.pi))
         object.__setattr__(self, "_high", np.ascontiguousarray(self.bounds[:, 1]))
         n_model = len(self.model.parameter_names)
         if self.bounds.shape[0] != n_model + int(self.discrepancy):
@@ -274,13 +278,15 @@ class LogPosterior:
             mu = self.model_log_avar(log_theta)
         if self.kind == "correlated" and self.discrepancy:
             var = self.eig_values + np.exp(2.0 * log_theta[..., -1:])
-            r = (self.log_avar - mu - self.offset) @ self.eig_vectors
-            out = -0.5 * (r * r / var + np.log(var)).sum(axis=-1) - 0.5 * self.m.size * np.log(
-                2.0 * np.pi
-            )
+            r = (self._centre - mu) @ self.eig_vectors
+            r *= r
+            r /= var
+            r += np.log(var)
+            out = -0.5 * r.sum(axis=-1) - self._half_log_2pi
         elif self.kind == "correlated":
-            r = (self.log_avar - mu - self.offset) @ self.whiten.T
-            out = self.norm - 0.5 * (r * r).sum(axis=-1)
+            r = (self._centre - mu) @ self.whiten.T
+            r *= r
+            out = self.norm - 0.5 * r.sum(axis=-1)
         else:
             # gamma(shape, scale = AVAR / shape) density of each observed avar
             with np.errstate(over="ignore", invalid="ignore"):

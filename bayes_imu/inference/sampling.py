@@ -330,15 +330,27 @@ def _lean_classes(emcee):
             model = Model(self.log_prob_fn, self.compute_log_prob, map, self._random)
             cdf = np.cumsum(self._weights)
             cdf /= cdf[-1]
-            uniform, moves = self._random.random_sample, self._moves
+            random = self._random
+            uniform, moves = random.random_sample, self._moves
+            # the walkers as two arrays, updated in place by the red-blue moves (:meth:`WholeHalves.
+            # step`); a State only for another move (emcee's ``propose``)
+            coords = np.array(state.coords, dtype=np.float64)
+            log_prob = np.array(state.log_prob, dtype=np.float64)
+            chain, log_probs, accepted_total = backend.chain, backend.log_prob, backend.accepted
+            step = backend.iteration
             for _ in range(nsteps):
                 move = moves[int(cdf.searchsorted(uniform(), side="right"))]
-                state, accepted = move.propose(model, state)
-                step = backend.iteration
-                backend.chain[step] = state.coords
-                backend.log_prob[step] = state.log_prob
-                backend.accepted += accepted
-                backend.iteration = step + 1
+                if isinstance(move, WholeHalves):
+                    accepted = move.step(coords, log_prob, self.compute_log_prob, random)
+                else:
+                    new, accepted = move.propose(model, State(coords, log_prob=log_prob))
+                    coords, log_prob = new.coords, new.log_prob
+                chain[step] = coords
+                log_probs[step] = log_prob
+                accepted_total += accepted
+                step += 1
+                backend.iteration = step
+            state = State(coords, log_prob=log_prob)
             self._previous_state = state
             return state
 
@@ -353,7 +365,8 @@ def _lean_classes(emcee):
             return log_prob, None
 
     class WholeHalves:
-        """``RedBlueMove.propose`` with each half-ensemble accepted at once."""
+        """``RedBlueMove.propose`` with each half-ensemble accepted at once; :meth:`step`, the same
+        on the walkers' arrays in place."""
 
         def propose(self, model, state):
             n_walkers, n_dim = state.coords.shape
@@ -383,6 +396,35 @@ def _lean_classes(emcee):
                     chosen,
                 )
             return state, accepted
+
+        def step(self, coords, log_prob, compute_log_prob, random):
+            """:meth:`propose` on ``coords`` ``(n_walkers, n_dim)`` and ``log_prob`` in place
+            (no State objects, no blobs): the same draws in the same order, the same proposals,
+            acceptances and updates (tested against emcee's own classes); returns the accepted
+            walkers."""
+            n_walkers, n_dim = coords.shape
+            if n_walkers < 2 * n_dim and not self.live_dangerously:
+                raise RuntimeError(
+                    "It is unadvisable to use a red-blue move with fewer walkers than twice the "
+                    "number of dimensions."
+                )
+            self.setup(coords)
+            accepted = np.zeros(n_walkers, dtype=bool)
+            halves = np.arange(n_walkers) % self.nsplits
+            if self.randomize_split:
+                random.shuffle(halves)
+            for split in range(self.nsplits):
+                chosen = halves == split
+                others = [coords[halves == j] for j in range(self.nsplits) if j != split]
+                proposal, factors = self.get_proposal(coords[chosen], others, random)
+                new_log_probs = compute_log_prob(proposal)[0]
+                difference = factors + new_log_probs - log_prob[chosen]
+                ok = difference > np.log(random.rand(difference.size))
+                rows = np.flatnonzero(chosen)[ok]
+                coords[rows] = proposal[ok]
+                log_prob[rows] = new_log_probs[ok]
+                accepted[rows] = True
+            return accepted
 
     class DEMove(WholeHalves, emcee.moves.DEMove):
         def get_proposal(self, s, c, random):
@@ -502,10 +544,11 @@ def fft_length(n):
     return best
 
 
-def steps_to_next_check(iteration, every):
+def steps_to_next_check(iteration, every, tau=None):
     """Steps to run before the next convergence check of a chain ``iteration`` steps long: ``every``
     while it is shorter than :data:`GEOMETRIC_FROM`, then a tenth of its length (a multiple of
-    ``every``).
+    ``every``); and, given ``tau`` (the autocorrelation time estimated at this check, steps), no
+    check before the chain could stop, up to doubling its length.
 
     Each check estimates the autocorrelation time over the whole chain (an FFT of every walker's
     series), so checking every ``every`` steps costs quadratically in the chain length: on a real
@@ -513,10 +556,21 @@ def steps_to_next_check(iteration, every):
     docs/speed_under_load.md#sampler). Geometric spacing makes their total cost linear in the
     length, and a chain that settles
     runs at most 10% longer than with fixed chunks; shorter chains are checked exactly as before.
+
+    A chain stops only once it is :data:`AUTOCORR_MULTIPLE` autocorrelation times long
+    (:func:`long_enough`), so a check before ``0.9 AUTOCORR_MULTIPLE tau`` steps can only estimate
+    ``tau`` again: with ``tau`` given, the next check is there (a multiple of ``every``), at most
+    as many steps on as the chain already has. A chain's estimate grows as it lengthens (a short
+    chain has not seen its slow excursions), so this does not pass over a check at which the
+    chain could stop unless the estimate falls by more than 10% by then; a chain of 20 000 steps
+    is checked 13 times instead of 50. Short chains (``tau`` of 11 steps or less at ``every = 250``)
+    are checked as without it.
     """
-    if iteration < GEOMETRIC_FROM:
-        return every
-    return every * int(np.ceil(0.1 * iteration / every))
+    step = every if iteration < GEOMETRIC_FROM else every * int(np.ceil(0.1 * iteration / every))
+    if tau is not None and np.isfinite(tau):
+        ahead = every * int(np.ceil((0.9 * AUTOCORR_MULTIPLE * tau - iteration) / every))
+        step = max(step, min(ahead, every * int(np.ceil(iteration / every))))
+    return step
 
 
 def long_enough(iteration, tau_max, tau_previous):

@@ -8,6 +8,10 @@ A term is a stochastic (or, for the ramp, deterministic) component of the rate s
   cluster sizes ``m`` (``tau = m dt``), broadcast ``(...,) x (n_tau,) -> (..., n_tau)``;
 * ``avar_group`` and ``avar_many(others, mf, params, dt)`` (optional): terms of one group in a
   model evaluated in one call, each to the bits of its own ``avar`` (the Gauss-Markov terms);
+* ``avar_power`` (optional): for a term of one parameter ``p`` whose Allan variance is
+  ``p**avar_power`` times a curve of ``m`` alone (white noise, a random walk, ...), that power;
+  a model then evaluates all such terms as one product with their curves
+  (:class:`~bayes_imu.noise.model.AvarEvaluator`);
 * ``structure(k, params, dt)``: the phase structure function ``D(k)`` (a generalised
   covariance of ``x_k = sum_{t<k} y_t``, in ``u^2``) from which the covariance of the AVAR
   estimates is built (:mod:`bayes_imu.noise.avar_covariance`);
@@ -351,6 +355,10 @@ class Term:
 
     #: terms of one model evaluated together by :meth:`avar_many` (``None``: each alone)
     avar_group = None
+
+    #: ``k`` where the Allan variance is ``p**k`` times a curve of the cluster sizes alone, ``p``
+    #: the term's one parameter (``None``: not of that form); checked by the contract suite
+    avar_power = None
 
     def avar_many(self, others, mf, params, dt):
         """The Allan variances of this term and ``others`` (terms of its :attr:`avar_group` in one

@@ -82,6 +82,8 @@ def power_log_sum(p, n):
 class _BiasInstability(Term):
     tail_kind = "flicker"
 
+    avar_power = 2
+
     def avar(self, mf, params, dt):
         return (
             FLAT * np.asarray(params["bias_instability"], float)[..., None] ** 2 * np.ones_like(mf)

@@ -26,6 +26,8 @@ class _FilteredWhite(Term):
     tail_kind = "none"
     simulated_start = "stationary"
 
+    avar_power = 1
+
     def avar(self, mf, params, dt):
         return (
             np.asarray(params["filtered_variance"], float)[..., None] * (4.0 * mf - 3.0) / (mf * mf)

@@ -101,8 +101,7 @@ def gm_avar(mf, variance, time_constant, dt):
     if s2.shape != t.shape:
         s2, t = np.broadcast_arrays(s2, t)
     x = (dt / t.reshape(-1))[:, None]
-    with np.errstate(over="ignore"):
-        fy = -np.expm1(-(mf * x))
+    fy = -np.expm1(-(mf * x))  # mf x >= 0 for time constants > 0: no overflow
     out = np.empty(fy.shape)
     _kernel()(mf, coeffs, np.ascontiguousarray(s2.reshape(-1)), x.ravel(), (-np.expm1(-x)).ravel(),
               (-np.expm1(-2.0 * x)).ravel(), fy, _AVAR_SWITCH, out)

@@ -22,6 +22,8 @@ class _Quantization(Term):
     tail_kind = "none"
     simulated_start = "stationary"
 
+    avar_power = 2
+
     def avar(self, mf, params, dt):
         return 3.0 * np.asarray(params["quantization"], float)[..., None] ** 2 / (mf * dt) ** 2
 

@@ -22,6 +22,8 @@ class _Ramp(Term):
     tail_kind = "none"  # deterministic: no structure function (module docstring)
     simulated_start = "zero"
 
+    avar_power = 2
+
     def avar(self, mf, params, dt):
         return 0.5 * (np.asarray(params["rate_ramp"], float)[..., None] * mf * dt) ** 2
 

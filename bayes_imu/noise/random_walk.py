@@ -23,6 +23,8 @@ class _RandomWalk(Term):
     # a simulated walk holds one increment at its first sample, a walk from a zero start none
     simulated_start = None
 
+    avar_power = 2
+
     def avar(self, mf, params, dt):
         q = np.asarray(params["rate_random_walk"], float)[..., None] ** 2 * dt
         return q * (2.0 * mf * mf + 1.0) / (6.0 * mf)

@@ -82,10 +82,15 @@ class _Vibration(Term):
     simulated_start = "stationary"
 
     def avar(self, mf, params, dt):
-        x = _half_phase(params, dt)[..., None]
-        a2 = np.asarray(params["vibration_amplitude"], float)[..., None] ** 2
-        s = np.sin(mf * x)
-        return a2 * (s * s) ** 2 / (mf * mf * np.sin(x) ** 2)
+        x = _half_phase(params, dt)
+        sx = np.sin(x)
+        weight = (np.asarray(params["vibration_amplitude"], float) / sx) ** 2
+        s = np.sin(mf * x[..., None])  # A^2 sin^4(m x) / (m sin x)^2, in place
+        s *= s
+        s *= s
+        s = s * weight[..., None]  # the parameters' shapes broadcast (either may be a scalar)
+        s /= mf * mf
+        return s
 
     def structure(self, k, params, dt):
         x = _half_phase(params, dt)

@@ -20,6 +20,8 @@ class _White(Term):
     tail_kind = "none"
     simulated_start = "stationary"
 
+    avar_power = 1
+
     def avar(self, mf, params, dt):
         return np.asarray(params["noise_variance"], float)[..., None] / mf
 
