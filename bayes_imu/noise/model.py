@@ -250,13 +250,20 @@ class AvarEvaluator:
             if self._linear is not None:
                 out = self._linear_part(theta[..., self._linear[1]])
         components = self._components
+        owned = out is not None  # the linear part is a new array: added into in place
         for index, others in self._plan:
             if others:
                 parts = components[index[0]].avar_many(others, mf, params, dt)
             else:
                 parts = (components[index[0]].avar(mf, params, dt),)
             for part in parts:
-                out = part if out is None else out + part
+                if out is None:
+                    out = part  # a term's own array: not changed here
+                elif owned and out.shape == np.shape(part):
+                    out += part
+                else:
+                    out = out + part
+                    owned = True
         return out
 
     def _linear_part(self, amplitudes):
