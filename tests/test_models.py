@@ -48,6 +48,13 @@ def test_gauss_markov_avar_matches_mpmath_across_switch(x):
     np.testing.assert_allclose(got, ref, rtol=1e-13)
 
 
+def test_gauss_markov_avar_of_a_vanishing_time_constant_is_white_without_warnings():
+    """T = 1e-308 (dt/T beyond the largest float once times m): the bias is white noise of its
+    variance, AVAR = s^2 / m, with no overflow warning (the suite turns warnings into errors)."""
+    m = np.array([1, 10, 100, 4096])
+    np.testing.assert_allclose(gauss_markov_avar(m, 2.0, 1e-308, dt=0.01), 2.0 / m, rtol=1e-15)
+
+
 def test_gauss_markov_avar_broadcasts_rows_against_mpmath():
     """Variances ``(2, 1)`` and time constants ``(3,)`` -> ``(2, 3, n_tau)``; each row is its own
     process (rows on both sides of the switch, one with T = inf: zero AVAR, exactly)."""
@@ -156,7 +163,13 @@ def test_broadcasting_equals_loop(rng):
     assert batch.shape == (4, 5, 4)
     for i in range(4):
         for j in range(5):
-            np.testing.assert_allclose(batch[i, j], model.avar(m, theta[i, j]), rtol=1e-14)
+            # the same bits: a walker's Allan variance does not depend on the batch it is in
+            # (every term, and the evaluator's sum of the power terms, works element by element)
+            np.testing.assert_array_equal(batch[i, j], model.avar(m, theta[i, j]))
+            own = sum(REGISTRY[t].avar(m.astype(float), dict(zip(model.parameter_names,
+                                                                  theta[i, j])), 0.01)
+                      for t in model.terms)
+            np.testing.assert_allclose(batch[i, j], own, rtol=1e-14)
 
 
 def test_model_validation():

@@ -106,6 +106,21 @@ def test_lean_sampler_with_a_metropolis_move_gives_emcees_own_chains_bit_for_bit
     assert 0.1 < np.mean(runs[1][2]) / 500 < 0.9
 
 
+def test_lean_sampler_keeps_a_float32_start_as_emcee_does():
+    """A float32 start stays float32 (every update rounded into it, as emcee's State does): the
+    same chain as emcee's own classes, bit for bit."""
+    chains = []
+    for make in (ensemble_sampler, _emcee_own):
+        rng = np.random.default_rng(2)
+        start = (0.1 * rng.standard_normal((16, 4))).astype(np.float32)
+        sampler = make(_banana, start, rng)
+        state = sampler.run_mcmc(start, 120, progress=False)
+        chains.append((sampler.get_chain(), sampler.get_log_prob(), state.coords.dtype))
+    np.testing.assert_array_equal(chains[0][0], chains[1][0])
+    np.testing.assert_array_equal(chains[0][1], chains[1][1])
+    assert chains[0][2] == chains[1][2] == np.float32
+
+
 def test_lean_sampler_keeps_emcees_errors():
     import pytest
 

@@ -101,7 +101,8 @@ def gm_avar(mf, variance, time_constant, dt):
     if s2.shape != t.shape:
         s2, t = np.broadcast_arrays(s2, t)
     x = (dt / t.reshape(-1))[:, None]
-    fy = -np.expm1(-(mf * x))  # mf x >= 0 for time constants > 0: no overflow
+    with np.errstate(over="ignore"):  # m dt/T beyond the largest float: e^-inf = 0
+        fy = -np.expm1(-(mf * x))
     out = np.empty(fy.shape)
     _kernel()(mf, coeffs, np.ascontiguousarray(s2.reshape(-1)), x.ravel(), (-np.expm1(-x)).ravel(),
               (-np.expm1(-2.0 * x)).ravel(), fy, _AVAR_SWITCH, out)

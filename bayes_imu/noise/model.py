@@ -193,8 +193,9 @@ class AvarEvaluator:
     ``p**k`` times a curve of ``m``) are evaluated together as one matrix product of their
     parameters' powers with their curves at unit parameter, computed once here; the others each
     alone, or one call per :attr:`~bayes_imu.noise.Term.avar_group`. The sum is the model's to
-    rounding (tested against the terms' own sum); a likelihood call of 16 walkers spends a fifth
-    less time here (``docs/speed_under_load.md#sampler``).
+    rounding (tested against the terms' own sum), and each row's the same bits in any batch
+    (tested); a likelihood call of 16 walkers spends up to a quarter less time here
+    (``docs/speed_under_load.md``, "Twelfth session").
     """
 
     __slots__ = ("model", "mf", "_names", "_components", "_plan", "_linear", "_others")
@@ -268,11 +269,14 @@ class AvarEvaluator:
 
     def _linear_part(self, amplitudes):
         """The terms with an ``avar_power``: ``amplitudes`` ``(..., k)`` (their parameters, a copy
-        this may change) raised to their powers, times their curves ``(k, n_tau)``."""
+        this may change) raised to their powers, times their curves ``(k, n_tau)``, summed."""
         _, _, n_squared, powers, curves = self._linear
         if n_squared:
             head = amplitudes[..., :n_squared]
             head *= head
         if n_squared < powers.size and np.any(powers[n_squared:] != 1.0):
             amplitudes[..., n_squared:] **= powers[n_squared:]
-        return amplitudes @ curves
+        # numpy's own sum of products, not a matrix product: a walker's value is then the same
+        # bits whichever batch it is evaluated in (BLAS rounds a row of a matrix product as it
+        # blocks the matrix; tests/test_models.py)
+        return np.einsum("...k,kn->...n", amplitudes, curves)
