@@ -565,8 +565,8 @@ def steps_to_next_check(iteration, every, tau=None):
     as many steps on as the chain already has. A chain's estimate grows as it lengthens (a short
     chain has not seen its slow excursions), so this does not pass over a check at which the
     chain could stop unless the estimate falls by more than 10% by then. With ``tau`` 400 steps
-    throughout, a chain reaches 50 ``tau`` in 9 checks instead of 47 (tested). Short chains (``tau`` of 11 steps or less at ``every = 250``)
-    are checked as without it.
+    throughout, a chain reaches 50 ``tau`` in 9 checks instead of 47 (tested). Short chains
+    (``tau`` of 11 steps or less at ``every = 250``) are checked as without it.
     """
     step = every if iteration < GEOMETRIC_FROM else every * int(np.ceil(0.1 * iteration / every))
     if tau is not None and np.isfinite(tau):
