@@ -154,6 +154,44 @@ def test_position_covariance_against_every_pair(terms, params):
         np.testing.assert_allclose(got[~near], ref[~near], atol=0.03 * far_scale)
 
 
+def test_position_covariance_reuses_the_last_tables_of_a_point_to_the_bit(monkeypatch):
+    """A bound search asks for one parameter point at outage after outage: within
+    ``reused_sums``, the structure-function sums made for a longer table are reused for a shorter
+    one (every term, and the far-lag terms alone), and give the same numbers, bit for bit, as
+    tables made afresh; another point is computed anew; outside, nothing is kept."""
+    import bayes_imu.noise.contrast_covariance as cc
+
+    model = NoiseModel(("white", "gauss_markov", "vibration"), 1.0)
+    params = {"noise_variance": 1.0, "bias_variance": 0.3, "time_constant": 40.0,
+              "vibration_frequency": 0.11, "vibration_amplitude": 0.5}
+    cases = [(400, [0.0, 3.0, 50.0, 9000.0, 20_000.0]), (30, [0.0, 1.0, 800.0, 3000.0]),
+             (120, [0.0, 7.0, 2500.0])]
+    monkeypatch.setattr(cc, "_LAST_SUMS", [])
+    made = []
+    real_sums = cc._sums
+
+    def counted(structure, wanted, key=None):
+        before = list(cc._LAST_SUMS)
+        out = real_sums(structure, wanted, key)
+        made.append(cc._LAST_SUMS != before)
+        return out
+
+    monkeypatch.setattr(cc, "_sums", counted)
+    with cc.reused_sums():
+        reused = [position_covariance(model, params, [k], 9, [np.array(d)])[0] for k, d in cases]
+        assert made[:2] == [True, True] and not any(made[2:])  # two tables, then reused
+        other = dict(params, time_constant=41.0)
+        moved = position_covariance(model, other, [30], 9, [np.array(cases[1][1])])[0]
+        assert made[-1] and len(cc._LAST_SUMS) == 2
+    assert cc._LAST_SUMS == []  # dropped on leaving
+    for (k, d), got in zip(cases, reused):  # afresh: no reuse outside
+        np.testing.assert_array_equal(got, position_covariance(model, params, [k], 9,
+                                                               [np.array(d)])[0])
+    np.testing.assert_array_equal(moved, position_covariance(model, other, [30], 9,
+                                                             [np.array(cases[1][1])])[0])
+    assert not np.array_equal(moved, reused[1]) and cc._LAST_SUMS == []
+
+
 def _monte_carlo_edf(model, params, n, n_cal, ks, rng, count):
     v = np.array([
         phase_contrasts(simulate_log(model, params, n, rng=rng), rate_hz=1 / model.dt,

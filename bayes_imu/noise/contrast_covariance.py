@@ -38,11 +38,13 @@ a few percent at most beyond ``8 (k + N)``), ``D^(4)`` a central fourth differen
 ``d / 16``; other terms (a vibration's sinusoid) the exact sums.
 """
 
+import contextlib
+
 import numpy as np
 
 from ._base import TABLE_MAX, _blocked_sums
 
-__all__ = ["contrast_edf", "position_covariance"]
+__all__ = ["contrast_edf", "position_covariance", "reused_sums"]
 
 #: lags summed one by one before the covariance sum switches to the geometric midpoint rule
 _EXACT_LAGS = 256
@@ -165,11 +167,12 @@ def position_covariance(model, params, k, n_cal, lags):
         return lambda lag: sum(t.structure(lag, params, dt) for t in terms)
 
     exact = [np.where(nr, np.round(d), 0.0) for nr, d in zip(near, lags)]
-    out = _exact_covariance(structure(model.components), ks, n_cal, exact)
+    point = (model.terms, float(dt), tuple(float(params[p]) for p in model.parameter_names))
+    out = _exact_covariance(structure(model.components), ks, n_cal, exact, key=point)
     out = [np.where(nr, c, 0.0) for nr, c in zip(near, out)]
     if exact_far and any((~nr).any() for nr in near):
         far = [np.where(nr, 0.0, np.round(d)) for nr, d in zip(near, lags)]
-        extra = _exact_covariance(structure(exact_far), ks, n_cal, far)
+        extra = _exact_covariance(structure(exact_far), ks, n_cal, far, key=("far",) + point)
         out = [np.where(nr, c, e) for nr, c, e in zip(near, out, extra)]
     for i, (kk, d, nr) in enumerate(zip(ks, lags, near)):
         if smooth_far and not nr.all():
@@ -190,9 +193,10 @@ def _far_moment_term(structure, k, n_cal, d):
     return -a2 * a2 / 8.0 * fourth
 
 
-def _exact_covariance(structure, ks, n_cal, lags):
+def _exact_covariance(structure, ks, n_cal, lags, key=None):
     """Exact ``C(d)`` at whole-sample lags from the sums ``F``, ``G`` of one table of ``D``:
-    ``F^(m) = F(m)`` (``m >= 0``), ``-F(-m - 1)`` (``m < 0``); ``G^(m) = G(max(|m| - 1, 0))``."""
+    ``F^(m) = F(m)`` (``m >= 0``), ``-F(-m - 1)`` (``m < 0``); ``G^(m) = G(max(|m| - 1, 0))``.
+    ``key``: what ``structure`` is (:func:`_sums`' reuse), or ``None``."""
     parts = []
     for kk, d in zip(ks, lags):
         big_k = kk - 1.0
@@ -203,7 +207,7 @@ def _exact_covariance(structure, ks, n_cal, lags):
         parts.append((kk, d, big_k, points, f_args, [d + big_k, d, d - big_k]))
     f_idx = [np.where(a >= 0, a, -a - 1.0) for p in parts for a in p[4]]
     g_idx = [np.maximum(np.abs(a) - 1.0, 0.0) for p in parts for a in p[5]]
-    f_tab, g_tab = _sums(structure, np.concatenate(f_idx + g_idx).astype(np.int64))
+    f_tab, g_tab = _sums(structure, np.concatenate(f_idx + g_idx).astype(np.int64), key)
 
     def f_hat(m):
         i = np.where(m >= 0, m, -m - 1.0).astype(np.int64)
@@ -230,13 +234,52 @@ def _exact_covariance(structure, ks, n_cal, lags):
     return out
 
 
-def _sums(structure, wanted):
-    """Lookups ``F(i)``, ``G(i)`` (extended precision) at the whole-sample indices ``wanted``."""
+#: the last sums :func:`_sums` made with a key, ``(key, top, F, G)``, for the two keys last used,
+#: kept within :func:`reused_sums` only. A report's bound search asks for one parameter point's
+#: position contrast at every outage it tries: two tables each time (every term, and the far-lag
+#: terms alone), up to about the record's length (1e6 samples: 26 ms a table, 46 tables for one
+#: accelerometer); 32 MB a table at 1e6 samples
+_LAST_SUMS = []
+_KEPT_SUMS = 2
+_REUSING = [0]
+
+
+@contextlib.contextmanager
+def reused_sums():
+    """Within it, :func:`position_covariance` reuses the structure-function sums it made for a
+    parameter point (the same numbers, bit for bit: :func:`_sums`); on leaving the outermost one,
+    they are dropped. A report's bound search for one sensor runs in one (it cost an
+    accelerometer's report 0.7 s of 2.9 s: docs/speed_under_load.md, "Twelfth session")."""
+    _REUSING[0] += 1
+    try:
+        yield
+    finally:
+        _REUSING[0] -= 1
+        if not _REUSING[0]:
+            _LAST_SUMS.clear()
+
+
+def _sums(structure, wanted, key=None):
+    """Lookups ``F(i)``, ``G(i)`` (extended precision) at the whole-sample indices ``wanted``.
+
+    With ``key`` (what ``structure`` is: terms, ``dt`` and parameter point), within
+    :func:`reused_sums`, the last table made for that key is reused where it reaches ``wanted``:
+    its first entries are the same numbers a shorter table would hold (``D`` element by element,
+    running sums in order; tested)."""
     top = int(wanted.max()) if wanted.size else 0
     if top <= TABLE_MAX:
+        keep = key is not None and _REUSING[0] > 0
+        last = next((e for e in _LAST_SUMS if keep and e[0] == key and e[1] >= top), None)
+        if last is not None:
+            return (lambda i: last[2][i]), (lambda i: last[3][i])
+        if keep:  # a shorter table of this key: dropped before the new one is made
+            _LAST_SUMS[:] = [e for e in _LAST_SUMS if e[0] != key][-(_KEPT_SUMS - 1):]
         table = np.asarray(structure(np.arange(top + 1, dtype=float)), dtype=np.longdouble)
         f = np.cumsum(table)
+        del table
         g = np.cumsum(f)
+        if keep:
+            _LAST_SUMS.append((key, top, f, g))
         return (lambda i: f[i]), (lambda i: g[i])
     _, f, g = _blocked_sums(structure, top, wanted)
     return (lambda i: f[i]), (lambda i: g[i])

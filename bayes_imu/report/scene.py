@@ -39,6 +39,7 @@ from ..drift.bands import (DEFAULT_CALIBRATION_S, SENSOR_QUANTITIES, direct_part
                            drift_draws)
 from ..drift.direct import direct_contrasts
 from ..noise import BIAS_STARTS
+from ..noise.contrast_covariance import reused_sums
 from ..noise.quantities import SENSORS
 from ..drift.display import DISPLAY_CHOICES, parse_amount
 from ..errors import InputError
@@ -809,7 +810,10 @@ def build_report(scene, *, rng=None, progress=None):
     new unit of the model (:func:`bayes_imu.inference.population.fit_population`). Several axes:
     each outage's bound is the worst axis's. Each sensor draws from its own stream spawned from
     ``rng`` (:meth:`numpy.random.Generator.spawn`): its numbers are the same whichever sensors are
-    listed beside it (tested). ``progress``, if given, is called as ``progress(done, total, name)``
+    listed beside it (tested). With an integer ``rng`` (``bayes-imu report --seed``), a log the
+    report fits is fitted with that seed, as ``bayes-imu fit --seed`` fits it: the same chains and
+    the same numbers as the fit command's (tested; the bounds and bands draw from the sensor's
+    stream). ``progress``, if given, is called as ``progress(done, total, name)``
     after each sensor (``done`` of ``total`` sensors finished, the last one's name).
 
     Every sensor's logs are checked from their headers first (:func:`check_logs`): a wrong column
@@ -817,73 +821,18 @@ def build_report(scene, *, rng=None, progress=None):
     """
     for spec in scene.sensors:
         check_logs(spec)
+    fit_seed = int(rng) if isinstance(rng, (int, np.integer)) else None
     rng = np.random.default_rng(rng)
     reports = []
     # each sensor its own stream, spawned from the report's: a sensor's fits and bounds do not
     # depend on the sensors listed before it (one stream through all of them made them depend on the
     # order and the company)
     for spec, sensor_rng in zip(scene.sensors, rng.spawn(len(scene.sensors))):
-        axes = _axes(spec, sensor_rng)
-        per_axis = []
-        for a in axes:
-            rows = []
-            for quantity in SENSOR_QUANTITIES[spec.kind]:
-                bound, median = _bound(
-                    a.posterior,
-                    np.array(scene.outages_s),
-                    quantity,
-                    scene.credibility,
-                    scene.bias_start,
-                    scene.calibration_s,
-                    rng=sensor_rng,
-                )
-                rows += [
-                    {
-                        "outage_s": t,
-                        "quantity": quantity,
-                        "bound": float(b),
-                        "median": float(m),
-                        "unit": OUTPUT_UNITS[quantity],
-                        "extrapolated": bool(t > a.posterior.record_s),
-                        "axis": a.axis,
-                    }
-                    for t, b, m in zip(scene.outages_s, bound, median)
-                ]
-            per_axis.append(rows)
-        bounds = tuple(
-            max((rows[i] for rows in per_axis), key=lambda r: r["bound"])
-            for i in range(len(per_axis[0]))
-        )
-        last = [i for i, b in enumerate(bounds) if b["outage_s"] == max(scene.outages_s)][-1]
-        worst = next(i for i, a in enumerate(axes) if a.axis == bounds[last]["axis"])
-        bands = tuple(
-            drift_bands(
-                axes[worst].posterior,
-                quantity=quantity,
-                bias_start=scene.bias_start,
-                horizon_s=max(scene.outages_s) * 2.0,
-                calibration_s=scene.calibration_s,
-                quantiles=(1.0 - scene.credibility, 0.5, scene.credibility),
-                rng=sensor_rng,
-            )
-            for quantity in SENSOR_QUANTITIES[spec.kind]
-        )
-        req = scene.requirement
-        longest = None
-        if req is not None and req["quantity"] in SENSOR_QUANTITIES[spec.kind]:
-            longest = min(
-                max_outage(
-                    a.posterior,
-                    req["quantity"],
-                    req["max_error"],
-                    scene.credibility,
-                    scene.bias_start,
-                    scene.calibration_s,
-                    rng=sensor_rng,
-                )
-                for a in axes
-            )
-        reports.append(SensorReport(spec, tuple(axes), bounds, longest, bands, worst))
+        axes = _axes(spec, sensor_rng, fit_seed)
+        # the record's own position contrasts at every outage tried reuse one parameter point's
+        # structure-function sums (the same numbers), dropped after the sensor
+        with reused_sums():
+            reports.append(_sensor_report(scene, spec, axes, sensor_rng))
         if progress is not None:
             progress(len(reports), len(scene.sensors), spec.name)
     ranking, reason = _rank(scene, reports)
@@ -891,6 +840,71 @@ def build_report(scene, *, rng=None, progress=None):
 
     imus = imu_reports(scene, reports, rng)  # after the sensors' streams: theirs stay the same
     return Report(scene, tuple(reports), ranking, reason, imus, *rank_imus(scene, imus))
+
+
+def _sensor_report(scene, spec, axes, sensor_rng):
+    """The :class:`SensorReport` of one sensor's fitted ``axes``: its bounds at the scene's
+    outages, bands and longest acceptable outage (draws from ``sensor_rng``)."""
+    per_axis = []
+    for a in axes:
+        rows = []
+        for quantity in SENSOR_QUANTITIES[spec.kind]:
+            bound, median = _bound(
+                a.posterior,
+                np.array(scene.outages_s),
+                quantity,
+                scene.credibility,
+                scene.bias_start,
+                scene.calibration_s,
+                rng=sensor_rng,
+            )
+            rows += [
+                {
+                    "outage_s": t,
+                    "quantity": quantity,
+                    "bound": float(b),
+                    "median": float(m),
+                    "unit": OUTPUT_UNITS[quantity],
+                    "extrapolated": bool(t > a.posterior.record_s),
+                    "axis": a.axis,
+                }
+                for t, b, m in zip(scene.outages_s, bound, median)
+            ]
+        per_axis.append(rows)
+    bounds = tuple(
+        max((rows[i] for rows in per_axis), key=lambda r: r["bound"])
+        for i in range(len(per_axis[0]))
+    )
+    last = [i for i, b in enumerate(bounds) if b["outage_s"] == max(scene.outages_s)][-1]
+    worst = next(i for i, a in enumerate(axes) if a.axis == bounds[last]["axis"])
+    bands = tuple(
+        drift_bands(
+            axes[worst].posterior,
+            quantity=quantity,
+            bias_start=scene.bias_start,
+            horizon_s=max(scene.outages_s) * 2.0,
+            calibration_s=scene.calibration_s,
+            quantiles=(1.0 - scene.credibility, 0.5, scene.credibility),
+            rng=sensor_rng,
+        )
+        for quantity in SENSOR_QUANTITIES[spec.kind]
+    )
+    req = scene.requirement
+    longest = None
+    if req is not None and req["quantity"] in SENSOR_QUANTITIES[spec.kind]:
+        longest = min(
+            max_outage(
+                a.posterior,
+                req["quantity"],
+                req["max_error"],
+                scene.credibility,
+                scene.bias_start,
+                scene.calibration_s,
+                rng=sensor_rng,
+            )
+            for a in axes
+        )
+    return SensorReport(spec, tuple(axes), bounds, longest, bands, worst)
 
 
 def check_logs(spec):
@@ -913,9 +927,10 @@ def check_logs(spec):
         raise InputError(f"sensor {_excerpt(spec.name)}: {exc}") from None
 
 
-def _axes(spec, rng):
+def _axes(spec, rng, fit_seed=None):
     """The :class:`AxisResult` of each axis of a sensor (fitting its logs or reading its fit
-    folders)."""
+    folders); a log fitted with ``fit_seed`` where given (``bayes-imu fit --seed``'s fit of it),
+    else from ``rng``."""
     from ..inference.population import fit_population
     from ..inference.population_archive import is_population_folder
     from .runs import column_warnings
@@ -948,7 +963,7 @@ def _axes(spec, rng):
                 # a warning of the fit says whose ("sampler not converged" of which sensor)
                 whose = spec.name if len(spec.paths) == 1 else f"{spec.name} {_label(path, i)}"
                 with column_warnings(f"{whose} {column}"):
-                    fits[column].append(fit_allan(a, rng=rng))
+                    fits[column].append(fit_allan(a, rng=rng if fit_seed is None else fit_seed))
     out = []
     for axis in fits:
         if len(fits[axis]) == 1:
