@@ -214,8 +214,11 @@ class AvarEvaluator:
             curves = np.stack([np.broadcast_to(t.avar(mf, {t.parameters[0]: np.asarray(1.0)},
                                                       model.dt), mf.shape) for t in linear])
             powers = np.array([t.avar_power for t in linear], float)
-            self._linear = (names, np.array([self._names.index(n) for n in names]),
-                            int(np.sum(powers == 2)), powers, np.ascontiguousarray(curves))
+            n_squared = int(np.sum(powers == 2))
+            # powers other than 1 and 2 (none among the built-in terms), raised one by one
+            other = powers[n_squared:] if np.any(powers[n_squared:] != 1.0) else None
+            self._linear = (names, np.array([self._names.index(n) for n in names]), n_squared,
+                            other, np.ascontiguousarray(curves))
         # the terms of one avar_group evaluated in one call (Term.avar_many), the rest alone
         groups = {}
         for i, term in enumerate(model.components):
@@ -270,12 +273,14 @@ class AvarEvaluator:
     def _linear_part(self, amplitudes):
         """The terms with an ``avar_power``: ``amplitudes`` ``(..., k)`` (their parameters, a copy
         this may change) raised to their powers, times their curves ``(k, n_tau)``, summed."""
-        _, _, n_squared, powers, curves = self._linear
+        _, _, n_squared, other, curves = self._linear
         if n_squared:
             head = amplitudes[..., :n_squared]
             head *= head
-        if n_squared < powers.size and np.any(powers[n_squared:] != 1.0):
-            amplitudes[..., n_squared:] **= powers[n_squared:]
+        if other is not None:
+            amplitudes[..., n_squared:] **= other
+        if curves.shape[0] == 1:  # one such term (white noise alone): a product
+            return amplitudes * curves[0]
         # numpy's own sum of products, not a matrix product: a walker's value is then the same
         # bits whichever batch it is evaluated in (BLAS rounds a row of a matrix product as it
         # blocks the matrix; tests/test_models.py)
