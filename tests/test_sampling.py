@@ -75,6 +75,25 @@ def test_lean_sampler_gives_emcees_own_chains_bit_for_bit_across_chunks():
     assert 0.1 < np.mean(own[2]) / 500 < 0.9  # proposals both accepted and rejected
 
 
+def test_lean_moves_in_emcees_own_loop_give_emcees_own_chains_bit_for_bit():
+    """Asked for emcee's own loop (a keyword argument: ``thin_by``), the lean sampler runs emcee's
+    ``sample``, which calls each move's ``propose`` (the in-place step on the State's arrays): the
+    same chain, log densities and acceptances as emcee's own classes, bit for bit."""
+    chains = []
+    for make in (ensemble_sampler, _emcee_own):
+        rng = np.random.default_rng(7)
+        start = 0.1 * rng.standard_normal((16, 4))
+        sampler = make(_banana, start, rng)
+        state = sampler.run_mcmc(start, 150, progress=False, thin_by=1)
+        sampler.run_mcmc(state, 100, progress=False, thin_by=1)
+        chains.append(
+            (sampler.get_chain(), sampler.get_log_prob(), sampler.backend.accepted.copy())
+        )
+    for a, b in zip(*chains):
+        np.testing.assert_array_equal(a, b)
+    assert 0.1 < np.mean(chains[1][2]) / 250 < 0.9
+
+
 def test_lean_sampler_with_a_metropolis_move_gives_emcees_own_chains_bit_for_bit():
     """With the independence move on 30% of the steps (a Metropolis-Hastings move the lean loop
     hands a State, between red-blue steps it runs on the walkers' arrays in place): the same chain,

@@ -153,11 +153,11 @@ class LogPosterior:
             self, "_log_prior_inside", -float(np.sum(np.log(self.bounds[:, 1] - self.bounds[:, 0])))
         )
         object.__setattr__(self, "_low", np.ascontiguousarray(self.bounds[:, 0]))
+        object.__setattr__(self, "_high", np.ascontiguousarray(self.bounds[:, 1]))
         # the observed log AVAR less the log-scale bias (the residual's fixed part), and the
         # discrepancy likelihood's constant: computed once, not per call
         object.__setattr__(self, "_centre", self.log_avar - self.offset)
         object.__setattr__(self, "_half_log_2pi", 0.5 * np.size(self.m) * np.log(2.0 * np.pi))
-        object.__setattr__(self, "_high", np.ascontiguousarray(self.bounds[:, 1]))
         n_model = len(self.model.parameter_names)
         if self.bounds.shape[0] != n_model + int(self.discrepancy):
             raise InputError(

@@ -367,36 +367,14 @@ def _lean_classes(emcee):
             return log_prob, None
 
     class WholeHalves:
-        """``RedBlueMove.propose`` with each half-ensemble accepted at once; :meth:`step`, the same
-        on the walkers' arrays in place."""
+        """``RedBlueMove.propose`` with each half-ensemble accepted at once (:meth:`step`, on the
+        walkers' arrays in place)."""
 
         def propose(self, model, state):
-            n_walkers, n_dim = state.coords.shape
-            if n_walkers < 2 * n_dim and not self.live_dangerously:
-                raise RuntimeError(
-                    "It is unadvisable to use a red-blue move with fewer walkers than twice the "
-                    "number of dimensions."
-                )
-            self.setup(state.coords)
-            accepted = np.zeros(n_walkers, dtype=bool)
-            halves = np.arange(n_walkers) % self.nsplits
-            if self.randomize_split:
-                model.random.shuffle(halves)
-            for split in range(self.nsplits):
-                chosen = halves == split
-                sets = [state.coords[halves == j] for j in range(self.nsplits)]
-                proposal, factors = self.get_proposal(
-                    sets[split], sets[:split] + sets[split + 1 :], model.random
-                )
-                new_log_probs, new_blobs = model.compute_log_prob_fn(proposal)
-                difference = factors + new_log_probs - state.log_prob[chosen]
-                accepted[chosen] = difference > np.log(model.random.rand(difference.size))
-                state = self.update(
-                    state,
-                    State(proposal, log_prob=new_log_probs, blobs=new_blobs),
-                    accepted,
-                    chosen,
-                )
+            """emcee's ``propose``: :meth:`step` on the State's own arrays, which emcee's
+            ``update`` also changes in place (the lean sampler's log densities carry no blobs)."""
+            accepted = self.step(state.coords, state.log_prob, model.compute_log_prob_fn,
+                                 model.random)
             return state, accepted
 
         def step(self, coords, log_prob, compute_log_prob, random):

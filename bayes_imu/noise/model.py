@@ -190,7 +190,7 @@ class AvarEvaluator:
     (the outputs are written by another process, :mod:`bayes_imu.report.worker`).
 
     The terms with an :attr:`~bayes_imu.noise.Term.avar_power` (white noise, a random walk, ...:
-    ``p**k`` times a curve of ``m``) are evaluated together as one matrix product of their
+    ``p**k`` times a curve of ``m``) are evaluated together as one sum of products of their
     parameters' powers with their curves at unit parameter, computed once here; the others each
     alone, or one call per :attr:`~bayes_imu.noise.Term.avar_group`. The sum is the model's to
     rounding (tested against the terms' own sum), and each row's the same bits in any batch
@@ -228,9 +228,9 @@ class AvarEvaluator:
             groups.setdefault(key, []).append(i)
         self._plan = tuple((tuple(index), tuple(model.components[j] for j in index[1:]))
                            for index in groups.values())
-        self._others = tuple((i, name) for i, name in enumerate(self._names)
-                             if any(name in model.components[j].parameters
-                                    for index in groups.values() for j in index))
+        # the parameters of the terms evaluated one by one (the others' are gathered by column)
+        alone = {p for t in model.components if t.avar_power is None for p in t.parameters}
+        self._others = tuple((i, name) for i, name in enumerate(self._names) if name in alone)
 
     def __getstate__(self):
         return self.model, self.mf
