@@ -48,14 +48,15 @@ def test_a_result_keeps_its_thinned_draws_not_the_sampler_storage(lowgrade_fit):
     assert chains.chain.nbytes == chains.chain.size * 8
 
 
-def test_the_independence_move_is_used_where_it_is_accepted_and_changes_nothing_elsewhere(
+def test_the_independence_move_is_used_where_it_is_accepted_and_tempering_elsewhere(
     lowgrade_fit,
 ):
     """The fit estimates the independence move's acceptance at its posterior (in [0, 1], in the
     diagnostics) and runs the move on INDEPENDENCE_SHARE of the steps where it is at least
     INDEPENDENCE_MIN_ACCEPT (the shipped low-grade gyro log's white + Gauss-Markov posterior is
-    close to a t: it is). A proposal below the threshold leaves the chain bit for bit what it is
-    without one (its pilot draws come from a spawned generator)."""
+    close to a t: it is). Below the threshold the ensemble is tempered (the diagnostics name the
+    ladder and the swaps' acceptance between each pair of neighbours), its kept draws are the cold
+    ensemble's with their log posterior; without a proposal, emcee's ensemble as before."""
     import importlib
 
     from bayes_imu.inference.sampling import (
@@ -63,12 +64,14 @@ def test_the_independence_move_is_used_where_it_is_accepted_and_changes_nothing_
         INDEPENDENCE_SHARE,
         StudentProposal,
     )
+    from bayes_imu.inference.tempering import LADDER
 
     module = importlib.import_module("bayes_imu.inference.fit")  # the module: its _sample
     _, result = lowgrade_fit
     d = result.diagnostics
     assert INDEPENDENCE_MIN_ACCEPT <= d["independence_acceptance"] <= 1.0
     assert d["independence_share"] == pytest.approx(INDEPENDENCE_SHARE)
+    assert d["tempered"] is False and d["ess_mean_min"] >= 400
     post = result.chains.posterior
     start = result.chains.chain[-1]
     q = StudentProposal(start.mean(axis=0), np.cov(start.T) + 1e-6 * np.eye(start.shape[1]))
@@ -76,10 +79,44 @@ def test_the_independence_move_is_used_where_it_is_accepted_and_changes_nothing_
     for independence in (None, (q, INDEPENDENCE_MIN_ACCEPT - 0.01)):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)
-            runs.append(module._sample(post, start, np.random.default_rng(3), 250,
+            runs.append(module._sample(post, start, np.random.default_rng(3), 500,
                                        independence=independence))
-    np.testing.assert_array_equal(runs[0][0], runs[1][0])
-    assert runs[1][2]["independence_share"] == 0.0
+    plain, tempered = runs[0][2], runs[1][2]
+    assert plain["tempered"] is False and "ladder" not in plain
+    assert tempered["tempered"] is True and tempered["ladder"] == list(LADDER)
+    assert tempered["independence_share"] == 0.0
+    assert len(tempered["swap_acceptance"]) == len(LADDER) - 1
+    assert all(0.0 < a < 1.0 for a in tempered["swap_acceptance"])
+    draws, log_prob = runs[1][0], runs[1][1]
+    np.testing.assert_allclose(log_prob, post(draws), rtol=1e-12)
+    # the same posterior: the two samplers' means within 6 of their standard errors' sum
+    for (x, _, diag, _), other in ((runs[0], runs[1]), (runs[1], runs[0])):
+        se = x.std(axis=0) / np.sqrt(diag["ess_mean_min"])
+        assert np.all(np.abs(x.mean(axis=0) - other[0].mean(axis=0)) < 6 * se + 6 * other[0].std(
+            axis=0) / np.sqrt(other[2]["ess_mean_min"]))
+
+
+def test_a_tempered_fit_converges_and_every_fit_needs_the_means_ess(lowgrade_fit):
+    """The low-grade log's easy posterior, forced to temper, converges (on the walkers' mean's
+    autocorrelation time, with its ESS); and any chain with bulk ESS and R-hat met is still not
+    converged where the ESS of the walkers' mean is below ESS_MIN."""
+    import importlib
+
+    from bayes_imu.inference.sampling import INDEPENDENCE_MIN_ACCEPT, StudentProposal
+
+    module = importlib.import_module("bayes_imu.inference.fit")
+    _, result = lowgrade_fit
+    post = result.chains.posterior
+    start = result.chains.chain[-1]
+    q = StudentProposal(start.mean(axis=0), np.cov(start.T) + 1e-6 * np.eye(start.shape[1]))
+    _, _, d, _ = module._sample(post, start, np.random.default_rng(5), 30000,
+                                independence=(q, INDEPENDENCE_MIN_ACCEPT / 2))
+    assert d["tempered"] and d["converged"] and d["ess_mean_min"] >= module.ESS_MIN
+    chain = result.chains.chain
+    ok = module._diagnostics(chain, 10.0, 5000, 32, True, np.array([module.ESS_MIN, 5000.0]))
+    assert ok["converged"] and ok["ess_mean_min"] == module.ESS_MIN
+    short = module._diagnostics(chain, 10.0, 5000, 32, True, np.array([module.ESS_MIN - 1.0]))
+    assert not short["converged"] and short["rhat_max"] == ok["rhat_max"]
 
 
 def test_white_only_log_selects_white_only():

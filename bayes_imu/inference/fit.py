@@ -42,12 +42,14 @@ from .sampling import (
     independence_acceptance,
     autocorr_time,
     burn_and_thin,
+    ensemble_mean_autocorr_time,
     ensemble_sampler,
     long_enough,
     one_blas_thread,
     steps_to_next_check,
 )
 from .stationarity import Stationarity, stationarity_check
+from .tempering import TemperedEnsemble
 from .selection import (
     Adequacy,
     CandidateScore,
@@ -82,6 +84,10 @@ RHAT_MAX = 1.01
 ESS_MIN = 400
 #: draws of the independence move's acceptance estimate (one vectorised density call)
 INDEPENDENCE_PILOT = 1000
+#: the sampler is tempered (:class:`~bayes_imu.inference.tempering.TemperedEnsemble`) where the
+#: independence move's expected acceptance is below this and the move is not used (0: never;
+#: ``scripts/study_tempering.py`` compares the two)
+TEMPER_BELOW = INDEPENDENCE_MIN_ACCEPT
 
 
 @dataclass(frozen=True)
@@ -371,9 +377,11 @@ class FitResult:
             "diagnostics": {
                 k: (
                     bool(v)
-                    if k == "converged"
+                    if k in ("converged", "tempered")
                     else int(v)
                     if k in ("n_steps", "n_walkers")
+                    else [float(x) for x in v]
+                    if k in ("ladder", "swap_acceptance")
                     else float(v)
                 )
                 for k, v in self.diagnostics.items()
@@ -1042,17 +1050,35 @@ def _independence(post, phi_mode, rng):
 def _sample(post, start, rng, max_steps, progress=False, independence=None):
     """emcee until converged or ``max_steps``. ``independence``: ``(proposal, acceptance)`` of
     :func:`_independence`; the move is used where the acceptance is at least
-    :data:`~bayes_imu.inference.sampling.INDEPENDENCE_MIN_ACCEPT`."""
+    :data:`~bayes_imu.inference.sampling.INDEPENDENCE_MIN_ACCEPT`, and below it (a posterior far
+    from a t) the ensemble is tempered (:class:`~bayes_imu.inference.tempering.TemperedEnsemble`).
+
+    The chain stops once it is :data:`~bayes_imu.inference.sampling.AUTOCORR_MULTIPLE`
+    autocorrelation times long: the walkers' own
+    (:func:`~bayes_imu.inference.sampling.autocorr_time`) for emcee's ensemble, and for the
+    tempered one, whose swaps move states between walkers, the larger of those and the time of
+    the walkers' mean (:func:`~bayes_imu.inference.sampling.ensemble_mean_autocorr_time`), which
+    no exchange of states can shorten. Either way it is converged only where the ESS of the
+    walkers' mean (:func:`ensemble_mean_ess`) is also :data:`ESS_MIN` or more: a guard, on
+    the ensemble as a whole, that the walkers' own ESS gives only where they are independent."""
     n_walkers, n_par = start.shape
     use = independence is not None and independence[1] >= INDEPENDENCE_MIN_ACCEPT
-    sampler = ensemble_sampler(post, start, rng, exchangeable_biases(post), capacity=max_steps,
-                               independence=independence[0] if use else None)
+    tempered = independence is not None and not use and independence[1] < TEMPER_BELOW
+    if tempered:
+        sampler = TemperedEnsemble(post, start, rng, exchangeable_biases(post), capacity=max_steps)
+    else:
+        sampler = ensemble_sampler(post, start, rng, exchangeable_biases(post),
+                                   capacity=max_steps,
+                                   independence=independence[0] if use else None)
     chunk, state, tau_old = min(250, max_steps), start, np.inf
     converged = False
     with progress_bar(desc="sampling", unit="step", enabled=progress) as bar:
         while sampler.iteration < max_steps:
-            state = sampler.run_mcmc(state, chunk, progress=False)
-            tau_max = float(np.max(autocorr_time(sampler.get_chain())))
+            if tempered:
+                sampler.run(chunk)
+            else:
+                state = sampler.run_mcmc(state, chunk, progress=False)
+            tau_max = _tau_max(sampler.get_chain(), tempered)
             bar.update(chunk)
             # a long chain: checked at a tenth of its length, and not before it could stop
             chunk = min(
@@ -1071,7 +1097,8 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
         warnings.warn(
             f"sampler not converged after {sampler.iteration} steps (autocorrelation time "
             f"{tau_max:.0f} steps, R-hat {diagnostics['rhat_max']:.3f}, bulk ESS "
-            f"{diagnostics['ess_bulk_min']:.0f}); "
+            f"{diagnostics['ess_bulk_min']:.0f}, ESS of the walkers' mean "
+            f"{diagnostics['ess_mean_min']:.0f}); "
             "raise max_steps or inspect the chain",
             ConvergenceWarning,
             stacklevel=4,
@@ -1079,7 +1106,26 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
     if independence is not None:
         diagnostics["independence_acceptance"] = float(independence[1])
         diagnostics["independence_share"] = float(sampler._weights[-1]) if use else 0.0
+    diagnostics["tempered"] = bool(tempered)
+    if tempered:
+        diagnostics["ladder"] = [float(b) for b in sampler.betas]
+        diagnostics["swap_acceptance"] = [float(a) for a in sampler.swap_acceptance]
     return chain.reshape(-1, n_par), lp.reshape(-1), diagnostics, SamplerChains(chain, lp, post)
+
+
+def _tau_max(chain, tempered):
+    """The stopping rule's autocorrelation time (steps): the longest of every parameter's walkers'
+    own, and with ``tempered``, of their mean's too (:func:`_sample`).
+
+    The mean's time comes from one series, the walkers' from 32 averaged: its estimate is several
+    times noisier (relative spread about ``sqrt(20 tau / steps)``, 60% at 50 times), so a rule on
+    it alone lengthens chains for nothing where the two agree, as they do for emcee's ensemble
+    on the posteriors near a t that it samples here (7-23 steps both on the real ADIS16405 gyro
+    x logs); that ensemble's chains stop as before, checked by the ESS of the mean."""
+    tau = np.max(autocorr_time(chain))
+    if tempered:
+        tau = max(tau, np.max(ensemble_mean_autocorr_time(chain)))
+    return float(tau)
 
 
 def warm_up():
@@ -1111,14 +1157,35 @@ def _thinned(sampler, tau_max, n_walkers, settled):
     # result; a report of two refitted logs held both (issue 39's memory bound)
     chain = np.array(sampler.get_chain(discard=burn, thin=thin))  # (draws, walkers, par)
     lp = np.array(sampler.get_log_prob(discard=burn, thin=thin))
-    return chain, lp, _diagnostics(chain, tau_max, sampler.iteration, n_walkers, settled)
+    ess_mean = ensemble_mean_ess(sampler.get_chain(discard=burn))
+    return chain, lp, _diagnostics(chain, tau_max, sampler.iteration, n_walkers, settled, ess_mean)
 
 
-def _diagnostics(chain, tau_max, n_steps, n_walkers, converged):
+def ensemble_mean_ess(chain):
+    """Effective sample size of each parameter's posterior mean from an ensemble's steps
+    ``chain`` ``(steps, walkers, parameters)``: ``steps var(draws) / (var(mean over walkers)
+    tau_mean)``, ``tau_mean`` the autocorrelation time of the walkers' mean
+    (:func:`~bayes_imu.inference.sampling.ensemble_mean_autocorr_time`). The variance of the
+    chain's average is ``var(mean over walkers) tau_mean / steps`` whatever the walkers'
+    dependence, so this is the number of independent draws with the same variance; it equals
+    ``steps walkers / tau`` for independent walkers."""
+    chain = np.asarray(chain, float)
+    steps = chain.shape[0]
+    spread = chain.reshape(-1, chain.shape[-1]).var(axis=0)
+    mean_spread = chain.mean(axis=1).var(axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ess = steps * spread / (mean_spread * ensemble_mean_autocorr_time(chain))
+    return np.where(np.isfinite(ess), ess, 0.0)
+
+
+def _diagnostics(chain, tau_max, n_steps, n_walkers, converged, ess_mean):
     out = {**convergence_summary(chain), "autocorr_time": float(tau_max), "n_steps": int(n_steps),
-           "n_walkers": int(n_walkers)}
+           "n_walkers": int(n_walkers), "ess_mean_min": float(np.min(ess_mean))}
     out["converged"] = bool(
-        converged and out["rhat_max"] < RHAT_MAX and out["ess_bulk_min"] >= ESS_MIN
+        converged
+        and out["rhat_max"] < RHAT_MAX
+        and out["ess_bulk_min"] >= ESS_MIN
+        and out["ess_mean_min"] >= ESS_MIN
     )
     return out
 

@@ -26,7 +26,9 @@ of steps to do. It pays only where it is accepted often, so the fit first estima
 acceptance by importance sampling (:func:`independence_acceptance`) and adds it only at
 :data:`INDEPENDENCE_MIN_ACCEPT` or more: on the real ADIS16405 logs it halves the chains of the
 simple posteriors and is left out of the funnels (a term whose variance reaches the prior floor,
-its time constant then free) it cannot help (``docs/speed_under_load.md#sampler``).
+its time constant then free) it cannot help (``docs/speed_under_load.md#sampler``). There the fit
+tempers the ensemble instead (:mod:`bayes_imu.inference.tempering`), with emcee's moves at every
+temperature.
 """
 
 from dataclasses import dataclass
@@ -44,6 +46,8 @@ __all__ = [
     "StudentProposal",
     "ensemble_sampler",
     "relabel_move",
+    "relabel_proposal",
+    "ensemble_mean_autocorr_time",
     "independence_move",
     "independence_acceptance",
     "import_emcee",
@@ -162,20 +166,34 @@ def relabel_move(variance_columns, time_columns, bounds):
     emcee.moves.MHMove
     """
     emcee = import_emcee()
-    var_cols, time_cols = np.asarray(variance_columns, int), np.asarray(time_columns, int)
-    lo, hi = float(bounds[0]), float(bounds[1])
+    relabel = relabel_proposal(variance_columns, time_columns, bounds)
 
     def proposal(coords, random):
         n = coords.shape[0]
+        return relabel(coords, random.rand(n)), np.zeros(n)
+
+    return emcee.moves.MHMove(proposal)
+
+
+def relabel_proposal(variance_columns, time_columns, bounds):
+    """The proposal of :func:`relabel_move` as a function ``(coords, uniform) -> new``: rows
+    ``coords`` ``(n, n_par)``, ``uniform`` ``(n,)`` numbers in [0, 1) that place each weakest bias's
+    new log time constant in ``bounds`` (also the tempered ensemble's relabel move,
+    :mod:`bayes_imu.inference.tempering`)."""
+    var_cols, time_cols = np.asarray(variance_columns, int), np.asarray(time_columns, int)
+    lo, hi = float(bounds[0]), float(bounds[1])
+
+    def relabel(coords, uniform):
+        n = coords.shape[0]
         variances, times = coords[:, var_cols], coords[:, time_cols].copy()
-        times[np.arange(n), np.argmin(variances, axis=1)] = lo + (hi - lo) * random.rand(n)
+        times[np.arange(n), np.argmin(variances, axis=1)] = lo + (hi - lo) * uniform
         order = np.argsort(times, axis=1, kind="stable")
         new = coords.copy()
         new[:, var_cols] = np.take_along_axis(variances, order, axis=1)
         new[:, time_cols] = np.take_along_axis(times, order, axis=1)
-        return new, np.zeros(n)
+        return new
 
-    return emcee.moves.MHMove(proposal)
+    return relabel
 
 
 @dataclass(frozen=True)
@@ -502,6 +520,25 @@ def autocorr_time(chain, c=5):
         taus = 2.0 * np.cumsum(total) - 1.0
         out[d] = taus[auto_window(taus, c)]
     return out
+
+
+def ensemble_mean_autocorr_time(chain, c=5):
+    """Integrated autocorrelation time of each parameter's mean over the walkers of ``chain``
+    ``(steps, walkers, parameters)``: :func:`autocorr_time` of the one series
+    ``chain.mean(axis=1)``.
+
+    The walkers of an ensemble are not independent chains: every move builds a walker's proposal
+    from the others, and the tempered ensemble (:mod:`bayes_imu.inference.tempering`) exchanges
+    states between them. The variance of a posterior mean estimated from ``n`` steps is
+    ``var(mean over walkers) x tau_mean / n`` exactly, whatever the walkers' dependence, with
+    ``tau_mean`` this time; the walkers' own times (:func:`autocorr_time`) give it only where
+    the walkers are independent. On the real ADIS16405 logs they agree on the posteriors near a
+    t (7-23 steps) and the mean's is 2-10 times longer on the others (measured:
+    docs/speed_under_load.md, thirteenth session); no exchange of states between walkers can
+    shorten it.
+    """
+    chain = np.asarray(chain, float)
+    return autocorr_time(chain.mean(axis=1, keepdims=True), c=c)
 
 
 def fft_length(n):
