@@ -91,6 +91,7 @@ def test_the_independence_move_is_used_where_it_is_accepted_and_tempering_elsewh
     np.testing.assert_allclose(log_prob, post(draws), rtol=1e-12)
     # the same posterior: the two samplers' means within 6 of their standard errors' sum
     for (x, _, diag, _), other in ((runs[0], runs[1]), (runs[1], runs[0])):
+        assert diag["ess_mean_min"] > 10 and other[2]["ess_mean_min"] > 10
         se = x.std(axis=0) / np.sqrt(diag["ess_mean_min"])
         assert np.all(np.abs(x.mean(axis=0) - other[0].mean(axis=0)) < 6 * se + 6 * other[0].std(
             axis=0) / np.sqrt(other[2]["ess_mean_min"]))

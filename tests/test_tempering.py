@@ -103,26 +103,48 @@ def test_tempering_finds_the_small_region_a_plain_ensemble_misses():
     assert np.mean(plain.get_chain(discard=1000)[..., 0] > 0) < 0.02
 
 
-def test_tempered_relabel_move_keeps_exchangeable_biases_ordered_and_their_law():
-    """Two exchangeable 'biases' (columns (0, 1) variances, (2, 3) log time constants in [0, 3])
-    whose likelihood is symmetric under swapping them: the ordered posterior (time constants
-    sorted) with the relabel move among the moves keeps the order at every step, and the faster
-    bias is the weaker one half the time (the two labels' law is symmetric), within 0.06 over
-    4 000 steps."""
-    def log_like(x):
-        both = -0.5 * np.sum(x[..., :2] ** 2, axis=-1) - np.sum(x[..., 2:], axis=-1)
-        return np.where(x[..., 2] < x[..., 3], both, -np.inf)
+def _weak_and_strong(x):
+    """Two exchangeable 'biases': log variances x0, x1, log time constants x2 < x3 in [0, 3]. The
+    stronger bias (the larger variance) has log variance 2 +- 0.1 and time constant 2.5 +- 0.02,
+    the weaker one log variance -2 +- 0.1 and its time constant free. Ordered by time constant,
+    the weaker bias is the first (faster) one with probability P(t_weak < t_strong) = 2.5 / 3
+    (to 1e-6); the two labellings are regions joined only through a swap of all four
+    coordinates (the variances cannot cross: 400 nats between them)."""
+    first_strong = x[..., 0] > x[..., 1]
+    strong_v = np.where(first_strong, x[..., 0], x[..., 1])
+    weak_v = np.where(first_strong, x[..., 1], x[..., 0])
+    strong_t = np.where(first_strong, x[..., 2], x[..., 3])
+    like = -0.5 * (((strong_v - 2) / 0.1) ** 2 + ((weak_v + 2) / 0.1) ** 2
+                   + ((strong_t - 2.5) / 0.02) ** 2)
+    return np.where(x[..., 2] < x[..., 3], like, -np.inf)
 
-    target = _BoxTarget(log_like, [-8, -8, 0, 0], [8, 8, 3, 3])
+
+def test_tempered_relabel_move_joins_the_two_labellings_with_their_exact_weights():
+    """With the relabel move among the tempered ensemble's moves, the weaker bias is the faster
+    one in 2.5 / 3 of the draws (within 0.04; 4 000 steps) from a start where it is the slower
+    one in every walker, the order holding at every step; the same on the coldest ensemble alone
+    (a ladder of one temperature). There, without the relabel move (the same start, the same
+    steps), the share stays far from it (below 0.5): the relabel move, not only the hotter
+    ensembles, joins the labellings, and with the right weights."""
+    target = _BoxTarget(_weak_and_strong, [-8, -8, 0, 0], [8, 8, 3, 3])
     rng = np.random.default_rng(2)
-    t = np.sort(rng.uniform(0, 3, (32, 2)), axis=1)
-    start = np.column_stack([rng.standard_normal((32, 2)), t])
-    sampler = TemperedEnsemble(target, start, rng, exchangeable=([0, 1], [2, 3], (0.0, 3.0)),
-                               capacity=4000)
-    sampler.run(4000)
-    chain = sampler.get_chain(discard=500)
-    assert np.all(chain[..., 2] < chain[..., 3])
-    assert abs(np.mean(chain[..., 0] < chain[..., 1]) - 0.5) < 0.06
+    variances = np.column_stack([2 + 0.1 * rng.standard_normal(32),  # the first is stronger
+                                 -2 + 0.1 * rng.standard_normal(32)])
+    start = np.column_stack([variances, 2.5 + 0.02 * rng.standard_normal(32),
+                             rng.uniform(2.6, 3.0, 32)])
+    relabel = ([0, 1], [2, 3], (0.0, 3.0))
+    shares = {}
+    for name, exchangeable, ladder in (("tempered", relabel, LADDER), ("cold", relabel, (1.0,)),
+                                       ("cold, no relabel", None, (1.0,))):
+        sampler = TemperedEnsemble(target, start, np.random.default_rng(3), exchangeable,
+                                   ladder=ladder, capacity=4000)
+        sampler.run(4000)
+        chain = sampler.get_chain(discard=1000)
+        assert np.all(chain[..., 2] < chain[..., 3])
+        shares[name] = np.mean(chain[..., 0] < chain[..., 1])
+    assert abs(shares["tempered"] - 2.5 / 3.0) < 0.04
+    assert abs(shares["cold"] - 2.5 / 3.0) < 0.04
+    assert shares["cold, no relabel"] < 0.5
 
 
 def test_a_ladder_must_start_at_one_and_fall():
@@ -135,7 +157,7 @@ def test_a_ladder_must_start_at_one_and_fall():
     with pytest.raises(ValueError, match="walkers"):
         TemperedEnsemble(target, start[:5], rng)
     with pytest.raises(ValueError, match="inside"):
-        TemperedEnsemble(target, start * 10, rng)
+        TemperedEnsemble(target, start + 10, rng)
 
 
 def _ar1_walkers(rng, steps, walkers, phi):
@@ -146,21 +168,21 @@ def _ar1_walkers(rng, steps, walkers, phi):
 
 def test_the_walkers_mean_keeps_its_autocorrelation_when_states_move_between_walkers():
     """AR(1) walkers (phi = 0.8: integrated time (1 + phi) / (1 - phi) = 9 exactly), 20 000 steps of
-    32. Independent walkers: the walkers' own time and their mean's are both 9 (10%), and the ESS
-    of the mean is steps x walkers / 9 (15%). The same draws with the walkers' states shuffled
-    between walkers at every step (what swaps do): each walker's series looks independent (its own
-    time near 1) while the mean, and so its time and ESS, is the same series. Walkers that are one
-    chain copied: the mean's ESS is steps / 9, not 32 times that."""
+    32. Independent walkers: the walkers' own time is 9 (10%: 32 series averaged) and their mean's
+    too (30%: one series, its estimate's spread ~8%), and the ESS of the mean is steps x walkers / 9
+    (30%). The same draws with the walkers' states shuffled between walkers at every step (what
+    swaps do): each walker's series looks independent (its own time below 2, an ESS from it 4.5
+    times too large) while the mean's ESS is still steps x walkers / 9. Walkers that are one chain
+    copied: the mean's ESS is steps / 9, not 32 times that."""
     rng = np.random.default_rng(4)
     phi, steps, walkers = 0.8, 20000, 32
     chain = _ar1_walkers(rng, steps, walkers, phi)
     exact = (1 + phi) / (1 - phi)
     np.testing.assert_allclose(autocorr_time(chain), exact, rtol=0.1)
-    np.testing.assert_allclose(ensemble_mean_autocorr_time(chain), exact, rtol=0.1)
-    np.testing.assert_allclose(ensemble_mean_ess(chain), steps * walkers / exact, rtol=0.15)
+    np.testing.assert_allclose(ensemble_mean_autocorr_time(chain), exact, rtol=0.3)
+    np.testing.assert_allclose(ensemble_mean_ess(chain), steps * walkers / exact, rtol=0.3)
     shuffled = np.take_along_axis(chain, np.argsort(rng.random((steps, walkers, 1)), axis=1), 1)
     assert np.all(autocorr_time(shuffled) < 2.0)
-    np.testing.assert_allclose(ensemble_mean_autocorr_time(shuffled),
-                               ensemble_mean_autocorr_time(chain), rtol=1e-10)
+    np.testing.assert_allclose(ensemble_mean_ess(shuffled), steps * walkers / exact, rtol=0.3)
     copies = np.repeat(chain[:, :1], walkers, axis=1)
-    np.testing.assert_allclose(ensemble_mean_ess(copies), steps / exact, rtol=0.15)
+    np.testing.assert_allclose(ensemble_mean_ess(copies), steps / exact, rtol=0.3)

@@ -13,12 +13,14 @@ Pipeline of :func:`fit_allan`:
 4. *Refinement*: the covariance is recomputed at the selected model's mode.
 5. *Sampling*: emcee (``vectorize=True``, differential-evolution and stretch moves, and an
    independence move where its estimated acceptance is high enough:
-   :mod:`bayes_imu.inference.sampling`) in
+   :mod:`bayes_imu.inference.sampling`; below it the same moves on a tempered ensemble,
+   :mod:`bayes_imu.inference.tempering`, stopped on the walkers' mean's autocorrelation time) in
    log-parameters, in chunks of 250 steps (a tenth of the chain past 10 000 steps, and none before
    the chain could stop: :func:`~bayes_imu.inference.sampling.steps_to_next_check`) until the
    chain is longer than 50
    integrated autocorrelation times and that estimate has settled to 5%; then
-   rank-normalised R-hat and bulk/tail ESS (:mod:`bayes_imu.inference.diagnostics`). Non-convergence
+   rank-normalised R-hat and bulk/tail ESS (:mod:`bayes_imu.inference.diagnostics`) and the ESS of
+   the walkers' mean (:func:`ensemble_mean_ess`). Non-convergence
    warns (:class:`ConvergenceWarning`) and sets ``diagnostics["converged"] = False``.
 """
 
@@ -34,7 +36,7 @@ from ..allan.estimator import AllanResult, allan_variance
 from ..errors import ConvergenceWarning, InputError
 from .likelihood import LIKELIHOODS, LogPosterior, default_bounds
 from ..noise.avar_forms import BASE_TERMS, PARAMETER_UNITS, NoiseModel
-from .diagnostics import summary as convergence_summary
+from .diagnostics import rhat, summary as convergence_summary
 from .sampling import (
     INDEPENDENCE_INFLATE,
     INDEPENDENCE_MIN_ACCEPT,
@@ -169,8 +171,10 @@ class FitResult:
     selected : int
         Index of the selected candidate.
     diagnostics : dict
-        ``rhat_max``, ``ess_bulk_min``, ``ess_tail_min``, ``autocorr_time`` (steps),
-        ``n_steps``, ``n_walkers``, ``converged``.
+        ``rhat_max``, ``ess_bulk_min``, ``ess_tail_min`` (walkers as chains), ``ess_mean_min``
+        (:func:`ensemble_mean_ess`), ``rhat_mean_max`` (split R-hat of the walkers' mean, one
+        chain), ``autocorr_time`` (steps), ``n_steps``, ``n_walkers``, ``converged``,
+        ``tempered`` and, for a tempered fit, ``ladder`` and ``swap_acceptance``.
     likelihood : str
     covariance : ndarray, shape (n_tau, n_tau)
         AVAR covariance the likelihood used.
@@ -1032,8 +1036,8 @@ def _independence(post, phi_mode, rng):
     approximation of ``post`` in log-parameters, its standard deviations inflated by
     :data:`~bayes_imu.inference.sampling.INDEPENDENCE_INFLATE`) and the move's expected acceptance
     (:func:`~bayes_imu.inference.sampling.independence_acceptance`, :data:`INDEPENDENCE_PILOT`
-    draws from a generator spawned from ``rng``: ``rng``'s own draws, and so the chains of a fit
-    that does not use the move, are as without it)."""
+    draws from a generator spawned from ``rng``: ``rng``'s own draws are as without it; a fit
+    below the threshold is tempered, :func:`_sample`)."""
     try:
         pilot_rng = rng.spawn(1)[0]
     except (TypeError, ValueError):  # a bit generator without a seed sequence to spawn from
@@ -1063,7 +1067,9 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
     the ensemble as a whole, that the walkers' own ESS gives only where they are independent."""
     n_walkers, n_par = start.shape
     use = independence is not None and independence[1] >= INDEPENDENCE_MIN_ACCEPT
-    tempered = independence is not None and not use and independence[1] < TEMPER_BELOW
+    # (the tempered ensemble's red-blue halves need an even number of walkers; emcee's takes any)
+    tempered = (independence is not None and not use and independence[1] < TEMPER_BELOW
+                and n_walkers % 2 == 0)
     if tempered:
         sampler = TemperedEnsemble(post, start, rng, exchangeable_biases(post), capacity=max_steps)
     else:
@@ -1157,8 +1163,15 @@ def _thinned(sampler, tau_max, n_walkers, settled):
     # result; a report of two refitted logs held both (issue 39's memory bound)
     chain = np.array(sampler.get_chain(discard=burn, thin=thin))  # (draws, walkers, par)
     lp = np.array(sampler.get_log_prob(discard=burn, thin=thin))
-    ess_mean = ensemble_mean_ess(sampler.get_chain(discard=burn))
-    return chain, lp, _diagnostics(chain, tau_max, sampler.iteration, n_walkers, settled, ess_mean)
+    kept = sampler.get_chain(discard=burn)
+    ess_mean = ensemble_mean_ess(kept)
+    out = _diagnostics(chain, tau_max, sampler.iteration, n_walkers, settled, ess_mean)
+    # the walkers' mean as one chain, split in two (reported: for a tempered ensemble the walkers
+    # are not chains, and R-hat over them reads low; this one asks ~100 of the mean's
+    # autocorrelation times of a single chain, where the convergence rule asks 50)
+    out["rhat_mean_max"] = float(np.max([rhat(kept[:, :, j].mean(axis=1))
+                                         for j in range(kept.shape[-1])]))
+    return chain, lp, out
 
 
 def ensemble_mean_ess(chain):
@@ -1171,7 +1184,8 @@ def ensemble_mean_ess(chain):
     ``steps walkers / tau`` for independent walkers."""
     chain = np.asarray(chain, float)
     steps = chain.shape[0]
-    spread = chain.reshape(-1, chain.shape[-1]).var(axis=0)
+    # one parameter at a time: no copy of the whole chain (40 000 steps x 32 walkers x 9: 90 MB)
+    spread = np.array([chain[:, :, j].var() for j in range(chain.shape[-1])])
     mean_spread = chain.mean(axis=1).var(axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         ess = steps * spread / (mean_spread * ensemble_mean_autocorr_time(chain))

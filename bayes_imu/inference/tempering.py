@@ -61,8 +61,9 @@ class TemperedEnsemble:
         The posterior: its ``log_prior`` (uniform on a box) and ``log_likelihood`` are used,
         vectorised over rows.
     start : ndarray, shape (n_walkers, n_par)
-        Every temperature's walkers start here (inside the prior box; an even number of at least
-        four walkers).
+        The coldest ensemble's walkers (an even number of at least four, at least one inside the
+        posterior); each hotter one's start spread about their mean by ``1 / sqrt(beta)``, a
+        walker that this takes out of the posterior starting where the cold one does.
     rng : numpy.random.Generator
         The draws of every move and swap.
     exchangeable : tuple or None
@@ -90,10 +91,11 @@ class TemperedEnsemble:
         # the cold one does
         centre = start.mean(axis=0)
         spread = centre + (start - centre) / np.sqrt(betas)[:, None, None]
+        spread[0] = start
         spread_like = self._log_like(spread)
-        cold_like = self._log_like(start)
-        if not np.all(np.isfinite(cold_like)):
-            raise ValueError("every start of a tempered ensemble must be inside the posterior")
+        cold_like = spread_like[0]
+        if np.any(np.isnan(cold_like)) or not np.any(np.isfinite(cold_like)):
+            raise ValueError("a tempered ensemble needs a start inside the posterior")
         keep = np.isfinite(spread_like)
         self.coords = np.where(keep[..., None], spread, start)
         self.log_like = np.where(keep, spread_like, cold_like)
