@@ -116,6 +116,7 @@ def run_nav(request, *, failures=None):
         raise InputError(
             f"times={list(request.times)!r}: expected positive outage lengths in seconds"
         )
+    _import_pyplot_meanwhile()
     dt = gyro[0].model.dt
     grid = nav_times(dt, times, request.horizon_s)
     pair = (gyro if len(gyro) == 3 else gyro[0], accel if len(accel) == 3 else accel[0])
@@ -170,6 +171,30 @@ def run_nav(request, *, failures=None):
             failure = draw_picture(plot_nav, bands, tmp / "nav.png", **picture)
             failures.extend([] if failure is None else [failure])
     return bands, summary
+
+
+def _import_pyplot_meanwhile():
+    """Import matplotlib's pyplot (the picture's) on a second thread while the bands are computed,
+    where the process may use two CPUs or more: the bands' transforms and matrix products leave the
+    interpreter free most of the time, and the picture then starts without the import (about 0.15 s
+    of the command; timings: docs/speed_under_load.md, thirteenth session). A later ``pyplot()``
+    waits for the import to finish (Python's per-module import lock); on one CPU nothing is
+    started."""
+    from .._system import usable_cpus
+
+    if usable_cpus() < 2:
+        return
+    import threading
+
+    from .plots import pyplot
+
+    def target():
+        try:
+            pyplot()
+        except Exception:  # noqa: BLE001 - the picture's own import reports it (draw_picture)
+            pass
+
+    threading.Thread(target=target, name="bayes-imu pyplot import", daemon=True).start()
 
 
 def format_length(metres):
