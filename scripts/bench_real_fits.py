@@ -7,9 +7,9 @@ MTi-G gyro log (5e5 samples, rad/s), read from ``../shared/data_real/smac_imudat
 (CC BY-NC-SA 4.0: never copied; the script exits cleanly when absent), one after another in
 this process, as ``bayes-imu fit`` does (:func:`bayes_imu.allan.pipeline.allan_from_source`, then
 :func:`bayes_imu.inference.fit.fit_allan` with model selection and seed 0). It prints one row per
-fit (read + Allan variance seconds, fit seconds, sampler steps, autocorrelation time, R-hat and bulk
-ESS over walkers, the split R-hat and the ESS of the walkers' mean (``rhat_m``, ``ess_m``), whether the
-ensemble was tempered, converged, the selected model) and the totals. Imports and outputs are not timed (a fresh
+fit (read + Allan variance seconds, fit seconds, sampler steps, autocorrelation time, R-hat and
+bulk ESS over walkers, the split R-hat and the ESS of the walkers' mean (``rhat_m``,
+``ess_m``), whether the ensemble was tempered, converged, the selected model) and the totals. Imports and outputs are not timed (a fresh
 ``bayes-imu fit`` adds about 1 s of each: ``scripts/bench_fit.py``).
 
     python scripts/bench_real_fits.py [--data DIR] [--units 1,2,...] [--columns gyro_x_dps,...]
@@ -71,8 +71,8 @@ def main(argv=None):
     met = sum(1 for t, c, _, _ in rows if c and t < GOAL_S)
     print(f"\n{len(rows)} fits: {sum(r[1] for r in rows)} converged, {met} converged in under "
           f"{GOAL_S:g} s (issue 39's goal); fit time median {times[len(times) // 2]:.1f} s, "
-          f"longest {times[-1]:.1f} s, total {sum(times):.0f} s; {sum(r[3] for r in rows)} tempered; "
-          f"the walkers' mean's split R-hat below 1.01 in {sum(r[2] for r in rows)}")
+          f"longest {times[-1]:.1f} s, total {sum(times):.0f} s; {sum(r[3] for r in rows)} "
+          f"tempered; the walkers' mean's split R-hat below 1.01 in {sum(r[2] for r in rows)}")
     return 0
 
 
