@@ -9,8 +9,9 @@ this process, as ``bayes-imu fit`` does (:func:`bayes_imu.allan.pipeline.allan_f
 :func:`bayes_imu.inference.fit.fit_allan` with model selection and seed 0). It prints one row per
 fit (read + Allan variance seconds, fit seconds, sampler steps, autocorrelation time, R-hat and
 bulk ESS over walkers, the split R-hat and the ESS of the walkers' mean (``rhat_m``,
-``ess_m``), whether the ensemble was tempered, converged, the selected model) and the totals. Imports and outputs are not timed (a fresh
-``bayes-imu fit`` adds about 1 s of each: ``scripts/bench_fit.py``).
+``ess_m``), whether the ensemble was tempered, converged, the selected model) and the totals.
+Imports and outputs are not timed (a fresh ``bayes-imu fit`` adds about 1 s of each:
+``scripts/bench_fit.py``).
 
     python scripts/bench_real_fits.py [--data DIR] [--units 1,2,...] [--columns gyro_x_dps,...]
         [--seed 0] [--no-xsens]
