@@ -160,6 +160,21 @@ def test_a_ladder_must_start_at_one_and_fall():
         TemperedEnsemble(target, start + 10, rng)
 
 
+def test_a_start_outside_the_posterior_moves_in_and_the_stored_log_posterior_is_right():
+    """A first walker outside the prior box (as emcee allows): it moves in, and every stored log
+    posterior is the target's (the prior's constant taken from a walker inside, not -inf)."""
+    target = _BoxTarget(_gaussian([1.0, 1.0]), [-5, -5], [5, 5])
+    rng = np.random.default_rng(6)
+    start = rng.standard_normal((8, 2))
+    start[0] = [9.0, 0.0]
+    sampler = TemperedEnsemble(target, start, rng, capacity=500)
+    sampler.run(500)
+    chain, log_prob = sampler.get_chain(discard=250), sampler.get_log_prob(discard=250)
+    assert np.all(np.isfinite(log_prob))
+    np.testing.assert_allclose(log_prob, target(chain.reshape(-1, 2)).reshape(log_prob.shape),
+                               rtol=1e-12)
+
+
 def _ar1_walkers(rng, steps, walkers, phi):
     from scipy.signal import lfilter
 

@@ -99,7 +99,8 @@ class TemperedEnsemble:
         keep = np.isfinite(spread_like)
         self.coords = np.where(keep[..., None], spread, start)
         self.log_like = np.where(keep, spread_like, cold_like)
-        self._prior = float(post.log_prior(start[:1])[0])
+        # the prior's constant, from a start inside the posterior (the first may be outside)
+        self._prior = float(post.log_prior(start[np.isfinite(cold_like)][:1])[0])
         self._relabel = None
         shares = [0.8, 0.2]
         if exchangeable is not None and len(exchangeable[1]) >= 2:
