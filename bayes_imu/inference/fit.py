@@ -1171,13 +1171,13 @@ def _thinned(sampler, tau_max, n_walkers, settled):
     chain = np.array(sampler.get_chain(discard=burn, thin=thin))  # (draws, walkers, par)
     lp = np.array(sampler.get_log_prob(discard=burn, thin=thin))
     kept = sampler.get_chain(discard=burn)
-    ess_mean = ensemble_mean_ess(kept)
-    out = _diagnostics(chain, tau_max, sampler.iteration, n_walkers, settled, ess_mean)
+    mean = kept.mean(axis=1)  # the walkers' mean at each step, (steps, par)
+    out = _diagnostics(chain, tau_max, sampler.iteration, n_walkers, settled,
+                       _mean_ess(kept, mean))
     # the walkers' mean as one chain, split in two (reported: for a tempered ensemble the walkers
     # are not chains, and R-hat over them reads low; this one asks ~100 of the mean's
     # autocorrelation times of a single chain, where the convergence rule asks 50)
-    out["rhat_mean_max"] = float(np.max([rhat(kept[:, :, j].mean(axis=1))
-                                         for j in range(kept.shape[-1])]))
+    out["rhat_mean_max"] = float(np.max([rhat(mean[:, j]) for j in range(mean.shape[-1])]))
     return chain, lp, out
 
 
@@ -1190,12 +1190,16 @@ def ensemble_mean_ess(chain):
     dependence, so this is the number of independent draws with the same variance; it equals
     ``steps walkers / tau`` for independent walkers."""
     chain = np.asarray(chain, float)
-    steps = chain.shape[0]
+    return _mean_ess(chain, chain.mean(axis=1))
+
+
+def _mean_ess(chain, mean):
+    """:func:`ensemble_mean_ess` of ``chain`` given its walkers' mean ``mean`` ``(steps, par)``
+    (computed once by the caller)."""
     # one parameter at a time: no copy of the whole chain (40 000 steps x 32 walkers x 9: 90 MB)
     spread = np.array([chain[:, :, j].var() for j in range(chain.shape[-1])])
-    mean_spread = chain.mean(axis=1).var(axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        ess = steps * spread / (mean_spread * ensemble_mean_autocorr_time(chain))
+        ess = chain.shape[0] * spread / (mean.var(axis=0) * autocorr_time(mean[:, None, :]))
     return np.where(np.isfinite(ess), ess, 0.0)
 
 
