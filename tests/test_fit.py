@@ -120,6 +120,42 @@ def test_a_tempered_fit_converges_and_every_fit_needs_the_means_ess(lowgrade_fit
     assert not short["converged"] and short["rhat_max"] == ok["rhat_max"]
 
 
+def test_a_slow_untempered_chain_goes_on_tempered(lowgrade_fit, monkeypatch):
+    """An untempered chain whose walkers' autocorrelation time exceeds TEMPER_AFTER_TAU at a check
+    goes on tempered from its walkers' last state: the steps before are discarded (counted in
+    steps_before_tempering, not in n_steps), the kept draws are the tempered cold ensemble's with
+    their log posterior, the step budget covers both, and the posterior is the untempered one's.
+    With the threshold at 0 it never switches."""
+    import importlib
+
+    module = importlib.import_module("bayes_imu.inference.fit")
+    _, result = lowgrade_fit
+    post = result.chains.posterior
+    start = result.chains.chain[-1]
+    runs = {}
+    for threshold in (0.0, 1.0):  # 1 step: every chain of this posterior is "slow" at 250 steps
+        monkeypatch.setattr(module, "TEMPER_AFTER_TAU", threshold)
+        runs[threshold] = module._sample(post, start, np.random.default_rng(4), 20000)
+    plain, switched = runs[0.0][2], runs[1.0][2]
+    assert plain["tempered"] is False and "steps_before_tempering" not in plain
+    assert switched["tempered"] is True and switched["steps_before_tempering"] == 250
+    assert switched["converged"] and plain["converged"]
+    draws, log_prob = runs[1.0][0], runs[1.0][1]
+    np.testing.assert_allclose(log_prob, post(draws), rtol=1e-12)
+    # the same posterior: means within 6 of their standard errors' sum
+    se = [x.std(axis=0) / np.sqrt(d["ess_mean_min"]) for x, _, d, _ in (runs[0.0], runs[1.0])]
+    assert np.all(np.abs(runs[0.0][0].mean(axis=0) - draws.mean(axis=0)) < 6 * (se[0] + se[1]))
+    # the budget counts the discarded steps: 300 in all stop the tempered chain at 50
+    monkeypatch.setattr(module, "TEMPER_AFTER_TAU", 1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        _, _, short, _ = module._sample(post, start, np.random.default_rng(4), 300)
+    assert short["steps_before_tempering"] == 250 and short["n_steps"] == 50
+    assert short["converged"] is False
+    # summary.json writes the count as an integer
+    assert result.summary()["diagnostics"]["tempered"] is False
+
+
 def test_white_only_log_selects_white_only():
     """Paper Fig 3 case: a white-only (high-grade) log comes back as white only."""
     spec, allan = load("gyro_highgrade")

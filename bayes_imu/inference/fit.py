@@ -90,6 +90,14 @@ INDEPENDENCE_PILOT = 1000
 #: independence move's expected acceptance is below this and the move is not used (0: never;
 #: ``scripts/study_tempering.py`` compares the two)
 TEMPER_BELOW = INDEPENDENCE_MIN_ACCEPT
+#: an untempered ensemble whose walkers' autocorrelation time exceeds this (steps) at a convergence
+#: check, a chain that would run more than AUTOCORR_MULTIPLE times it (2 000 steps), goes on
+#: tempered from its walkers' last state (0 or less: never). On the real ADIS16405 gyro x logs the
+#: posteriors near a t read 5-20 steps at every check and imu4's, whose second region the
+#: independence move's estimate missed, 47 at 1 000 steps and 190-280 steps at the end of chains
+#: of 11 000-16 500 steps (seeds 0 and 1); tempered from 1 000 steps, those ended 4 000 and 3 250
+#: tempered steps later (docs/speed_under_load.md, fourteenth session)
+TEMPER_AFTER_TAU = 40.0
 
 
 @dataclass(frozen=True)
@@ -174,7 +182,9 @@ class FitResult:
         ``rhat_max``, ``ess_bulk_min``, ``ess_tail_min`` (walkers as chains), ``ess_mean_min``
         (:func:`ensemble_mean_ess`), ``rhat_mean_max`` (split R-hat of the walkers' mean, one
         chain), ``autocorr_time`` (steps), ``n_steps``, ``n_walkers``, ``converged``,
-        ``tempered`` and, for a tempered fit, ``ladder`` and ``swap_acceptance``.
+        ``tempered`` and, for a tempered fit, ``ladder``, ``swap_acceptance`` and
+        ``steps_before_tempering`` (untempered steps discarded where a slow chain went on tempered,
+        else 0; ``n_steps`` counts the kept chain's).
     likelihood : str
     covariance : ndarray, shape (n_tau, n_tau)
         AVAR covariance the likelihood used.
@@ -383,7 +393,7 @@ class FitResult:
                     bool(v)
                     if k in ("converged", "tempered")
                     else int(v)
-                    if k in ("n_steps", "n_walkers")
+                    if k in ("n_steps", "n_walkers", "steps_before_tempering")
                     else [float(x) for x in v]
                     if k in ("ladder", "swap_acceptance")
                     else float(v)
@@ -1056,6 +1066,9 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
     :func:`_independence`; the move is used where the acceptance is at least
     :data:`~bayes_imu.inference.sampling.INDEPENDENCE_MIN_ACCEPT`, and below it (a posterior far
     from a t) the ensemble is tempered (:class:`~bayes_imu.inference.tempering.TemperedEnsemble`).
+    An untempered ensemble whose walkers' autocorrelation time exceeds :data:`TEMPER_AFTER_TAU` at
+    a check (a posterior the acceptance estimate took for a t) goes on tempered from its walkers'
+    last state, the steps before discarded (``steps_before_tempering`` in the diagnostics).
 
     The chain stops once it is :data:`~bayes_imu.inference.sampling.AUTOCORR_MULTIPLE`
     autocorrelation times long: the walkers' own
@@ -1068,23 +1081,35 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
     n_walkers, n_par = start.shape
     use = independence is not None and independence[1] >= INDEPENDENCE_MIN_ACCEPT
     # (the tempered ensemble's red-blue halves need an even number of walkers; emcee's takes any)
+    can_temper = n_walkers % 2 == 0 and n_walkers >= 4
     tempered = (independence is not None and not use and independence[1] < TEMPER_BELOW
-                and n_walkers % 2 == 0)
+                and can_temper)
+    exchangeable = exchangeable_biases(post)
     if tempered:
-        sampler = TemperedEnsemble(post, start, rng, exchangeable_biases(post), capacity=max_steps)
+        sampler = TemperedEnsemble(post, start, rng, exchangeable, capacity=max_steps)
     else:
-        sampler = ensemble_sampler(post, start, rng, exchangeable_biases(post),
-                                   capacity=max_steps,
+        sampler = ensemble_sampler(post, start, rng, exchangeable, capacity=max_steps,
                                    independence=independence[0] if use else None)
     chunk, state, tau_old = min(250, max_steps), start, np.inf
+    before = 0  # steps of an untempered start, discarded where the ensemble went on tempered
     converged = False
     with progress_bar(desc="sampling", unit="step", enabled=progress) as bar:
-        while sampler.iteration < max_steps:
+        while before + sampler.iteration < max_steps:
             if tempered:
                 sampler.run(chunk)
             else:
                 state = sampler.run_mcmc(state, chunk, progress=False)
             tau_max = _tau_max(sampler.get_chain(), tempered)
+            if (not tempered and can_temper and 0.0 < TEMPER_AFTER_TAU < tau_max
+                    and before + sampler.iteration < max_steps):
+                # a slow chain: tempered from here, its steps so far discarded as burn-in
+                bar.update(chunk)
+                before += sampler.iteration
+                sampler = TemperedEnsemble(post, state.coords, rng, exchangeable,
+                                           capacity=max_steps - before)
+                tempered = True
+                chunk, tau_old = min(250, max_steps - before), np.inf
+                continue
             if tempered:
                 # the largest estimate so far: the mean's time comes from one series, whose
                 # estimate moves by more than 5% from check to check (with it a chain of imu2
@@ -1095,7 +1120,8 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
             bar.update(chunk)
             # a long chain: checked at a tenth of its length, and not before it could stop
             chunk = min(
-                steps_to_next_check(sampler.iteration, 250, tau_max), max_steps - sampler.iteration
+                steps_to_next_check(sampler.iteration, 250, tau_max),
+                max_steps - before - sampler.iteration,
             )
             bar.set_postfix_str(f"autocorrelation {tau_max:.0f} steps")
             settled = long_enough(sampler.iteration, tau_max, tau_old)
@@ -1108,7 +1134,7 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
     if not converged:
         chain, lp, diagnostics = _thinned(sampler, tau_max, n_walkers, False)
         warnings.warn(
-            f"sampler not converged after {sampler.iteration} steps (autocorrelation time "
+            f"sampler not converged after {before + sampler.iteration} steps (autocorrelation time "
             f"{tau_max:.0f} steps, R-hat {diagnostics['rhat_max']:.3f}, bulk ESS "
             f"{diagnostics['ess_bulk_min']:.0f}, ESS of the walkers' mean "
             f"{diagnostics['ess_mean_min']:.0f}); "
@@ -1118,9 +1144,13 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
         )
     if independence is not None:
         diagnostics["independence_acceptance"] = float(independence[1])
-        diagnostics["independence_share"] = float(sampler._weights[-1]) if use else 0.0
+        diagnostics["independence_share"] = (
+            float(sampler._weights[-1]) if use and not tempered else 0.0
+        )
     diagnostics["tempered"] = bool(tempered)
     if tempered:
+        # untempered steps run before the switch (discarded; 0 where tempered from the start)
+        diagnostics["steps_before_tempering"] = int(before)
         diagnostics["ladder"] = [float(b) for b in sampler.betas]
         diagnostics["swap_acceptance"] = [float(a) for a in sampler.swap_acceptance]
     return chain.reshape(-1, n_par), lp.reshape(-1), diagnostics, SamplerChains(chain, lp, post)
