@@ -39,12 +39,20 @@ KERNELS = {
     "parse_table": ("io", "i8(u1[::1], i8, i8, i8, i8[::1], f8[:, ::1])"),
     "pair_sum_lags": ("noise", "f8(f8[::1], f8[::1], f8[::1], i8, i8, i8, i8, i8, i8, i8)"),
     "second_differences_into": ("noise", "void(f8[::1], i8, i8, f8[::1])"),
+    "propagate_diagonal": (
+        "noise", "void(f8[:, :, ::1], f8[:, :, ::1], f8[:, :, ::1], i8[::1], f8[:, :, ::1])"
+    ),
     "drift_rows": (
         "noise",
         "void(i8, f8[::1], f8[::1], f8[::1], f8[:, ::1], f8[::1], f8, f8[::1], f8[::1], f8[:, "
         "::1], f8[:, ::1], f8[:, ::1], f8[:, ::1], f8[:, ::1], f8[:, ::1])",
     ),
 }
+
+#: kernels (of ``bayes_imu/noise/_sources.py``) whose Python wrapper releases the GIL while they
+#: run: the navigation bands' propagation runs while a thread imports matplotlib
+#: (bayes_imu.report.nav)
+RELEASE_GIL = {"propagate_diagonal"}
 
 
 def _load(stage):
@@ -115,6 +123,11 @@ def precompiled_kernels():
         if func.__name__ in fastmath and func.__module__ == sources["allan"].__name__:
             flags = copy.copy(flags)
             flags.fastmath = FastMathOptions(fastmath[func.__name__])
+        # and the kernels that run beside a thread release the interpreter (as their JIT build's
+        # nogil=True does)
+        if func.__name__ in RELEASE_GIL and func.__module__ == sources["noise"].__name__:
+            flags = copy.copy(flags)
+            flags.release_gil = True
         return plain(typingctx, targetctx, func, args, return_type, flags, *rest, **kwargs)
 
     pycc_compiler.compile_extra = compile_extra

@@ -740,6 +740,17 @@ def test_precompiled_kernels_agree_with_the_jit_build(rng):
             outputs.append((total, bias))
         np.testing.assert_array_equal(outputs[0][0], outputs[1][0])
         np.testing.assert_array_equal(outputs[0][1], outputs[1][1])
+    # the navigation error's propagated diagonal (drift.navigation._propagate_diagonal)
+    n_b, d = 7, 6
+    a = rng.standard_normal((n_b, d, d)) * 0.3
+    q = rng.standard_normal((n_b, d, d))
+    q = q @ np.swapaxes(q, -1, -2)
+    p0 = q[::-1].copy()
+    k = np.array([0, 1, 5, 64, 1000, 33333], dtype=np.int64)
+    out_aot, out_jit = np.empty((n_b, k.size, 3)), np.empty((n_b, k.size, 3))
+    aot.propagate_diagonal(a, q, p0, k, out_aot)
+    numba.njit(noise_sources.propagate_diagonal)(a, q, p0, k, out_jit)
+    np.testing.assert_array_equal(out_aot, out_jit)
 
 
 def test_compiled_kernel_takes_the_precompiled_build_or_compiles_what_it_lacks(monkeypatch):

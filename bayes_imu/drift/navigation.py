@@ -206,8 +206,7 @@ class NavLoop:
             p0[..., 3 : 3 + ns, 3 : 3 + ns] = filt[
                 "P_zero" if bias_start == "zero" else "P_stationary"
             ]
-        out = _propagate(a2, b2, p0, np.asarray(k, float))
-        return np.maximum(np.diagonal(out[..., :3, :3], axis1=-2, axis2=-1), 0.0)
+        return np.maximum(_propagate_diagonal(a2, b2, p0, np.asarray(k, float), 3), 0.0)
 
     # --- flicker ------------------------------------------------------------------------
     def increment_tails(self, k, dt, n_cal, *, responses=None):
@@ -281,6 +280,36 @@ def _fft_workers(size):
     """Threads of one batched transform of ``size`` points: two from :data:`_FFT_THREADED` on
     where the process may run on two CPUs or more (its four rows dealt to them), else one."""
     return 1 if size < _FFT_THREADED else min(2, usable_cpus())
+
+
+_diagonal_kernel = None  # set on first use (:func:`_propagate_diagonal`)
+
+
+def _propagate_diagonal(a, b, p0, k, n):
+    """The first ``n`` diagonal entries ``(..., n_t, n)`` of :func:`_propagate`'s matrices: the
+    compiled :func:`bayes_imu.noise._sources.propagate_diagonal` over the broadcast batch (the
+    precompiled build's, else numba's JIT build), which carries only the ``n`` rows the diagonal
+    needs through the binary powering: on a model-averaged pair's navigation bands (batches of up
+    to 350 draws, 33 lengths to 2 h at 100 Hz) it took a fifth of :func:`_propagate`'s time
+    (docs/speed_under_load.md, fourteenth session)."""
+    global _diagonal_kernel
+    if _diagonal_kernel is None:
+        from ..allan.kernels import compiled_kernel
+
+        # nogil: the interpreter is free for the picture's import while it runs (report.nav; the
+        # precompiled build's wrapper releases it too, setup.py)
+        _diagonal_kernel = compiled_kernel("propagate_diagonal", "bayes_imu.noise._sources",
+                                           nogil=True)
+    a, b, p0 = (np.asarray(x, float) for x in (a, b, p0))
+    kint = np.ascontiguousarray(np.asarray(k, float).astype(np.int64).ravel())
+    d = a.shape[-1]
+    q = b @ np.swapaxes(b, -1, -2)
+    batch = np.broadcast_shapes(a.shape[:-2], q.shape[:-2], p0.shape[:-2])
+    rows = [np.ascontiguousarray(np.broadcast_to(x, batch + (d, d)).reshape(-1, d, d))
+            for x in (a, q, p0)]
+    out = np.empty((rows[0].shape[0], kint.size, int(n)))
+    _diagonal_kernel(*rows, kint, out)
+    return out.reshape(batch + (kint.size, int(n)))
 
 
 def _propagate(a, b, p0, k):

@@ -1,7 +1,9 @@
 """Sources of the compiled noise kernels: plain Python that numba compiles twice.
 
 Imported only to compile (it imports numba): :mod:`bayes_imu.noise.gauss_markov` (the Gauss-Markov
-AVAR rows) and :mod:`bayes_imu.noise.euler_sums` (the drift grid) JIT-compile these functions on
+AVAR rows), :mod:`bayes_imu.noise.euler_sums` (the drift grid) and
+:mod:`bayes_imu.drift.navigation` (the navigation error's state covariance) JIT-compile these
+functions on
 first use where the package was built without its ahead-of-time build, which ``setup.py`` compiles
 into the extension ``bayes_imu._compiled`` with the Allan-variance kernels. Strict IEEE arithmetic
 in both builds: they give the same bits (tested). The formulas the drift grid evaluates
@@ -23,7 +25,7 @@ from .euler_sums import (
 
 __all__ = [
     "avar_rows", "drift_rows", "pair_sum_lags", "second_differences_into", "powers_scalar",
-    "coefficient_scalar",
+    "coefficient_scalar", "propagate_diagonal",
 ]
 
 # module globals, not closure variables: numba's cache keys a closure's captured dispatcher by
@@ -190,3 +192,80 @@ def drift_rows(
                 w += white_scales[m, i] * white_ks[m, j]
             bias[j, i] = np.sqrt(b)
             total[j, i] = np.sqrt(b + w)
+
+
+
+def propagate_diagonal(a, q, p0, kint, out):
+    """``out[b, t, r]``: the diagonal entry ``r < out.shape[2]`` of ``A^k P0 A^k' + sum_{m<k} A^m Q
+    A^m'`` with ``A = a[b]``, ``Q = q[b]``, ``P0 = p0[b]`` and ``k = kint[t]``, by binary powering.
+
+    The ladder ``A^(2^j)``, ``S_(2^j) = sum_{m<2^j} A^m Q A^m'`` (``S_2n = S_n + A^n S_n A^n'``) is
+    built once per batch row; each length then multiplies the rungs of the bits it has into
+    ``R = A^(its lower bits)``, adding ``R S R'``. Row ``r`` of ``R @ A^n`` needs only row ``r`` of
+    ``R``, so only the first ``out.shape[2]`` rows of ``R`` are carried, and of each ``R S R'`` only
+    its diagonal: about a third of the products of the full matrices for the navigation error's
+    three rows of five or six states. ``a``, ``q``, ``p0``: ``(batch, d, d)``; ``kint`` ``(n_t,)``
+    non-negative."""
+    nb, d = a.shape[0], a.shape[1]
+    nt, nr = kint.size, out.shape[2]
+    top = 0
+    for t in range(nt):
+        kk, bits = kint[t], 0
+        while kk > 0:
+            bits += 1
+            kk >>= 1
+        top = max(top, bits)
+    power = np.empty((max(top, 1), d, d))
+    acc = np.empty((max(top, 1), d, d))
+    rows = np.empty((nr, d))
+    tmp = np.empty((nr, d))
+    for b in range(nb):
+        if top:
+            power[0] = a[b]
+            acc[0] = q[b]
+        for j in range(1, top):
+            # S_2n = S_n + A^n S_n A^n', A^2n = A^n A^n
+            for r in range(d):
+                for c in range(d):
+                    v = 0.0
+                    for m in range(d):
+                        w = 0.0
+                        for l in range(d):
+                            w += power[j - 1, r, l] * acc[j - 1, l, m]
+                        v += w * power[j - 1, c, m]
+                    acc[j, r, c] = acc[j - 1, r, c] + v
+                    u = 0.0
+                    for m in range(d):
+                        u += power[j - 1, r, m] * power[j - 1, m, c]
+                    power[j, r, c] = u
+        for t in range(nt):
+            for r in range(nr):
+                out[b, t, r] = 0.0
+                for c in range(d):
+                    rows[r, c] = 1.0 if r == c else 0.0
+            for j in range(top):
+                if not (kint[t] >> j) & 1:
+                    continue
+                for r in range(nr):
+                    # out += (R S_j R')_rr, then R <- R A^(2^j)
+                    v = 0.0
+                    for m in range(d):
+                        w = 0.0
+                        for l in range(d):
+                            w += rows[r, l] * acc[j, l, m]
+                        v += w * rows[r, m]
+                    out[b, t, r] += v
+                    for c in range(d):
+                        u = 0.0
+                        for m in range(d):
+                            u += rows[r, m] * power[j, m, c]
+                        tmp[r, c] = u
+                rows[:, :] = tmp
+            for r in range(nr):
+                v = 0.0
+                for m in range(d):
+                    w = 0.0
+                    for l in range(d):
+                        w += rows[r, l] * p0[b, l, m]
+                    v += w * rows[r, m]
+                out[b, t, r] += v
