@@ -25,7 +25,7 @@ from .euler_sums import (
 
 __all__ = [
     "avar_rows", "drift_rows", "pair_sum_lags", "second_differences_into", "powers_scalar",
-    "coefficient_scalar", "propagate_diagonal",
+    "coefficient_scalar", "propagate_diagonal", "row_form",
 ]
 
 # module globals, not closure variables: numba's cache keys a closure's captured dispatcher by
@@ -195,6 +195,19 @@ def drift_rows(
 
 
 
+@numba.njit(cache=True, inline="always")
+def row_form(x, m):
+    """``x' M x`` of a row ``x`` and a square matrix ``M``, summed in index order."""
+    d = x.size
+    v = 0.0
+    for c in range(d):
+        w = 0.0
+        for r in range(d):
+            w += x[r] * m[r, c]
+        v += w * x[c]
+    return v
+
+
 def propagate_diagonal(a, q, p0, kint, out):
     """``out[b, t, r]``: the diagonal entry ``r < out.shape[2]`` of ``A^k P0 A^k' + sum_{m<k} A^m Q
     A^m'`` with ``A = a[b]``, ``Q = q[b]``, ``P0 = p0[b]`` and ``k = kint[t]``, by binary powering.
@@ -248,13 +261,7 @@ def propagate_diagonal(a, q, p0, kint, out):
                     continue
                 for r in range(nr):
                     # out += (R S_j R')_rr, then R <- R A^(2^j)
-                    v = 0.0
-                    for m in range(d):
-                        w = 0.0
-                        for l in range(d):
-                            w += rows[r, l] * acc[j, l, m]
-                        v += w * rows[r, m]
-                    out[b, t, r] += v
+                    out[b, t, r] += row_form(rows[r], acc[j])
                     for c in range(d):
                         u = 0.0
                         for m in range(d):
@@ -262,10 +269,4 @@ def propagate_diagonal(a, q, p0, kint, out):
                         tmp[r, c] = u
                 rows[:, :] = tmp
             for r in range(nr):
-                v = 0.0
-                for m in range(d):
-                    w = 0.0
-                    for l in range(d):
-                        w += rows[r, l] * p0[b, l, m]
-                    v += w * rows[r, m]
-                out[b, t, r] += v
+                out[b, t, r] += row_form(rows[r], p0[b])
