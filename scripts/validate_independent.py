@@ -60,8 +60,11 @@ HELD_OUT_START = 1_000_000
 #: a second held-out range (the first was seen in the session that fixed what it found), and a
 #: third (the second was seen by the session that measured position bands on it: issue 35's third
 #: session runs range 3 once, at its end), and a fourth (range 3 was seen: the seventh session of
-#: issue 39 runs range 4 once, at its end, on the sampler with the independence move)
-HELD_OUT_RANGES = {"1": HELD_OUT_START, "2": 3_000_000, "3": 5_000_000, "4": 7_000_000}
+#: issue 39 runs range 4 once, at its end, on the sampler with the independence move), and a fifth
+#: (range 4 was seen: the fourteenth session of issue 39 runs range 5 once, at its end, on the
+#: tempered sampler)
+HELD_OUT_RANGES = {"1": HELD_OUT_START, "2": 3_000_000, "3": 5_000_000, "4": 7_000_000,
+                   "5": 9_000_000}
 NAV_TIMES = (10.0, 30.0, 60.0, 120.0, 300.0, 600.0, 1200.0)
 
 
@@ -117,6 +120,11 @@ def run_api(y, scene, times, window=False):
         "position_check": _drift_flag(getattr(b_pos, "check", None)),
         "position_p": float(getattr(getattr(b_pos, "check", None), "p_combined", float("nan"))),
         "warnings": len(caught),
+        # the sampler (issue 39): converged, tempered, and the untempered steps discarded where a
+        # slow chain went on tempered
+        "converged": bool(fit.diagnostics.get("converged", True)),
+        "tempered": bool(fit.diagnostics.get("tempered", False)),
+        "steps_before_tempering": int(fit.diagnostics.get("steps_before_tempering", 0)),
     }
     return bands, info
 
@@ -437,8 +445,8 @@ def main(argv=None):
     ap.add_argument("--families", default=",".join(sg.FAMILIES))
     ap.add_argument("--held-out", action="store_true", help="the held-out seed range (lead only)")
     ap.add_argument("--held-out-range", choices=sorted(HELD_OUT_RANGES), default="1",
-                    help="which held-out range: 1 (seeds 1,000,000..), 2 (3,000,000..) or 3 "
-                    "(5,000,000..)")
+                    help="which held-out range: 1 (seeds 1,000,000..), 2 (3,000,000..), 3 "
+                    "(5,000,000..), 4 (7,000,000..) or 5 (9,000,000..)")
     ap.add_argument("--seed-start", type=int, default=0, help="first development seed")
     ap.add_argument("--horizons", type=int, default=8, help="horizons per scene")
     ap.add_argument("--max-log2n", type=float, default=20.0, help="record length up to 2^this")
