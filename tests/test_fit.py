@@ -123,9 +123,12 @@ def test_a_tempered_fit_converges_and_every_fit_needs_the_means_ess(lowgrade_fit
 def test_a_slow_untempered_chain_goes_on_tempered(lowgrade_fit, monkeypatch):
     """An untempered chain whose walkers' autocorrelation time exceeds TEMPER_AFTER_TAU at a check
     goes on tempered from its walkers' last state: the steps before are discarded (counted in
-    steps_before_tempering, not in n_steps), the kept draws are the tempered cold ensemble's with
-    their log posterior, the step budget covers both, and the posterior is the untempered one's.
-    With the threshold at 0 it never switches."""
+    steps_before_tempering, not in n_steps, and written to summary.json as an integer), the kept
+    draws are the tempered cold ensemble's with their log posterior, the step budget covers both
+    (the warning counts both), and the posterior is the untempered one's. With the threshold at 0,
+    or fewer than TEMPERED_MIN_STEPS left of the budget, it never switches."""
+    import dataclasses
+
     import importlib
 
     module = importlib.import_module("bayes_imu.inference.fit")
@@ -145,15 +148,23 @@ def test_a_slow_untempered_chain_goes_on_tempered(lowgrade_fit, monkeypatch):
     # the same posterior: means within 6 of their standard errors' sum
     se = [x.std(axis=0) / np.sqrt(d["ess_mean_min"]) for x, _, d, _ in (runs[0.0], runs[1.0])]
     assert np.all(np.abs(runs[0.0][0].mean(axis=0) - draws.mean(axis=0)) < 6 * (se[0] + se[1]))
+    # summary.json writes the count as an integer
+    written = dataclasses.replace(result, diagnostics=switched).summary()["diagnostics"]
+    assert written["steps_before_tempering"] == 250
+    assert isinstance(written["steps_before_tempering"], int)
     # the budget counts the discarded steps: 300 in all stop the tempered chain at 50
     monkeypatch.setattr(module, "TEMPER_AFTER_TAU", 1.0)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ConvergenceWarning)
+    monkeypatch.setattr(module, "TEMPERED_MIN_STEPS", 50)
+    with pytest.warns(ConvergenceWarning, match=r"after 300 steps \(250 of them untempered"):
         _, _, short, _ = module._sample(post, start, np.random.default_rng(4), 300)
     assert short["steps_before_tempering"] == 250 and short["n_steps"] == 50
     assert short["converged"] is False
-    # summary.json writes the count as an integer
-    assert result.summary()["diagnostics"]["tempered"] is False
+    # too little budget left for a tempered chain: the chain goes on untempered
+    monkeypatch.setattr(module, "TEMPERED_MIN_STEPS", 2000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        _, _, kept, _ = module._sample(post, start, np.random.default_rng(4), 2249)
+    assert kept["tempered"] is False and "steps_before_tempering" not in kept
 
 
 def test_white_only_log_selects_white_only():

@@ -428,10 +428,12 @@ def test_flicker_increment_acov_against_mpmath():
 
 def test_propagated_diagonal_against_the_step_recursion():
     """_propagate_diagonal (the compiled binary powering that carries only the rows its diagonal
-    needs) against the plain recursion P_(m+1) = A P_m A' + Q stepped one sample at a time: every
-    length to 3000 samples, batched and broadcast, with a Schuler-like rotation, a decaying state
-    and an integrator (a Jordan block: eigenvalue 1 twice), to 1e-11 relative; and the first rows'
-    diagonal of the full matrices (_propagate, numpy) to the same."""
+    needs) against the plain recursion P_(m+1) = A P_m A' + Q stepped one sample at a time: eight
+    lengths to 2999 samples, compared as the recursion passes them, batched and broadcast, with a
+    Schuler-like rotation, a decaying state and an integrator of a constant (a Jordan block:
+    eigenvalue 1 twice, an error growing with the length), to 1e-11 relative; and the first rows'
+    diagonal of the full matrices (_propagate, numpy) to the same. Edge cases: no length, lengths
+    all 0 (the start's diagonal), an unbatched A beside a batched input, more rows than states."""
     from bayes_imu.drift.navigation import _propagate, _propagate_diagonal
 
     rng = np.random.default_rng(11)
@@ -442,6 +444,7 @@ def test_propagated_diagonal_against_the_step_recursion():
     base[:2, 3] = [0.02, -0.01]
     base[3, 3] = 0.999  # a Gauss-Markov state
     base[4, 4] = 1.0  # a constant (the calibration's mean)
+    base[2, 4] = 0.01  # integrated by state 2: a Jordan block of eigenvalue 1
     a = np.stack([base, base * np.r_[1.0, 1.0, 1.0, 0.5, 1.0][:, None]])
     b = rng.standard_normal((2, 5, 2)) * 0.1
     p0 = np.eye(5) * 0.3  # broadcast over the batch
@@ -457,18 +460,33 @@ def test_propagated_diagonal_against_the_step_recursion():
             p = a[i] @ p @ a[i].T + q
     full = _propagate(a, b, p0, k)
     np.testing.assert_allclose(got, np.diagonal(full, axis1=-2, axis2=-1)[..., :3], rtol=1e-11)
+    assert _propagate_diagonal(a, b, p0, np.zeros(0), 3).shape == (2, 0, 3)
+    start = np.diag(np.arange(1.0, 6.0))
+    np.testing.assert_array_equal(_propagate_diagonal(a, b, start, np.zeros(4), 3),
+                                  np.broadcast_to([1.0, 2.0, 3.0], (2, 4, 3)))
+    one = _propagate_diagonal(base, b, p0, k, 2)  # A unbatched, B batched
+    np.testing.assert_allclose(one[0], got[0, :, :2], rtol=1e-11)
+    with pytest.raises(ValueError, match="n=6"):
+        _propagate_diagonal(a, b, p0, k, 6)
 
 
-def test_the_propagation_kernel_leaves_the_interpreter_free():
+@pytest.mark.parametrize("build", ["loaded", "jit"])
+def test_the_propagation_kernel_leaves_the_interpreter_free(build, monkeypatch):
     """The compiled propagation releases the GIL while it runs (setup.py's RELEASE_GIL for the
     precompiled build, nogil for the JIT build): this thread runs Python while the kernel works on
     a batch in another, so the picture's import overlaps the bands (report.nav). Held, this thread
-    would run only after the kernel's end."""
+    would run only after the kernel's end. ``loaded``: the build the package loads (the
+    precompiled one where it was built); ``jit``: numba's JIT build, as without the extension."""
     import importlib
     import threading
     import time
 
+    from bayes_imu.allan import kernels
+
     module = importlib.import_module("bayes_imu.drift.navigation")
+    if build == "jit":
+        monkeypatch.setattr(kernels, "precompiled", lambda: None)
+        monkeypatch.setattr(module, "_diagonal_kernel", None)
     rng = np.random.default_rng(2)
     n = 16000
     k = np.ascontiguousarray(np.round(np.geomspace(1, 720000, 33)).astype(np.int64))

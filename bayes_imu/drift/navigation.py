@@ -290,8 +290,8 @@ def _propagate_diagonal(a, b, p0, k, n):
     compiled :func:`bayes_imu.noise._sources.propagate_diagonal` over the broadcast batch (the
     precompiled build's, else numba's JIT build), which carries only the ``n`` rows the diagonal
     needs through the binary powering: on a model-averaged pair's navigation bands (batches of up
-    to 350 draws, 33 lengths to 2 h at 100 Hz) it took a fifth of :func:`_propagate`'s time
-    (docs/speed_under_load.md, fourteenth session)."""
+    to 350 draws, 33 lengths to 2 h at 100 Hz) it took a fifth to a fourth of :func:`_propagate`'s
+    time (docs/speed_under_load.md, fourteenth session)."""
     global _diagonal_kernel
     if _diagonal_kernel is None:
         from ..allan.kernels import compiled_kernel
@@ -303,6 +303,8 @@ def _propagate_diagonal(a, b, p0, k, n):
     a, b, p0 = (np.asarray(x, float) for x in (a, b, p0))
     kint = np.ascontiguousarray(np.asarray(k, float).astype(np.int64).ravel())
     d = a.shape[-1]
+    if not 0 <= int(n) <= d:
+        raise ValueError(f"n={n}: expected 0 to the state's {d} entries")
     q = b @ np.swapaxes(b, -1, -2)
     batch = np.broadcast_shapes(a.shape[:-2], q.shape[:-2], p0.shape[:-2])
     rows = [np.ascontiguousarray(np.broadcast_to(x, batch + (d, d)).reshape(-1, d, d))

@@ -38,6 +38,7 @@ from .likelihood import LIKELIHOODS, LogPosterior, default_bounds
 from ..noise.avar_forms import BASE_TERMS, PARAMETER_UNITS, NoiseModel
 from .diagnostics import rhat, summary as convergence_summary
 from .sampling import (
+    AUTOCORR_MULTIPLE,
     INDEPENDENCE_INFLATE,
     INDEPENDENCE_MIN_ACCEPT,
     StudentProposal,
@@ -98,6 +99,9 @@ TEMPER_BELOW = INDEPENDENCE_MIN_ACCEPT
 #: of 11 000-16 500 steps (seeds 0 and 1); tempered from 1 000 steps, those ended 4 000 and 3 250
 #: tempered steps later (docs/speed_under_load.md, fourteenth session)
 TEMPER_AFTER_TAU = 40.0
+#: the least steps left of the budget for a switch to the tempered ensemble (with fewer, the chain
+#: goes on untempered: a tempered chain of 40-100 steps' autocorrelation time needs 2 000 or more)
+TEMPERED_MIN_STEPS = 2000
 
 
 @dataclass(frozen=True)
@@ -1067,8 +1071,10 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
     :data:`~bayes_imu.inference.sampling.INDEPENDENCE_MIN_ACCEPT`, and below it (a posterior far
     from a t) the ensemble is tempered (:class:`~bayes_imu.inference.tempering.TemperedEnsemble`).
     An untempered ensemble whose walkers' autocorrelation time exceeds :data:`TEMPER_AFTER_TAU` at
-    a check (a posterior the acceptance estimate took for a t) goes on tempered from its walkers'
-    last state, the steps before discarded (``steps_before_tempering`` in the diagnostics).
+    a check (a posterior the acceptance estimate took for a t), while the chain is shorter than
+    ``AUTOCORR_MULTIPLE`` of those times and at least :data:`TEMPERED_MIN_STEPS` of ``max_steps``
+    are left, goes on tempered from its walkers' last state, the steps before discarded
+    (``steps_before_tempering`` in the diagnostics; ``max_steps`` counts them).
 
     The chain stops once it is :data:`~bayes_imu.inference.sampling.AUTOCORR_MULTIPLE`
     autocorrelation times long: the walkers' own
@@ -1101,8 +1107,10 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
                 state = sampler.run_mcmc(state, chunk, progress=False)
             tau_max = _tau_max(sampler.get_chain(), tempered)
             if (not tempered and can_temper and 0.0 < TEMPER_AFTER_TAU < tau_max
-                    and before + sampler.iteration < max_steps):
-                # a slow chain: tempered from here, its steps so far discarded as burn-in
+                    and sampler.iteration < AUTOCORR_MULTIPLE * tau_max
+                    and max_steps - sampler.iteration >= TEMPERED_MIN_STEPS):
+                # a slow chain, not yet long enough to stop, with budget left: tempered from here,
+                # its steps so far discarded as burn-in
                 bar.update(chunk)
                 before += sampler.iteration
                 sampler = TemperedEnsemble(post, state.coords, rng, exchangeable,
@@ -1134,7 +1142,9 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
     if not converged:
         chain, lp, diagnostics = _thinned(sampler, tau_max, n_walkers, False)
         warnings.warn(
-            f"sampler not converged after {before + sampler.iteration} steps (autocorrelation time "
+            f"sampler not converged after {before + sampler.iteration} steps"
+            + (f" ({before} of them untempered, discarded)" if before else "")
+            + " (autocorrelation time "
             f"{tau_max:.0f} steps, R-hat {diagnostics['rhat_max']:.3f}, bulk ESS "
             f"{diagnostics['ess_bulk_min']:.0f}, ESS of the walkers' mean "
             f"{diagnostics['ess_mean_min']:.0f}); "

@@ -194,7 +194,6 @@ def drift_rows(
             total[j, i] = np.sqrt(b + w)
 
 
-
 @numba.njit(cache=True, inline="always")
 def row_form(x, m):
     """``x' M x`` of a row ``x`` and a square matrix ``M``, summed in index order."""
@@ -216,9 +215,10 @@ def propagate_diagonal(a, q, p0, kint, out):
     built once per batch row; each length then multiplies the rungs of the bits it has into
     ``R = A^(its lower bits)``, adding ``R S R'``. Row ``r`` of ``R @ A^n`` needs only row ``r`` of
     ``R``, so only the first ``out.shape[2]`` rows of ``R`` are carried, and of each ``R S R'`` only
-    its diagonal: about a third of the products of the full matrices for the navigation error's
-    three rows of five or six states. ``a``, ``q``, ``p0``: ``(batch, d, d)``; ``kint`` ``(n_t,)``
-    non-negative."""
+    its diagonal: for the navigation error's three rows of five or six states, each length's part
+    takes about a third of the full matrices' products (the ladder, once per batch row, is the
+    same). ``a``, ``q``, ``p0``: ``(batch, d, d)``; ``kint`` ``(n_t,)`` non-negative;
+    ``out.shape[2] <= d``."""
     nb, d = a.shape[0], a.shape[1]
     nt, nr = kint.size, out.shape[2]
     top = 0
@@ -232,20 +232,24 @@ def propagate_diagonal(a, q, p0, kint, out):
     acc = np.empty((max(top, 1), d, d))
     rows = np.empty((nr, d))
     tmp = np.empty((nr, d))
+    left = np.empty((d, d))
     for b in range(nb):
         if top:
             power[0] = a[b]
             acc[0] = q[b]
         for j in range(1, top):
-            # S_2n = S_n + A^n S_n A^n', A^2n = A^n A^n
+            # S_2n = S_n + A^n S_n A^n', A^2n = A^n A^n (A^n S_n once per rung)
+            for r in range(d):
+                for m in range(d):
+                    w = 0.0
+                    for l in range(d):
+                        w += power[j - 1, r, l] * acc[j - 1, l, m]
+                    left[r, m] = w
             for r in range(d):
                 for c in range(d):
                     v = 0.0
                     for m in range(d):
-                        w = 0.0
-                        for l in range(d):
-                            w += power[j - 1, r, l] * acc[j - 1, l, m]
-                        v += w * power[j - 1, c, m]
+                        v += left[r, m] * power[j - 1, c, m]
                     acc[j, r, c] = acc[j - 1, r, c] + v
                     u = 0.0
                     for m in range(d):
