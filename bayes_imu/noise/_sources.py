@@ -1,11 +1,10 @@
 """Sources of the compiled noise kernels: plain Python that numba compiles twice.
 
 Imported only to compile (it imports numba): :mod:`bayes_imu.noise.gauss_markov` (the Gauss-Markov
-AVAR rows), :mod:`bayes_imu.noise.euler_sums` (the drift grid) and
-:mod:`bayes_imu.drift.navigation` (the navigation error's state covariance) JIT-compile these
-functions on
-first use where the package was built without its ahead-of-time build, which ``setup.py`` compiles
-into the extension ``bayes_imu._compiled`` with the Allan-variance kernels. Strict IEEE arithmetic
+AVAR rows), :mod:`bayes_imu.noise.euler_sums` (the drift grid) and :mod:`bayes_imu.drift.navigation`
+(the navigation error's state covariance) JIT-compile these functions on first use where the
+package was built without its ahead-of-time build, which ``setup.py`` compiles into the extension
+``bayes_imu._compiled`` with the Allan-variance kernels. Strict IEEE arithmetic
 in both builds: they give the same bits (tested). The formulas the drift grid evaluates
 (``_closed_formula``, ``_phi2_series``, ``_lambda_minus_a_series``) are written once, in
 :mod:`bayes_imu.noise.euler_sums`, where numpy evaluates them on arrays; here they are compiled for
