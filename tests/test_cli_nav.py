@@ -331,3 +331,29 @@ def test_nav_png_labels_one_channel_with_one_pair_of_parentheses(folders, tmp_pa
                 colours.setdefault(line.get_label(), set()).add(to_hex(line.get_color()))
     assert colours and all(len(c) == 1 for c in colours.values()), colours
     assert len(set.union(*colours.values())) == len(colours), colours
+
+
+def test_an_out_folder_that_would_be_refused_is_refused_before_the_bands(
+    folders, tmp_path, capsys, monkeypatch
+):
+    """A non-empty --out that is not a bayes_imu result is refused (one line, exit 2, the folder's
+    file kept) before any band is computed: the command does not make the user wait for the
+    refusal (a new user's finding: the message came after the whole computation)."""
+    import importlib
+
+    module = importlib.import_module("bayes_imu.report.nav")
+
+    def computed(*args, **kwargs):
+        raise AssertionError("the bands were computed before the output folder was checked")
+
+    monkeypatch.setattr(module, "navigation_bands", computed)
+    out = tmp_path / "taken"
+    out.mkdir()
+    (out / "mine.txt").write_text("a user's file")
+    code = main(["nav", "--gyro", str(folders["gyro"]), "--accel", str(folders["accel"]),
+                 "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1, err
+    assert str(out) in err
+    assert (out / "mine.txt").read_text() == "a user's file"
+    assert sorted(p.name for p in out.iterdir()) == ["mine.txt"]

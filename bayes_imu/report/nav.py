@@ -116,40 +116,42 @@ def run_nav(request, *, failures=None):
         raise InputError(
             f"times={list(request.times)!r}: expected positive outage lengths in seconds"
         )
-    _import_pyplot_meanwhile()
-    dt = gyro[0].model.dt
-    grid = nav_times(dt, times, request.horizon_s)
-    pair = (gyro if len(gyro) == 3 else gyro[0], accel if len(accel) == 3 else accel[0])
-    options = {
-        "bias_start": request.bias_start,
-        "calibration_s": request.calibration_s,
-        "schuler": request.schuler,
-        "models": request.models,
-        "speed": request.speed,
-        "rng": request.seed,
-    }
-    bands = navigation_bands(*pair, grid, **options)
-    picked = np.searchsorted(bands.t_s, np.round(times / dt) * dt - 0.25 * dt)
-    rows = _rows(bands, picked)
-    summary = _summary(bands, request, rows, gyro, accel)
-    if request.max_position_m is not None:
-        longest = longest_outage(
-            *pair, request.max_position_m, horizon_s=request.horizon_s, coarse=bands, **options
-        )
-        summary["requirement"] = {
-            "quantity": "position",
-            "max_error_m": request.max_position_m,
-            "credibility": 0.95,
-            # a whole number of samples: 15.53, not 15.530000000000001
-            "longest_outage_s": None if longest is None else float(f"{longest:.12g}"),
-            "meaning": "longest outage whose predictive 95 % bound of the "
-            + ("horizontal position error (radius)" if len(gyro) == 3 else
-               "position error in this one horizontal channel")
-            + " stays within max_error_m (to the refined grid of longest_outage)",
-        }
+    # the output folder claimed first: a folder that would be refused (not ours, or ours without
+    # --force) is refused before the bands are computed, not after
     with staged_folder(
         request.out, force=request.force, inputs=[request.gyro, request.accel]
     ) as tmp:
+        _import_pyplot_meanwhile()
+        dt = gyro[0].model.dt
+        grid = nav_times(dt, times, request.horizon_s)
+        pair = (gyro if len(gyro) == 3 else gyro[0], accel if len(accel) == 3 else accel[0])
+        options = {
+            "bias_start": request.bias_start,
+            "calibration_s": request.calibration_s,
+            "schuler": request.schuler,
+            "models": request.models,
+            "speed": request.speed,
+            "rng": request.seed,
+        }
+        bands = navigation_bands(*pair, grid, **options)
+        picked = np.searchsorted(bands.t_s, np.round(times / dt) * dt - 0.25 * dt)
+        rows = _rows(bands, picked)
+        summary = _summary(bands, request, rows, gyro, accel)
+        if request.max_position_m is not None:
+            longest = longest_outage(
+                *pair, request.max_position_m, horizon_s=request.horizon_s, coarse=bands, **options
+            )
+            summary["requirement"] = {
+                "quantity": "position",
+                "max_error_m": request.max_position_m,
+                "credibility": 0.95,
+                # a whole number of samples: 15.53, not 15.530000000000001
+                "longest_outage_s": None if longest is None else float(f"{longest:.12g}"),
+                "meaning": "longest outage whose predictive 95 % bound of the "
+                + ("horizontal position error (radius)" if len(gyro) == 3 else
+                   "position error in this one horizontal channel")
+                + " stays within max_error_m (to the refined grid of longest_outage)",
+            }
         lines = [",".join(CSV_COLUMNS)]
         lines += [
             f"{r['t_s']:.9g},{r['quantity']},{r['q05']:.9g},{r['q50']:.9g},{r['q95']:.9g},"
@@ -429,7 +431,8 @@ def plot_nav(
                 else ""
             )
             if improbable:
-                text += f"{improbable} terms of posterior probability < {min_probability:g}"
+                text += (f"{improbable} term{'s' if improbable != 1 else ''} of posterior "
+                         f"probability < {min_probability:g}")
             ax.plot([], [], " ", label=textwrap.fill(text.rstrip("; "), 44))
         if tilted is not None and tilted < t[-1]:
             ax.axvspan(

@@ -429,7 +429,8 @@ def draw_imu_panels(report, ax_bands, ax_share, ax_terms=None, *, colours=None):
     ax_bands.set_ylabel(f"{where}{name} error ({req['unit']}); lines: {req['credibility']:.0%} "
                         f"{what}", fontsize=9)
     ax_bands.plot([], [], color="gray", lw=0.8, ls=":", label="1-sigma median (band shaded)")
-    ax_bands.plot([], [], "v", color="gray", label="longest outage within the requirement")
+    ax_bands.plot([], [], "v", color="gray",
+                  label="longest outage within the requirement (in each IMU's colour)")
     ax_share.axhline(0.5, color="gray", lw=1, ls=":")
     ax_share.text(0.02, 0.97, "gyro dominates", transform=ax_share.transAxes, va="top",
                   fontsize=9, color="dimgray")
