@@ -128,7 +128,6 @@ def test_a_slow_untempered_chain_goes_on_tempered(lowgrade_fit, monkeypatch):
     (the warning counts both), and the posterior is the untempered one's. With the threshold at 0,
     or fewer than TEMPERED_MIN_STEPS left of the budget, it never switches."""
     import dataclasses
-
     import importlib
 
     module = importlib.import_module("bayes_imu.inference.fit")

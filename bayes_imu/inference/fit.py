@@ -1108,7 +1108,7 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
             tau_max = _tau_max(sampler.get_chain(), tempered)
             if (not tempered and can_temper and 0.0 < TEMPER_AFTER_TAU < tau_max
                     and sampler.iteration < AUTOCORR_MULTIPLE * tau_max
-                    and max_steps - sampler.iteration >= TEMPERED_MIN_STEPS):
+                    and max_steps - before - sampler.iteration >= TEMPERED_MIN_STEPS):
                 # a slow chain, not yet long enough to stop, with budget left: tempered from here,
                 # its steps so far discarded as burn-in
                 bar.update(chunk)
