@@ -183,6 +183,35 @@ def test_a_log_longer_than_the_fast_paths_limit_streams(tmp_path, monkeypatch):
     np.testing.assert_array_equal(read_log(path, column="x").values, 0.5 * np.arange(5000))
 
 
+@pytest.mark.parametrize("layout", ["plain", "gzip", "gzip members", "members past the limit"])
+def test_the_whole_text_is_read_whatever_size_the_file_announces(tmp_path, monkeypatch, layout):
+    """The text is read into an array sized from the file (a gzip trailer's ISIZE, else the size on
+    disk) and grown where the file holds more: a gzip file of three members announces only its last
+    member's size, and is still read whole, byte for byte (gzip.decompress of the file), in reads
+    of a few bytes; grown past FAST_MAX_BYTES, it is left to numpy's streaming reader (the kernel
+    never called), to the same values."""
+    text = "x\n" + "\n".join(str(0.25 * i) for i in range(600)) + "\n"
+    data = text.encode()
+    cut = [0, 7, len(data) // 2, len(data)]
+    blob = {"plain": data, "gzip": gzip.compress(data)}.get(
+        layout, b"".join(gzip.compress(data[a:b]) for a, b in zip(cut[:-1], cut[1:])))
+    path = tmp_path / ("log.csv" if layout == "plain" else "log.csv.gz")
+    path.write_bytes(blob)
+    assert gzip.decompress(blob) == data if layout != "plain" else blob == data
+    from bayes_imu.io.readers import open_binary
+
+    monkeypatch.setattr(fastcsv, "_CHUNK", 100)
+    if layout == "members past the limit":
+        monkeypatch.setattr(fastcsv, "FAST_MAX_BYTES", len(data) - 10)
+        assert len(data) // 2 < len(data) - 10  # the announced size is within it
+        assert fastcsv._whole_text(path, open_binary) is None
+        monkeypatch.setattr(fastcsv, "_KERNEL", [lambda *a: pytest.fail("the kernel was called")])
+    else:
+        got = fastcsv._whole_text(path, open_binary)
+        assert got.tobytes() == data
+    np.testing.assert_array_equal(read_log(path, column="x").values, 0.25 * np.arange(600))
+
+
 def test_a_one_column_log_is_read_exactly_and_spaces_send_it_to_numpy(tmp_path, monkeypatch, rng):
     """A log of one column (sniffed as whitespace-separated) takes the fast path: numpy's values bit
     for bit; a line with a space around its number is refused by the parser and read by numpy."""

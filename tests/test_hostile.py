@@ -985,8 +985,8 @@ def test_units_a_static_log_contradicts_are_named(rng):
 
 def test_a_step_in_the_middle_is_flagged(rng):
     """A 20-sigma step halfway: found where it is, its size within 1 sigma of 20 (the window means'
-    noise is 0.18
-    sigma); white noise and a random walk of the same per-sample noise are not flagged."""
+    noise is 0.18 sigma); white noise and a random walk of the same per-sample noise are not
+    flagged; steps a window from either end are found where they are too."""
     from bayes_imu.io.plausible import find_step
 
     x = rng.standard_normal(20000)
@@ -995,6 +995,14 @@ def test_a_step_in_the_middle_is_flagged(rng):
     x[10000:] += 20.0
     at, size = find_step(x)
     assert at == 10000 and abs(size - 20.0) < 1.0
+    # a step as near either end as a window from each side allows (the running sum's first and last
+    # window pairs): found at its sample
+    from bayes_imu.io.plausible import STEP_WINDOW
+
+    for first_after in (STEP_WINDOW, x.size - STEP_WINDOW):
+        y = rng.standard_normal(20000)
+        y[first_after:] += 20.0
+        assert find_step(y)[0] == first_after
 
 
 def test_cli_warns_of_units_and_steps_and_refuses_nonsense(tmp_path, capsys):

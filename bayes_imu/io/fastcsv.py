@@ -18,8 +18,8 @@ import numpy as np
 
 __all__ = ["read_plain_fast", "FAST_MAX_BYTES"]
 
-#: largest decompressed text (bytes) read whole by the fast path (its peak memory is the text once
-#: and a chunk); a longer log streams through numpy's reader in bounded memory as before
+#: largest decompressed text (bytes) read whole by the fast path (its peak memory is the text
+#: once); a longer log streams through numpy's reader in bounded memory as before
 FAST_MAX_BYTES = 256 << 20
 #: bytes read at a time
 _CHUNK = 4 << 20
@@ -72,24 +72,44 @@ def read_plain_fast(path, fmt, usecols, open_binary):
 def _whole_text(path, open_binary):
     """The decompressed bytes of ``path`` as a uint8 array, or ``None`` beyond
     :data:`FAST_MAX_BYTES` or where reading fails (the streaming reader then reads, and reports,
-    it). The chunks are copied into one array and each freed as it is copied: the peak is the text
-    once and a chunk."""
-    chunks, total = [], 0
+    it). The text is read into one array sized from the file (:func:`_expected_size`), grown where
+    the file holds more: one copy of each byte from the decompressor, no chunks held meanwhile.
+    Through a list of chunks copied into the array afterwards, ``scripts/bench_io.py --rows
+    1000000`` (84 MB of text) read one column of its gzip CSV in 0.50-0.61 s, 0.70-0.80 s in a
+    fresh process; so, 0.43-0.46 s and 0.58-0.62 s (two runs each, idle)."""
     stream, raw = open_binary(path)
     try:
         with raw:
-            while chunk := stream.read(_CHUNK):
-                total += len(chunk)
-                if total > FAST_MAX_BYTES:
-                    return None
-                chunks.append(chunk)
+            size = _expected_size(raw)
+            if size > FAST_MAX_BYTES:
+                return None
+            # one byte more than expected: a full array means the file holds more
+            text = np.empty(size + 1, dtype=np.uint8)
+            start = 0
+            while got := stream.readinto(memoryview(text)[start:start + _CHUNK]):
+                start += got
+                if start == text.size:
+                    if start > FAST_MAX_BYTES:
+                        return None
+                    grown = np.empty(min(2 * text.size, FAST_MAX_BYTES + 1), dtype=np.uint8)
+                    grown[:start] = text
+                    text = grown
     except (OSError, EOFError, zlib.error):
         return None
-    text = np.empty(total, dtype=np.uint8)
-    chunks.reverse()
-    start = 0
-    while chunks:
-        chunk = chunks.pop()
-        text[start:start + len(chunk)] = np.frombuffer(chunk, dtype=np.uint8)
-        start += len(chunk)
-    return text
+    return text[:start]
+
+
+def _expected_size(raw):
+    """The bytes the file object ``raw`` (at its start, left there) will give decompressed: a
+    gzip file's trailer (ISIZE, RFC 1952: the last member's size modulo 2**32, so a guess for a
+    file of several members or of 4 GiB or more), else its size on disk."""
+    import os
+
+    size = os.fstat(raw.fileno()).st_size
+    if size < 18 or raw.read(2) != b"\x1f\x8b":
+        raw.seek(0)
+        return size
+    raw.seek(size - 4)
+    expanded = int.from_bytes(raw.read(4), "little")
+    raw.seek(0)
+    return expanded

@@ -182,8 +182,10 @@ def find_step(values, *, sigmas=STEP_SIGMAS, window=STEP_WINDOW):
     if not sigma > 0:
         return None
     c = np.concatenate(([0.0], np.cumsum(x - x[0])))
-    i = np.arange(window, x.size - window + 1)
-    shift = (c[i + window] - c[i]) / window - (c[i] - c[i - window]) / window
+    # the window sums after and before each i = window .. n - window, as slices of the running sum
+    n, w = x.size, window
+    here = c[w:n - w + 1]
+    shift = (c[2 * w:] - here) / w - (here - c[:n - 2 * w + 1]) / w
     k = int(np.argmax(np.abs(shift)))
     size = abs(float(shift[k])) / sigma
-    return (int(i[k]), size) if size >= sigmas else None
+    return (k + w, size) if size >= sigmas else None
