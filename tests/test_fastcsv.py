@@ -212,6 +212,47 @@ def test_the_whole_text_is_read_whatever_size_the_file_announces(tmp_path, monke
     np.testing.assert_array_equal(read_log(path, column="x").values, 0.25 * np.arange(600))
 
 
+@pytest.mark.parametrize("layout", ["plain", "gzip members"])
+def test_a_text_of_exactly_the_fast_paths_limit_is_read_whole_and_one_byte_more_is_not(
+        tmp_path, monkeypatch, layout):
+    """FAST_MAX_BYTES is the largest text read whole, whether the file announces its size (plain)
+    or the array grows to it (gzip members, the last one empty: ISIZE 0, so the array grows from one
+    byte in many doublings): a text of exactly the limit is read whole, byte for byte, and one of a
+    byte more is left to numpy's streaming reader, to the same values."""
+    from bayes_imu.io.readers import open_binary
+
+    text = ("x\n" + "\n".join(str(0.5 * i) for i in range(400)) + "\n").encode()
+    path = tmp_path / ("log.csv" if layout == "plain" else "log.csv.gz")
+    path.write_bytes(text if layout == "plain" else
+                     gzip.compress(text[:100]) + gzip.compress(text[100:]) + gzip.compress(b""))
+    monkeypatch.setattr(fastcsv, "_CHUNK", 64)
+    monkeypatch.setattr(fastcsv, "FAST_MAX_BYTES", len(text))
+    assert fastcsv._whole_text(path, open_binary).tobytes() == text
+    monkeypatch.setattr(fastcsv, "FAST_MAX_BYTES", len(text) - 1)
+    assert fastcsv._whole_text(path, open_binary) is None
+    monkeypatch.setattr(fastcsv, "_KERNEL", [lambda *a: pytest.fail("the kernel was called")])
+    np.testing.assert_array_equal(read_log(path, column="x").values, 0.5 * np.arange(400))
+
+
+def test_a_gzip_trailer_announcing_more_than_the_readers_allow_reserves_no_more(tmp_path):
+    """The size a gzip trailer announces is capped at the expansion the readers allow (the file's
+    size times MAX_GZIP_RATIO, or GZIP_ALLOWANCE): a trailer rewritten to announce 4 GiB reserves
+    GZIP_ALLOWANCE for a small file, and the file (its size check now failing) is not read by the
+    fast path; a true trailer is taken as it is."""
+    from bayes_imu.io.readers import GZIP_ALLOWANCE, MAX_GZIP_RATIO, open_binary
+
+    data = gzip.compress(b"x\n" + b"1.5\n" * 1000)
+    path = tmp_path / "log.csv.gz"
+    path.write_bytes(data)
+    with open(path, "rb") as raw:
+        assert fastcsv._expected_size(raw) == 2 + 4 * 1000 and raw.tell() == 0
+    path.write_bytes(data[:-4] + (2**32 - 1).to_bytes(4, "little"))
+    with open(path, "rb") as raw:
+        assert fastcsv._expected_size(raw) == max(GZIP_ALLOWANCE, MAX_GZIP_RATIO * len(data))
+        assert raw.tell() == 0
+    assert fastcsv._whole_text(path, open_binary) is None
+
+
 def test_a_one_column_log_is_read_exactly_and_spaces_send_it_to_numpy(tmp_path, monkeypatch, rng):
     """A log of one column (sniffed as whitespace-separated) takes the fast path: numpy's values bit
     for bit; a line with a space around its number is refused by the parser and read by numpy."""

@@ -19,7 +19,8 @@ import numpy as np
 __all__ = ["read_plain_fast", "FAST_MAX_BYTES"]
 
 #: largest decompressed text (bytes) read whole by the fast path (its peak memory is the text
-#: once); a longer log streams through numpy's reader in bounded memory as before
+#: once, or about twice while the array grows past a file's announced size); a longer log streams
+#: through numpy's reader in bounded memory as before
 FAST_MAX_BYTES = 256 << 20
 #: bytes read at a time
 _CHUNK = 4 << 20
@@ -44,7 +45,8 @@ def read_plain_fast(path, fmt, usecols, open_binary):
     """The columns ``usecols`` ``(rows, len(usecols))`` of the log at ``path`` (format ``fmt``, as
     sniffed by :func:`bayes_imu.io.readers.sniff_file`), or ``None`` where the fast path does not
     read it (module docstring). ``open_binary``: the readers' opener (gzip detected, expansion
-    bounded: a decompression bomb raises its :class:`~bayes_imu.errors.InputError` here too)."""
+    bounded: a decompression bomb raises its :class:`~bayes_imu.errors.InputError` here, or in the
+    streaming reader where the file announces more than this path takes)."""
     kernel = _kernel()
     delimiter = fmt.get("delimiter")
     if delimiter is None and len(fmt["names"]) == 1:
@@ -73,7 +75,9 @@ def _whole_text(path, open_binary):
     """The decompressed bytes of ``path`` as a uint8 array, or ``None`` beyond
     :data:`FAST_MAX_BYTES` or where reading fails (the streaming reader then reads, and reports,
     it). The text is read into one array sized from the file (:func:`_expected_size`), grown where
-    the file holds more: one copy of each byte from the decompressor, no chunks held meanwhile.
+    the file holds more: one copy of each byte from the decompressor, no list of chunks held
+    meanwhile (a file larger than it announces peaks at about twice its text while the array
+    grows).
     Through a list of chunks copied into the array afterwards, ``scripts/bench_io.py --rows
     1000000`` (84 MB of text) read one column of its gzip CSV in 0.50-0.61 s, 0.70-0.80 s in a
     fresh process; so, 0.43-0.46 s and 0.58-0.62 s (two runs each, idle)."""
@@ -102,8 +106,13 @@ def _whole_text(path, open_binary):
 def _expected_size(raw):
     """The bytes the file object ``raw`` (at its start, left there) will give decompressed: a
     gzip file's trailer (ISIZE, RFC 1952: the last member's size modulo 2**32, so a guess for a
-    file of several members or of 4 GiB or more), else its size on disk."""
+    file of several members or of 4 GiB or more), at most the expansion the readers allow
+    (:data:`~bayes_imu.io.readers.MAX_GZIP_RATIO` times the file, or
+    :data:`~bayes_imu.io.readers.GZIP_ALLOWANCE`: a crafted trailer reserves no more than a bomb
+    could fill before it is refused), else its size on disk."""
     import os
+
+    from .readers import GZIP_ALLOWANCE, MAX_GZIP_RATIO
 
     size = os.fstat(raw.fileno()).st_size
     if size < 18 or raw.read(2) != b"\x1f\x8b":
@@ -112,4 +121,4 @@ def _expected_size(raw):
     raw.seek(size - 4)
     expanded = int.from_bytes(raw.read(4), "little")
     raw.seek(0)
-    return expanded
+    return min(expanded, max(GZIP_ALLOWANCE, MAX_GZIP_RATIO * size))
