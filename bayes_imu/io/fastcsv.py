@@ -78,6 +78,7 @@ def _whole_text(path, open_binary):
     the file holds more: one copy of each byte from the decompressor, no list of chunks held
     meanwhile (a file larger than it announces peaks at about twice its text while the array
     grows).
+
     Through a list of chunks copied into the array afterwards, ``scripts/bench_io.py --rows
     1000000`` (84 MB of text) read one column of its gzip CSV in 0.50-0.61 s, 0.70-0.80 s in a
     fresh process; so, 0.43-0.46 s and 0.58-0.62 s (two runs each, idle)."""
