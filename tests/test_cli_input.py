@@ -115,7 +115,7 @@ CASES = [  # (id, file bytes or None, extra arguments, message fragment)
         "corrupt_gzip",
         gzip.compress(GOOD.encode())[:40],
         ["fit", "{log}", "--column", "gx", "--rate", "100"],
-        "cannot read",
+        "a corrupt or truncated gzip file",
     ),
     (
         "zero_rate",
@@ -540,6 +540,25 @@ def test_pipe_without_writer_is_refused_not_waited_on(tmp_path, capsys):
     assert (
         "a named pipe with no writer" in capsys.readouterr().err and not (tmp_path / "out").exists()
     )
+
+
+@pytest.mark.parametrize("content", ["bad value", "corrupt gzip"])
+def test_an_error_in_standard_input_names_it_not_its_temporary_copy(tmp_path, monkeypatch, capsys,
+                                                                    content):
+    """A bad value or a corrupt gzip piped to '-': exit 2 and one line that starts with '-' (what
+    the user gave), never the path of the temporary copy the command spooled it to."""
+    import io
+    import sys
+
+    data = (GOOD.replace("\n", "\n2.x\n", 3).encode() if content == "bad value"
+            else gzip.compress(GOOD.encode())[:40])
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(data)))
+    capsys.readouterr()
+    assert main(["fit", "-", "--column", "gx", "--rate", "100", "--quiet",
+                 "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("bayes-imu: error: -: ") and "\n" not in err, err
+    assert "bayes-imu-input-" not in err and "stdin.csv" not in err, err
 
 
 def test_stdin_and_pipes_are_read_as_streams(tmp_path, monkeypatch):

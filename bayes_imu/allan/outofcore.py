@@ -39,7 +39,7 @@ from .estimator import (
     noise_from_phase_samples,
 )
 from ..errors import InputError
-from ..io.readers import SignalExtent
+from ..io.readers import SignalExtent, read_failure
 
 __all__ = ["allan_variance_file", "head_samples", "BINARY_SUFFIXES"]
 
@@ -212,10 +212,7 @@ class _Source:
             except (ValueError, pd.errors.ParserError):
                 diagnose_text(self.path, self.fmt, [self.index])
             except (OSError, EOFError, zlib.error) as exc:  # a corrupt or truncated gzip member
-                text = str(exc).strip().splitlines()
-                raise InputError(
-                    f"{self.path}: cannot read ({text[0] if text else type(exc).__name__})"
-                ) from None
+                raise read_failure(self.path, exc) from None
 
 
 def _npy_layout(path):

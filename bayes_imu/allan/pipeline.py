@@ -183,7 +183,14 @@ def allan_from_source(source, *, purpose="fit", grid="octave", progress=False):
     if source.allan_table is not None:
         return _table(source)
     with _spooled(source) as spooled:
-        columns, results, unit, info = _allan(spooled, purpose, grid, progress, increments, table)
+        try:
+            columns, results, unit, info = _allan(spooled, purpose, grid, progress, increments,
+                                                  table)
+        except InputError as exc:
+            if spooled.log == source.log:
+                raise
+            # the spooled copy is ours, not the user's: the message names what was given ("-")
+            raise InputError(str(exc).replace(str(spooled.log), source.shown)) from None
     info["log"] = source.shown
     return SourceAllan(tuple(columns), tuple(results), unit, info)
 

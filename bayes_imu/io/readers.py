@@ -483,13 +483,23 @@ def _head(path, size=_SNIFF_BYTES):
         with raw:
             head = stream.read(size)
     except (OSError, EOFError, zlib.error) as exc:
-        raise InputError(f"{path}: cannot read ({_first_line(exc)})") from None
+        raise read_failure(path, exc) from None
     return head
 
 
 def _first_line(exc):
     text = str(exc).strip().splitlines()
     return text[0] if text else type(exc).__name__
+
+
+def read_failure(path, exc):
+    """The one-line :class:`InputError` of a file that could not be read (``exc``): a gzip stream
+    that ends early or whose data, length or checksum are wrong (EOFError, zlib.error,
+    gzip.BadGzipFile) is named as such, with what was expected; any other error is quoted."""
+    if isinstance(exc, (EOFError, zlib.error, gzip.BadGzipFile)):
+        return InputError(f"{path}: a corrupt or truncated gzip file ({_first_line(exc)}); "
+                          "expected a complete gzip stream (a copy cut short, or changed bytes?)")
+    return InputError(f"{path}: cannot read ({_first_line(exc)})")
 
 
 def sniff_file(path):
@@ -801,7 +811,7 @@ def _parse_pandas(path, fmt, usecols, progress):
         except (ValueError, pd.errors.ParserError, UnicodeDecodeError):
             diagnose_text(path, fmt, usecols)
         except (OSError, EOFError, zlib.error) as exc:
-            raise InputError(f"{path}: cannot read ({_first_line(exc)})") from None
+            raise read_failure(path, exc) from None
     return np.column_stack([frame[i].to_numpy(dtype=np.float64) for i in usecols])
 
 
