@@ -63,6 +63,34 @@ def test_allan_fit_has_band_terms_and_residuals(tmp_path, figures, fit):
         assert word in text, word
 
 
+@pytest.mark.parametrize("largest", [1.7, 58.2])
+def test_residual_panel_keeps_the_band_readable_beside_large_residuals(largest):
+    """Residuals of tens (a real accelerometer log's short taus) beside the +-2 band: the panel is
+    linear within +-2 and logarithmic beyond, its ticks at 0, +-2, +-10 and +-50 (up to 1.5 times
+    the largest residual), every residual inside the axis, and the title says so; residuals within
+    10 keep a linear axis and the plain title."""
+    from types import SimpleNamespace
+
+    import matplotlib.figure
+
+    tau = 0.01 * 2.0 ** np.arange(6)
+    r = np.array([0.5, -1.2, largest, -largest / 2, 0.3, 1.1])
+    fit = SimpleNamespace(adequacy=SimpleNamespace(residuals=r, adequate=largest < 2,
+                                                   p_value=0.3 if largest < 2 else 1e-40),
+                          allan=SimpleNamespace(tau=tau), widened=largest >= 2)
+    ax = matplotlib.figure.Figure().subplots()
+    plots._residual_panel(ax, fit)
+    low, high = ax.get_ylim()
+    assert low <= r.min() and high >= r.max()
+    if largest < 10:
+        assert ax.get_yscale() == "linear" and "log scale" not in ax.get_title()
+        return
+    assert ax.get_yscale() == "symlog" and ax.get_title().endswith("log scale beyond +-2")
+    assert list(ax.get_yticks()) == [-50, -10, -2, 0, 2, 10, 50]
+    assert [t.get_text() for t in ax.get_yticklabels()] == ["-50", "-10", "-2", "0", "2", "10",
+                                                            "50"]
+
+
 def test_allan_fit_keeps_every_label_inside_the_figure_and_its_legend_off_the_data(
     tmp_path, figures, fit
 ):

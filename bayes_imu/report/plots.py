@@ -374,12 +374,26 @@ def _residual_panel(ax, fit):
     ax.plot(fit.allan.tau, r, "o", ms=3, color="k")
     ax.plot(fit.allan.tau[bad], r[bad], "o", ms=4, color="C3")
     ax.set_ylabel("whitened\nresidual")
+    # residuals of tens beside the +-2 band (a real log's short taus): linear within +-2,
+    # logarithmic beyond, so that the band and the small residuals stay readable
+    wide = bool(np.max(np.abs(r), initial=0.0) > 10.0)
+    if wide:
+        from matplotlib.ticker import NullLocator
+
+        ax.set_yscale("symlog", linthresh=2.0, linscale=1.0)
+        top = np.max(np.abs(r))
+        marks = [m for m in (2, 10, 50, 100, 500, 1000, 5000, 10000) if m <= 1.5 * top]
+        ax.set_yticks([-m for m in marks[::-1]] + [0] + marks,
+                      [f"{-m}" for m in marks[::-1]] + ["0"] + [f"{m}" for m in marks])
+        ax.yaxis.set_minor_locator(NullLocator())
     verdict = (
         "adequate"
         if check.adequate
         else ("INADEQUATE, intervals widened" if fit.widened else "INADEQUATE")
     )
-    ax.set_title(f"goodness of fit: p {p_text(check.p_value)} ({verdict}); shaded: +-2", fontsize=9)
+    scale = "; log scale beyond +-2" if wide else ""
+    ax.set_title(f"goodness of fit: p {p_text(check.p_value)} ({verdict}); shaded: +-2{scale}",
+                 fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
 
 
