@@ -85,7 +85,7 @@ def _whole_text(path, open_binary):
     stream, raw = open_binary(path)
     try:
         with raw:
-            size = _expected_size(raw)
+            size = _expected_size(raw, gzipped=stream is not raw)
             if size > FAST_MAX_BYTES:
                 return None
             # one byte more than expected: a full array means the file holds more
@@ -104,10 +104,11 @@ def _whole_text(path, open_binary):
     return text[:start]
 
 
-def _expected_size(raw):
-    """The bytes the file object ``raw`` (at its start, left there) will give decompressed: a
-    gzip file's trailer (ISIZE, RFC 1952: the last member's size modulo 2**32, so a guess for a
-    file of several members or of 4 GiB or more), at most the expansion the readers allow
+def _expected_size(raw, gzipped):
+    """The bytes the file object ``raw`` (at its start, left there) will give decompressed: with
+    ``gzipped`` (the readers' opener found the gzip magic number), the file's trailer (ISIZE,
+    RFC 1952: the last member's size modulo 2**32, so a guess for a file of several members or of
+    4 GiB or more), at most the expansion the readers allow
     (:data:`~bayes_imu.io.readers.MAX_GZIP_RATIO` times the file, or
     :data:`~bayes_imu.io.readers.GZIP_ALLOWANCE`: a crafted trailer reserves no more than a bomb
     could fill before it is refused), else its size on disk."""
@@ -116,8 +117,7 @@ def _expected_size(raw):
     from .readers import GZIP_ALLOWANCE, MAX_GZIP_RATIO
 
     size = os.fstat(raw.fileno()).st_size
-    if size < 18 or raw.read(2) != b"\x1f\x8b":
-        raw.seek(0)
+    if not gzipped or size < 18:  # shorter than a gzip header and trailer: its read fails
         return size
     raw.seek(size - 4)
     expanded = int.from_bytes(raw.read(4), "little")

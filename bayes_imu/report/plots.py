@@ -376,12 +376,12 @@ def _residual_panel(ax, fit):
     ax.set_ylabel("whitened\nresidual")
     # residuals of tens beside the +-2 band (a real log's short taus): linear within +-2,
     # logarithmic beyond, so that the band and the small residuals stay readable
-    wide = bool(np.max(np.abs(r), initial=0.0) > 10.0)
+    top = float(np.max(np.abs(r), initial=0.0))
+    wide = top > 10.0
     if wide:
         from matplotlib.ticker import NullLocator
 
         ax.set_yscale("symlog", linthresh=2.0, linscale=1.0)
-        top = np.max(np.abs(r))
         marks = [m for m in (2, 10, 50, 100, 500, 1000, 5000, 10000) if m <= 1.5 * top]
         ax.set_yticks([-m for m in marks[::-1]] + [0] + marks,
                       [f"{-m}" for m in marks[::-1]] + ["0"] + [f"{m}" for m in marks])
