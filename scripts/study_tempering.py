@@ -1,10 +1,14 @@
-"""Are converged fits right? emcee's ensemble and the tempered one against a long reference.
+"""Are converged fits right? emcee's ensemble and the tempered one, with and without the jump
+move, against a long reference.
 
 For each real log named (the shared ADIS16405 logs, read in place; exits cleanly when absent), the
-model the fit selects with seed 0 is fixed, and the fit is run with seeds 0..S-1 twice: with the
-tempered ensemble where the fit tempers (the code as it is) and with emcee's ensemble only
-(``bayes_imu.inference.fit.TEMPER_BELOW = 0``). The reference is the posterior sampled by the
-tempered ensemble for much longer: ``--reference-runs`` runs of ``--reference-steps`` steps each
+model the fit selects with seed 0 is fixed, and the fit is run with seeds 0..S-1 up to three
+times: the code as it is (``jump``: the tempered ensemble where the fit tempers, with the jump
+move of :mod:`bayes_imu.inference.mixture_proposal`), the tempered ensemble without the jump move
+(``tempered``: ``bayes_imu.inference.fit.JUMP_PILOT = 0``, the code before the sixteenth session)
+and emcee's ensemble only (``emcee``: ``bayes_imu.inference.fit.TEMPER_BELOW = 0``). The
+reference is the posterior sampled by the tempered ensemble without the jump move (so independent
+of it) for much longer: ``--reference-runs`` runs of ``--reference-steps`` steps each
 from the seed-0 fit's draws, a fifth of each dropped, pooled. Each fit's 5%, 50% and 95% quantiles
 of every log-parameter are compared with the reference's; the error is in the reference's posterior
 standard deviations. A fit that says it converged should be within a few tenths of one
@@ -15,10 +19,11 @@ tried gave an independent answer: effective sizes of 34 to 11 000 and tail quant
 disagree; docs/speed_under_load.md, thirteenth session).
 
     python scripts/study_tempering.py [--logs 4:accel_z_g,5:accel_x_g] [--seeds 6]
-        [--reference-steps 60000] [--reference-runs 4] [--samplers tempered,emcee]
+        [--reference-steps 60000] [--reference-runs 4] [--samplers jump,tempered,emcee]
 
-Prints one row per fit (sampler, seed, converged, steps, seconds, the largest error and its
-parameter) and, per sampler, the largest error among the fits that say they converged.
+Prints one row per fit (sampler, seed, converged, steps run in all, the discarded ones included,
+seconds, the largest error and its parameter) and, per sampler, how many fits converged and the
+largest and median error among them.
 """
 
 import argparse
@@ -40,8 +45,9 @@ def main(argv=None):
     parser.add_argument("--seeds", type=int, default=6)
     parser.add_argument("--reference-steps", type=int, default=60000)
     parser.add_argument("--reference-runs", type=int, default=4)
-    parser.add_argument("--samplers", default="tempered,emcee",
-                        help="which to run: tempered, emcee or both (the default)")
+    parser.add_argument("--samplers", default="jump,tempered,emcee",
+                        help="which to run: jump, tempered, emcee, comma-separated (all three by "
+                             "default)")
     args = parser.parse_args(argv)
     logs = [(args.data / f"adis_16405_imu{u}.csv.gz", c)
             for u, c in (item.split(":") for item in args.logs.split(","))]
@@ -56,9 +62,12 @@ def main(argv=None):
     from bayes_imu.inference.tempering import TemperedEnsemble
 
     fit_module = importlib.import_module("bayes_imu.inference.fit")
-    temper_below = fit_module.TEMPER_BELOW
+    temper_below, jump_pilot = fit_module.TEMPER_BELOW, fit_module.JUMP_PILOT
+    settings = {"jump": (temper_below, jump_pilot), "tempered": (temper_below, 0),
+                "emcee": (0.0, jump_pilot)}
     q = np.array([0.05, 0.5, 0.95])
-    worst = {"tempered": [], "emcee": []}
+    worst = {label: [] for label in settings}
+    fits = dict.fromkeys(settings, 0)
     print(f"{'log':>24s} {'column':>11s} {'sampler':>8s} {'seed':>4s} {'conv':>5s} {'steps':>6s} "
           f"{'fit_s':>6s} {'max_err_sd':>10s}  parameter")
     for path, column in logs:
@@ -86,10 +95,10 @@ def main(argv=None):
         print(f"# {path.name} {column}: {' + '.join(terms)}; reference {args.reference_runs} x "
               f"{args.reference_steps} tempered steps in {time.perf_counter() - start:.0f} s",
               flush=True)
-        for label, below in (("tempered", temper_below), ("emcee", 0.0)):
+        for label, (below, pilot) in settings.items():
             if label not in args.samplers.split(","):
                 continue
-            fit_module.TEMPER_BELOW = below
+            fit_module.TEMPER_BELOW, fit_module.JUMP_PILOT = below, pilot
             try:
                 for seed in range(args.seeds):
                     start = time.perf_counter()
@@ -105,20 +114,25 @@ def main(argv=None):
                     err = np.abs(np.quantile(log_draws, q, axis=0) - ref_q) / ref_sd
                     k = int(np.argmax(err.max(axis=0)))
                     d = result.diagnostics
+                    fits[label] += 1
                     if d["converged"]:
                         worst[label].append(float(err.max()))
+                    steps = (d["n_steps"] + d.get("steps_before_tempering", 0)
+                             + d.get("jump_pilot_steps", 0))
                     print(f"{path.name:>24s} {column:>11s} {label:>8s} {seed:4d} "
-                          f"{str(d['converged']):>5s} {d['n_steps']:6d} {seconds:6.1f} "
+                          f"{str(d['converged']):>5s} {steps:6d} {seconds:6.1f} "
                           f"{err.max():10.2f}  {names[k]}", flush=True)
             finally:
-                fit_module.TEMPER_BELOW = temper_below
+                fit_module.TEMPER_BELOW, fit_module.JUMP_PILOT = temper_below, jump_pilot
     for label, errors in worst.items():
+        if not fits[label]:
+            continue
         if errors:
-            print(f"{label}: {len(errors)} converged fits, largest quantile error "
+            print(f"{label}: {len(errors)} of {fits[label]} fits converged, largest quantile error "
                   f"{max(errors):.2f} posterior standard deviations "
                   f"(median {np.median(errors):.2f})")
         else:
-            print(f"{label}: no converged fit")
+            print(f"{label}: no converged fit of {fits[label]}")
     return 0
 
 

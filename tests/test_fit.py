@@ -99,8 +99,10 @@ def test_the_independence_move_is_used_where_it_is_accepted_and_tempering_elsewh
 
 def test_a_tempered_fit_converges_and_every_fit_needs_the_means_ess(lowgrade_fit):
     """The low-grade log's easy posterior, forced to temper, converges (on the walkers' mean's
-    autocorrelation time, with its ESS); and any chain with bulk ESS and R-hat met is still not
-    converged where the ESS of the walkers' mean is below ESS_MIN."""
+    autocorrelation time, with its ESS) with the jump move, to the untempered fit's posterior;
+    and any chain with bulk ESS and R-hat met is still not converged where the ESS of the walkers'
+    mean is below ESS_MIN."""
+    import dataclasses
     import importlib
 
     from bayes_imu.inference.sampling import INDEPENDENCE_MIN_ACCEPT, StudentProposal
@@ -110,14 +112,61 @@ def test_a_tempered_fit_converges_and_every_fit_needs_the_means_ess(lowgrade_fit
     post = result.chains.posterior
     start = result.chains.chain[-1]
     q = StudentProposal(start.mean(axis=0), np.cov(start.T) + 1e-6 * np.eye(start.shape[1]))
-    _, _, d, _ = module._sample(post, start, np.random.default_rng(5), 30000,
-                                independence=(q, INDEPENDENCE_MIN_ACCEPT / 2))
+    draws, log_prob, d, _ = module._sample(post, start, np.random.default_rng(5), 30000,
+                                           independence=(q, INDEPENDENCE_MIN_ACCEPT / 2))
     assert d["tempered"] and d["converged"] and d["ess_mean_min"] >= module.ESS_MIN
+    # the jump move: its pilot discarded (the first check at JUMP_PILOT steps), its proposal's
+    # components and acceptance reported, and the chain kept JUMP_MIN_KEPT steps at least
+    assert d["jump_pilot_steps"] == module.JUMP_PILOT
+    assert d["jump_components"] >= 1 and 0.0 < d["jump_acceptance"] <= 1.0
+    assert d["n_steps"] >= module.JUMP_MIN_KEPT
+    np.testing.assert_allclose(log_prob, post(draws), rtol=1e-12)
+    written = dataclasses.replace(result, diagnostics=d).summary()["diagnostics"]
+    assert isinstance(written["jump_pilot_steps"], int)
+    assert isinstance(written["jump_components"], int)
+    # the posterior is the untempered fit's: means within 6 of their standard errors' sum
+    kept = result.chains.chain.reshape(-1, draws.shape[1])
+    se = (draws.std(axis=0) / np.sqrt(d["ess_mean_min"])
+          + kept.std(axis=0) / np.sqrt(result.diagnostics["ess_mean_min"]))
+    assert np.all(np.abs(draws.mean(axis=0) - kept.mean(axis=0)) < 6 * se)
     chain = result.chains.chain
     ok = module._diagnostics(chain, 10.0, 5000, 32, True, np.array([module.ESS_MIN, 5000.0]))
     assert ok["converged"] and ok["ess_mean_min"] == module.ESS_MIN
     short = module._diagnostics(chain, 10.0, 5000, 32, True, np.array([module.ESS_MIN - 1.0]))
     assert not short["converged"] and short["rhat_max"] == ok["rhat_max"]
+
+
+def test_a_tempered_chain_far_from_stopping_refits_its_jump_once(lowgrade_fit, monkeypatch):
+    """With JUMP_MIN_KEPT at 500 steps and no chain ever long enough (AUTOCORR_MULTIPLE and ESS_MIN
+    huge): the pilot (1 000 steps) and the first 500 steps with the jump move are discarded, the
+    proposal refitted once (JUMP_REFITS), and the chain runs on to the budget unconverged, the
+    warning counting the discarded steps. Where the budget left is less than JUMP_PILOT +
+    JUMP_MIN_KEPT, there is no jump move at all."""
+    import importlib
+
+    from bayes_imu.inference.sampling import INDEPENDENCE_MIN_ACCEPT, StudentProposal
+
+    module = importlib.import_module("bayes_imu.inference.fit")
+    _, result = lowgrade_fit
+    post = result.chains.posterior
+    start = result.chains.chain[-1]
+    q = StudentProposal(start.mean(axis=0), np.cov(start.T) + 1e-6 * np.eye(start.shape[1]))
+    monkeypatch.setattr(module, "JUMP_MIN_KEPT", 500)
+    monkeypatch.setattr(module, "AUTOCORR_MULTIPLE", 10**9)  # the refit's test
+    monkeypatch.setattr(module, "ESS_MIN", 10**9)  # and never converged
+    assert module.JUMP_REFITS == 1
+    with pytest.warns(ConvergenceWarning, match=r"after 3000 steps \(1500 of them tempered before "
+                                                r"the jump move's last fit, discarded\)"):
+        _, _, d, _ = module._sample(post, start, np.random.default_rng(6), 3000,
+                                    independence=(q, INDEPENDENCE_MIN_ACCEPT / 2))
+    assert d["jump_pilot_steps"] == 1500 and d["n_steps"] == 1500
+    assert d["converged"] is False and "jump_components" in d
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        _, _, none, _ = module._sample(post, start, np.random.default_rng(6), 1499,
+                                       independence=(q, INDEPENDENCE_MIN_ACCEPT / 2))
+    assert none["jump_pilot_steps"] == 0 and "jump_components" not in none
+    assert none["n_steps"] == 1499
 
 
 def test_a_slow_untempered_chain_goes_on_tempered(lowgrade_fit, monkeypatch):

@@ -201,3 +201,67 @@ def test_the_walkers_mean_keeps_its_autocorrelation_when_states_move_between_wal
     np.testing.assert_allclose(ensemble_mean_ess(shuffled), steps * walkers / exact, rtol=0.3)
     copies = np.repeat(chain[:, :1], walkers, axis=1)
     np.testing.assert_allclose(ensemble_mean_ess(copies), steps / exact, rtol=0.3)
+
+
+def _jump_proposal():
+    """A deliberately poor proposal for :func:`_two_regions`: weights 0.3 and 0.7 where the
+    posterior's are 0.9 and 0.1, locations 0.3 off and spreads 1.5x, so that only the Hastings
+    factor makes the draws right."""
+    from bayes_imu.inference.mixture_proposal import StudentMixture
+
+    locs = np.array([[-2.2, 0.3, 0.0], [2.8, 0.0, -0.3]])
+    shapes = np.array([np.diag([0.36, 2.25, 2.25])] * 2)
+    return StudentMixture([0.3, 0.7], locs, shapes)
+
+
+def test_the_jump_move_crosses_a_barrier_with_the_posteriors_exact_weights():
+    """One temperature (no swaps) and every walker in the large region: the local moves cannot
+    cross the 19.5-nat barrier (test above), so every crossing is the jump move's (on half the
+    steps). With a proposal whose weights, locations and spreads are all wrong, the draws still
+    put 0.1 in the small region (within 0.025 over 4 000 steps, 500 dropped; 0.098-0.099 at two
+    seeds) and keep each region's standard deviation 0.4 in x0 and 1 in x1 (within 5%; 1% off at
+    most): the Metropolis-Hastings factor q(x) / q(y) at work. Without it (a mutation tried by
+    hand) the share is 0.19-0.20 and the standard deviations 10-15% low."""
+    target = _BoxTarget(_two_regions, [-10, -10, -10], [10, 10, 10])
+    rng = np.random.default_rng(11)
+    start = np.column_stack([-2.5 + 0.4 * rng.standard_normal(32),
+                             rng.standard_normal((32, 2))])
+    sampler = TemperedEnsemble(target, start, np.random.default_rng(12), ladder=(1.0,),
+                               capacity=10)
+    sampler.add_jump(_jump_proposal(), 0.5)
+    sampler.run(4000)
+    x = sampler.get_chain(discard=500).reshape(-1, 3)
+    small = x[:, 0] > 0
+    assert abs(small.mean() - 0.1) < 0.025
+    for region in (small, ~small):
+        np.testing.assert_allclose(x[region, 0].std(), 0.4, rtol=0.05)
+        np.testing.assert_allclose(x[region, 1].std(), 1.0, rtol=0.05)
+    assert 0.05 < sampler.jump_acceptance < 1.0
+
+
+def test_adding_the_jump_move_drops_the_stored_steps_and_keeps_the_states():
+    """add_jump: the steps stored so far are dropped (iteration 0, counters reset), every
+    temperature's walkers and log likelihoods kept; a second call replaces the proposal and keeps
+    the move's share; a share outside (0, 1) is refused. Before the move is tried its acceptance
+    is NaN."""
+    target = _BoxTarget(_two_regions, [-10, -10, -10], [10, 10, 10])
+    rng = np.random.default_rng(13)
+    start = np.column_stack([-2.5 + 0.4 * rng.standard_normal(8), rng.standard_normal((8, 2))])
+    sampler = TemperedEnsemble(target, start, np.random.default_rng(14), capacity=10)
+    sampler.run(50)
+    coords, like = sampler.coords.copy(), sampler.log_like.copy()
+    with pytest.raises(ValueError, match="share"):
+        sampler.add_jump(_jump_proposal(), 1.0)
+    sampler.add_jump(_jump_proposal(), 0.3)
+    assert sampler.iteration == 0 and sampler.get_chain().shape[0] == 0
+    assert np.isnan(sampler.jump_acceptance)
+    assert not sampler.accepted.any() and not sampler.tried.any()
+    np.testing.assert_array_equal(sampler.coords, coords)
+    np.testing.assert_array_equal(sampler.log_like, like)
+    cdf = sampler._cdf.copy()
+    assert cdf[-1] == 1.0 and cdf[-1] - cdf[-2] == pytest.approx(0.3)
+    sampler.run(20)
+    other = _jump_proposal()
+    sampler.add_jump(other, 0.3)
+    assert sampler.jump is other and sampler.iteration == 0
+    np.testing.assert_array_equal(sampler._cdf, cdf)

@@ -14,10 +14,11 @@ Pipeline of :func:`fit_allan`:
 5. *Sampling*: emcee (``vectorize=True``, differential-evolution and stretch moves, and an
    independence move where its estimated acceptance is high enough:
    :mod:`bayes_imu.inference.sampling`; below it the same moves on a tempered ensemble,
-   :mod:`bayes_imu.inference.tempering`, stopped on the walkers' mean's autocorrelation time) in
-   log-parameters, in chunks of 250 steps (a tenth of the chain past 10 000 steps, and none before
-   the chain could stop: :func:`~bayes_imu.inference.sampling.steps_to_next_check`) until the
-   chain is longer than 50
+   :mod:`bayes_imu.inference.tempering`, stopped on the walkers' mean's autocorrelation time, with
+   a jump move between the posterior's regions fitted to a pilot,
+   :mod:`bayes_imu.inference.mixture_proposal`) in log-parameters, in chunks of 250 steps (a
+   tenth of the chain past 10 000 steps, and none before the chain could stop:
+   :func:`~bayes_imu.inference.sampling.steps_to_next_check`) until the chain is longer than 50
    integrated autocorrelation times and that estimate has settled to 5%; then
    rank-normalised R-hat and bulk/tail ESS (:mod:`bayes_imu.inference.diagnostics`) and the ESS of
    the walkers' mean (:func:`ensemble_mean_ess`). Non-convergence
@@ -52,6 +53,7 @@ from .sampling import (
     steps_to_next_check,
 )
 from .stationarity import Stationarity, stationarity_check
+from .mixture_proposal import fit_student_mixture
 from .tempering import TemperedEnsemble
 from .selection import (
     Adequacy,
@@ -102,6 +104,27 @@ TEMPER_AFTER_TAU = 40.0
 #: the least steps left of the budget for a switch to the tempered ensemble (with fewer, the chain
 #: goes on untempered: a tempered chain of 40-100 steps' autocorrelation time needs 2 000 or more)
 TEMPERED_MIN_STEPS = 2000
+#: a tempered chain is given the jump move (:meth:`~bayes_imu.inference.tempering.TemperedEnsemble.
+#: add_jump`) at its first check at or past this many steps, its proposal fitted to the cold draws
+#: of the second half of those steps, which are then discarded (0 or less: never; nor where the
+#: budget left is less than this plus :data:`JUMP_MIN_KEPT`). On the real ADIS16405 imu4 and imu5
+#: accelerometer z logs, whose tempered chains stopped at the 40 000-step cap with the walkers'
+#: mean's autocorrelation time 1 230-1 780 steps, the same posteriors read 25-46 steps with the
+#: move (docs/speed_under_load.md, sixteenth session)
+JUMP_PILOT = 1000
+#: the least steps a tempered chain runs after the jump move is added before it may stop. The
+#: autocorrelation time of a chain that has not yet visited a region of small mass does not see
+#: it: on imu4 accelerometer z, chains stopped at 1 500-2 250 steps (times of 8-22 steps) had a
+#: 95% quantile off by 0.8-1.4 posterior standard deviations against a reference of 200 000
+#: steps; at 8 000 steps, 0.17-0.66 (at 12 000, 0.05-0.49), on imu3 x and imu5 z at most 0.46
+#: (docs/speed_under_load.md, sixteenth session)
+JUMP_MIN_KEPT = 8000
+#: times the jump move's proposal is refitted, each at the first check at or past JUMP_MIN_KEPT
+#: steps with it where the chain is not yet AUTOCORR_MULTIPLE autocorrelation times long, to every
+#: step kept so far, which are then discarded
+JUMP_REFITS = 1
+#: share of the tempered steps that are the jump move, once added
+JUMP_SHARE = 0.3
 
 
 @dataclass(frozen=True)
@@ -188,7 +211,9 @@ class FitResult:
         chain), ``autocorr_time`` (steps), ``n_steps``, ``n_walkers``, ``converged``,
         ``tempered`` and, for a tempered fit, ``ladder``, ``swap_acceptance`` and
         ``steps_before_tempering`` (untempered steps discarded where a slow chain went on tempered,
-        else 0; ``n_steps`` counts the kept chain's).
+        else 0; ``n_steps`` counts the kept chain's), ``jump_pilot_steps`` (tempered steps
+        discarded where the jump move was added, else 0) and, with the jump move,
+        ``jump_components`` and ``jump_acceptance`` (its cold ensemble's).
     likelihood : str
     covariance : ndarray, shape (n_tau, n_tau)
         AVAR covariance the likelihood used.
@@ -397,7 +422,8 @@ class FitResult:
                     bool(v)
                     if k in ("converged", "tempered")
                     else int(v)
-                    if k in ("n_steps", "n_walkers", "steps_before_tempering")
+                    if k in ("n_steps", "n_walkers", "steps_before_tempering", "jump_pilot_steps",
+                             "jump_components")
                     else [float(x) for x in v]
                     if k in ("ladder", "swap_acceptance")
                     else float(v)
@@ -1076,6 +1102,15 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
     are left, goes on tempered from its walkers' last state, the steps before discarded
     (``steps_before_tempering`` in the diagnostics; ``max_steps`` counts them).
 
+    A tempered chain, where the budget left allows :data:`JUMP_PILOT` plus :data:`JUMP_MIN_KEPT`
+    steps, runs a pilot of :data:`JUMP_PILOT` steps; a mixture of t's fitted to the second half
+    of them (:func:`~bayes_imu.inference.mixture_proposal.fit_student_mixture`) is then the
+    proposal of the jump move (:meth:`~bayes_imu.inference.tempering.TemperedEnsemble.add_jump`),
+    the pilot discarded, and the chain may stop only after :data:`JUMP_MIN_KEPT` steps with it.
+    Where it is then still far from stopping, the proposal is refitted to every step kept
+    (:data:`JUMP_REFITS` times) and those steps discarded too (``jump_pilot_steps`` in the
+    diagnostics counts every discarded tempered step; ``max_steps`` counts them).
+
     The chain stops once it is :data:`~bayes_imu.inference.sampling.AUTOCORR_MULTIPLE`
     autocorrelation times long: the walkers' own
     (:func:`~bayes_imu.inference.sampling.autocorr_time`) for emcee's ensemble, and for the
@@ -1098,9 +1133,11 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
                                    independence=independence[0] if use else None)
     chunk, state, tau_old = min(250, max_steps), start, np.inf
     before = 0  # steps of an untempered start, discarded where the ensemble went on tempered
+    pilot = 0  # tempered steps discarded when the jump move was added or refitted
+    refits = 0
     converged = False
     with progress_bar(desc="sampling", unit="step", enabled=progress) as bar:
-        while before + sampler.iteration < max_steps:
+        while before + pilot + sampler.iteration < max_steps:
             if tempered:
                 sampler.run(chunk)
             else:
@@ -1118,6 +1155,36 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
                 tempered = True
                 chunk, tau_old = min(250, max_steps - before), np.inf
                 continue
+            jump_due = (tempered and sampler.jump is None and JUMP_PILOT > 0
+                        and max_steps - before - pilot >= JUMP_PILOT + JUMP_MIN_KEPT)
+            if jump_due and sampler.iteration >= JUMP_PILOT:
+                # the jump move, fitted to the second half of the tempered steps so far, which are
+                # discarded with the first
+                bar.update(chunk)
+                steps = sampler.iteration
+                sampler.add_jump(
+                    fit_student_mixture(
+                        sampler.get_chain(discard=steps // 2).reshape(-1, n_par), rng),
+                    JUMP_SHARE,
+                )
+                pilot += steps
+                # the first check where it may stop (none before)
+                chunk, tau_old = min(JUMP_MIN_KEPT, max_steps - before - pilot), np.inf
+                continue
+            if (tempered and sampler.jump is not None and refits < JUMP_REFITS
+                    and sampler.iteration >= JUMP_MIN_KEPT
+                    and AUTOCORR_MULTIPLE * tau_max > sampler.iteration
+                    and max_steps - before - pilot - sampler.iteration >= JUMP_MIN_KEPT):
+                # still far from stopping: the proposal refitted to every step kept so far (which
+                # reach regions the pilot did not), and the steps discarded
+                bar.update(chunk)
+                steps = sampler.iteration
+                sampler.add_jump(fit_student_mixture(sampler.get_chain().reshape(-1, n_par), rng),
+                                 JUMP_SHARE)
+                pilot += steps
+                refits += 1
+                chunk, tau_old = min(JUMP_MIN_KEPT, max_steps - before - pilot), np.inf
+                continue
             if tempered:
                 # the largest estimate so far: the mean's time comes from one series, whose
                 # estimate moves by more than 5% from check to check (with it a chain of imu2
@@ -1129,10 +1196,14 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
             # a long chain: checked at a tenth of its length, and not before it could stop
             chunk = min(
                 steps_to_next_check(sampler.iteration, 250, tau_max),
-                max_steps - before - sampler.iteration,
+                max_steps - before - pilot - sampler.iteration,
             )
             bar.set_postfix_str(f"autocorrelation {tau_max:.0f} steps")
-            settled = long_enough(sampler.iteration, tau_max, tau_old)
+            # a tempered chain stops only once it has had the jump move and JUMP_MIN_KEPT steps
+            # with it (where the budget allows the move)
+            settled = not jump_due and not (
+                tempered and sampler.jump is not None and sampler.iteration < JUMP_MIN_KEPT
+            ) and long_enough(sampler.iteration, tau_max, tau_old)
             tau_old = tau_max
             if settled:
                 chain, lp, diagnostics = _thinned(sampler, tau_max, n_walkers, True)
@@ -1142,8 +1213,8 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
     if not converged:
         chain, lp, diagnostics = _thinned(sampler, tau_max, n_walkers, False)
         warnings.warn(
-            f"sampler not converged after {before + sampler.iteration} steps"
-            + (f" ({before} of them untempered, discarded)" if before else "")
+            f"sampler not converged after {before + pilot + sampler.iteration} steps"
+            + _discarded_note(before, pilot)
             + " (autocorrelation time "
             f"{tau_max:.0f} steps, R-hat {diagnostics['rhat_max']:.3f}, bulk ESS "
             f"{diagnostics['ess_bulk_min']:.0f}, ESS of the walkers' mean "
@@ -1161,9 +1232,23 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
     if tempered:
         # untempered steps run before the switch (discarded; 0 where tempered from the start)
         diagnostics["steps_before_tempering"] = int(before)
+        # tempered steps discarded where the jump move was added (0 where it was not), its
+        # proposal's components and its acceptance in the cold ensemble
+        diagnostics["jump_pilot_steps"] = int(pilot)
+        if sampler.jump is not None:
+            diagnostics["jump_components"] = int(sampler.jump.n_components)
+            diagnostics["jump_acceptance"] = float(sampler.jump_acceptance)
         diagnostics["ladder"] = [float(b) for b in sampler.betas]
         diagnostics["swap_acceptance"] = [float(a) for a in sampler.swap_acceptance]
     return chain.reshape(-1, n_par), lp.reshape(-1), diagnostics, SamplerChains(chain, lp, post)
+
+
+def _discarded_note(untempered, pilot):
+    """The convergence warning's count of discarded steps: ``untempered`` before the switch to
+    the tempered ensemble, ``pilot`` tempered before the jump move's last fit ("" for none)."""
+    parts = [f"{n} of them {what}" for n, what in (
+        (untempered, "untempered"), (pilot, "tempered before the jump move's last fit")) if n]
+    return f" ({'; '.join(parts)}, discarded)" if parts else ""
 
 
 def _tau_max(chain, tempered):
