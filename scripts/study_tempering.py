@@ -20,6 +20,14 @@ disagree; docs/speed_under_load.md, thirteenth session).
 
     python scripts/study_tempering.py [--logs 4:accel_z_g,5:accel_x_g] [--seeds 6]
         [--reference-steps 60000] [--reference-runs 4] [--samplers jump,tempered,emcee]
+        [--lengths 1500,3000,5000,8000,12000]
+
+With ``--lengths``, each log also gets, per seed, tempered chains of fixed lengths from the fit's
+own start (its walkers as the fit draws them; the fit itself is not run): without the jump move,
+and with it after its pilot (``JUMP_PILOT`` steps, discarded), each chain's first tenth dropped;
+one row per seed and chain with the largest quantile error at each length: what
+``bayes_imu.inference.fit.JUMP_MIN_KEPT`` rests on (a short chain's autocorrelation time cannot
+see a region it has not visited).
 
 Prints one row per fit (sampler, seed, converged, steps run in all, the discarded ones included,
 seconds, the largest error and its parameter) and, per sampler, how many fits converged and the
@@ -45,6 +53,9 @@ def main(argv=None):
     parser.add_argument("--seeds", type=int, default=6)
     parser.add_argument("--reference-steps", type=int, default=60000)
     parser.add_argument("--reference-runs", type=int, default=4)
+    parser.add_argument("--lengths", default="",
+                        help="fixed chain lengths (steps) to compare, comma-separated (none by "
+                             "default)")
     parser.add_argument("--samplers", default="jump,tempered,emcee",
                         help="which to run: jump, tempered, emcee, comma-separated (all three by "
                              "default)")
@@ -95,6 +106,14 @@ def main(argv=None):
         print(f"# {path.name} {column}: {' + '.join(terms)}; reference {args.reference_runs} x "
               f"{args.reference_steps} tempered steps in {time.perf_counter() - start:.0f} s",
               flush=True)
+        if args.lengths:
+            lengths = [int(v) for v in args.lengths.split(",")]
+            for seed in range(args.seeds):
+                for label, errors in _fixed_lengths(fit_module, allan, terms, seed, lengths,
+                                                    ref_q, ref_sd, q).items():
+                    print(f"{path.name:>24s} {column:>11s} {label:>8s} {seed:4d} fixed lengths "
+                          + ", ".join(f"{n}: {e:.2f}" for n, e in zip(lengths, errors)),
+                          flush=True)
         for label, (below, pilot) in settings.items():
             if label not in args.samplers.split(","):
                 continue
@@ -134,6 +153,50 @@ def main(argv=None):
         else:
             print(f"{label}: no converged fit of {fits[label]}")
     return 0
+
+
+class _Started(Exception):
+    """Raised by the fit's sampler stand-in once it has the fit's start."""
+
+
+def _fixed_lengths(fit_module, allan, terms, seed, lengths, ref_q, ref_sd, q):
+    """``{"tempered": errors, "jump": errors}``: the largest quantile error (reference standard
+    deviations) of tempered chains of each length from the seed's fit's own start, without and
+    with the jump move (after its pilot), the first tenth of each dropped."""
+    from bayes_imu.inference.mixture_proposal import fit_student_mixture
+    from bayes_imu.inference.tempering import TemperedEnsemble
+
+    seen = {}
+
+    def capture(post, start, rng, *args, **kwargs):
+        seen.update(post=post, start=start, rng=rng)
+        raise _Started
+
+    sample = fit_module._sample
+    fit_module._sample = capture
+    try:
+        fit_module.fit_allan(allan, terms=terms, rng=seed)
+    except _Started:
+        pass
+    finally:
+        fit_module._sample = sample
+    post, rng = seen["post"], seen["rng"]
+    widths = np.diff(post.bounds, axis=1).ravel()
+    out = {}
+    for label in ("tempered", "jump"):
+        sampler = TemperedEnsemble(post, seen["start"], rng, fit_module.exchangeable_biases(post),
+                                   capacity=max(lengths) + fit_module.JUMP_PILOT)
+        if label == "jump":
+            sampler.run(fit_module.JUMP_PILOT)
+            pilot = sampler.get_chain(discard=fit_module.JUMP_PILOT // 2)
+            sampler.add_jump(fit_student_mixture(pilot.reshape(-1, post.n_par), rng,
+                                                 scale=widths), fit_module.JUMP_SHARE)
+        sampler.run(max(lengths))
+        chain = sampler.get_chain()
+        out[label] = [float((np.abs(np.quantile(chain[n // 10:n].reshape(-1, post.n_par), q,
+                                                axis=0) - ref_q) / ref_sd).max())
+                      for n in lengths]
+    return out
 
 
 if __name__ == "__main__":

@@ -262,6 +262,45 @@ def test_adding_the_jump_move_drops_the_stored_steps_and_keeps_the_states():
     assert cdf[-1] == 1.0 and cdf[-1] - cdf[-2] == pytest.approx(0.3)
     sampler.run(20)
     other = _jump_proposal()
-    sampler.add_jump(other, 0.3)
+    sampler.add_jump(other, 0.5)
     assert sampler.jump is other and sampler.iteration == 0
-    np.testing.assert_array_equal(sampler._cdf, cdf)
+    # the new share, the local moves' shares 0.8 : 0.2 as before it
+    np.testing.assert_allclose(np.diff(sampler._cdf, prepend=0.0), [0.4, 0.1, 0.0, 0.5])
+    np.testing.assert_allclose(np.diff(cdf, prepend=0.0), [0.56, 0.14, 0.0, 0.3])
+
+
+def test_the_jump_move_takes_its_share_from_the_relabel_move_too():
+    """With exchangeable biases the moves' shares are 0.8 x 0.9, 0.2 x 0.9 and RELABEL_SHARE 0.1;
+    the jump move's 0.3 takes 30% of each (0.504, 0.126, 0.07, 0.3), and over 2 000 steps each
+    move runs on its share of the steps (within 0.03)."""
+    from bayes_imu.inference.sampling import RELABEL_SHARE
+
+    assert RELABEL_SHARE == 0.1
+    rng = np.random.default_rng(15)
+    start = np.column_stack([rng.normal(-2, 0.1, 8), rng.normal(2, 0.1, 8),
+                             rng.uniform(0, 2.4, 8), rng.normal(2.5, 0.02, 8)])
+    target = _BoxTarget(_weak_and_strong, [-5, -5, 0, 0], [5, 5, 3, 3])
+    sampler = TemperedEnsemble(target, start, np.random.default_rng(16),
+                               exchangeable=([0, 1], [2, 3], (0.0, 3.0)), capacity=10)
+    q = _start_proposal(start)
+    sampler.add_jump(q, 0.3)
+    np.testing.assert_allclose(np.diff(sampler._cdf, prepend=0.0), [0.504, 0.126, 0.07, 0.3])
+    counts = np.zeros(4)
+    for name, k in (("_red_blue_step", None), ("_relabel_step", 2), ("_jump_step", 3)):
+        original = getattr(sampler, name)
+
+        def counted(*args, _k=k, _original=original, **kwargs):
+            counts[_k if _k is not None else (1 if kwargs.get("stretch") else 0)] += 1
+            return _original(*args, **kwargs)
+
+        setattr(sampler, name, counted)
+    sampler.run(2000)
+    np.testing.assert_allclose(counts / 2000, [0.504, 0.126, 0.07, 0.3], atol=0.03)
+
+
+def _start_proposal(start):
+    """A one-component proposal about ``start``'s mean, its covariance (plus 0.01) its shape."""
+    from bayes_imu.inference.mixture_proposal import StudentMixture
+
+    shape = np.cov(start.T) + 0.01 * np.eye(start.shape[1])
+    return StudentMixture([1.0], start.mean(axis=0)[None], shape[None])

@@ -105,12 +105,12 @@ TEMPER_AFTER_TAU = 40.0
 #: goes on untempered: a tempered chain of 40-100 steps' autocorrelation time needs 2 000 or more)
 TEMPERED_MIN_STEPS = 2000
 #: a tempered chain is given the jump move (:meth:`~bayes_imu.inference.tempering.TemperedEnsemble.
-#: add_jump`) at its first check at or past this many steps, its proposal fitted to the cold draws
-#: of the second half of those steps, which are then discarded (0 or less: never; nor where the
-#: budget left is less than this plus :data:`JUMP_MIN_KEPT`). On the real ADIS16405 imu4 and imu5
-#: accelerometer z logs, whose tempered chains stopped at the 40 000-step cap with the walkers'
-#: mean's autocorrelation time 1 230-1 780 steps, the same posteriors read 25-46 steps with the
-#: move (docs/speed_under_load.md, sixteenth session)
+#: add_jump`) after this many steps, its proposal fitted to the cold draws of their second half,
+#: which are then discarded (0 or less: never; nor where the budget left is less than this plus
+#: :data:`JUMP_MIN_KEPT` and one more check, or the proposal cannot be fitted). The hard real
+#: accelerometer posteriors (imu4 and imu5 accelerometer z: the walkers' mean's autocorrelation
+#: time 400-1 780 steps under the tempered ensemble alone) then converge in 9 000-20 000 steps
+#: (scripts/study_tempering.py; docs/speed_under_load.md, sixteenth session)
 JUMP_PILOT = 1000
 #: the least steps a tempered chain runs after the jump move is added before it may stop. The
 #: autocorrelation time of a chain that has not yet visited a region of small mass does not see
@@ -120,8 +120,9 @@ JUMP_PILOT = 1000
 #: (docs/speed_under_load.md, sixteenth session)
 JUMP_MIN_KEPT = 8000
 #: times the jump move's proposal is refitted, each at the first check at or past JUMP_MIN_KEPT
-#: steps with it where the chain is not yet AUTOCORR_MULTIPLE autocorrelation times long, to every
-#: step kept so far, which are then discarded
+#: steps with it where the chain is not half AUTOCORR_MULTIPLE autocorrelation times long, to every
+#: step kept so far, which are then discarded (where the budget left allows JUMP_MIN_KEPT and one
+#: more check)
 JUMP_REFITS = 1
 #: share of the tempered steps that are the jump move, once added
 JUMP_SHARE = 0.3
@@ -1135,6 +1136,9 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
     before = 0  # steps of an untempered start, discarded where the ensemble went on tempered
     pilot = 0  # tempered steps discarded when the jump move was added or refitted
     refits = 0
+    jump_ok = JUMP_PILOT > 0  # False where the proposal could not be fitted
+    room = JUMP_MIN_KEPT + 250  # steps after a (re)fit: the least to stop, and one more check
+    widths = np.diff(post.bounds, axis=1).ravel()
     converged = False
     with progress_bar(desc="sampling", unit="step", enabled=progress) as bar:
         while before + pilot + sampler.iteration < max_steps:
@@ -1155,36 +1159,32 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
                 tempered = True
                 chunk, tau_old = min(250, max_steps - before), np.inf
                 continue
-            jump_due = (tempered and sampler.jump is None and JUMP_PILOT > 0
-                        and max_steps - before - pilot >= JUMP_PILOT + JUMP_MIN_KEPT)
-            if jump_due and sampler.iteration >= JUMP_PILOT:
-                # the jump move, fitted to the second half of the tempered steps so far, which are
-                # discarded with the first
+            jump_due = (tempered and sampler.jump is None and jump_ok
+                        and max_steps - before - pilot >= JUMP_PILOT + room)
+            refit_due = (tempered and sampler.jump is not None and refits < JUMP_REFITS
+                         and sampler.iteration >= JUMP_MIN_KEPT
+                         and AUTOCORR_MULTIPLE * tau_max > 2 * sampler.iteration
+                         and max_steps - before - pilot - sampler.iteration >= room)
+            if (jump_due and sampler.iteration >= JUMP_PILOT) or refit_due:
+                # the jump move, fitted to the second half of the pilot (or, refitted, to every
+                # step kept: they reach regions the pilot did not); those steps discarded
                 bar.update(chunk)
                 steps = sampler.iteration
-                sampler.add_jump(
-                    fit_student_mixture(
-                        sampler.get_chain(discard=steps // 2).reshape(-1, n_par), rng),
-                    JUMP_SHARE,
-                )
-                pilot += steps
-                # the first check where it may stop (none before)
-                chunk, tau_old = min(JUMP_MIN_KEPT, max_steps - before - pilot), np.inf
-                continue
-            if (tempered and sampler.jump is not None and refits < JUMP_REFITS
-                    and sampler.iteration >= JUMP_MIN_KEPT
-                    and AUTOCORR_MULTIPLE * tau_max > sampler.iteration
-                    and max_steps - before - pilot - sampler.iteration >= JUMP_MIN_KEPT):
-                # still far from stopping: the proposal refitted to every step kept so far (which
-                # reach regions the pilot did not), and the steps discarded
-                bar.update(chunk)
-                steps = sampler.iteration
-                sampler.add_jump(fit_student_mixture(sampler.get_chain().reshape(-1, n_par), rng),
-                                 JUMP_SHARE)
-                pilot += steps
-                refits += 1
-                chunk, tau_old = min(JUMP_MIN_KEPT, max_steps - before - pilot), np.inf
-                continue
+                try:
+                    proposal = fit_student_mixture(
+                        sampler.get_chain(discard=0 if refit_due else steps // 2).reshape(
+                            -1, n_par), rng, scale=widths)
+                except (ValueError, np.linalg.LinAlgError):
+                    proposal = None  # not fitted: the chain goes on as it is
+                if proposal is not None:
+                    sampler.add_jump(proposal, JUMP_SHARE)
+                    pilot += steps
+                    refits += refit_due
+                    # the first check where it may stop (none before)
+                    chunk, tau_old = min(JUMP_MIN_KEPT, max_steps - before - pilot), np.inf
+                    continue
+                jump_ok, jump_due = False, False
+                refits = JUMP_REFITS
             if tempered:
                 # the largest estimate so far: the mean's time comes from one series, whose
                 # estimate moves by more than 5% from check to check (with it a chain of imu2
@@ -1193,11 +1193,14 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
                 # chain on a low swing
                 tau_max = max(tau_max, tau_old if np.isfinite(tau_old) else 0.0)
             bar.update(chunk)
-            # a long chain: checked at a tenth of its length, and not before it could stop
+            # a long chain: checked at a tenth of its length, and not before it could stop; a
+            # pilot ends at JUMP_PILOT steps exactly
             chunk = min(
                 steps_to_next_check(sampler.iteration, 250, tau_max),
                 max_steps - before - pilot - sampler.iteration,
             )
+            if jump_due:
+                chunk = min(chunk, max(JUMP_PILOT - sampler.iteration, 1))
             bar.set_postfix_str(f"autocorrelation {tau_max:.0f} steps")
             # a tempered chain stops only once it has had the jump move and JUMP_MIN_KEPT steps
             # with it (where the budget allows the move)

@@ -12,8 +12,9 @@ proposal covers every region moves a walker between regions in one step, at the 
 proposal's weights and the posterior's agree. The proposal is a mixture of multivariate Student
 t's whose locations, shapes and weights are those of a Gaussian mixture fitted by expectation
 maximisation (Dempster, Laird & Rubin 1977) to the cold draws of a pilot run, the number of
-components chosen by BIC (Schwarz 1978), each shape inflated by :data:`MIXTURE_INFLATE` and the
-tails made heavy (:data:`MIXTURE_DF`) so that the proposal's support covers the posterior's beyond
+components chosen by BIC (Schwarz 1978), each shape :data:`MIXTURE_INFLATE` times the fitted
+covariance (a t's covariance is ``df / (df - 2)`` times its shape: 2.5 times the fitted one) and
+the tails heavy (:data:`MIXTURE_DF`) so that the proposal's support covers the posterior's beyond
 what the pilot saw. The mixture is frozen before the chain that is kept starts (the pilot is
 discarded), so the move is a fixed Metropolis-Hastings kernel and the chain's target is exactly
 the posterior whatever the pilot found; a poor pilot costs only acceptance.
@@ -27,13 +28,15 @@ __all__ = [
     "MIXTURE_DF",
     "MIXTURE_INFLATE",
     "MIXTURE_MAX_COMPONENTS",
+    "MIXTURE_FIT_DRAWS",
     "StudentMixture",
     "fit_student_mixture",
 ]
 
 #: degrees of freedom of every component (tails heavier than the pilot's Gaussian fit)
 MIXTURE_DF = 5.0
-#: factor on each component's covariance (the pilot's spread understates the tails')
+#: factor from each fitted component's covariance to its t's shape matrix (the pilot's spread
+#: understates the tails')
 MIXTURE_INFLATE = 1.5
 #: the most components tried (BIC picks among 1 .. this many)
 MIXTURE_MAX_COMPONENTS = 4
@@ -41,18 +44,20 @@ MIXTURE_MAX_COMPONENTS = 4
 MIXTURE_FIT_DRAWS = 4000
 #: expectation-maximisation iterations at most per number of components
 _EM_ITERATIONS = 200
-#: relative floor on each component's covariance (a share of the pooled per-coordinate variance)
+#: floor on each component's covariance: this share of the pooled per-coordinate variance plus
+#: the square of this share of the coordinate's scale (``scale`` of :func:`fit_student_mixture`:
+#: the prior box's width in a fit), so that a coordinate the pilot never moved still has a shape
 _FLOOR = 1.0e-4
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class StudentMixture:
     """A mixture of multivariate Student t's of common degrees of freedom.
 
     Parameters
     ----------
     weights : ndarray, shape (k,)
-        Component weights (positive, summing to 1).
+        Component weights (positive, summing to 1 within 1e-5; normalised).
     locs : ndarray, shape (k, n)
         Component locations.
     shapes : ndarray, shape (k, n, n)
@@ -74,6 +79,7 @@ class StudentMixture:
         if w.shape != (k,) or np.any(w <= 0) or not np.isclose(w.sum(), 1.0):
             raise ValueError("mixture weights must be positive, one per component, summing to 1")
         chol = np.linalg.cholesky(shapes)  # raises LinAlgError unless positive definite
+        w = w / w.sum()  # exactly 1: numpy's choice in draw() asks it within ~1e-8
         object.__setattr__(self, "weights", w)
         object.__setattr__(self, "locs", locs)
         object.__setattr__(self, "shapes", shapes)
@@ -106,31 +112,41 @@ class StudentMixture:
         return top + np.log(np.exp(terms - top[:, None]).sum(axis=1))
 
 
-def fit_student_mixture(draws, rng, max_components=MIXTURE_MAX_COMPONENTS):
+def fit_student_mixture(draws, rng, max_components=MIXTURE_MAX_COMPONENTS, scale=None):
     """The proposal of :mod:`bayes_imu.inference.mixture_proposal` from pilot ``draws``.
 
     Parameters
     ----------
     draws : ndarray, shape (m, n)
-        Pilot draws (at least ``n + 2`` rows; thinned evenly to :data:`MIXTURE_FIT_DRAWS`).
+        Pilot draws (at least ``n + 2`` rows; a random subset of :data:`MIXTURE_FIT_DRAWS` of them
+        where there are more).
     rng : numpy.random.Generator
-        The initial centres of expectation maximisation (k-means++ seeding, Arthur & Vassilvitskii
-        2007).
+        The subset, and the initial centres of expectation maximisation (k-means++ seeding,
+        Arthur & Vassilvitskii 2007).
     max_components : int
         BIC chooses among 1 to this many Gaussian components (fewer where the draws are too few
-        for more: ``n + 2`` per component).
+        for more: ``n + 2`` per component); a component left with less than one draw's weight is
+        dropped.
+    scale : ndarray, shape (n,), optional
+        Each coordinate's scale, for the covariance floor (the prior box's widths in a fit; by
+        default the draws' largest magnitude, at least 1).
 
     Returns
     -------
     StudentMixture
         The chosen Gaussian mixture's weights and locations, its covariances times
-        :data:`MIXTURE_INFLATE`, :data:`MIXTURE_DF` degrees of freedom.
+        :data:`MIXTURE_INFLATE` as shapes, :data:`MIXTURE_DF` degrees of freedom.
     """
     x = np.asarray(draws, float)
     if x.ndim != 2 or x.shape[0] < x.shape[1] + 2:
         raise ValueError("a mixture proposal needs a pilot of at least n_par + 2 draws")
-    x = x[np.linspace(0, x.shape[0] - 1, min(x.shape[0], MIXTURE_FIT_DRAWS)).astype(int)]
-    floor = _FLOOR * np.diag(np.var(x, axis=0) + 1e-300)
+    if x.shape[0] > MIXTURE_FIT_DRAWS:
+        # a random subset: an even stride through (steps x walkers) rows would take a few walkers
+        x = x[np.sort(rng.choice(x.shape[0], MIXTURE_FIT_DRAWS, replace=False))]
+    if not np.all(np.isfinite(x)):
+        raise ValueError("a mixture proposal needs finite pilot draws")
+    scale = np.maximum(np.abs(x).max(axis=0), 1.0) if scale is None else np.asarray(scale, float)
+    floor = np.diag(_FLOOR * np.var(x, axis=0) + np.square(_FLOOR * scale))
     best = None
     for k in range(1, int(max_components) + 1):
         if x.shape[0] < k * (x.shape[1] + 2):
@@ -139,7 +155,10 @@ def fit_student_mixture(draws, rng, max_components=MIXTURE_MAX_COMPONENTS):
         if best is None or fitted[3] < best[3]:
             best = fitted
     weights, locs, covs, _ = best
-    return StudentMixture(weights, locs, MIXTURE_INFLATE * covs, MIXTURE_DF)
+    keep = weights * x.shape[0] >= 1.0
+    keep[np.argmax(weights)] = True
+    return StudentMixture(weights[keep] / weights[keep].sum(), locs[keep],
+                          MIXTURE_INFLATE * covs[keep], MIXTURE_DF)
 
 
 def _em(x, k, rng, floor):
@@ -166,6 +185,10 @@ def _em(x, k, rng, floor):
         if log_lik - previous <= 1e-6 * m:
             break
         previous = log_lik
+    # BIC at the parameters returned (the loop's likelihood is the previous iteration's)
+    log_r = _log_gauss(x, means, covs) + np.log(weights)
+    top = log_r.max(axis=1, keepdims=True)
+    log_lik = float((top[:, 0] + np.log(np.exp(log_r - top).sum(axis=1))).sum())
     n_free = k * (n + n * (n + 1) / 2) + k - 1
     return weights, means, covs, -2.0 * log_lik + n_free * np.log(m)
 

@@ -18,7 +18,8 @@ each temperature the moves are emcee's (Foreman-Mackey et al. 2013): differentia
 stretch move (Goodman & Weare 2010, ``a = 2``) on 20%, each on two halves of the walkers in
 turn, and where two Gauss-Markov biases are one process, the relabel move
 (:func:`bayes_imu.inference.sampling.relabel_move`) on
-:data:`~bayes_imu.inference.sampling.RELABEL_SHARE`, all on every temperature at once (one
+:data:`~bayes_imu.inference.sampling.RELABEL_SHARE` (each of these shares times ``1 - share`` once
+the jump move below takes its ``share``), all on every temperature at once (one
 vectorised likelihood call for all of them). After each step, the walkers of every other pair
 of neighbouring temperatures (:meth:`TemperedEnsemble._swap`) are paired at random and each pair
 swaps its states with probability ``min(1, exp((beta_cold - beta_hot) (L_hot - L_cold)))``
@@ -115,6 +116,7 @@ class TemperedEnsemble:
             self._relabel = relabel_proposal(*exchangeable)
             shares = [0.8 * (1 - RELABEL_SHARE), 0.2 * (1 - RELABEL_SHARE), RELABEL_SHARE]
         self._cdf = np.cumsum(shares) / np.sum(shares)
+        self._local = np.array(shares + [0.0] * (3 - len(shares))) / np.sum(shares)  # before jumps
         self.jump = None  # the jump move's proposal (:meth:`add_jump`)
         self.jumped = 0.0  # the cold ensemble's accepted jumps
         self.jumps = 0  # and tried
@@ -165,16 +167,13 @@ class TemperedEnsemble:
         """From now on, the jump move on ``share`` of the steps (taken from every other move in
         proportion), its proposal ``proposal`` (a
         :class:`~bayes_imu.inference.mixture_proposal.StudentMixture`; a second call replaces the
-        proposal and keeps the share); the steps stored so far are dropped, the states of every
+        proposal and the share); the steps stored so far are dropped, the states of every
         temperature kept: the chain kept from here is a fixed Metropolis-Hastings kernel's
         (:mod:`bayes_imu.inference.mixture_proposal`)."""
         if not 0.0 < share < 1.0:
             raise ValueError("the jump move's share is between 0 and 1")
-        if self.jump is None:
-            shares = np.diff(np.concatenate([[0.0], self._cdf]))
-            self._cdf = np.cumsum(np.concatenate([(1.0 - share) * shares,
-                                                  np.zeros(3 - shares.size), [share]]))
-            self._cdf[-1] = 1.0
+        self._cdf = np.cumsum(np.append((1.0 - share) * self._local, share))
+        self._cdf[-1] = 1.0
         self.jump = proposal
         self.iteration = 0
         self.accepted[:] = 0.0
