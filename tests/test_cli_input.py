@@ -602,6 +602,24 @@ def test_stdin_and_pipes_are_read_as_streams(tmp_path, monkeypatch):
     assert not list(Path(tempfile.gettempdir()).glob("bayes-imu-input-*"))
 
 
+def test_a_warning_about_a_piped_log_names_standard_input(tmp_path, monkeypatch, capsys):
+    """A step in a log read from standard input is warned of as '-', the name the user gave, not
+    as the temporary copy the command spools it to (which it used to name)."""
+    import io
+    import sys
+
+    x = np.random.default_rng(0).standard_normal(3000)
+    x[1000:] += 20
+    text = "gx\n" + "".join(f"{v:.6f}\n" for v in x)
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(text.encode())))
+    assert main(["allan", "-", "--column", "gx", "--rate", "100", "--quiet", "--out",
+                 str(tmp_path / "d")]) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert err.startswith("bayes-imu: warning: -: column 'gx': its level steps by"), err
+    assert "stdin.csv" not in err and "bayes-imu-input" not in err
+
+
 @pytest.mark.parametrize("kind", ["preamble", "long_line"])
 def test_long_preamble_and_long_lines_are_read(tmp_path, kind):
     """A 90 KB comment preamble, or a header line longer than the sniffing window, used to read as

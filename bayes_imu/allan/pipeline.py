@@ -471,9 +471,10 @@ def _read(opts, purpose, progress):
 
 def _plausible(opts, values, rate_hz, columns):
     """Warn of a step in a column, and of declared units a static log contradicts (an error where
-    no unit fits, unless ``trust_units``): :mod:`bayes_imu.io.plausible`. Returns the steps found,
-    ``{column: {"sample": first sample after it (1-based), "sigmas": its size}}``, for the
-    outputs' record of what was read."""
+    no unit fits, unless ``trust_units``): :mod:`bayes_imu.io.plausible`. The warnings name the log
+    as the user gave it (``opts.shown``: ``-`` for standard input, not the spooled copy). Returns
+    the steps found, ``{column: {"sample": first sample after it (1-based), "sigmas": its
+    size}}``, for the outputs' record of what was read."""
     import warnings
 
     from ..io.plausible import PlausibilityWarning, check_units, find_step
@@ -483,9 +484,9 @@ def _plausible(opts, values, rate_hz, columns):
         step = find_step(values[:, j])
         if step is not None:
             steps[str(column)] = {"sample": step[0] + 1, "sigmas": round(step[1], 3)}
-            warnings.warn(f"{opts.log}: column {column!r}: its level steps by {step[1]:.3g} sigma "
-                          f"of its noise at sample {step[0] + 1}; a step is not noise (the fit "
-                          "treats it as slow drift): cut the log there, or check the sensor",
+            warnings.warn(f"{opts.shown}: column {column!r}: its level steps by {step[1]:.3g} "
+                          f"sigma of its noise at sample {step[0] + 1}; a step is not noise (the "
+                          "fit treats it as slow drift): cut the log there, or check the sensor",
                           PlausibilityWarning, stacklevel=2)
     if opts.units is None or opts.units not in UNITS or opts.input != "rate" or opts.trust_units:
         return steps
@@ -494,8 +495,8 @@ def _plausible(opts, values, rate_hz, columns):
         return steps
     if found.fatal:
         raise InputError(f"{opts.log}: {found}; give trust_units if the log is what it should be")
-    warnings.warn(f"{opts.log}: {found} (units={opts.units} as given; trust_units silences this)",
-                  PlausibilityWarning, stacklevel=2)
+    warnings.warn(f"{opts.shown}: {found} (units={opts.units} as given; trust_units silences "
+                  "this)", PlausibilityWarning, stacklevel=2)
     return steps
 
 

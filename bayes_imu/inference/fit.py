@@ -53,7 +53,7 @@ from .sampling import (
     steps_to_next_check,
 )
 from .stationarity import Stationarity, stationarity_check
-from .mixture_proposal import fit_student_mixture
+from .mixture_proposal import MIXTURE_FIT_DRAWS, fit_student_mixture
 from .tempering import TemperedEnsemble
 from .selection import (
     Adequacy,
@@ -124,6 +124,12 @@ JUMP_MIN_KEPT = 8000
 #: step kept so far, which are then discarded (where the budget left allows JUMP_MIN_KEPT and one
 #: more check)
 JUMP_REFITS = 1
+#: draws the refit's mixture is fitted to (a random subset of the kept chain; the pilot's fit uses
+#: MIXTURE_FIT_DRAWS, 4 000). On the real imu5 accelerometer z log at seed 2, whose chain got stuck
+#: where the random walk is switched off and a slow second bias replaces it (0.9% of the posterior),
+#: a refit on 4 000 draws gave no component there and the chain stopped unconverged at the cap; on
+#: 8 000, converged 8 250 steps later (docs/speed_under_load.md, sixteenth session)
+JUMP_REFIT_DRAWS = 8000
 #: share of the tempered steps that are the jump move, once added
 JUMP_SHARE = 0.3
 
@@ -1173,7 +1179,8 @@ def _sample(post, start, rng, max_steps, progress=False, independence=None):
                 try:
                     proposal = fit_student_mixture(
                         sampler.get_chain(discard=0 if refit_due else steps // 2).reshape(
-                            -1, n_par), rng, scale=widths)
+                            -1, n_par), rng, scale=widths,
+                        n_draws=JUMP_REFIT_DRAWS if refit_due else MIXTURE_FIT_DRAWS)
                 except (ValueError, np.linalg.LinAlgError):
                     proposal = None  # not fitted: the chain goes on as it is
                 if proposal is not None:

@@ -112,14 +112,15 @@ class StudentMixture:
         return top + np.log(np.exp(terms - top[:, None]).sum(axis=1))
 
 
-def fit_student_mixture(draws, rng, max_components=MIXTURE_MAX_COMPONENTS, scale=None):
+def fit_student_mixture(draws, rng, max_components=MIXTURE_MAX_COMPONENTS, scale=None,
+                        n_draws=MIXTURE_FIT_DRAWS):
     """The proposal of :mod:`bayes_imu.inference.mixture_proposal` from pilot ``draws``.
 
     Parameters
     ----------
     draws : ndarray, shape (m, n)
-        Pilot draws (at least ``n + 2`` rows; a random subset of :data:`MIXTURE_FIT_DRAWS` of them
-        where there are more).
+        Pilot draws (at least ``n + 2`` rows; a random subset of ``n_draws`` of them where there
+        are more).
     rng : numpy.random.Generator
         The subset, and the initial centres of expectation maximisation (k-means++ seeding,
         Arthur & Vassilvitskii 2007).
@@ -130,6 +131,9 @@ def fit_student_mixture(draws, rng, max_components=MIXTURE_MAX_COMPONENTS, scale
     scale : ndarray, shape (n,), optional
         Each coordinate's scale, for the covariance floor (the prior box's widths in a fit; by
         default the draws' largest magnitude, at least 1).
+    n_draws : int
+        The most draws fitted (a region of 1-2% of the draws gets its own component more often
+        from more: a refit on a long chain uses twice the default).
 
     Returns
     -------
@@ -140,9 +144,9 @@ def fit_student_mixture(draws, rng, max_components=MIXTURE_MAX_COMPONENTS, scale
     x = np.asarray(draws, float)
     if x.ndim != 2 or x.shape[0] < x.shape[1] + 2:
         raise ValueError("a mixture proposal needs a pilot of at least n_par + 2 draws")
-    if x.shape[0] > MIXTURE_FIT_DRAWS:
+    if x.shape[0] > n_draws:
         # a random subset: an even stride through (steps x walkers) rows would take a few walkers
-        x = x[np.sort(rng.choice(x.shape[0], MIXTURE_FIT_DRAWS, replace=False))]
+        x = x[np.sort(rng.choice(x.shape[0], int(n_draws), replace=False))]
     if not np.all(np.isfinite(x)):
         raise ValueError("a mixture proposal needs finite pilot draws")
     scale = np.maximum(np.abs(x).max(axis=0), 1.0) if scale is None else np.asarray(scale, float)
