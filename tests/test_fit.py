@@ -120,6 +120,11 @@ def test_a_tempered_fit_converges_and_every_fit_needs_the_means_ess(lowgrade_fit
     assert d["jump_pilot_steps"] == module.JUMP_PILOT
     assert d["jump_components"] >= 1 and 0.0 < d["jump_acceptance"] <= 1.0
     assert d["n_steps"] >= module.JUMP_MIN_KEPT
+    # a chain that long keeps at most MAX_KEPT_PER_WALKER draws a walker (its reports cost in
+    # proportion: a 2-sensor report's memory grew 5x with 2 700 a walker)
+    from bayes_imu.inference.sampling import MAX_KEPT_PER_WALKER
+
+    assert draws.shape[0] <= MAX_KEPT_PER_WALKER * start.shape[0]
     np.testing.assert_allclose(log_prob, post(draws), rtol=1e-12)
     written = dataclasses.replace(result, diagnostics=d).summary()["diagnostics"]
     assert isinstance(written["jump_pilot_steps"], int)

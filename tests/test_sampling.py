@@ -165,6 +165,20 @@ def test_stopping_rule_and_thinning():
         and burn_and_thin(10.2) == (31, 5)
         and burn_and_thin(1.5) == (5, 1)
     )
+    # a chain far longer than its autocorrelation times keeps at most MAX_KEPT_PER_WALKER draws a
+    # walker (emcee keeps floor((n - burn) / thin) of them), thinned more; a shorter one as above
+    from bayes_imu.inference.sampling import MAX_KEPT_PER_WALKER
+
+    assert MAX_KEPT_PER_WALKER == 200
+    assert burn_and_thin(10.0, 500) == (30, 5)
+    assert burn_and_thin(10.0, 1034) == (30, 5)  # 1 004 // 5: exactly 200 draws
+    assert burn_and_thin(10.0, 1035) == (30, 6)  # 201 at a thin of 5: 167 at 6
+    for tau, n in ((6.9, 8250), (3.0, 40000), (40.0, 9000), (1.2, 777)):
+        burn, thin = burn_and_thin(tau, n)
+        kept = (n - burn) // thin
+        assert burn == int(np.ceil(3 * tau)) and thin >= max(1, int(tau / 2))
+        # at most 200, and the least thinning that keeps at most 200
+        assert kept <= 200 and (thin == max(1, int(tau / 2)) or (n - burn) // (thin - 1) > 200)
 
 
 def test_autocorr_time_is_emcees_and_that_of_an_ar1_chain():

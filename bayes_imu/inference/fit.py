@@ -107,22 +107,24 @@ TEMPERED_MIN_STEPS = 2000
 #: a tempered chain is given the jump move (:meth:`~bayes_imu.inference.tempering.TemperedEnsemble.
 #: add_jump`) after this many steps, its proposal fitted to the cold draws of their second half,
 #: which are then discarded (0 or less: never; nor where the budget left is less than this plus
-#: :data:`JUMP_MIN_KEPT` and one more check, or the proposal cannot be fitted). The hard real
-#: accelerometer posteriors (imu4 and imu5 accelerometer z: the walkers' mean's autocorrelation
-#: time 400-1 780 steps under the tempered ensemble alone) then converge in 9 000-20 000 steps
+#: :data:`JUMP_MIN_KEPT` and one more check, or the proposal cannot be fitted). On the hard real
+#: accelerometer posteriors (imu4 and imu5 accel z, imu3 accel x; the walkers' mean's
+#: autocorrelation time up to 1 780 steps under the tempered ensemble alone), 24 of 24 fits at
+#: seeds 0-7 converged in 9 250-20 750 steps in all, against 18 of 24 without the move
 #: (scripts/study_tempering.py; docs/speed_under_load.md, sixteenth session)
 JUMP_PILOT = 1000
 #: the least steps a tempered chain runs after the jump move is added before it may stop. The
 #: autocorrelation time of a chain that has not yet visited a region of small mass does not see
-#: it: on imu4 accelerometer z, chains stopped at 1 500-2 250 steps (times of 8-22 steps) had a
-#: 95% quantile off by 0.8-1.4 posterior standard deviations against a reference of 200 000
-#: steps; at 8 000 steps, 0.17-0.66 (at 12 000, 0.05-0.49), on imu3 x and imu5 z at most 0.46
-#: (docs/speed_under_load.md, sixteenth session)
+#: it: without this floor, fits stopped at 1 500-2 250 steps with tail quantiles 0.7-1.4 posterior
+#: standard deviations off (ad hoc runs, imu4 accel z). In the study's fixed-length chains with the
+#: move from the fits' own starts (seeds 0-7), the largest quantile error was 0.44-0.99 (imu4 accel
+#: z) and 0.35-1.83 (imu3 accel x) after 1 500 steps, 0.09-1.16 and 0.09-0.70 (medians 0.28 and
+#: 0.22) after 8 000 (scripts/study_tempering.py --lengths; docs/speed_under_load.md)
 JUMP_MIN_KEPT = 8000
-#: times the jump move's proposal is refitted, each at the first check at or past JUMP_MIN_KEPT
-#: steps with it where the chain is not half AUTOCORR_MULTIPLE autocorrelation times long, to every
-#: step kept so far, which are then discarded (where the budget left allows JUMP_MIN_KEPT and one
-#: more check)
+#: times the jump move's proposal is refitted: at a check at or past JUMP_MIN_KEPT steps with it
+#: where the chain is under half of AUTOCORR_MULTIPLE autocorrelation times long, to
+#: JUMP_REFIT_DRAWS of every step kept so far, which are then discarded (where the budget left
+#: allows JUMP_MIN_KEPT and one more check)
 JUMP_REFITS = 1
 #: draws the refit's mixture is fitted to (a random subset of the kept chain; the pilot's fit uses
 #: MIXTURE_FIT_DRAWS, 4 000). On the real imu5 accelerometer z log at seed 2, whose chain got stuck
@@ -1299,7 +1301,7 @@ def import_arviz():
 def _thinned(sampler, tau_max, n_walkers, settled):
     """Drop the burn-in, thin (:func:`~bayes_imu.inference.sampling.burn_and_thin`); diagnostics on
     the rest."""
-    burn, thin = burn_and_thin(tau_max)
+    burn, thin = burn_and_thin(tau_max, sampler.iteration)
     # copies: emcee returns views of its storage, which would keep every step of the chain (the
     # reserved backend: up to max_steps, ~90 MB for 40 000 steps of 9 parameters) alive with the
     # result; a report of two refitted logs held both (issue 39's memory bound)

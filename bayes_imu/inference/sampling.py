@@ -54,6 +54,7 @@ __all__ = [
     "autocorr_time",
     "long_enough",
     "burn_and_thin",
+    "MAX_KEPT_PER_WALKER",
     "one_blas_thread",
     "steps_to_next_check",
     "fft_length",
@@ -63,6 +64,9 @@ __all__ = [
 
 #: chain length, in integrated autocorrelation times, before the sampler may stop
 AUTOCORR_MULTIPLE = 50
+#: the most draws a walker keeps after burn-in and thinning (:func:`burn_and_thin`): a chain that
+#: stops at AUTOCORR_MULTIPLE autocorrelation times keeps about 94, thinned by half of one
+MAX_KEPT_PER_WALKER = 200
 #: chain length (steps) from which convergence is checked at a tenth of the chain instead of every
 #: fixed chunk
 GEOMETRIC_FROM = 10_000
@@ -596,9 +600,17 @@ def long_enough(iteration, tau_max, tau_previous):
     return iteration >= AUTOCORR_MULTIPLE * tau_max and abs(tau_max - tau_previous) < 0.05 * tau_max
 
 
-def burn_and_thin(tau_max):
-    """``(burn, thin)``: 3 autocorrelation times of burn-in, thinning by half of one."""
-    return int(np.ceil(3 * tau_max)), max(1, int(tau_max / 2))
+def burn_and_thin(tau_max, n_steps=None):
+    """``(burn, thin)``: 3 autocorrelation times of burn-in, thinning by half of one, or by more
+    where a chain of ``n_steps`` would keep more than :data:`MAX_KEPT_PER_WALKER` draws a walker
+    (a chain far longer than its autocorrelation times: the tempered ensemble's with the jump
+    move runs 8 000 steps at least, 2 700 draws a walker at a time of 7 steps, whose drift bands
+    and reports cost in proportion)."""
+    burn, thin = int(np.ceil(3 * tau_max)), max(1, int(tau_max / 2))
+    if n_steps is not None and (n_steps - burn) // thin > MAX_KEPT_PER_WALKER:
+        # the least thinning that keeps at most that many: emcee keeps floor((n - burn) / thin)
+        thin = (n_steps - burn) // (MAX_KEPT_PER_WALKER + 1) + 1
+    return burn, thin
 
 
 def one_blas_thread():
