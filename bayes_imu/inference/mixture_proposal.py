@@ -40,7 +40,7 @@ MIXTURE_DF = 5.0
 MIXTURE_INFLATE = 1.5
 #: the most components tried (BIC picks among 1 .. this many)
 MIXTURE_MAX_COMPONENTS = 4
-#: draws of the pilot used for the fit (taken evenly from those given)
+#: draws of the pilot used for the fit (a random subset where there are more)
 MIXTURE_FIT_DRAWS = 4000
 #: expectation-maximisation iterations at most per number of components
 _EM_ITERATIONS = 200
@@ -107,9 +107,8 @@ class StudentMixture:
         point)."""
         diff = np.asarray(x, float)[:, None, :] - self.locs[None]  # (m, k, n)
         maha = np.square(np.einsum("kij,mkj->mki", self._inv_chol, diff)).sum(axis=-1)
-        terms = self._log_norm - 0.5 * (self.df + self.locs.shape[1]) * np.log1p(maha / self.df)
-        top = terms.max(axis=1)
-        return top + np.log(np.exp(terms - top[:, None]).sum(axis=1))
+        return _log_sum_exp(
+            self._log_norm - 0.5 * (self.df + self.locs.shape[1]) * np.log1p(maha / self.df))
 
 
 def fit_student_mixture(draws, rng, max_components=MIXTURE_MAX_COMPONENTS, scale=None,
@@ -175,8 +174,7 @@ def _em(x, k, rng, floor):
     previous = -np.inf
     for _ in range(_EM_ITERATIONS):
         log_r = _log_gauss(x, means, covs) + np.log(weights)  # (m, k)
-        top = log_r.max(axis=1, keepdims=True)
-        total = top[:, 0] + np.log(np.exp(log_r - top).sum(axis=1))
+        total = _log_sum_exp(log_r)
         resp = np.exp(log_r - total[:, None])
         mass = resp.sum(axis=0) + 1e-300
         weights = np.maximum(mass / m, 1e-12)
@@ -190,9 +188,7 @@ def _em(x, k, rng, floor):
             break
         previous = log_lik
     # BIC at the parameters returned (the loop's likelihood is the previous iteration's)
-    log_r = _log_gauss(x, means, covs) + np.log(weights)
-    top = log_r.max(axis=1, keepdims=True)
-    log_lik = float((top[:, 0] + np.log(np.exp(log_r - top).sum(axis=1))).sum())
+    log_lik = float(_log_sum_exp(_log_gauss(x, means, covs) + np.log(weights)).sum())
     n_free = k * (n + n * (n + 1) / 2) + k - 1
     return weights, means, covs, -2.0 * log_lik + n_free * np.log(m)
 
@@ -209,6 +205,13 @@ def _seed_centres(x, k, rng):
         centres.append(int(rng.choice(x.shape[0], p=p)))
         dist = np.minimum(dist, np.square(z - z[centres[-1]]).sum(axis=1))
     return x[centres].copy()
+
+
+def _log_sum_exp(a):
+    """``log(sum(exp(a), axis=1))`` of ``(m, k)`` ``a``, shifted by each row's largest (numpy:
+    scipy.special.logsumexp agrees to ~1e-14 but takes ~5x as long on the jump move's 160 rows)."""
+    top = a.max(axis=1)
+    return top + np.log(np.exp(a - top[:, None]).sum(axis=1))
 
 
 def _log_gauss(x, means, covs):
