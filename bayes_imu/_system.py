@@ -1,6 +1,6 @@
 """What the machine lends this process: the one place that counts its CPUs (the output process,
-:mod:`bayes_imu.report.worker`, and the navigation channel's transforms,
-:mod:`bayes_imu.drift.navigation`, both ask it)."""
+:mod:`bayes_imu.report.worker`, and the picture's import thread of the navigation command,
+:mod:`bayes_imu.report.nav`, ask it)."""
 
 import os
 

@@ -357,3 +357,52 @@ def test_an_out_folder_that_would_be_refused_is_refused_before_the_bands(
     assert str(out) in err
     assert (out / "mine.txt").read_text() == "a user's file"
     assert sorted(p.name for p in out.iterdir()) == ["mine.txt"]
+
+
+def _nav_args(folders, out):
+    return ["nav", "--gyro", str(folders["gyro"]), "--accel", str(folders["accel"]), "--times",
+            "10,60", "--quiet", "--out", str(out)]
+
+
+def test_nav_png_from_the_output_process_is_the_same_file(folders, tmp_path, monkeypatch):
+    """The executable draws nav.png in a second process (report.worker, as a fit's outputs): the
+    three files are the same bytes as when everything is written here (the suite's default)."""
+    from bayes_imu.report.worker import WORKERS_ENV
+
+    made = {}
+    for value in ("0", "1"):
+        monkeypatch.setenv(WORKERS_ENV, value)
+        out = tmp_path / f"nav{value}"
+        assert main(_nav_args(folders, out)) == 0
+        made[value] = {name: (out / name).read_bytes()
+                       for name in ("nav.csv", "nav.png", "summary.json")}
+    assert made["0"] == made["1"]
+    assert made["1"]["nav.png"].startswith(b"\x89PNG")
+
+
+def _broken_plot(*args, **kwargs):
+    """A picture that cannot be drawn (module level: the output process imports it by name)."""
+    raise ValueError("cannot draw")
+
+
+def test_a_picture_failing_in_the_output_process_keeps_the_numbers(
+    folders, tmp_path, monkeypatch, capsys
+):
+    """nav.png failing in the second process: one warning line, exit 3, nav.csv and summary.json
+    written; a Python caller without ``failures`` gets the error itself."""
+    import importlib
+
+    from bayes_imu.report.nav import NavRequest, run_nav
+    from bayes_imu.report.worker import WORKERS_ENV
+
+    monkeypatch.setattr(importlib.import_module("bayes_imu.report.nav"), "plot_nav", _broken_plot)
+    monkeypatch.setenv(WORKERS_ENV, "1")
+    out = tmp_path / "nav"
+    assert main(_nav_args(folders, out)) == 3
+    assert capsys.readouterr().err == ("bayes-imu: warning: nav.png was not drawn (ValueError: "
+                                       "cannot draw); the numbers were written\n")
+    assert sorted(p.name for p in out.iterdir()) == [".bayes_imu.json", "nav.csv", "summary.json"]
+    request = NavRequest(folders["gyro"], folders["accel"], tmp_path / "api", times=(10.0,))
+    with pytest.raises(ValueError, match="cannot draw"):
+        run_nav(request, background=True)
+    assert not (tmp_path / "api").exists()

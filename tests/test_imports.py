@@ -139,3 +139,47 @@ sys.modules],
         "corner.png",
         "drift.png",
     } <= set(files)
+
+
+def test_nav_from_the_executable_imports_neither_matplotlib_nor_scipy_fft():
+    """``bayes-imu nav`` as the executable runs it (the output process on), in a fresh process:
+    nav.png is drawn by the second process, so the command's own process imports no matplotlib,
+    and the flicker's transforms are numpy's (scipy.fft cost about 0.25 s of a 1.4 s command:
+    docs/speed_under_load.md, seventeenth session). Every file is written."""
+    fits = """
+import sys, json, os
+import numpy as np
+from bayes_imu.inference.archive import save_fit
+from bayes_imu.inference.fit import fit
+rng = np.random.default_rng(3)
+for name, scale, unit in (("g", 3e-3, "rad/s"), ("a", 2e-2, "m/s^2")):
+    os.mkdir(sys.argv[1] + "/" + name)
+    y = scale * rng.standard_normal(20000) + 1e-5 * np.cumsum(rng.standard_normal(20000))
+    terms = ("white", "gauss_markov", "bias_instability")  # the flicker: its FFT quadratic form
+    save_fit(fit(y, rate_hz=100.0, terms=terms, rng=0, progress=False),
+             sys.argv[1] + f"/{name}/fit.npz")
+    with open(sys.argv[1] + f"/{name}/summary.json", "w") as f:
+        json.dump({"unit": unit, "column": name}, f)
+"""
+    nav = """
+import sys, json, os, importlib
+from bayes_imu.cli.main import main
+importlib.import_module("bayes_imu.cli.main")._EXECUTABLE = True  # as command() sets it
+assert main(["nav", "--gyro", sys.argv[1] + "/g", "--accel", sys.argv[1] + "/a", "--quiet",
+             "--out", sys.argv[1] + "/n"]) == 0
+print(json.dumps([[m for m in ("matplotlib", "scipy.fft") if m in sys.modules],
+                  sorted(os.listdir(sys.argv[1] + "/n"))]))
+"""
+    import json
+    import os
+    import tempfile
+
+    env = {**os.environ, "BAYES_IMU_OUTPUT_PROCESS": "1"}
+    with tempfile.TemporaryDirectory() as folder:
+        subprocess.run([sys.executable, "-c", fits, folder], check=True, timeout=300)
+        done = subprocess.run([sys.executable, "-c", nav, folder], capture_output=True,
+                              text=True, env=env, timeout=300)
+    assert done.returncode == 0, done.stderr
+    imported, files = json.loads(done.stdout.splitlines()[-1])
+    assert imported == [], f"imported by the nav command's process: {imported}"
+    assert files == [".bayes_imu.json", "nav.csv", "nav.png", "summary.json"]

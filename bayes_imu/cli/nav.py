@@ -194,9 +194,16 @@ def _cmd_nav(args):
         args.force,
         limit,
     )
+    from importlib import import_module
+
+    from ..report.worker import background_default
+
     failures = []  # nav.png not drawn: the numbers are kept (exit 3)
+    # nav.png from a second process where the executable runs (as a fit's outputs: Python callers
+    # of main() only where the environment asks, cli.main._fit)
+    background = background_default(automatic=import_module(f"{__package__}.main")._EXECUTABLE)
     try:
-        bands, summary = run_nav(request, failures=failures)
+        bands, summary = run_nav(request, failures=failures, background=background)
     except InputError as exc:  # the library names its parameters; say the flags
         text = re.sub(r"^(gyro|accel)=(\S+):", r"--\1 \2:", str(exc))
         raise InputError(

@@ -40,7 +40,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._system import usable_cpus
 from ..errors import InputError
 
 __all__ = [
@@ -235,7 +234,10 @@ class NavLoop:
         exact; it is evaluated by FFT (circulant embedding, the form summed over the spectrum),
         whose rounding error is a few ``1e-16 n`` of ``gamma(0) |t|^2``.
         """
-        from scipy import fft
+        # numpy's transform (the same pocketfft as scipy.fft's, the same bits) and the lengths
+        # scipy.fft.next_fast_len gives real transforms: importing scipy.fft cost the command
+        # about 0.25 s of its 1.4 s (docs/speed_under_load.md, seventeenth session)
+        from ..inference.sampling import fft_length
 
         k = np.atleast_1d(np.asarray(k, float))
         n_cal = np.broadcast_to(np.asarray(n_cal, float), k.shape)
@@ -252,7 +254,7 @@ class NavLoop:
                 continue
             tails = self.increment_tails(ki, dt, ni, responses=responses)
             n = tails.shape[1]
-            size = fft.next_fast_len(2 * n - 1, real=True)
+            size = fft_length(2 * n - 1)
             gamma = gamma_all[:n]
             # row 0: the circulant's first column (symmetric: its eigenvalues are real); rows 1-3:
             # the weights, zero past n; one batched transform of the four rows
@@ -260,7 +262,7 @@ class NavLoop:
             rows[0, :n] = gamma
             rows[0, size - n + 1 :] = gamma[1:][::-1]
             rows[1:, :n] = tails
-            spectra = fft.rfft(rows, axis=1, workers=_fft_workers(size))
+            spectra = np.fft.rfft(rows, axis=1)
             # t' C t = sum_f |T_f|^2 lambda_f / size for the circulant C (eigenvalues lambda), and
             # t' C t = t' Gamma t for t zero past n: no inverse transform; the half spectrum counts
             # its inner frequencies twice
@@ -270,16 +272,6 @@ class NavLoop:
             power = tf.real * tf.real + tf.imag * tf.imag
             out[i] = np.maximum(power @ spec / size, 0.0)
         return out
-
-
-#: transform length from which the flicker's quadratic form is transformed on two threads
-_FFT_THREADED = 1 << 17
-
-
-def _fft_workers(size):
-    """Threads of one batched transform of ``size`` points: two from :data:`_FFT_THREADED` on
-    where the process may run on two CPUs or more (its four rows dealt to them), else one."""
-    return 1 if size < _FFT_THREADED else min(2, usable_cpus())
 
 
 _diagonal_kernel = None  # set on first use (:func:`_propagate_diagonal`)

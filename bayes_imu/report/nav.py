@@ -96,14 +96,35 @@ def _named(kind, path, exc):
     return InputError(f"{kind}={text}" if text.startswith(str(path)) else f"{kind}={path}: {text}")
 
 
-def run_nav(request, *, failures=None):
+def run_nav(request, *, failures=None, background=False):
     """Compute the bands of ``request``, write its folder; return ``(NavigationBands, summary)``.
 
     ``failures``: a list collecting the :class:`~bayes_imu.report.worker.PictureFailure` of
     ``nav.png`` where it cannot be drawn (the numbers are written all the same); without it such
-    an error is raised."""
-    from .worker import draw_picture
+    an error is raised. ``background``: draw ``nav.png`` in a second process
+    (:class:`~bayes_imu.report.worker.OutputWriter`), which imports matplotlib while this one
+    computes the bands (the command's choice, :func:`~bayes_imu.report.worker.background_default`);
+    otherwise here, matplotlib imported on a second thread meanwhile."""
+    from .worker import OutputWriter
 
+    # started first: the worker's imports overlap the fits' loading as well as the bands
+    with OutputWriter(background=background, warm=(_import_pyplot,)) as writer:
+        bands, summary = _run_nav(request, writer, failures is None)
+    if failures is not None:
+        failures.extend(f for f in writer.picture_failures if f is not None)
+    return bands, summary
+
+
+def _import_pyplot():
+    """The output process's warm-up: matplotlib's pyplot, as :func:`plot_nav` imports it."""
+    from .plots import pyplot
+
+    pyplot()
+
+
+def _run_nav(request, writer, strict):
+    """:func:`run_nav` with its output writer; ``strict``: an error drawing the picture is
+    raised."""
     gyro = load_nav_fits(request.gyro, "gyro")
     accel = load_nav_fits(request.accel, "accel")
     if len(gyro) != len(accel):
@@ -121,7 +142,8 @@ def run_nav(request, *, failures=None):
     with staged_folder(
         request.out, force=request.force, inputs=[request.gyro, request.accel]
     ) as tmp:
-        _import_pyplot_meanwhile()
+        if not writer.background:
+            _import_pyplot_meanwhile()
         dt = gyro[0].model.dt
         grid = nav_times(dt, times, request.horizon_s)
         pair = (gyro if len(gyro) == 3 else gyro[0], accel if len(accel) == 3 else accel[0])
@@ -167,11 +189,9 @@ def run_nav(request, *, failures=None):
             "record_s": min(f.record_s for f in gyro + accel),
             "t_max": plot_horizon(times, request.horizon_s),
         }
-        if failures is None:
-            plot_nav(bands, tmp / "nav.png", **picture)
-        else:
-            failure = draw_picture(plot_nav, bands, tmp / "nav.png", **picture)
-            failures.extend([] if failure is None else [failure])
+        draw = writer.submit if strict else writer.picture
+        draw(plot_nav, bands, tmp / "nav.png", **picture)
+        writer.wait()  # nav.png in the staging folder before it is moved into place
     return bands, summary
 
 
