@@ -62,9 +62,9 @@ HELD_OUT_START = 1_000_000
 #: session runs range 3 once, at its end), and a fourth (range 3 was seen: the seventh session of
 #: issue 39 runs range 4 once, at its end, on the sampler with the independence move), and a fifth
 #: (range 4 was seen: the fourteenth session of issue 39 runs range 5 once, at its end, on the
-#: tempered sampler)
+#: tempered sampler; the seventeenth runs range 6 once, at its end, on the jump move)
 HELD_OUT_RANGES = {"1": HELD_OUT_START, "2": 3_000_000, "3": 5_000_000, "4": 7_000_000,
-                   "5": 9_000_000}
+                   "5": 9_000_000, "6": 11_000_000}
 NAV_TIMES = (10.0, 30.0, 60.0, 120.0, 300.0, 600.0, 1200.0)
 
 
