@@ -514,3 +514,34 @@ def test_a_call_sends_its_arguments_as_they_were_when_submitted(tmp_path):
         holder["value"] = 2
     assert json.loads((tmp_path / "second.json").read_text()) == {"value": 1}
     assert not _children()
+
+
+def test_this_process_running_threads_are_not_other_work(monkeypatch):
+    """/proc/loadavg's running count includes this process's own running threads (numpy's BLAS
+    pool spins a while after work): they are not other work, so two of them running beside one
+    other task still leave a CPU of two free; unreadable thread states count this thread alone."""
+    from bayes_imu.report import worker
+
+    def proc(states, running):
+        def fake_open(path, *a, **k):
+            if str(path) == "/proc/loadavg":
+                return io.StringIO(f"0.30 0.30 0.30 {running}/200 999\n")
+            task = str(path).split("/")[-2]
+            return io.StringIO(f"{task} (python3 (x)) {states[int(task)]} 1 2 3\n")
+        return fake_open
+
+    monkeypatch.delenv(WORKERS_ENV, raising=False)
+    monkeypatch.setattr(worker, "usable_cpus", lambda: 2)
+    monkeypatch.setattr(worker.os, "listdir", lambda path: ["0", "1"])
+    monkeypatch.setattr("builtins.open", proc({0: "R", 1: "R"}, 3))
+    assert worker._own_running() == 2
+    assert worker.spare_cpus() == 1 and background_default() is True  # one other task
+    monkeypatch.setattr("builtins.open", proc({0: "R", 1: "S"}, 3))
+    assert worker.spare_cpus() == 0 and background_default() is False  # two other tasks
+    monkeypatch.setattr("builtins.open", proc({0: "S", 1: "S"}, 1))
+    assert worker._own_running() == 1  # the asking thread runs, whatever its stat said
+    monkeypatch.setattr(worker.os, "listdir", lambda path: ["0", "1", "2"])
+    monkeypatch.setattr("builtins.open", proc({0: "R", 1: "R", 2: "R"}, 4))
+    assert worker.spare_cpus() == 1
+    monkeypatch.setattr("builtins.open", lambda *a, **k: io.StringIO("no parenthesis\n"))
+    assert worker._own_running() == 1

@@ -115,9 +115,9 @@ def background_default(automatic=True):
 
 
 def spare_cpus():
-    """Usable CPUs less the processes running now other than this one (``/proc/loadavg``'s
-    running count, Linux; elsewhere the one-minute load average): the cores other work leaves
-    free for the next seconds, the fit's length.
+    """Usable CPUs less the tasks running now other than this process's threads
+    (``/proc/loadavg``'s running count less :func:`_own_running`, Linux; elsewhere the one-minute
+    load average): the cores other work leaves free for the next seconds, the fit's length.
 
     The output process pays where it has a core of its own: on a busy machine it only adds its
     imports (measured on 2 cores under a load of 19 from other jobs, 1e6-sample ``bayes-imu fit``,
@@ -129,8 +129,8 @@ def spare_cpus():
     against 2.86-3.20 s; docs/speed_under_load.md)."""
     try:
         with open("/proc/loadavg") as f:
-            # "running/total": less this process
-            return usable_cpus() - (int(f.read().split()[3].split("/")[0]) - 1)
+            # "running/total": less this process's own running threads
+            return usable_cpus() - (int(f.read().split()[3].split("/")[0]) - _own_running())
     except (OSError, ValueError, IndexError):
         pass
     try:
@@ -138,6 +138,25 @@ def spare_cpus():
     except OSError:  # not available on this platform: as if idle
         load = 0.0
     return usable_cpus() - load
+
+
+def _own_running():
+    """Threads of this process running now (Linux: state ``R`` in ``/proc/self/task/*/stat``), at
+    least the one asking; 1 where they cannot be read. /proc/loadavg's running count includes them:
+    on an idle 2-core machine a fit command's second thread (numpy's BLAS pool, which spins a
+    while after work) was running in about half the checks, and with one more task that happened
+    to run at that instant the check declined the output process: 1 check in 8 after the peer's
+    run here, and 3-4 of the 18 real-log fits of each benchmark run of the seventeenth session
+    (their CPU time about their wall time), each 0.25-0.3 s slower (docs/speed_under_load.md)."""
+    try:
+        count = 0
+        for task in os.listdir("/proc/self/task"):
+            with open(f"/proc/self/task/{task}/stat") as f:
+                # the state follows the command name's closing parenthesis
+                count += f.read().rsplit(")", 1)[1].split()[0] == "R"
+        return max(count, 1)
+    except (OSError, IndexError):
+        return 1
 
 
 #: seconds stop() waits for the worker to end on SIGTERM before it kills it
