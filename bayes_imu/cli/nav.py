@@ -169,9 +169,12 @@ def _warn_inputs(checks):
 
 
 def _cmd_nav(args):
+    from importlib import import_module
+
     from ..drift.display import parse_amount
     from ..errors import InputError
     from ..report.nav import SMALL_ANGLE_RAD, NavRequest, format_length, run_nav
+    from ..report.worker import background_default
 
     limit = (
         None
@@ -194,10 +197,6 @@ def _cmd_nav(args):
         args.force,
         limit,
     )
-    from importlib import import_module
-
-    from ..report.worker import background_default
-
     failures = []  # nav.png not drawn: the numbers are kept (exit 3)
     # nav.png from a second process where the executable runs (as a fit's outputs: Python callers
     # of main() only where the environment asks, cli.main._fit)
