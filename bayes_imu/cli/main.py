@@ -463,12 +463,19 @@ def _cmd_fit(args):
     return _fit(_fit_request(args), args)
 
 
+def output_process():
+    """Whether this command writes its outputs from a second process (``report.worker``): the
+    executable's automatic choice; a Python caller of :func:`main` only where
+    ``BAYES_IMU_OUTPUT_PROCESS`` asks (a spawned process re-runs the caller's script, which without
+    a ``__main__`` guard would run the command again there). ``fit`` and ``nav`` ask it."""
+    return background_default(automatic=_EXECUTABLE)
+
+
 def _fit(request, args, in_batch=False):
     """``request`` fitted into ``args.out`` (``args``: where and how to write and print)."""
     # a batch's fits write in their own process: it has its own parallelism, and its imports are
-    # made once. Python callers of main() do too, unless the environment asks (a spawned process
-    # re-runs the caller's script, which without a __main__ guard would run the command again there)
-    background = False if in_batch else background_default(automatic=_EXECUTABLE)
+    # made once
+    background = False if in_batch else output_process()
     run = run_fit(request, args.out, force=args.force, background=background,
                   progress=args.progress, on_read=lambda read: _say_time_unit(args, read.info),
                   on_axis=lambda axis: _say_axis(args, axis))

@@ -169,12 +169,10 @@ def _warn_inputs(checks):
 
 
 def _cmd_nav(args):
-    from importlib import import_module
-
     from ..drift.display import parse_amount
     from ..errors import InputError
     from ..report.nav import SMALL_ANGLE_RAD, NavRequest, format_length, run_nav
-    from ..report.worker import background_default
+    from .main import output_process
 
     limit = (
         None
@@ -198,11 +196,9 @@ def _cmd_nav(args):
         limit,
     )
     failures = []  # nav.png not drawn: the numbers are kept (exit 3)
-    # nav.png from a second process where the executable runs (as a fit's outputs: Python callers
-    # of main() only where the environment asks, cli.main._fit)
-    background = background_default(automatic=import_module(f"{__package__}.main")._EXECUTABLE)
     try:
-        bands, summary = run_nav(request, failures=failures, background=background)
+        # nav.png from a second process, as a fit's figures (cli.main.output_process)
+        bands, summary = run_nav(request, failures=failures, background=output_process())
     except InputError as exc:  # the library names its parameters; say the flags
         text = re.sub(r"^(gyro|accel)=(\S+):", r"--\1 \2:", str(exc))
         raise InputError(

@@ -105,21 +105,16 @@ def run_nav(request, *, failures=None, background=False):
     (:class:`~bayes_imu.report.worker.OutputWriter`), which imports matplotlib while this one
     computes the bands (the command's choice, :func:`~bayes_imu.report.worker.background_default`);
     otherwise here, matplotlib imported on a second thread meanwhile."""
+    from .plots import pyplot
     from .worker import OutputWriter
 
-    # started first: the worker's imports overlap the fits' loading as well as the bands
-    with OutputWriter(background=background, warm=(_import_pyplot,)) as writer:
+    # started first: the worker's imports (pyplot, as plot_nav imports it) overlap the fits'
+    # loading as well as the bands
+    with OutputWriter(background=background, warm=(pyplot,)) as writer:
         bands, summary = _run_nav(request, writer, failures is None)
     if failures is not None:
         failures.extend(f for f in writer.picture_failures if f is not None)
     return bands, summary
-
-
-def _import_pyplot():
-    """The output process's warm-up: matplotlib's pyplot, as :func:`plot_nav` imports it."""
-    from .plots import pyplot
-
-    pyplot()
 
 
 def _run_nav(request, writer, strict):
