@@ -100,7 +100,7 @@ def _shown(report, quantity):
 
 
 def _comparison_figure(report, target):
-    from .plots import plain_text, pyplot, series_colours
+    from .plots import plain_text, pyplot, save_png, series_colours
 
     plt = pyplot()
     # one colour per series of the whole figure: the sensors', then the IMUs' (bottom row)
@@ -167,7 +167,7 @@ def _comparison_figure(report, target):
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(target, format="png", dpi=100)
+    save_png(fig, target, dpi=100)
     plt.close(fig)
 
 

@@ -372,7 +372,7 @@ def plot_nav(
     ``min_share`` of the median total at every time, are listed, not drawn; times from ``t_min``
     to ``t_max`` [s] (default: every time of ``bands``). The lines common to the three panels
     are explained once, above them; each panel's legend lists its terms."""
-    from .plots import plain_text, pyplot, series_colours, sparse_log_minor_ticks
+    from .plots import plain_text, pyplot, save_png, series_colours, sparse_log_minor_ticks
 
     plt = pyplot()
     names = ("tilt", "velocity", "position")
@@ -519,5 +519,5 @@ def plot_nav(
     # fixed margins (the legends hang below the axes): tight_layout measures every tick label of
     # the many-decade log axes, a third of the figure's time
     fig.subplots_adjust(left=0.045, right=0.99, top=0.84, bottom=0.3, wspace=0.2)
-    fig.savefig(path, dpi=110)
+    save_png(fig, path, dpi=110)
     plt.close(fig)

@@ -21,7 +21,7 @@ def plot_plan(plans, path, *, title="", pilot_s=None):
     """
     from matplotlib.ticker import FixedLocator, FuncFormatter, LogLocator, NullFormatter
 
-    from .plots import plain_text, pyplot
+    from .plots import plain_text, pyplot, save_png
 
     plt = pyplot()
     with_drift = any(p.horizons_s.size for _, p in plans)
@@ -86,7 +86,7 @@ def plot_plan(plans, path, *, title="", pilot_s=None):
         fontsize=11,
     )
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_png(fig, path, dpi=110)
     plt.close(fig)
 
 
