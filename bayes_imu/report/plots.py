@@ -117,6 +117,22 @@ def sparse_log_minor_ticks(ax):
         axis.set_minor_formatter(NullFormatter())
 
 
+def thin_log_minor_ticks(axis):
+    """The minor ticks (and minor grid lines) of a log ``axis`` spanning
+    :data:`SPARSE_FROM_DECADES` or more decades at 2 and 5 of each decade only, unlabelled, set
+    after its data and limits; a narrower axis keeps matplotlib's 2..9, whose ticks carry the labels
+    there. Each tick is an object of five artists created as the figure is drawn: thinned, the
+    Allan deviation plots of a fit (``allan_fit.png``: 5-7 decades of averaging time, 2-4 of
+    deviation) draw in 0.12 s instead of 0.19 s (ADIS16405 imu1 gyro x, medians of eight
+    alternating draws, ad hoc), and read the same way (1, 2, 5 of each decade)."""
+    from matplotlib.ticker import LogLocator, NullFormatter
+
+    low, high = sorted(axis.get_view_interval())
+    if axis.get_scale() == "log" and low > 0 and np.log10(high / low) >= SPARSE_FROM_DECADES:
+        axis.set_minor_locator(LogLocator(base=10.0, subs=(2.0, 5.0), numticks=30))
+        axis.set_minor_formatter(NullFormatter())
+
+
 def import_plotting():
     """Import what the figures need (pyplot, corner) and draw a small log-log figure in memory
     (fonts, text layout and the PNG writer loaded): a worker's warm-up
@@ -235,6 +251,8 @@ def plot_allan(result, path, *, label="", unit="u"):
     ax.set_title(f"Overlapping Allan deviation, {result.confidence:.1%} intervals")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
+    thin_log_minor_ticks(ax.xaxis)
+    thin_log_minor_ticks(ax.yaxis)
     fig.tight_layout()
     save_png(fig, path, dpi=110)
     plt.close(fig)
@@ -312,6 +330,7 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None, scale=1.0):
     _residual_panel(ax_r, fit)
     for axis in (ax.xaxis, ax.yaxis, ax_r.xaxis):
         _plain_log_labels(axis)
+        thin_log_minor_ticks(axis)
     save_png(fig, path, dpi=110)
     plt.close(fig)
 
