@@ -121,10 +121,10 @@ def thin_log_minor_ticks(axis):
     """The minor ticks (and minor grid lines) of a log ``axis`` spanning
     :data:`SPARSE_FROM_DECADES` or more decades at 2 and 5 of each decade only, unlabelled, set
     after its data and limits; a narrower axis keeps matplotlib's 2..9, whose ticks carry the labels
-    there. Each tick is an object of five artists created as the figure is drawn: thinned, the
-    Allan deviation plots of a fit (``allan_fit.png``: 5-7 decades of averaging time, 2-4 of
-    deviation) draw in 0.12 s instead of 0.19 s (ADIS16405 imu1 gyro x, medians of eight
-    alternating draws, ad hoc), and read the same way (1, 2, 5 of each decade)."""
+    there. Each tick is an object of five artists created as the figure is drawn: thinned, a fit's
+    ``allan_fit.png`` (5-7 decades of averaging time, 2-4 of deviation) is drawn in 0.10-0.13 s
+    instead of 0.16-0.19 s (``scripts/study_speed_options.py --figures``), and reads the same way
+    (grid lines at 1, 2 and 5 of each decade)."""
     from matplotlib.ticker import LogLocator, NullFormatter
 
     low, high = sorted(axis.get_view_interval())
@@ -538,9 +538,9 @@ def _pair_panel(corner, ax, x, y, ranges, bins):
     through the log transform one by one when drawn: a third of the corner plot's drawing time. Here
     ``ax.pcolor`` is ``ax.pcolormesh`` for the call (the same bins, colours and order among the
     panel's artists; one transform of the whole mesh): the same picture (bin edges differ by a
-    pixel's antialiasing), drawn faster. A corner plot of the ADIS16405 imu1 gyro x fit (five
-    parameters) 0.28-0.31 s against 0.34 s, of imu4's (seven) 0.47-0.55 s against 0.67-0.92 s (best
-    of five rounds each, two runs of ``scripts/study_speed_options.py --figures``)."""
+    pixel's antialiasing), drawn faster: a corner plot of five parameters in 0.28-0.31 s instead of
+    0.34 s, of seven in 0.47-0.55 s instead of 0.62-0.92 s (``scripts/study_speed_options.py
+    --figures``, three runs)."""
     ax.pcolor = functools.partial(_mesh, ax)
     try:
         corner.hist2d(x, y, ax=ax, range=list(ranges), axes_scale=["log", "log"], bins=bins,
