@@ -75,3 +75,56 @@ def test_the_executable_fixes_the_allocators_thresholds():
     assert moving > 10_000 and steady < 3_000, (moving, steady)
     said, own = _allocator("steady", MALLOC_MMAP_THRESHOLD_="131072")
     assert said == "False 131072 None" and own > 10_000, own
+
+
+BLAS = """
+import json, multiprocessing, os, sys
+import numpy as np
+from threadpoolctl import threadpool_info
+
+
+def blas_threads():
+    return {i["filepath"]: i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"}
+
+
+def child(queue):
+    import scipy.linalg  # noqa: F401
+    queue.put(blas_threads())
+
+
+if __name__ == "__main__":
+    from bayes_imu.cli.main import _one_blas_thread
+    before = blas_threads()
+    set_ = _one_blas_thread()
+    import scipy.linalg  # noqa: F401
+    later = {k: v for k, v in blas_threads().items() if k not in before}
+    queue = multiprocessing.get_context("spawn").Queue()
+    p = multiprocessing.get_context("spawn").Process(target=child, args=(queue,))
+    p.start()
+    print(json.dumps({"set": list(set_), "env": os.environ.get("OPENBLAS_NUM_THREADS"),
+                      "later": later, "child": queue.get(timeout=60)}))
+    p.join()
+"""
+
+
+def _blas(tmp_path, **env):
+    script = tmp_path / "blas.py"
+    script.write_text(BLAS)
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")} | env
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                          timeout=120, env=env, check=True)
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+def test_the_executable_runs_blas_on_one_thread_in_the_libraries_it_loads(tmp_path):
+    """``command`` sets OPENBLAS_NUM_THREADS and MKL_NUM_THREADS (``_one_blas_thread``): a BLAS
+    library loaded afterwards (scipy's, where it bundles its own) and every library of a process it
+    starts (spawned, as the output process is) runs one thread, as threadpoolctl reads them. A
+    user's own setting is left alone."""
+    seen = _blas(tmp_path)
+    assert seen["set"] == ["OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"] and seen["env"] == "1"
+    assert seen["child"] and set(seen["child"].values()) == {1}, seen["child"]
+    assert set(seen["later"].values()) <= {1}, seen["later"]
+    own = _blas(tmp_path, OPENBLAS_NUM_THREADS="2")
+    assert own["set"] == [] and own["env"] == "2"

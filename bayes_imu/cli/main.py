@@ -1088,13 +1088,43 @@ def _steady_allocator():
     return True
 
 
+#: environment variables that set how many threads a BLAS library starts as it loads (OpenBLAS, as
+#: numpy's and scipy's wheels bundle it; MKL, as conda's numpy may use)
+BLAS_THREADS_VARIABLES = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def _one_blas_thread():
+    """BLAS on one thread in every BLAS library loaded from now on: scipy's (loaded by a fit's first
+    ``scipy.linalg`` import) and all of those of the processes the command starts (the output
+    process, a batch's workers), through :data:`BLAS_THREADS_VARIABLES`. numpy's, loaded with the
+    package, keeps its threads; the fits limit it to one (``threadpoolctl``, as they do every BLAS
+    library loaded by then).
+
+    The command's work multiplies small matrices (a fit's walkers or importance draws by an
+    ``n_tau x n_tau`` factor), which a second BLAS thread does not speed up; and each OpenBLAS
+    starts a thread per further core that busy-waits for work for about 0.1 s after it starts and
+    after each use, on the core the output process needs. In a ``bayes-imu fit`` of an ADIS16405 gyro
+    log those threads used 0.10 and 0.05 s of CPU in the command's process (numpy's and scipy's; ad
+    hoc, per-thread CPU from ``/proc``), and as much again in the output process. With the
+    variables set: nine fits (imu1, imu3, imu6 gyro x, seeds 0-2) each alternating with the same
+    fit without them, 17.2 s against 18.5 s and 17.2 s against 18.0 s in all (two runs, ad hoc;
+    ``scripts/bench_fit_ab.py`` compares the commits). Left alone where the user set either
+    variable. Returns the variables set."""
+    if any(name in os.environ for name in BLAS_THREADS_VARIABLES):
+        return ()
+    os.environ.update(dict.fromkeys(BLAS_THREADS_VARIABLES, "1"))
+    return BLAS_THREADS_VARIABLES
+
+
 def command(argv=None):
     """The ``bayes-imu`` executable: :func:`main`, then leave at once with its status.
 
     Every file of the run is written and closed, and the worker process stopped, before
     :func:`main` returns; standard output and error are flushed here. Leaving without the
     interpreter's teardown (freeing numba's compiled code and the imported libraries) saves a
-    noticeable part of a short run (docs/speed_under_load.md#kernels). Python callers use
+    noticeable part of a short run (docs/speed_under_load.md#kernels). The executable also fixes
+    glibc's allocator thresholds (:func:`_steady_allocator`) and runs BLAS on one thread
+    (:func:`_one_blas_thread`), for itself and the processes it starts. Python callers use
     :func:`main`, which returns;
     there ``fit`` writes its outputs in the calling process unless ``BAYES_IMU_OUTPUT_PROCESS``
     is set (:mod:`bayes_imu.report.worker`).
@@ -1102,6 +1132,7 @@ def command(argv=None):
     global _EXECUTABLE
     _EXECUTABLE = True
     _steady_allocator()
+    _one_blas_thread()
     status = main(argv)
     for stream in (sys.stdout, sys.stderr):
         try:
