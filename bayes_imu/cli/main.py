@@ -1103,13 +1103,12 @@ def _one_blas_thread():
     The command's work multiplies small matrices (a fit's walkers or importance draws by an
     ``n_tau x n_tau`` factor), which a second BLAS thread does not speed up; and each OpenBLAS
     starts a thread per further core that busy-waits for work for about 0.1 s after it starts and
-    after each use, on the core the output process needs. In a ``bayes-imu fit`` of an ADIS16405 gyro
-    log those threads used 0.10 and 0.05 s of CPU in the command's process (numpy's and scipy's; ad
-    hoc, per-thread CPU from ``/proc``), and as much again in the output process. With the
-    variables set: nine fits (imu1, imu3, imu6 gyro x, seeds 0-2) each alternating with the same
-    fit without them, 17.2 s against 18.5 s and 17.2 s against 18.0 s in all (two runs, ad hoc;
-    ``scripts/bench_fit_ab.py`` compares the commits). Left alone where the user set either
-    variable. Returns the variables set."""
+    after each use, on the core the other process needs. In a ``bayes-imu fit`` of an ADIS16405
+    gyro log those threads used 0.10 and 0.05 s of CPU in the command's process (numpy's and
+    scipy's; ad hoc, per-thread CPU from ``/proc``), and the output process loads both libraries
+    too. With the variables set, nine fits (imu1, imu3, imu6 gyro x, seeds 0-2) took 15.1 s
+    against 16.2 s, each beside the same fit without them (``scripts/bench_fit_ab.py``). Left
+    alone where the user set either variable. Returns the variables set."""
     if any(name in os.environ for name in BLAS_THREADS_VARIABLES):
         return ()
     os.environ.update(dict.fromkeys(BLAS_THREADS_VARIABLES, "1"))
