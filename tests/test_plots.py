@@ -478,3 +478,96 @@ def test_series_colours_are_all_different_and_none_is_reserved():
                 distance = np.linalg.norm(np.subtract(to_rgb(colour), to_rgb(reserved)))
                 assert distance > radius, (colour, reserved)
     assert plots.series_colours(3) == ["#1f77b4", "#ff7f0e", "#2ca02c"]  # C0, C1, C2
+
+
+def test_corner_pair_panels_shade_corners_density_as_one_mesh(tmp_path, figures, fit):
+    """plots._pair_panel draws corner.hist2d's density shading with ``pcolormesh`` instead of its
+    polygon-per-bin ``pcolor``: each pair panel holds one mesh whose bin edges, values, colours and
+    place among the panel's artists are those of corner's own ``pcolor`` on a fresh axes (the
+    reference: corner itself), and the Axes method is restored."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.collections import PolyQuadMesh, QuadMesh
+    from matplotlib.figure import Figure
+
+    plots.plot_corner(fit, tmp_path / "c.png")
+    _png(tmp_path / "c.png")
+    fig = figures[-1]
+    pair = next(ax for ax in fig.axes if ax.get_subplotspec().rowspan.start
+                != ax.get_subplotspec().colspan.start)
+    assert "pcolor" not in vars(pair)
+    meshes = [c for c in pair.collections if isinstance(c, QuadMesh)]
+    assert len(meshes) == 1 and not any(isinstance(c, PolyQuadMesh) for c in pair.collections)
+    corner = plots.import_corner()
+    ref_fig = Figure()
+    FigureCanvasAgg(ref_fig)
+    ref = ref_fig.add_subplot()
+    x, y = fit.samples[:, 0], fit.samples[:, 1]
+    ranges = [plots._draw_range(x), plots._draw_range(y)]
+    corner.hist2d(x, y, ax=ref, range=ranges, axes_scale=["log", "log"], bins=20, color="k")
+    polys = [c for c in ref.collections if isinstance(c, PolyQuadMesh)]
+    assert len(polys) == 1
+    mesh, poly = meshes[0], polys[0]
+    np.testing.assert_array_equal(np.asarray(mesh.get_array()).ravel(),
+                                  np.asarray(poly.get_array()).ravel())
+    np.testing.assert_array_equal(mesh.get_coordinates(), poly._coordinates)
+    assert mesh.get_cmap() == poly.get_cmap() and mesh.norm.vmax == poly.norm.vmax
+    order = [type(c).__name__ for c in pair.collections]
+    ref_order = [type(c).__name__ for c in ref.collections]
+    assert order == [n.replace("PolyQuadMesh", "QuadMesh") for n in ref_order], (order, ref_order)
+
+
+def test_allan_deviation_plots_thin_wide_log_axes_minor_ticks_to_2_and_5(tmp_path, figures, fit):
+    """allan_fit.png and allan.png (plots.thin_log_minor_ticks): a log axis spanning two decades or
+    more has its unlabelled minor ticks at 2 and 5 of each decade, and one spanning less keeps
+    matplotlib's 2..9."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    def mantissas(axis):
+        lo, hi = sorted(axis.get_view_interval())
+        locs = [v for v in axis.get_minorticklocs() if lo <= v <= hi]
+        return {round(v / 10.0 ** np.floor(np.log10(v) + 1e-9), 6) for v in locs}
+
+    plots.plot_allan_fit(fit, tmp_path / "f.png", rng=0)
+    plots.plot_allan(fit.allan, tmp_path / "a.png")
+    for fig in figures[-2:]:
+        ax = fig.axes[0]
+        lo, hi = ax.get_xlim()
+        assert np.log10(hi / lo) >= 2 and mantissas(ax.xaxis) == {2.0, 5.0}
+        assert all(t.label1.get_text() == "" for t in ax.xaxis.get_minor_ticks())
+    narrow = Figure()
+    FigureCanvasAgg(narrow)
+    ax = narrow.add_subplot()
+    ax.loglog([1.0, 3.0, 20.0], [0.2, 0.3, 0.5])
+    plots.thin_log_minor_ticks(ax.yaxis)  # 0.2-0.5: under two decades
+    plots.thin_log_minor_ticks(ax.xaxis)  # 1-20: under two decades
+    assert mantissas(ax.yaxis) >= {2.0, 3.0, 4.0} and mantissas(ax.xaxis) >= {2.0, 3.0, 4.0}
+
+
+def test_pngs_are_written_at_the_fast_zlib_level(tmp_path, fit):
+    """plots.save_png writes at zlib level 3 (PNG_COMPRESSION): the image data's zlib header says a
+    fast level (FLEVEL 1: levels 2-5; Pillow's default 6 says 2), and the pixels are those of
+    matplotlib's default PNG."""
+    import struct
+    import zlib
+
+    import matplotlib.image
+
+    plots.plot_allan(fit.allan, tmp_path / "a.png")
+    data = (tmp_path / "a.png").read_bytes()
+    i = data.index(b"IDAT")
+    (length,) = struct.unpack(">I", data[i - 4:i])
+    head = data[i + 4:i + 6]
+    assert (head[0] * 256 + head[1]) % 31 == 0 and head[1] >> 6 == 1, head
+    zlib.decompressobj().decompress(data[i + 4:i + 4 + length])  # a valid stream
+    fig = plots.pyplot().figure()
+    ax = fig.add_subplot()
+    ax.plot([1, 2, 3], [3, 1, 2])
+    plots.save_png(fig, tmp_path / "ours.png", dpi=50)
+    fig.savefig(tmp_path / "default.png", dpi=50)
+    plots.pyplot().close(fig)
+    np.testing.assert_array_equal(matplotlib.image.imread(tmp_path / "ours.png"),
+                                  matplotlib.image.imread(tmp_path / "default.png"))
+    default = (tmp_path / "default.png").read_bytes()
+    j = default.index(b"IDAT")
+    assert default[j + 5] >> 6 == 2  # the reference: Pillow's default level says FLEVEL 2
