@@ -571,3 +571,32 @@ def test_pngs_are_written_at_the_fast_zlib_level(tmp_path, fit):
     default = (tmp_path / "default.png").read_bytes()
     j = default.index(b"IDAT")
     assert default[j + 5] >> 6 == 2  # the reference: Pillow's default level says FLEVEL 2
+
+
+def test_a_few_far_draws_fall_outside_the_corner_axes_instead_of_squeezing_them(tmp_path, figures,
+                                                                               fit):
+    """plots._draw_range: each axis runs from the CORNER_TAIL quantile of the draws to the 1 -
+    CORNER_TAIL one (widened a little, never past the extremes), so a few draws a thousand times
+    away from the rest (a walker's excursion) are left out: the axis spans about the bulk's decade,
+    not four; without such draws the axis covers those quantiles and no more than the draws'
+    span."""
+    import dataclasses
+
+    rng = np.random.default_rng(5)
+    samples = fit.samples.copy()
+    far = rng.choice(len(samples), 5, replace=False)
+    samples[far, 0] *= 1e3
+    plots.plot_corner(dataclasses.replace(fit, samples=samples), tmp_path / "c.png")
+    _png(tmp_path / "c.png")
+    bottom_left = next(ax for ax in figures[-1].axes
+                       if ax.get_subplotspec().rowspan.start == ax.get_subplotspec().colspan.start
+                       == 0)
+    lo, hi = bottom_left.get_xlim()
+    bulk = np.delete(samples[:, 0], far)
+    assert lo <= np.quantile(bulk, 0.01) and hi >= np.quantile(bulk, 0.99)
+    assert np.log10(hi / lo) < np.log10(bulk.max() / bulk.min()) + 0.5  # the far draws left out
+    low, high = plots._draw_range(fit.samples[:, 0])  # no far draws: every draw inside
+    span = np.log(fit.samples[:, 0].max() / fit.samples[:, 0].min())
+    assert low <= np.quantile(fit.samples[:, 0], plots.CORNER_TAIL)
+    assert high >= np.quantile(fit.samples[:, 0], 1 - plots.CORNER_TAIL)
+    assert np.log(high / low) <= span * (1 + 1e-6)

@@ -451,15 +451,13 @@ def plot_corner(fit, path, *, unit="u", scale=1.0):
         data = data * np.array([scale ** unit_power(PARAMETER_UNITS.get(n, "1")) for n in names])
     if data.shape[1] == 1:
         fig, ax = plt.subplots(figsize=(4.5, 3.2))
-        ax.hist(
-            data[:, 0],
-            bins=np.geomspace(data[:, 0].min(), data[:, 0].max() * (1 + 1e-12), 41),
-            color="C0",
-        )
+        limits = _draw_range(data[:, 0])  # as the grid's axes: a few far draws left out
+        ax.hist(data[:, 0], bins=np.geomspace(*limits, 41), color="C0")
         ax.set_xscale("log")
+        ax.set_xlim(limits)
         # the grid's ticks (at most four labelled): matplotlib's labelled every minor tick of a
         # narrow log axis, one over the other
-        _set_ticks(ax.xaxis, _log_ticks(data[:, 0].min(), data[:, 0].max()), labelled=True,
+        _set_ticks(ax.xaxis, _log_ticks(*limits), labelled=True,
                    label=labels[0].replace("\n", " "))
         q = np.quantile(data[:, 0], [0.05, 0.5, 0.95])
         # the digits the interval resolves, as the diagonal panels of a larger model's corner plot
@@ -565,7 +563,8 @@ def _corner_note(fig, terms, k):
     chars = max(18, int(width_in * 72.0 / (0.62 * CORNER_FONT)))  # ~0.62 em a character
     text = "\n".join(textwrap.fill(part, chars) for part in (
         " + ".join(terms),
-        f"titles: median [5%, 95%], {CORNER_SCOPE}",
+        f"titles: median [5%, 95%], {CORNER_SCOPE}; axes: at most {100 * CORNER_TAIL:g}% of the "
+        "draws beyond each end",
         "(summary.json: parameters_this_record; its parameters add the repeatability between "
         "the record's parts where it is wider)",
     ))
@@ -574,14 +573,30 @@ def _corner_note(fig, terms, k):
              text, ha="left", va="top", fontsize=CORNER_FONT)
 
 
+#: the share of a parameter's draws beyond each end of its corner-plot axis, at most: a few far
+#: draws (a walker's excursion towards the prior box) squeezed the posterior's bulk into a corner
+#: of its panels (a time constant's axis from 1 s for a 60-680 s interval; a vibration frequency's
+#: from 0.04 Hz for 0.55 Hz, its row and column collapsed onto one edge)
+CORNER_TAIL = 0.002
+
+
 def _draw_range(x):
-    """``(low, high)`` of positive draws ``x``; a parameter pinned to one value gets +-10% around
-    it. The ends are widened by a relative 1e-9: corner's log-spaced bins (``logspace`` of the
-    ends' logarithms) round the first and last edge inwards by an ulp or so, and draws exactly at
-    an end would otherwise fall outside every bin (an empty histogram, which corner refuses)."""
-    low, high = float(np.min(x)), float(np.max(x))
-    if not high > low:
-        low, high = low / 1.1, high * 1.1
+    """``(low, high)`` of a corner-plot axis of positive draws ``x``: from the :data:`CORNER_TAIL`
+    quantile to the ``1 - CORNER_TAIL`` one, each end moved out by 5% of that span (in logarithm)
+    but not beyond the draws' own extremes, so a few far draws fall outside the axis instead of
+    squeezing the rest; a parameter pinned to one value gets +-10% around it. The ends are widened
+    by a relative 1e-9: corner's log-spaced bins (``logspace`` of the ends' logarithms) round the
+    first and last edge inwards by an ulp or so, and draws exactly at an end would otherwise fall
+    outside every bin (an empty histogram, which corner refuses)."""
+    x = np.asarray(x, float)
+    lowest, highest = float(np.min(x)), float(np.max(x))
+    if not highest > lowest:
+        return lowest / 1.1 * (1.0 - 1e-9), highest * 1.1 * (1.0 + 1e-9)
+    low, high = np.quantile(x, [CORNER_TAIL, 1.0 - CORNER_TAIL])
+    if not high > low:  # most draws at one value, a few elsewhere: every draw shown
+        low, high = lowest, highest
+    pad = 0.05 * np.log(high / low)
+    low, high = max(lowest, low * np.exp(-pad)), min(highest, high * np.exp(pad))
     return low * (1.0 - 1e-9), high * (1.0 + 1e-9)
 
 
