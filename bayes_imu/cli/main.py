@@ -805,8 +805,9 @@ def _drift_options(parser):
         "--display-units",
         choices=DISPLAY_CHOICES,
         default="si",
-        help="units of drift.csv / drift.png: si (rad, m/s, m; default) or deg (attitude in "
-             "degrees)",
+        help="units shown: si (rad, m/s, m; default) or deg: drift.csv / drift.png's attitude in "
+             "degrees, and a gyro's figures, printout and summary.json's *_display values in deg/s "
+             "(beside the SI values, which are kept)",
     )
 
 
