@@ -588,14 +588,13 @@ def test_a_few_far_draws_fall_outside_the_corner_axes_instead_of_squeezing_them(
     samples[far, 0] *= 1e3
     plots.plot_corner(dataclasses.replace(fit, samples=samples), tmp_path / "c.png")
     _png(tmp_path / "c.png")
-    bottom_left = next(ax for ax in figures[-1].axes
-                       if ax.get_subplotspec().rowspan.start == ax.get_subplotspec().colspan.start
-                       == 0)
-    lo, hi = bottom_left.get_xlim()
+    first = next(ax for ax in figures[-1].axes  # the first parameter's histogram
+                 if ax.get_subplotspec().rowspan.start == ax.get_subplotspec().colspan.start == 0)
+    lo, hi = first.get_xlim()
     bulk = np.delete(samples[:, 0], far)
     assert lo <= np.quantile(bulk, 0.01) and hi >= np.quantile(bulk, 0.99)
     assert np.log10(hi / lo) < np.log10(bulk.max() / bulk.min()) + 0.5  # the far draws left out
-    low, high = plots._draw_range(fit.samples[:, 0])  # no far draws: every draw inside
+    low, high = plots._draw_range(fit.samples[:, 0])  # the fit's own draws
     span = np.log(fit.samples[:, 0].max() / fit.samples[:, 0].min())
     assert low <= np.quantile(fit.samples[:, 0], plots.CORNER_TAIL)
     assert high >= np.quantile(fit.samples[:, 0], 1 - plots.CORNER_TAIL)
