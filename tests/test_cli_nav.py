@@ -313,9 +313,11 @@ def test_small_angle_limit_is_where_the_median_tilt_crosses_it():
 def test_nav_png_labels_one_channel_with_one_pair_of_parentheses(folders, tmp_path, figures):
     """nav.png's y labels of a one-axis pair read "velocity error (one channel) (m/s)": two pairs
     of parentheses, the second the unit's. Now "velocity error, one channel (m/s)". Each term
-    keeps one colour in every panel, and no two terms share one."""
+    keeps one colour in every panel, and no two terms share one; each is named as the other figures
+    name it (the term's plot label: "gyro Gauss-Markov bias", "accel acceleration random walk")."""
     from matplotlib.colors import to_hex
 
+    from bayes_imu.noise import REGISTRY
     from bayes_imu.report.nav import plot_nav
 
     bands = navigation_bands(load_fit(folders["gyro"]), load_fit(folders["accel"]),
@@ -327,10 +329,14 @@ def test_nav_png_labels_one_channel_with_one_pair_of_parentheses(folders, tmp_pa
     colours = {}
     for ax in axes:
         for line in ax.get_lines():
-            if line.get_label().startswith(("gyro ", "accelerometer ")):
+            if line.get_label().startswith(("gyro ", "accel ")):
                 colours.setdefault(line.get_label(), set()).add(to_hex(line.get_color()))
     assert colours and all(len(c) == 1 for c in colours.values()), colours
     assert len(set.union(*colours.values())) == len(colours), colours
+    gyro = {f"gyro {t.plot_label}" for t in REGISTRY.values()}
+    accel = {f"accel {t.plot_label.replace('rate ', 'acceleration ', 1)}"
+             for t in REGISTRY.values()}
+    assert any(k.startswith("accel ") for k in colours) and set(colours) <= gyro | accel, colours
 
 
 def test_an_out_folder_that_would_be_refused_is_refused_before_the_bands(

@@ -187,7 +187,7 @@ def test_drift_plot_labels_terms_with_probability(tmp_path, figures, fit):
     assert "white noise" in text and "credible band" in text
     assert "bias calibrated over 60 s" in text
     for name, p in bands.term_probability.items():
-        label = plots._term_label(name)
+        label = plots.term_label(name)
         assert (label in text) == (p >= 0.1), name
 
 
@@ -437,12 +437,12 @@ def test_an_accelerometers_rate_terms_are_named_for_acceleration():
     """The figures of an accelerometer say "acceleration random walk" / "acceleration ramp" (a new
     user read "rate random walk" on an accelerometer's allan_fit.png and drift.png); a gyro's
     stay."""
-    from bayes_imu.report.plots import _term_label
+    from bayes_imu.report.plots import term_label
 
-    assert _term_label("random_walk", True) == "acceleration random walk"
-    assert _term_label("ramp", True) == "acceleration ramp"
-    assert _term_label("random_walk") == "rate random walk"
-    assert _term_label("gauss_markov", True) == _term_label("gauss_markov")
+    assert term_label("random_walk", True) == "acceleration random walk"
+    assert term_label("ramp", True) == "acceleration ramp"
+    assert term_label("random_walk") == "rate random walk"
+    assert term_label("gauss_markov", True) == term_label("gauss_markov")
 
 
 def test_corner_panel_titles_print_three_digits_without_an_exponent(figures):

@@ -372,7 +372,8 @@ def plot_nav(
     ``min_share`` of the median total at every time, are listed, not drawn; times from ``t_min``
     to ``t_max`` [s] (default: every time of ``bands``). The lines common to the three panels
     are explained once, above them; each panel's legend lists its terms."""
-    from .plots import plain_text, pyplot, save_png, series_colours, sparse_log_minor_ticks
+    from .plots import (plain_text, pyplot, save_png, series_colours, sparse_log_minor_ticks,
+                        term_label)
 
     plt = pyplot()
     names = ("tilt", "velocity", "position")
@@ -423,18 +424,21 @@ def plot_nav(
             if source.term_probability.get(label, 1.0) < min_probability:
                 improbable += 1
                 continue
-            if not share >= min_share:
-                hidden.append(label.replace(":", " ").replace("_", " "))
-                continue
             sensor, term = label.split(":")
+            # the other figures' names of the terms ("Gauss-Markov bias", "acceleration ramp"), the
+            # accelerometer's as "accel" (the legends' two columns stay within the panel's width)
+            shown = f"{'gyro' if sensor == 'gyro' else 'accel'} "
+            shown += term_label(term, accel=sensor != "gyro")
+            if not share >= min_share:
+                hidden.append(shown)
+                continue
             ax.plot(
                 t,
                 part[keep],
                 _TERM_STYLE[sensor],
                 lw=1,
                 color=colours[label],
-                label=f"{'gyro' if sensor == 'gyro' else 'accelerometer'} {term.replace('_', ' ')}"
-                + (" (channel x)" if radial else ""),
+                label=shown + (" (channel x)" if radial else ""),
             )
             drawn += 1
         if hidden or improbable:
@@ -448,7 +452,7 @@ def plot_nav(
             if improbable:
                 text += (f"{improbable} term{'s' if improbable != 1 else ''} of posterior "
                          f"probability < {min_probability:g}")
-            ax.plot([], [], " ", label=textwrap.fill(text.rstrip("; "), 44))
+            ax.plot([], [], " ", label=textwrap.fill(text.rstrip("; "), 36))
         if tilted is not None and tilted < t[-1]:
             ax.axvspan(
                 tilted,

@@ -316,7 +316,7 @@ def plot_allan_fit(fit, path, *, label="", unit="u", rng=None, scale=1.0):
             ls=term_dashes(i),
             color=f"C{i + 1}",
             lw=1,
-            label=_term_label(term, _is_accel(fit, unit)),
+            label=term_label(term, _is_accel(fit, unit)),
         )
     ax.set_xscale("log")
     ax.set_yscale("log")
@@ -764,7 +764,7 @@ def plain_log_formatter(**kwargs):
     return PlainLogFormatter(**kwargs)
 
 
-def _term_label(name, accel=False):
+def term_label(name, accel=False):
     """What a figure calls a term (:attr:`bayes_imu.noise.Term.plot_label`; else its name); an
     accelerometer's rate terms are its acceleration's ("acceleration random walk")."""
     from ..noise import REGISTRY
@@ -828,12 +828,12 @@ def plot_drift(bands_list, path, *, units, title="", min_probability=0.1):
             p = bands.term_probability.get(name, 1.0)
             accel = bands.quantity in ("velocity", "position")
             if p < min_probability:
-                hidden.append(_term_label(name, accel))
+                hidden.append(term_label(name, accel))
                 continue
             if np.any(positive):
                 where = f", median where modelled, P = {p:.2f}" if p < 0.995 else ", median"
                 ax.plot(t[positive], part[keep][positive], ls=term_dashes(i), lw=1,
-                        color=f"C{i + 1}", label=f"{_term_label(name, accel)}{where}")
+                        color=f"C{i + 1}", label=f"{term_label(name, accel)}{where}")
         if hidden:
             import textwrap
 
