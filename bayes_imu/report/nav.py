@@ -372,8 +372,8 @@ def plot_nav(
     ``min_share`` of the median total at every time, are listed, not drawn; times from ``t_min``
     to ``t_max`` [s] (default: every time of ``bands``). The lines common to the three panels
     are explained once, above them; each panel's legend lists its terms."""
-    from .plots import (plain_text, pyplot, save_png, series_colours, sparse_log_minor_ticks,
-                        term_label)
+    from .plots import (plain_text, pyplot, save_png, sensor_term_label, series_colours,
+                        sparse_log_minor_ticks)
 
     plt = pyplot()
     names = ("tilt", "velocity", "position")
@@ -424,11 +424,8 @@ def plot_nav(
             if source.term_probability.get(label, 1.0) < min_probability:
                 improbable += 1
                 continue
-            sensor, term = label.split(":")
-            # the other figures' names of the terms ("Gauss-Markov bias", "acceleration ramp"), the
-            # accelerometer's as "accel" (the legends' two columns stay within the panel's width)
-            shown = f"{'gyro' if sensor == 'gyro' else 'accel'} "
-            shown += term_label(term, accel=sensor != "gyro")
+            sensor = label.split(":")[0]
+            shown = sensor_term_label(label)  # as the other figures name the term
             if not share >= min_share:
                 hidden.append(shown)
                 continue

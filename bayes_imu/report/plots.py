@@ -105,31 +105,24 @@ def sparse_log_minor_ticks(ax):
     2..9 of each decade, is a tick object each (five artists, its label laid out at every draw and
     by ``tight_layout``): over the many decades of a drift plot's error axis a third or more of the
     figure's time. An axis spanning fewer than :data:`SPARSE_FROM_DECADES` decades keeps the
-    default, whose minor ticks carry the labels there."""
-    from matplotlib.ticker import LogLocator, NullFormatter
-
-    for axis, limits, subs in ((ax.xaxis, ax.get_xlim(), (2.0, 5.0)),
-                               (ax.yaxis, ax.get_ylim(), (1.0,))):
-        low, high = sorted(limits)
-        if not (low > 0 and np.log10(high / low) >= SPARSE_FROM_DECADES):
-            continue
-        axis.set_minor_locator(LogLocator(base=10.0, subs=subs, numticks=30))
-        axis.set_minor_formatter(NullFormatter())
+    default, whose minor ticks carry the labels there (:func:`thin_log_minor_ticks`)."""
+    thin_log_minor_ticks(ax.xaxis)
+    thin_log_minor_ticks(ax.yaxis, subs=(1.0,))
 
 
-def thin_log_minor_ticks(axis):
+def thin_log_minor_ticks(axis, subs=(2.0, 5.0)):
     """The minor ticks (and minor grid lines) of a log ``axis`` spanning
-    :data:`SPARSE_FROM_DECADES` or more decades at 2 and 5 of each decade only, unlabelled, set
-    after its data and limits; a narrower axis keeps matplotlib's 2..9, whose ticks carry the labels
-    there. Each tick is an object of five artists created as the figure is drawn: thinned, a fit's
-    ``allan_fit.png`` (5-7 decades of averaging time, 2-4 of deviation) is drawn in 0.10-0.13 s
-    instead of 0.16-0.19 s (``scripts/study_speed_options.py --figures``), and reads the same way
-    (grid lines at 1, 2 and 5 of each decade)."""
+    :data:`SPARSE_FROM_DECADES` or more decades at ``subs`` of each decade only (2 and 5),
+    unlabelled, set after its data and limits; a narrower axis keeps matplotlib's 2..9, whose ticks
+    carry the labels there. Each tick is an object of five artists created as the figure is drawn:
+    thinned, a fit's ``allan_fit.png`` (5-7 decades of averaging time, 2-4 of deviation) is drawn
+    in 0.10-0.13 s instead of 0.16-0.19 s (``scripts/study_speed_options.py --figures``), and reads
+    the same way (grid lines at 1, 2 and 5 of each decade)."""
     from matplotlib.ticker import LogLocator, NullFormatter
 
     low, high = sorted(axis.get_view_interval())
     if axis.get_scale() == "log" and low > 0 and np.log10(high / low) >= SPARSE_FROM_DECADES:
-        axis.set_minor_locator(LogLocator(base=10.0, subs=(2.0, 5.0), numticks=30))
+        axis.set_minor_locator(LogLocator(base=10.0, subs=subs, numticks=30))
         axis.set_minor_formatter(NullFormatter())
 
 
@@ -771,6 +764,16 @@ def term_label(name, accel=False):
 
     label = REGISTRY[name].plot_label if name in REGISTRY else name
     return "acceleration " + label[len("rate "):] if accel and label.startswith("rate ") else label
+
+
+def sensor_term_label(key):
+    """A navigation term ``"gyro:gauss_markov"`` as the figures name it: ``"gyro Gauss-Markov
+    bias"``, ``"accel acceleration random walk"`` (:func:`term_label`; "accel" short, so that two
+    legend columns fit a panel's width)."""
+    sensor, term = key.split(":")
+    if sensor == "gyro":
+        return f"gyro {term_label(term)}"
+    return f"accel {term_label(term, accel=True)}"
 
 
 def _is_accel(fit, unit):

@@ -460,7 +460,7 @@ def ranked_imus(report):
 
 def _draw_term_shares(report, ax):
     """Stacked bars: each term's share of the required quantity's variance, per IMU and outage."""
-    from .plots import term_label
+    from .plots import sensor_term_label
 
     name = report.scene.navigation["quantity"]
     labels = sorted({k for r in report.imus for row in r.rows if row["quantity"] == name
@@ -495,10 +495,8 @@ def _draw_term_shares(report, ax):
     ax.set_xlabel("IMU (# in the ranking) at each scene outage")
     ax.set_title("each term's share (gyro blue, accelerometer orange)", fontsize=11, pad=16)
     for k in gyro + accel:
-        sensor, term = k.split(":")
         ax.bar(0, 0, color=colours[k], hatch=hatches[k], edgecolor="white", lw=0.5,
-               label=f"{'gyro' if sensor == 'gyro' else 'accel'} "
-                     f"{term_label(term, accel=sensor != 'gyro')}")
+               label=sensor_term_label(k))
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
 
 
